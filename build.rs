@@ -1,0 +1,181 @@
+//! Compiles every compute shader under `shaders/` to SPIR-V 1.5 (Vulkan 1.2 target) with glslang and
+//! generates `$OUT_DIR/shaders.rs`, which embeds each module with `include_bytes!`.
+//!
+//! - `#include "x.glsl"` resolves relative to the including file, then relative to `shaders/`.
+//! - Every file read (sources and includes) gets a `cargo:rerun-if-changed`.
+//! - A compile error prints glslang's whole log and fails the build.
+//! - Shader variants are listed in `VARIANTS`: (source, variant name, defines).
+
+use std::collections::BTreeSet;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use glslang::include::{IncludeHandler, IncludeResult, IncludeType};
+use glslang::{
+    Compiler, CompilerOptions, Program, ShaderInput, ShaderSource, ShaderStage, SourceLanguage, SpirvVersion,
+    Target, VulkanVersion,
+};
+
+/// Extra compilations of one source with preprocessor defines: (source relative to `shaders/`,
+/// variant suffix, defines). The default variant (no defines) of every `.comp` is always built.
+const VARIANTS: &[(&str, &str, &[(&str, &str)])] = &[];
+
+struct Includer {
+    root: PathBuf,
+    /// Directory of the file being compiled (glslang names the top-level includer "").
+    main_dir: PathBuf,
+    seen: BTreeSet<PathBuf>,
+}
+
+impl IncludeHandler for Includer {
+    fn include(&mut self, _ty: IncludeType, header: &str, includer: &str, _depth: usize) -> Option<IncludeResult> {
+        let includer_dir = match Path::new(includer).parent() {
+            Some(dir) if !includer.is_empty() => dir.to_path_buf(),
+            _ => self.main_dir.clone(),
+        };
+        let candidates = [includer_dir.join(header), self.root.join(header)];
+        for c in candidates {
+            if let Ok(data) = std::fs::read_to_string(&c) {
+                let c = c.canonicalize().unwrap_or(c);
+                self.seen.insert(c.clone());
+                return Some(IncludeResult { name: c.to_string_lossy().into_owned(), data });
+            }
+        }
+        None
+    }
+}
+
+fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap_or_else(|e| panic!("cannot read shader directory {}: {e}", dir.display()))
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            collect(&p, out);
+        } else if p.extension().is_some_and(|e| e == "comp") {
+            out.push(p);
+        }
+    }
+}
+
+fn const_name(rel: &Path, variant: &str) -> String {
+    let stem = rel.with_extension("");
+    let mut s: String = stem
+        .to_string_lossy()
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_uppercase() } else { '_' })
+        .collect();
+    if !variant.is_empty() {
+        s.push('_');
+        s.push_str(&variant.to_ascii_uppercase());
+    }
+    s
+}
+
+fn compile(
+    compiler: &Compiler,
+    root: &Path,
+    path: &Path,
+    defines: &[(&str, &str)],
+    includes: &mut BTreeSet<PathBuf>,
+) -> Result<Vec<u32>, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let source = ShaderSource::try_from(text).map_err(|e| format!("{}: {e:?}", path.display()))?;
+    let options = CompilerOptions {
+        source_language: SourceLanguage::GLSL,
+        target: Target::Vulkan { version: VulkanVersion::Vulkan1_2, spirv_version: SpirvVersion::SPIRV1_5 },
+        version_profile: None,
+        messages: glslang::ShaderMessage::DEFAULT | glslang::ShaderMessage::DEBUG_INFO,
+    };
+    let defs: Vec<(&str, Option<&str>)> = defines.iter().map(|(k, v)| (*k, Some(*v))).collect();
+    let main_dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| root.to_path_buf());
+    let mut includer = Includer { root: root.to_path_buf(), main_dir, seen: BTreeSet::new() };
+    let result = (|| {
+        let input = ShaderInput::new(&source, ShaderStage::Compute, &options, Some(&defs[..]), Some(&mut includer))
+            .map_err(|e| format!("{e}"))?;
+        let shader = glslang::Shader::new(compiler, input).parse().map_err(|e| full_log(&e))?;
+        let mut program = Program::new(compiler);
+        program.add_shader(&shader);
+        program.compile(ShaderStage::Compute).map_err(|e| full_log(&e))
+    })();
+    includes.extend(includer.seen);
+    result.map_err(|log| format!("{}\n{log}", path.display()))
+}
+
+fn full_log(e: &glslang::error::GlslangError) -> String {
+    use glslang::error::GlslangError as E;
+    match e {
+        E::PreprocessError(l) | E::ParseError(l) | E::MapIoError(l) | E::LinkError(l) => {
+            let stage = match e {
+                E::PreprocessError(_) => "preprocess",
+                E::ParseError(_) => "parse",
+                E::MapIoError(_) => "map io",
+                _ => "link",
+            };
+            let mut s = format!("{stage} error:\n{}", l.log.trim_end());
+            if !l.debug_log.trim().is_empty() {
+                s.push_str(&format!("\n--- glslang debug log ---\n{}", l.debug_log.trim_end()));
+            }
+            s
+        }
+        other => format!("{other}"),
+    }
+}
+
+fn main() {
+    let manifest = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
+    let out_dir = PathBuf::from(std::env::var("OUT_DIR").expect("cargo sets OUT_DIR"));
+    let root = manifest.join("shaders");
+    println!("cargo:rerun-if-changed=build.rs");
+    println!("cargo:rerun-if-changed={}", root.display());
+
+    let mut sources = Vec::new();
+    collect(&root, &mut sources);
+    let compiler = Compiler::acquire().expect("glslang compiler can be acquired once per process");
+
+    let mut jobs: Vec<(PathBuf, String, Vec<(&str, &str)>)> =
+        sources.iter().map(|p| (p.clone(), String::new(), Vec::new())).collect();
+    for (src, variant, defines) in VARIANTS {
+        jobs.push((root.join(src), (*variant).to_string(), defines.to_vec()));
+    }
+
+    let mut generated = String::from("// @generated by build.rs: SPIR-V of every compute shader under shaders/.\n");
+    let mut includes = BTreeSet::new();
+    let mut errors = Vec::new();
+    for (path, variant, defines) in &jobs {
+        println!("cargo:rerun-if-changed={}", path.display());
+        let rel = path.strip_prefix(&root).expect("shader sources are under shaders/");
+        match compile(compiler, &root, path, defines, &mut includes) {
+            Ok(words) => {
+                let name = const_name(rel, variant);
+                let file = out_dir.join(format!("{}.spv", name.to_ascii_lowercase()));
+                std::fs::write(&file, bytemuck_words(&words)).expect("write SPIR-V to OUT_DIR");
+                let _ = writeln!(
+                    generated,
+                    "/// `shaders/{}`{}\npub const {name}: &[u8] = include_bytes!({:?});",
+                    rel.display(),
+                    if variant.is_empty() { String::new() } else { format!(" (variant `{variant}`: {defines:?})") },
+                    file.display().to_string()
+                );
+            }
+            Err(log) => errors.push(log),
+        }
+    }
+    for inc in &includes {
+        println!("cargo:rerun-if-changed={}", inc.display());
+    }
+    if !errors.is_empty() {
+        for e in &errors {
+            eprintln!("\n==== shader compile error ====\n{e}");
+        }
+        panic!("{} shader(s) failed to compile; glslang's full logs are printed above", errors.len());
+    }
+    std::fs::write(out_dir.join("shaders.rs"), generated).expect("write shaders.rs");
+}
+
+fn bytemuck_words(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
+}

@@ -1,0 +1,85 @@
+#!/usr/bin/env bash
+# Installs what restir-vpl needs on a Debian/Ubuntu machine, and only what is missing:
+#   - a Vulkan loader (libvulkan1)
+#   - a Vulkan driver with VK_KHR_ray_query (Mesa >= 24.1 lavapipe from bookworm-backports on
+#     Debian 12, only when no such driver is present)
+#   - the Khronos validation layer (vulkan-validationlayers)
+#   - a C/C++ compiler for the glslang crate's build
+# Idempotent and quiet when everything is there. Set RESTIR_VPL_SKIP_SETUP=1 to skip it entirely.
+set -euo pipefail
+
+[ "${RESTIR_VPL_SKIP_SETUP:-0}" = 1 ] && exit 0
+
+log() { echo "[setup] $*" >&2; }
+SUDO=""
+if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
+
+have_pkg() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "ok installed"; }
+
+apt_updated=0
+apt_install() {
+  # apt_install [apt-get options...] pkgs...
+  if [ "$apt_updated" = 0 ]; then
+    log "apt-get update"
+    $SUDO apt-get update -qq >/dev/null || { sleep 3; $SUDO apt-get update -qq >/dev/null; }
+    apt_updated=1
+  fi
+  log "apt-get install $*"
+  # A first install sometimes fails with "cannot access archive"; retry once.
+  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$@" >/dev/null \
+    || { sleep 3; DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$@" >/dev/null; }
+}
+
+if ! command -v dpkg-query >/dev/null 2>&1; then
+  log "not a Debian/Ubuntu system: install a Vulkan 1.2+ driver with VK_KHR_ray_query, the Vulkan loader,"
+  log "the Khronos validation layer and a C++ compiler yourself, then set RESTIR_VPL_SKIP_SETUP=1"
+  exit 0
+fi
+
+# Build tools (the glslang crate compiles glslang's C++ sources).
+missing=()
+command -v cc >/dev/null 2>&1 || missing+=(gcc)
+command -v c++ >/dev/null 2>&1 || missing+=(g++)
+command -v pkg-config >/dev/null 2>&1 || missing+=(pkg-config)
+have_pkg libvulkan1 || missing+=(libvulkan1)
+have_pkg vulkan-validationlayers || missing+=(vulkan-validationlayers)
+if [ ${#missing[@]} -gt 0 ]; then apt_install "${missing[@]}"; fi
+
+# A driver with ray queries. A vendor driver (NVIDIA/AMD/Intel ICD) is left alone; for Mesa we need
+# >= 24.1 (lavapipe's ray queries). Debian 12 ships 22.3: take mesa-vulkan-drivers from backports.
+vendor_icd=0
+for f in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json; do
+  [ -e "$f" ] || continue
+  case "$(basename "$f")" in
+    lvp_*|radeon_*|intel_*|nouveau_*|virtio_*|freedreno_*|broadcom_*|asahi_*|powervr_*|panfrost_*|gfxstream_*|dzn_*) ;;
+    *) vendor_icd=1 ;;
+  esac
+done
+mesa_ver=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)
+mesa_ok=0
+if [ -n "$mesa_ver" ] && dpkg --compare-versions "$mesa_ver" ge 24.1; then mesa_ok=1; fi
+if [ "$mesa_ok" = 0 ] && [ "$vendor_icd" = 0 ]; then
+  . /etc/os-release
+  if [ "${VERSION_CODENAME:-}" = bookworm ]; then
+    if ! grep -rqs "bookworm-backports" /etc/apt/sources.list /etc/apt/sources.list.d/; then
+      log "adding bookworm-backports (for Mesa >= 24.1 with VK_KHR_ray_query)"
+      echo 'deb http://deb.debian.org/debian bookworm-backports main' | $SUDO tee /etc/apt/sources.list.d/backports.list >/dev/null
+      apt_updated=0
+    fi
+    apt_install -t bookworm-backports mesa-vulkan-drivers
+  else
+    apt_install mesa-vulkan-drivers
+    mesa_ver=$(dpkg-query -W -f='${Version}' mesa-vulkan-drivers 2>/dev/null || true)
+    if ! dpkg --compare-versions "$mesa_ver" ge 24.1; then
+      log "warning: mesa-vulkan-drivers $mesa_ver has no VK_KHR_ray_query in lavapipe (needs Mesa >= 24.1)"
+    fi
+  fi
+fi
+
+# Rust toolchain.
+if ! command -v cargo >/dev/null 2>&1; then
+  if [ -x "$HOME/.cargo/bin/cargo" ]; then :; else
+    log "cargo not found: install Rust (https://rustup.rs) and re-run"; exit 1
+  fi
+fi
+exit 0

@@ -1,0 +1,122 @@
+// Set 0: the scene, declared once for every pass (TLAS, geometry, materials, lights, frame
+// constants), plus the loads and ray queries every pass shares. Binding numbers match
+// `SCENE_BINDINGS` in src/scene_gpu.rs.
+#ifndef SCENE_GLSL
+#define SCENE_GLSL
+
+#extension GL_EXT_ray_query : require
+
+#include "types.glsl"
+#include "../lib/sampling.glsl"
+
+layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
+layout(set = 0, binding = 1, std430) readonly buffer VertexBuffer { Vertex vertices[]; };
+layout(set = 0, binding = 2, std430) readonly buffer IndexBuffer { uint indices[]; };
+layout(set = 0, binding = 3, std430) readonly buffer TriangleMaterialBuffer { uint triangle_materials[]; };
+layout(set = 0, binding = 4, std430) readonly buffer MaterialBuffer { Material materials[]; };
+layout(set = 0, binding = 5, std430) readonly buffer InstanceBuffer { Instance instances[]; };
+layout(set = 0, binding = 6, std430) readonly buffer LightBuffer { Light lights[]; };
+layout(set = 0, binding = 7, std430) readonly buffer LightAliasBuffer { AliasEntry light_alias[]; };
+layout(set = 0, binding = 8, std140) uniform FrameBuffer { Frame frame; };
+
+// A surface point reached by a ray, with normals oriented toward the ray's origin side.
+struct Hit {
+    vec3 position;
+    vec3 geometric_normal;  // faces the incoming ray
+    vec3 shading_normal;    // same hemisphere as geometric_normal
+    uint material;
+    bool front_face;        // the ray hit the glTF front face (counter-clockwise side)
+    uint instance;
+    uint triangle;
+};
+
+// Primary camera ray through image position `pixel` (in pixels, row 0 at the top).
+vec3 camera_ray_direction(vec2 pixel) {
+    vec2 ndc = vec2(2.0 * pixel.x / float(frame.width) - 1.0, 1.0 - 2.0 * pixel.y / float(frame.height));
+    vec2 s = ndc * frame.tan_half_fov * vec2(frame.aspect, 1.0);
+    return normalize(frame.camera_forward + s.x * frame.camera_right + s.y * frame.camera_up);
+}
+
+// Reconstructs the hit on triangle `prim` of instance `inst` at barycentrics `bary` (of v1, v2).
+Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
+    Instance ins = instances[inst];
+    uint i0 = indices[ins.first_index + 3u * prim + 0u] + ins.first_vertex;
+    uint i1 = indices[ins.first_index + 3u * prim + 1u] + ins.first_vertex;
+    uint i2 = indices[ins.first_index + 3u * prim + 2u] + ins.first_vertex;
+    Vertex v0 = vertices[i0];
+    Vertex v1 = vertices[i1];
+    Vertex v2 = vertices[i2];
+    vec3 b = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+    vec3 p0 = (ins.world_from_object * vec4(v0.position, 1.0)).xyz;
+    vec3 p1 = (ins.world_from_object * vec4(v1.position, 1.0)).xyz;
+    vec3 p2 = (ins.world_from_object * vec4(v2.position, 1.0)).xyz;
+    Hit h;
+    h.position = b.x * p0 + b.y * p1 + b.z * p2;
+    vec3 ng = cross(p1 - p0, p2 - p0);
+    if ((ins.flags & INSTANCE_MIRRORED) != 0u) {
+        ng = -ng;
+    }
+    float len = length(ng);
+    ng = len > 0.0 ? ng / len : -ray_dir;
+    h.front_face = dot(ng, ray_dir) < 0.0;
+    if (!h.front_face) {
+        ng = -ng;
+    }
+    vec3 n_obj = b.x * v0.normal + b.y * v1.normal + b.z * v2.normal;
+    vec3 ns = ng;
+    if (dot(n_obj, n_obj) > 1e-12) {
+        ns = normalize(mat3(ins.normal_to_world) * n_obj);
+        if (dot(ns, ng) < 0.0) {
+            ns = -ns;
+        }
+    }
+    h.geometric_normal = ng;
+    h.shading_normal = ns;
+    h.material = triangle_materials[ins.first_triangle + prim];
+    h.instance = inst;
+    h.triangle = prim;
+    return h;
+}
+
+// Closest hit along a ray; false when it leaves the scene.
+bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t) {
+    rayQueryEXT rq;
+    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT, 0xFFu, origin, 0.0, dir, t_max);
+    while (rayQueryProceedEXT(rq)) {
+    }
+    if (rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionTriangleEXT) {
+        t = -1.0;
+        return false;
+    }
+    t = rayQueryGetIntersectionTEXT(rq, true);
+    uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
+    uint prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
+    vec2 bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
+    hit = fetch_hit(inst, prim, bary, dir);
+    return true;
+}
+
+// Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
+bool segment_visible(vec3 from, vec3 to) {
+    vec3 d = to - from;
+    float len = length(d);
+    if (len <= 0.0) {
+        return true;
+    }
+    rayQueryEXT rq;
+    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, from, 0.0,
+                          d / len, len);
+    while (rayQueryProceedEXT(rq)) {
+    }
+    return rayQueryGetIntersectionTypeEXT(rq, true) == gl_RayQueryCommittedIntersectionNoneEXT;
+}
+
+// Picks a light in proportion to lum(power) through the alias table.
+uint sample_light_index(float u) {
+    float u_rest;
+    uint slot = alias_slot(u, frame.light_count, u_rest);
+    AliasEntry e = light_alias[slot];
+    return alias_resolve(slot, e.keep, e.alias, u_rest);
+}
+
+#endif

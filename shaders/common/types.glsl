@@ -1,0 +1,85 @@
+// GPU structs, std430. Mirror of src/gpu_types.rs (the source of truth); tests/layout.rs checks
+// that offsets and sizes agree. Binding-free: declarations only.
+#ifndef TYPES_GLSL
+#define TYPES_GLSL
+
+const uint MATERIAL_DOUBLE_SIDED = 1u;
+const uint INSTANCE_MIRRORED = 1u;
+const uint FRAME_AA = 1u;
+
+struct Vertex {
+    vec3 position;
+    float u;
+    vec3 normal;
+    float v;
+};
+
+struct Material {
+    vec3 albedo;
+    int texture;
+    vec3 emission;
+    uint flags;
+};
+
+struct Instance {
+    mat4 world_from_object;
+    mat4 normal_to_world;
+    uint first_index;
+    uint first_vertex;
+    uint first_triangle;
+    uint flags;
+};
+
+struct Light {
+    vec3 p0;
+    float area;
+    vec3 p1;
+    float pdf;
+    vec3 p2;
+    uint flags;
+    vec3 emission;
+    uint _pad0;
+};
+
+struct AliasEntry {
+    float keep;
+    uint alias;
+};
+
+struct Surface {
+    vec3 position;
+    float hit_t;
+    vec3 shading_normal;
+    uint instance;
+    vec3 geometric_normal;
+    uint triangle;
+    vec3 albedo;
+    uint material;
+    vec3 emission;
+    float view_depth;
+};
+
+struct Frame {
+    vec3 camera_position;
+    float tan_half_fov;
+    vec3 camera_right;
+    float aspect;
+    vec3 camera_up;
+    uint frame_index;
+    vec3 camera_forward;
+    uint seed;
+    uint width;
+    uint height;
+    int max_bounces;
+    uint flags;
+    uint light_count;
+    uint instance_count;
+    float total_light_power;
+    float exposure;
+    uint accumulated_frames;
+    uint _pad0;
+    uint _pad1;
+    uint _pad2;
+};
+
+#endif

@@ -1,0 +1,83 @@
+// Sampling routines. Binding-free: pure functions of their arguments.
+#ifndef SAMPLING_GLSL
+#define SAMPLING_GLSL
+
+const float PI = 3.14159265358979323846;
+const float INV_PI = 0.31830988618379067154;
+
+// Orthonormal basis around unit n (Duff et al. 2017, branchless).
+void onb(vec3 n, out vec3 t, out vec3 b) {
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float c = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
+    b = vec3(c, s + n.y * n.y * a, -n.y);
+}
+
+// Cosine-weighted direction around unit n; pdf = cos / pi (Malley's method on a concentric disk).
+vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
+    vec2 d = 2.0 * u - 1.0;
+    vec2 disk;
+    if (d.x == 0.0 && d.y == 0.0) {
+        disk = vec2(0.0);
+    } else if (abs(d.x) > abs(d.y)) {
+        float r = d.x;
+        float phi = (PI / 4.0) * (d.y / d.x);
+        disk = r * vec2(cos(phi), sin(phi));
+    } else {
+        float r = d.y;
+        float phi = (PI / 2.0) - (PI / 4.0) * (d.x / d.y);
+        disk = r * vec2(cos(phi), sin(phi));
+    }
+    float z = sqrt(max(0.0, 1.0 - dot(disk, disk)));
+    vec3 t, b;
+    onb(n, t, b);
+    return normalize(disk.x * t + disk.y * b + z * n);
+}
+
+// Uniform point on a triangle (area-uniform), as barycentric weights (b0, b1, b2).
+vec3 sample_triangle_barycentrics(vec2 u) {
+    float su = sqrt(u.x);
+    float b0 = 1.0 - su;
+    float b1 = u.y * su;
+    return vec3(b0, b1, 1.0 - b0 - b1);
+}
+
+// Power heuristic (beta = 2) weight of strategy a against b.
+float power_heuristic(float pdf_a, float pdf_b) {
+    float a2 = pdf_a * pdf_a;
+    float b2 = pdf_b * pdf_b;
+    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
+}
+
+// Vose alias table, step 1: the slot that u in [0,1) lands in, and a fresh uniform from its fraction.
+uint alias_slot(float u, uint n, out float u_rest) {
+    float scaled = u * float(n);
+    uint slot = min(uint(scaled), n - 1u);
+    u_rest = clamp(scaled - float(slot), 0.0, 1.0);
+    return slot;
+}
+
+// Step 2: keep the slot's own index with probability `keep`, else take its alias.
+uint alias_resolve(uint slot, float keep, uint alias_index, float u_rest) {
+    return u_rest < keep ? slot : alias_index;
+}
+
+// Ray-origin offset against self-intersection (Waechter & Binder, Ray Tracing Gems, ch. 6):
+// moves p along n by a few ulps (far from the origin) or by a small absolute amount (near it).
+vec3 offset_ray(vec3 p, vec3 n) {
+    const float origin = 1.0 / 32.0;
+    const float float_scale = 1.0 / 65536.0;
+    const float int_scale = 256.0;
+    ivec3 of_i = ivec3(int_scale * n);
+    vec3 p_i = vec3(
+        intBitsToFloat(floatBitsToInt(p.x) + ((p.x < 0.0) ? -of_i.x : of_i.x)),
+        intBitsToFloat(floatBitsToInt(p.y) + ((p.y < 0.0) ? -of_i.y : of_i.y)),
+        intBitsToFloat(floatBitsToInt(p.z) + ((p.z < 0.0) ? -of_i.z : of_i.z)));
+    return vec3(
+        abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
+        abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
+        abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+
+#endif

@@ -1,0 +1,58 @@
+// gbuffer: one primary ray per pixel (through the pixel centre, or jittered inside it with --aa)
+// -> position, normals, albedo, emission toward the camera, depth and ids.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/scene.glsl"
+#include "../lib/random.glsl"
+#include "../lib/brdf.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 1, binding = 0, std430) writeonly buffer SurfaceBuffer { Surface surfaces[]; };
+
+const uint SALT_GBUFFER = 0x6762u;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
+    vec2 jitter = vec2(0.5);
+    if ((frame.flags & FRAME_AA) != 0u) {
+        uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_GBUFFER);
+        jitter = rand2(rng);
+    }
+    vec3 dir = camera_ray_direction(vec2(pixel) + jitter);
+
+    Surface s;
+    s.position = vec3(0.0);
+    s.hit_t = -1.0;
+    s.shading_normal = vec3(0.0);
+    s.instance = 0xFFFFFFFFu;
+    s.geometric_normal = vec3(0.0);
+    s.triangle = 0xFFFFFFFFu;
+    s.albedo = vec3(0.0);
+    s.material = 0xFFFFFFFFu;
+    s.emission = vec3(0.0);
+    s.view_depth = -1.0;
+
+    Hit hit;
+    float t;
+    if (trace_closest(frame.camera_position, dir, 1e30, hit, t)) {
+        Material m = materials[hit.material];
+        s.position = hit.position;
+        s.hit_t = t;
+        s.shading_normal = hit.shading_normal;
+        s.instance = hit.instance;
+        s.geometric_normal = hit.geometric_normal;
+        s.triangle = hit.triangle;
+        s.albedo = m.albedo;
+        s.material = hit.material;
+        bool emits = hit.front_face || (m.flags & MATERIAL_DOUBLE_SIDED) != 0u;
+        s.emission = emits ? m.emission : vec3(0.0);
+        s.view_depth = t * dot(dir, frame.camera_forward);
+    }
+    surfaces[index] = s;
+}

@@ -1,0 +1,27 @@
+// tonemap: exposure (2^EV) and the sRGB transfer curve -> 8-bit RGBA preview.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/scene.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer MeanBuffer { vec4 means[]; };
+layout(set = 1, binding = 1, std430) writeonly buffer PreviewBuffer { uint preview[]; };
+
+float srgb_encode(float c) {
+    c = clamp(c, 0.0, 1.0);
+    return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055;
+}
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= frame.width * frame.height) {
+        return;
+    }
+    vec3 c = means[i].rgb * frame.exposure;
+    // NaN-safe: a NaN compares false and becomes 0.
+    c = vec3(c.x > 0.0 ? c.x : 0.0, c.y > 0.0 ? c.y : 0.0, c.z > 0.0 ? c.z : 0.0);
+    uvec3 q = uvec3(round(vec3(srgb_encode(c.x), srgb_encode(c.y), srgb_encode(c.z)) * 255.0));
+    preview[i] = q.x | (q.y << 8) | (q.z << 16) | (255u << 24);
+}

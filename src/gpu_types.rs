@@ -1,0 +1,168 @@
+//! GPU-visible structs: the single Rust source of truth, mirrored field by field in
+//! `shaders/common/types.glsl` (std430 / std140-compatible). `tests/layout.rs` compiles that header
+//! into SPIR-V and checks that every member name, offset and the struct sizes agree with these
+//! definitions (through [`GpuStruct::FIELDS`], generated from the Rust fields themselves).
+//!
+//! Rules: only 4-byte scalars, `[f32; 3]` followed by a scalar that fills its 16-byte slot, and
+//! `[f32; 16]` matrices; explicit scalar padding fields (`_pad*`) everywhere else.
+
+use bytemuck::{Pod, Zeroable};
+use std::mem::size_of;
+
+/// Implemented by every struct mirrored in GLSL.
+pub trait GpuStruct: Pod {
+    /// The struct's name in `shaders/common/types.glsl`.
+    const GLSL_NAME: &'static str;
+    /// (field name, byte offset) for every field, in declaration order.
+    const FIELDS: &'static [(&'static str, usize)];
+}
+
+macro_rules! gpu_struct {
+    ($(#[$m:meta])* pub struct $name:ident as $glsl:literal ($size:literal) {
+        $( $(#[$fm:meta])* pub $f:ident : $t:ty ),* $(,)?
+    }) => {
+        $(#[$m])*
+        #[repr(C)]
+        #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+        pub struct $name { $( $(#[$fm])* pub $f: $t ),* }
+        const _: () = assert!(size_of::<$name>() == $size);
+        impl GpuStruct for $name {
+            const GLSL_NAME: &'static str = $glsl;
+            const FIELDS: &'static [(&'static str, usize)] =
+                &[ $( (stringify!($f), std::mem::offset_of!($name, $f)) ),* ];
+        }
+    };
+}
+
+gpu_struct! {
+    /// One mesh vertex: object-space position and normal (zero: use the flat geometric normal), uv.
+    pub struct GpuVertex as "Vertex" (32) {
+    pub position: [f32; 3],
+    pub u: f32,
+    pub normal: [f32; 3],
+    pub v: f32,
+}
+}
+
+/// Material flags.
+pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
+
+gpu_struct! {
+    /// Lambertian material: albedo = baseColorFactor, emitted radiance `emission`.
+    pub struct GpuMaterial as "Material" (32) {
+    pub albedo: [f32; 3],
+    /// Texture index into the scene's texture array, or -1.
+    pub texture: i32,
+    pub emission: [f32; 3],
+    /// `MATERIAL_*` bits.
+    pub flags: u32,
+}
+}
+
+/// Instance flags.
+pub const INSTANCE_MIRRORED: u32 = 1;
+
+gpu_struct! {
+    /// One TLAS instance (its `instanceCustomIndex` is its index here).
+    pub struct GpuInstance as "Instance" (144) {
+    /// World from object, column-major.
+    pub world_from_object: [f32; 16],
+    /// Inverse transpose of the upper 3×3 of `world_from_object`, column-major in a 4×4.
+    pub normal_to_world: [f32; 16],
+    /// First index of the mesh in the global index buffer (indices are local to the mesh).
+    pub first_index: u32,
+    /// First vertex of the mesh in the global vertex buffer.
+    pub first_vertex: u32,
+    /// First triangle of the mesh in the global per-triangle material buffer.
+    pub first_triangle: u32,
+    /// `INSTANCE_*` bits.
+    pub flags: u32,
+}
+}
+
+gpu_struct! {
+    /// One emissive triangle in world space (an area light).
+    pub struct GpuLight as "Light" (64) {
+    pub p0: [f32; 3],
+    /// World-space area (m²).
+    pub area: f32,
+    pub p1: [f32; 3],
+    /// Probability of choosing this light, ∝ lum(Φ).
+    pub pdf: f32,
+    pub p2: [f32; 3],
+    /// `MATERIAL_DOUBLE_SIDED` when it emits from both faces.
+    pub flags: u32,
+    /// Emitted radiance Le.
+    pub emission: [f32; 3],
+    pub _pad0: u32,
+}
+}
+
+gpu_struct! {
+    /// One slot of Vose's alias table.
+    pub struct GpuAliasEntry as "AliasEntry" (8) {
+    /// Probability of keeping this slot's own index.
+    pub keep: f32,
+    pub alias: u32,
+}
+}
+
+gpu_struct! {
+    /// The primary-hit record written by the `gbuffer` pass, one per pixel.
+    pub struct GpuSurface as "Surface" (80) {
+    /// World-space hit position.
+    pub position: [f32; 3],
+    /// Distance along the primary ray; negative when the ray missed.
+    pub hit_t: f32,
+    /// Shading normal, flipped to the viewer's side.
+    pub shading_normal: [f32; 3],
+    pub instance: u32,
+    /// Geometric normal, flipped to the viewer's side.
+    pub geometric_normal: [f32; 3],
+    /// Triangle index within the instance's mesh.
+    pub triangle: u32,
+    pub albedo: [f32; 3],
+    pub material: u32,
+    /// Radiance emitted toward the camera (zero for the back of a single-sided emitter).
+    pub emission: [f32; 3],
+    /// View-space depth (distance along the camera's forward axis).
+    pub view_depth: f32,
+}
+}
+
+gpu_struct! {
+    /// Frame constants (uniform buffer, set 0).
+    pub struct GpuFrame as "Frame" (112) {
+    pub camera_position: [f32; 3],
+    /// tan(yfov / 2).
+    pub tan_half_fov: f32,
+    /// Camera basis: right, up and forward, unit length.
+    pub camera_right: [f32; 3],
+    pub aspect: f32,
+    pub camera_up: [f32; 3],
+    pub frame_index: u32,
+    pub camera_forward: [f32; 3],
+    pub seed: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Max bounces for the path tracer; negative: unbounded (Russian roulette only).
+    pub max_bounces: i32,
+    /// `FRAME_*` bits.
+    pub flags: u32,
+    pub light_count: u32,
+    pub instance_count: u32,
+    /// Σ over lights of lum(Φ) (for MIS: the light-selection pdf of a hit emitter).
+    pub total_light_power: f32,
+    /// Exposure multiplier for the tonemap pass (2^EV).
+    pub exposure: f32,
+    /// Frames accumulated so far including this one.
+    pub accumulated_frames: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+}
+
+/// Jitter primary rays inside the pixel (box filter).
+pub const FRAME_AA: u32 = 1;
+

@@ -1,0 +1,211 @@
+//! Headless runs: render N frames, write EXR/PNG/summary, return the images for callers (tests).
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context as _, Result};
+use serde::Serialize;
+
+use crate::output::{write_exr, write_png, TimingStats};
+use crate::renderer::{CameraSetup, Renderer};
+use crate::scene::Scene;
+use crate::settings::RenderSettings;
+use crate::vk::{Context, ContextOptions, DeviceReport};
+
+/// Everything `summary.json` holds.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    pub settings: RenderSettings,
+    pub device: DeviceReport,
+    pub validation_layer: bool,
+    pub validation_errors: u64,
+    pub scene: SceneSummary,
+    pub camera: CameraSetup,
+    pub frames: u32,
+    /// GPU time per pass over all frames where it ran (ms).
+    pub pass_ms: BTreeMap<String, TimingStats>,
+    /// Sum of the pass times of each frame (ms).
+    pub gpu_ms_per_frame: TimingStats,
+    /// Wall-clock time per frame including submission and waiting (ms).
+    pub wall_ms_per_frame: TimingStats,
+    /// Rays per pixel per frame (primary + sampling passes).
+    pub rays_per_pixel: TimingStats,
+    /// Samples that were NaN or infinite (replaced by 0 in the accumulation).
+    pub nonfinite_samples: u64,
+    pub total_seconds: f64,
+    pub outputs: Vec<String>,
+    pub warnings: Vec<String>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneSummary {
+    pub path: String,
+    pub triangles: usize,
+    pub instances: usize,
+    pub meshes: usize,
+    pub materials: usize,
+    pub area_lights: usize,
+    /// Σ Φ of the area lights, per channel (W).
+    pub light_power: [f64; 3],
+    pub upload_and_build_ms: f64,
+}
+
+/// What a headless run produced.
+pub struct RunOutput {
+    pub width: u32,
+    pub height: u32,
+    /// Mean over all frames, row 0 at the top.
+    pub mean: Vec<[f32; 3]>,
+    /// Per-pixel sample variance over the frames.
+    pub variance: Vec<[f32; 3]>,
+    pub summary: Summary,
+}
+
+/// Loads the scene, renders `settings.frames` frames and writes the outputs to `settings.out_dir`
+/// (when set).
+pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
+    settings.validate()?;
+    let start = Instant::now();
+    let scene = Scene::load(&settings.scene)?;
+    let ctx = Arc::new(Context::new(&ContextOptions { validate: settings.validate, device_index: settings.device_index })?);
+    run_with(ctx, &scene, settings, start)
+}
+
+/// As [`run`], with a context and scene the caller already has.
+pub fn run_with(ctx: Arc<Context>, scene: &Scene, settings: &RenderSettings, start: Instant) -> Result<RunOutput> {
+    let mut warnings = scene.warnings.clone();
+    if scene.emissive_triangles().is_empty() && scene.point_lights.is_empty() {
+        let w = format!("{}: the scene has no emitters; the image will be black", scene.path.display());
+        log::warn!("{w}");
+        warnings.push(w);
+    }
+    if let Some(dir) = &settings.out_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
+    }
+    let mut renderer = Renderer::new(ctx.clone(), scene, settings.clone())?;
+    if settings.verbose {
+        eprintln!(
+            "device: {}\ncamera: {:?}\nscene: {} triangles, {} instances, {} area lights, built in {:.1} ms",
+            ctx.report,
+            renderer.camera,
+            renderer.scene.triangle_count,
+            renderer.scene.instance_count,
+            renderer.scene.lights.lights.len(),
+            renderer.scene.build_ms
+        );
+    }
+    let mut outputs = Vec::new();
+    let mut gpu_frame = Vec::new();
+    let mut wall_frame = Vec::new();
+    let mut rpp = Vec::new();
+    let pixels = (settings.width * settings.height) as f64;
+    let progress = Progress::new(settings.progress, settings.frames as u64);
+    for f in 0..settings.frames {
+        let last = f + 1 == settings.frames;
+        let stats = renderer.render_frame(last && settings.out_dir.is_some())?;
+        gpu_frame.push(stats.pass_ms.iter().map(|p| p.1).sum());
+        wall_frame.push(stats.wall_ms);
+        rpp.push(stats.rays as f64 / pixels);
+        if let Some(dir) = &settings.out_dir {
+            if settings.save_every > 0 && (f + 1) % settings.save_every == 0 {
+                let path = dir.join(format!("accum_{:04}.exr", f + 1));
+                write_exr(&path, settings.width, settings.height, &renderer.read_mean()?)?;
+                outputs.push(path.display().to_string());
+            }
+        }
+        progress.tick();
+    }
+    progress.finish();
+    let mean = renderer.read_mean()?;
+    let variance = renderer.read_variance()?;
+    if let Some(dir) = &settings.out_dir {
+        let exr = dir.join("final.exr");
+        write_exr(&exr, settings.width, settings.height, &mean)?;
+        let png = dir.join("final.png");
+        write_png(&png, settings.width, settings.height, &renderer.read_preview()?)?;
+        outputs.insert(0, png.display().to_string());
+        outputs.insert(0, exr.display().to_string());
+    }
+    let validation_errors = ctx.validation_errors();
+    if validation_errors > 0 {
+        let w = format!(
+            "{validation_errors} Vulkan validation error(s); first: {}",
+            ctx.first_validation_error().unwrap_or_default()
+        );
+        warnings.push(w);
+    }
+    if renderer.nonfinite_samples > 0 {
+        warnings.push(format!("{} non-finite samples were replaced by 0", renderer.nonfinite_samples));
+    }
+    let summary = Summary {
+        settings: settings.clone(),
+        device: ctx.report.clone(),
+        validation_layer: ctx.validation_enabled,
+        validation_errors,
+        scene: SceneSummary {
+            path: scene.path.display().to_string(),
+            triangles: renderer.scene.triangle_count,
+            instances: renderer.scene.instance_count,
+            meshes: scene.meshes.len(),
+            materials: scene.materials.len(),
+            area_lights: renderer.scene.lights.lights.len(),
+            light_power: renderer.scene.lights.total_power,
+            upload_and_build_ms: renderer.scene.build_ms,
+        },
+        camera: renderer.camera,
+        frames: settings.frames,
+        pass_ms: renderer.pass_times.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v))).collect(),
+        gpu_ms_per_frame: TimingStats::of(&gpu_frame),
+        wall_ms_per_frame: TimingStats::of(&wall_frame),
+        rays_per_pixel: TimingStats::of(&rpp),
+        nonfinite_samples: renderer.nonfinite_samples,
+        total_seconds: start.elapsed().as_secs_f64(),
+        outputs,
+        warnings,
+    };
+    if let Some(dir) = &settings.out_dir {
+        let path: PathBuf = dir.join("summary.json");
+        let json = serde_json::to_string_pretty(&summary).context("serialising summary.json")?;
+        std::fs::write(&path, json).with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(RunOutput { width: settings.width, height: settings.height, mean, variance, summary })
+}
+
+/// A progress bar on stderr that appears only on a terminal and only once a run passes one second.
+struct Progress {
+    bar: Option<indicatif::ProgressBar>,
+    start: Instant,
+    shown: std::cell::Cell<bool>,
+}
+
+impl Progress {
+    fn new(enabled: bool, total: u64) -> Self {
+        use std::io::IsTerminal;
+        let bar = (enabled && std::io::stderr().is_terminal()).then(|| {
+            let bar = indicatif::ProgressBar::with_draw_target(Some(total), indicatif::ProgressDrawTarget::hidden());
+            if let Ok(style) = indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} frames  {elapsed} (eta {eta})") {
+                bar.set_style(style);
+            }
+            bar
+        });
+        Self { bar, start: Instant::now(), shown: std::cell::Cell::new(false) }
+    }
+
+    fn tick(&self) {
+        if let Some(bar) = &self.bar {
+            if !self.shown.get() && self.start.elapsed() > Duration::from_secs(1) {
+                bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                self.shown.set(true);
+            }
+            bar.inc(1);
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = &self.bar {
+            bar.finish_and_clear();
+        }
+    }
+}

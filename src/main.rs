@@ -1,0 +1,195 @@
+//! The `restir-vpl` command line.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{bail, Result};
+use clap::Parser;
+use glam::Vec3;
+
+use restir_vpl::settings::{CameraOverride, Mode, RenderSettings};
+use restir_vpl::vk::NoRayQueryDevice;
+
+/// GPU global illumination: photon-traced VPLs + ReSTIR DI on Vulkan ray queries, with a path-traced
+/// ground truth.
+#[derive(Debug, Parser)]
+#[command(name = "restir-vpl", version, about)]
+struct Cli {
+    /// Render without a window and write images to --out.
+    #[arg(long)]
+    headless: bool,
+    /// glTF 2.0 scene (.gltf or .glb).
+    #[arg(long, default_value = "scenes/cornell_box.gltf")]
+    scene: PathBuf,
+    /// Estimator.
+    #[arg(long, value_enum, default_value = "pt")]
+    mode: Mode,
+    /// Frames to render and average.
+    #[arg(long, default_value_t = 20)]
+    frames: u32,
+    #[arg(long, default_value_t = 512)]
+    width: u32,
+    #[arg(long, default_value_t = 512)]
+    height: u32,
+    /// Output directory (final.exr, final.png, accum_NNNN.exr, summary.json).
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Also write accum_NNNN.exr every K frames.
+    #[arg(long, default_value_t = 0, value_name = "K")]
+    save_every: u32,
+    /// Random seed; the same seed gives the same image.
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Jitter primary rays inside the pixel (box filter) instead of tracing pixel centres.
+    #[arg(long)]
+    aa: bool,
+    /// Path-tracer bounces (-1: unbounded, Russian roulette only).
+    #[arg(long, default_value_t = 8, allow_negative_numbers = true)]
+    max_bounces: i32,
+    /// Exposure of the PNG preview in EV.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Camera position "x,y,z" (overrides the scene camera; needs --target).
+    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    eye: Option<Vec3>,
+    /// Camera target "x,y,z".
+    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    target: Option<Vec3>,
+    /// Camera up "x,y,z".
+    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true, default_value = "0,1,0")]
+    up: Vec3,
+    /// Vertical field of view in degrees (with --eye/--target; default 45, or the scene camera's).
+    #[arg(long)]
+    fov: Option<f32>,
+    /// Vulkan device index (see --list-devices).
+    #[arg(long)]
+    device: Option<usize>,
+    /// List Vulkan devices and what each lacks, then exit.
+    #[arg(long)]
+    list_devices: bool,
+    /// Enable the Khronos validation layer (also RESTIR_VPL_VALIDATE=1).
+    #[arg(long)]
+    validate: bool,
+    /// Print the pass list (what runs, what is skipped and why), device and scene details.
+    #[arg(long, short)]
+    verbose: bool,
+}
+
+fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("'{s}': expected three comma-separated numbers, like 0,1,0"));
+    }
+    let mut v = [0f32; 3];
+    for (i, p) in parts.iter().enumerate() {
+        v[i] = p.parse::<f32>().map_err(|e| format!("'{s}': '{p}' is not a number ({e})"))?;
+        if !v[i].is_finite() {
+            return Err(format!("'{s}': '{p}' is not finite"));
+        }
+    }
+    Ok(Vec3::from_array(v))
+}
+
+fn settings_from(cli: &Cli) -> Result<RenderSettings> {
+    let camera = match (cli.eye, cli.target) {
+        (Some(eye), Some(target)) => Some(CameraOverride {
+            eye,
+            target,
+            up: cli.up,
+            yfov_degrees: cli.fov.unwrap_or(45.0),
+        }),
+        (None, None) => {
+            if cli.fov.is_some() {
+                bail!("--fov needs --eye and --target (the scene camera keeps its own field of view)");
+            }
+            None
+        }
+        _ => bail!("--eye and --target go together"),
+    };
+    let validate = cli.validate || std::env::var("RESTIR_VPL_VALIDATE").is_ok_and(|v| v == "1");
+    Ok(RenderSettings {
+        scene: cli.scene.clone(),
+        mode: cli.mode,
+        width: cli.width,
+        height: cli.height,
+        frames: cli.frames,
+        seed: cli.seed,
+        aa: cli.aa,
+        max_bounces: cli.max_bounces,
+        exposure: cli.exposure,
+        camera,
+        save_every: cli.save_every,
+        out_dir: Some(cli.out.clone()),
+        validate,
+        device_index: cli.device,
+        verbose: cli.verbose,
+        progress: true,
+    })
+}
+
+fn real_main(cli: Cli) -> Result<()> {
+    if cli.list_devices {
+        let devices = restir_vpl::vk::context::list_devices()?;
+        if devices.is_empty() {
+            println!("no Vulkan devices found (is a Vulkan driver installed? run scripts/setup.sh)");
+        }
+        for d in devices {
+            println!("{d}");
+        }
+        return Ok(());
+    }
+    let settings = settings_from(&cli)?;
+    settings.validate()?;
+    if !cli.headless {
+        bail!("windowed mode is not available yet: pass --headless to render to files");
+    }
+    let out = restir_vpl::run(&settings)?;
+    let s = &out.summary;
+    println!("device: {}", s.device);
+    println!(
+        "scene: {} ({} triangles, {} area lights)",
+        s.scene.path, s.scene.triangles, s.scene.area_lights
+    );
+    println!(
+        "{} frames of {}x{} ({}), {:.2} rays/pixel/frame",
+        s.frames, settings.width, settings.height, settings.mode.name(), s.rays_per_pixel.mean
+    );
+    println!("GPU ms per pass (median / min / max):");
+    for (name, t) in &s.pass_ms {
+        println!("  {name:<12} {:>9.2} {:>9.2} {:>9.2}", t.median, t.min, t.max);
+    }
+    println!(
+        "ms per frame: {:.2} GPU, {:.2} wall (median); total {:.2} s",
+        s.gpu_ms_per_frame.median, s.wall_ms_per_frame.median, s.total_seconds
+    );
+    if s.nonfinite_samples > 0 {
+        println!("non-finite samples replaced by 0: {}", s.nonfinite_samples);
+    }
+    for w in &s.warnings {
+        println!("warning: {w}");
+    }
+    println!("images:");
+    for o in &s.outputs {
+        println!("  {o}");
+    }
+    if let Some(dir) = &settings.out_dir {
+        println!("  {}", dir.join("summary.json").display());
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    restir_vpl::logger::init(cli.verbose);
+    match real_main(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            if e.downcast_ref::<NoRayQueryDevice>().is_some() {
+                ExitCode::from(2)
+            } else {
+                ExitCode::FAILURE
+            }
+        }
+    }
+}

@@ -1,0 +1,154 @@
+//! The scene on the GPU: geometry, materials, instances, lights, BLAS/TLAS and the frame uniform
+//! buffer, bound as descriptor set 0 (`SCENE_BINDINGS`, mirrored in shaders/common/scene.glsl).
+
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use ash::vk;
+use glam::{Mat3, Mat4};
+use gpu_allocator::MemoryLocation;
+
+use crate::gpu_types::*;
+use crate::lights::LightSet;
+use crate::scene::Scene;
+use crate::vk::accel::{self, AccelerationStructure, InstanceDesc, MeshRange};
+use crate::vk::pipeline::{accel as accel_binding, storage, uniform};
+use crate::vk::{Binding, Buffer, Context, DescriptorSet};
+
+/// Set 0, declared once for every pass.
+pub const SCENE_BINDINGS: &[Binding] = &[
+    accel_binding(0, "tlas"),
+    storage(1, "vertices"),
+    storage(2, "indices"),
+    storage(3, "triangle_materials"),
+    storage(4, "materials"),
+    storage(5, "instances"),
+    storage(6, "lights"),
+    storage(7, "light_alias"),
+    uniform(8, "frame"),
+];
+
+pub struct SceneGpu {
+    pub set: DescriptorSet,
+    pub frame: Buffer,
+    pub lights: LightSet,
+    pub triangle_count: usize,
+    pub instance_count: usize,
+    pub build_ms: f64,
+    // Kept alive for the descriptors.
+    _tlas: AccelerationStructure,
+    _tlas_instances: Buffer,
+    _blases: Vec<AccelerationStructure>,
+    _buffers: Vec<Buffer>,
+}
+
+fn storage_usage() -> vk::BufferUsageFlags {
+    vk::BufferUsageFlags::STORAGE_BUFFER
+}
+
+fn geometry_usage() -> vk::BufferUsageFlags {
+    vk::BufferUsageFlags::STORAGE_BUFFER
+        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
+        | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+}
+
+impl SceneGpu {
+    pub fn new(ctx: &Arc<Context>, scene: &Scene) -> Result<Self> {
+        let start = std::time::Instant::now();
+        let mut vertices: Vec<GpuVertex> = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut triangle_materials: Vec<u32> = Vec::new();
+        let mut ranges = Vec::new();
+        let mut mesh_first_triangle = Vec::new();
+        for mesh in &scene.meshes {
+            let range = MeshRange {
+                first_vertex: vertices.len() as u32,
+                vertex_count: mesh.positions.len() as u32,
+                first_index: indices.len() as u32,
+                index_count: mesh.indices.len() as u32,
+            };
+            mesh_first_triangle.push(triangle_materials.len() as u32);
+            for i in 0..mesh.positions.len() {
+                let uv = mesh.uvs.get(i).copied().unwrap_or_default();
+                vertices.push(GpuVertex {
+                    position: mesh.positions[i].to_array(),
+                    u: uv.x,
+                    normal: mesh.normals.get(i).copied().unwrap_or_default().to_array(),
+                    v: uv.y,
+                });
+            }
+            indices.extend_from_slice(&mesh.indices);
+            triangle_materials.extend_from_slice(&mesh.triangle_materials);
+            ranges.push((mesh.name.clone(), range));
+        }
+        let materials: Vec<GpuMaterial> = scene
+            .materials
+            .iter()
+            .map(|m| GpuMaterial {
+                albedo: m.base_color.truncate().to_array(),
+                texture: -1,
+                emission: m.emission.to_array(),
+                flags: if m.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
+            })
+            .collect();
+        let mut instances = Vec::new();
+        let mut descs = Vec::new();
+        for inst in &scene.instances {
+            let m = &ranges[inst.mesh].1;
+            let t: Mat4 = inst.transform;
+            let normal = Mat4::from_mat3(Mat3::from_mat4(t).inverse().transpose());
+            instances.push(GpuInstance {
+                world_from_object: t.to_cols_array(),
+                normal_to_world: normal.to_cols_array(),
+                first_index: m.first_index,
+                first_vertex: m.first_vertex,
+                first_triangle: mesh_first_triangle[inst.mesh],
+                flags: if Mat3::from_mat4(t).determinant() < 0.0 { INSTANCE_MIRRORED } else { 0 },
+            });
+            let r = t.transpose().to_cols_array(); // rows of t
+            descs.push(InstanceDesc { mesh: inst.mesh, transform: r[..12].try_into().expect("12 of 16") });
+        }
+        let lights = LightSet::from_scene(scene);
+
+        let vb = Buffer::with_data(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), geometry_usage())?;
+        let ib = Buffer::with_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), geometry_usage())?;
+        let tm = Buffer::with_data(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), storage_usage())?;
+        let mb = Buffer::with_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), storage_usage())?;
+        let inb = Buffer::with_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), storage_usage())?;
+        let lb = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&lights.lights), storage_usage())?;
+        let ab = Buffer::with_data(ctx, "scene.light_alias", bytemuck::cast_slice(&lights.alias), storage_usage())?;
+        let frame = Buffer::new(
+            ctx,
+            "scene.frame",
+            std::mem::size_of::<GpuFrame>() as u64,
+            vk::BufferUsageFlags::UNIFORM_BUFFER,
+            MemoryLocation::CpuToGpu,
+        )?;
+
+        let blases = accel::build_blases(ctx, &vb, std::mem::size_of::<GpuVertex>() as u64, &ib, &ranges)
+            .context("building BLASes")?;
+        let (tlas, tlas_instances) = accel::build_tlas(ctx, &blases, &descs).context("building the TLAS")?;
+
+        let set = DescriptorSet::new(ctx, "scene", SCENE_BINDINGS)?;
+        set.write_accel(0, tlas.raw)?;
+        for (binding, buffer) in [(1, &vb), (2, &ib), (3, &tm), (4, &mb), (5, &inb), (6, &lb), (7, &ab), (8, &frame)] {
+            set.write_buffer(binding, buffer)?;
+        }
+        Ok(Self {
+            set,
+            frame,
+            lights,
+            triangle_count: scene.triangle_count(),
+            instance_count: scene.instances.len(),
+            build_ms: start.elapsed().as_secs_f64() * 1e3,
+            _tlas: tlas,
+            _tlas_instances: tlas_instances,
+            _blases: blases,
+            _buffers: vec![vb, ib, tm, mb, inb, lb, ab],
+        })
+    }
+
+    pub fn write_frame(&self, frame: &GpuFrame) -> Result<()> {
+        self.frame.write(0, bytemuck::bytes_of(frame))
+    }
+}

@@ -1,0 +1,183 @@
+//! Acceleration structures: one BLAS per mesh, one TLAS over the node instances, built once.
+
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+use super::{Buffer, Context};
+
+pub struct AccelerationStructure {
+    ctx: Arc<Context>,
+    pub raw: vk::AccelerationStructureKHR,
+    pub buffer: Buffer,
+    pub address: vk::DeviceAddress,
+}
+
+impl Drop for AccelerationStructure {
+    fn drop(&mut self) {
+        // SAFETY: no pending GPU work references the structure (frames are fenced).
+        unsafe { self.ctx.accel.destroy_acceleration_structure(self.raw, None) };
+    }
+}
+
+/// A mesh's range in the global vertex/index buffers.
+#[derive(Clone, Copy, Debug)]
+pub struct MeshRange {
+    pub first_vertex: u32,
+    pub vertex_count: u32,
+    pub first_index: u32,
+    pub index_count: u32,
+}
+
+/// One TLAS instance.
+#[derive(Clone, Copy, Debug)]
+pub struct InstanceDesc {
+    pub mesh: usize,
+    /// Row-major 3×4 world-from-object transform.
+    pub transform: [f32; 12],
+}
+
+fn align_up(x: u64, a: u64) -> u64 {
+    x.div_ceil(a.max(1)) * a.max(1)
+}
+
+fn build(
+    ctx: &Arc<Context>,
+    name: &str,
+    ty: vk::AccelerationStructureTypeKHR,
+    geometry: vk::AccelerationStructureGeometryKHR<'_>,
+    primitive_count: u32,
+) -> Result<AccelerationStructure> {
+    let geometries = [geometry];
+    let mut build_info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
+        .ty(ty)
+        .flags(vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)
+        .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
+        .geometries(&geometries);
+    let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+    // SAFETY: build_info references live geometry data.
+    unsafe {
+        ctx.accel.get_acceleration_structure_build_sizes(
+            vk::AccelerationStructureBuildTypeKHR::DEVICE,
+            &build_info,
+            &[primitive_count],
+            &mut sizes,
+        )
+    };
+    let buffer = Buffer::new(
+        ctx,
+        name,
+        sizes.acceleration_structure_size,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        MemoryLocation::GpuOnly,
+    )?;
+    let create = vk::AccelerationStructureCreateInfoKHR::default()
+        .buffer(buffer.raw)
+        .size(sizes.acceleration_structure_size)
+        .ty(ty);
+    // SAFETY: the backing buffer is large enough (queried above).
+    let raw = unsafe { ctx.accel.create_acceleration_structure(&create, None) }
+        .with_context(|| format!("vkCreateAccelerationStructureKHR '{name}'"))?;
+    ctx.set_name(raw, name);
+    let align = ctx.as_properties.min_scratch_offset_alignment as u64;
+    let scratch = Buffer::new(
+        ctx,
+        &format!("{name}.scratch"),
+        sizes.build_scratch_size + align,
+        vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        MemoryLocation::GpuOnly,
+    )?;
+    build_info = build_info
+        .dst_acceleration_structure(raw)
+        .scratch_data(vk::DeviceOrHostAddressKHR { device_address: align_up(scratch.address(), align) });
+    let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(primitive_count)];
+    let ranges: [&[vk::AccelerationStructureBuildRangeInfoKHR]; 1] = [&range];
+    ctx.one_shot(|cmd| {
+        ctx.begin_label(cmd, name);
+        // SAFETY: inputs and scratch stay alive until one_shot's wait returns.
+        unsafe { ctx.accel.cmd_build_acceleration_structures(cmd, std::slice::from_ref(&build_info), &ranges) };
+        ctx.end_label(cmd);
+    })?;
+    // SAFETY: raw is a valid acceleration structure.
+    let address = unsafe {
+        ctx.accel.get_acceleration_structure_device_address(
+            &vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(raw),
+        )
+    };
+    Ok(AccelerationStructure { ctx: ctx.clone(), raw, buffer, address })
+}
+
+/// Builds one BLAS per mesh over the global vertex buffer (`GpuVertex`, position first) and index
+/// buffer (indices local to each mesh).
+pub fn build_blases(
+    ctx: &Arc<Context>,
+    vertices: &Buffer,
+    vertex_stride: u64,
+    indices: &Buffer,
+    meshes: &[(String, MeshRange)],
+) -> Result<Vec<AccelerationStructure>> {
+    meshes
+        .iter()
+        .map(|(name, m)| {
+            let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+                .vertex_format(vk::Format::R32G32B32_SFLOAT)
+                .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: vertices.address() + m.first_vertex as u64 * vertex_stride,
+                })
+                .vertex_stride(vertex_stride)
+                .max_vertex(m.vertex_count.saturating_sub(1))
+                .index_type(vk::IndexType::UINT32)
+                .index_data(vk::DeviceOrHostAddressConstKHR { device_address: indices.address() + m.first_index as u64 * 4 });
+            let geometry = vk::AccelerationStructureGeometryKHR::default()
+                .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+                .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+                .flags(vk::GeometryFlagsKHR::OPAQUE);
+            build(ctx, &format!("blas.{name}"), vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, m.index_count / 3)
+        })
+        .collect()
+}
+
+/// Builds the TLAS; instance i has `instanceCustomIndex` i.
+pub fn build_tlas(
+    ctx: &Arc<Context>,
+    blases: &[AccelerationStructure],
+    instances: &[InstanceDesc],
+) -> Result<(AccelerationStructure, Buffer)> {
+    let raw: Vec<vk::AccelerationStructureInstanceKHR> = instances
+        .iter()
+        .enumerate()
+        .map(|(i, inst)| vk::AccelerationStructureInstanceKHR {
+            transform: vk::TransformMatrixKHR { matrix: inst.transform },
+            instance_custom_index_and_mask: vk::Packed24_8::new(i as u32, 0xff),
+            instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
+                0,
+                vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() as u8,
+            ),
+            acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+                device_handle: blases[inst.mesh].address,
+            },
+        })
+        .collect();
+    // SAFETY: AccelerationStructureInstanceKHR is a plain 64-byte C struct.
+    let bytes = unsafe {
+        std::slice::from_raw_parts(raw.as_ptr() as *const u8, std::mem::size_of_val(raw.as_slice()))
+    };
+    let instance_buffer = Buffer::with_data(
+        ctx,
+        "tlas.instances",
+        bytes,
+        vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+    )?;
+    let data = vk::AccelerationStructureGeometryInstancesDataKHR::default()
+        .array_of_pointers(false)
+        .data(vk::DeviceOrHostAddressConstKHR { device_address: instance_buffer.address() });
+    let geometry = vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::INSTANCES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR { instances: data })
+        .flags(vk::GeometryFlagsKHR::OPAQUE);
+    let tlas = build(ctx, "tlas", vk::AccelerationStructureTypeKHR::TOP_LEVEL, geometry, instances.len() as u32)?;
+    Ok((tlas, instance_buffer))
+}

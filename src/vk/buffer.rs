@@ -1,0 +1,157 @@
+//! Named GPU buffers. Every buffer carries the same name in gpu-allocator and in VK_EXT_debug_utils,
+//! so captures read like the source.
+
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+use super::Context;
+
+pub struct Buffer {
+    ctx: Arc<Context>,
+    pub raw: vk::Buffer,
+    allocation: Option<Allocation>,
+    pub size: u64,
+    pub name: String,
+    pub address: Option<vk::DeviceAddress>,
+}
+
+impl Buffer {
+    /// Creates a buffer named `name`. `size` 0 is rounded up to 16 bytes (Vulkan forbids empty
+    /// buffers; an empty scene array still needs a binding).
+    pub fn new(
+        ctx: &Arc<Context>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> Result<Self> {
+        let size = size.max(16);
+        let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let device = &ctx.device;
+        // SAFETY: valid device and create info.
+        let raw = unsafe { device.create_buffer(&info, None) }.with_context(|| format!("vkCreateBuffer '{name}'"))?;
+        // SAFETY: raw was just created.
+        let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
+        let allocation = ctx
+            .allocator
+            .lock()
+            .map_err(|_| anyhow::anyhow!("allocator mutex poisoned"))?
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .with_context(|| format!("allocating {size} bytes for buffer '{name}'"))?;
+        // SAFETY: memory comes from the allocator for this buffer's requirements.
+        unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
+            .with_context(|| format!("binding memory of '{name}'"))?;
+        ctx.set_name(raw, name);
+        let address = usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS).then(|| {
+            // SAFETY: the buffer has SHADER_DEVICE_ADDRESS usage and bound memory.
+            unsafe { device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(raw)) }
+        });
+        Ok(Self { ctx: ctx.clone(), raw, allocation: Some(allocation), size, name: name.to_string(), address })
+    }
+
+    /// A device-local buffer filled with `data` through a staging copy.
+    pub fn with_data(ctx: &Arc<Context>, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Self> {
+        let buffer = Self::new(ctx, name, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly)?;
+        if !data.is_empty() {
+            let staging = Self::new(
+                ctx,
+                &format!("{name}.staging"),
+                data.len() as u64,
+                vk::BufferUsageFlags::TRANSFER_SRC,
+                MemoryLocation::CpuToGpu,
+            )?;
+            staging.write(0, data)?;
+            let region = [vk::BufferCopy::default().size(data.len() as u64)];
+            ctx.one_shot(|cmd| {
+                // SAFETY: both buffers are large enough and alive until the wait completes.
+                unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, buffer.raw, &region) }
+            })?;
+        }
+        Ok(buffer)
+    }
+
+    /// Writes bytes into a host-visible buffer.
+    pub fn write(&self, offset: usize, data: &[u8]) -> Result<()> {
+        let slice = self
+            .allocation
+            .as_ref()
+            .and_then(|a| a.mapped_ptr())
+            .with_context(|| format!("buffer '{}' is not host-visible", self.name))?;
+        anyhow::ensure!(offset + data.len() <= self.size as usize, "write past the end of '{}'", self.name);
+        // SAFETY: the mapping covers `size` bytes (checked above) and no GPU work uses the range now
+        // (callers write between fenced submissions).
+        unsafe {
+            std::ptr::copy_nonoverlapping(data.as_ptr(), (slice.as_ptr() as *mut u8).add(offset), data.len());
+        }
+        Ok(())
+    }
+
+    /// Reads bytes from a host-visible buffer.
+    pub fn read(&self, offset: usize, len: usize) -> Result<Vec<u8>> {
+        let alloc = self.allocation.as_ref().with_context(|| format!("buffer '{}' is freed", self.name))?;
+        let slice = alloc.mapped_slice().with_context(|| format!("buffer '{}' is not host-visible", self.name))?;
+        anyhow::ensure!(offset + len <= slice.len(), "read past the end of '{}'", self.name);
+        Ok(slice[offset..offset + len].to_vec())
+    }
+
+    pub fn address(&self) -> vk::DeviceAddress {
+        self.address.expect("buffer created with SHADER_DEVICE_ADDRESS usage")
+    }
+
+    pub fn descriptor(&self) -> vk::DescriptorBufferInfo {
+        vk::DescriptorBufferInfo::default().buffer(self.raw).offset(0).range(vk::WHOLE_SIZE)
+    }
+}
+
+impl Drop for Buffer {
+    fn drop(&mut self) {
+        // SAFETY: the owner guarantees no pending GPU work uses this buffer (frames are fenced).
+        unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
+        if let Some(a) = self.allocation.take() {
+            if let Ok(mut alloc) = self.ctx.allocator.lock() {
+                let _ = alloc.free(a);
+            }
+        }
+    }
+}
+
+/// Reads a device-local buffer back to the host through a staging copy.
+pub fn read_back(ctx: &Arc<Context>, src: &Buffer) -> Result<Vec<u8>> {
+    let staging = Buffer::new(
+        ctx,
+        &format!("{}.readback", src.name),
+        src.size,
+        vk::BufferUsageFlags::TRANSFER_DST,
+        MemoryLocation::GpuToCpu,
+    )?;
+    let region = [vk::BufferCopy::default().size(src.size)];
+    ctx.one_shot(|cmd| {
+        let barrier = [vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
+        // SAFETY: both buffers are alive until one_shot's wait returns.
+        unsafe {
+            ctx.device.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::ALL_COMMANDS,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &barrier,
+                &[],
+                &[],
+            );
+            ctx.device.cmd_copy_buffer(cmd, src.raw, staging.raw, &region);
+        }
+    })?;
+    staging.read(0, src.size as usize)
+}

@@ -1,0 +1,514 @@
+//! Vulkan instance, device selection and the objects every pass shares (queue, allocator, debug
+//! utils). Device selection requires ray queries; [`NoRayQueryDevice`] is the typed error a caller
+//! branches on (exit code 2).
+
+use std::ffi::{c_void, CStr, CString};
+use std::mem::ManuallyDrop;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use anyhow::{bail, Context as _, Result};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// What one physical device is and what it lacks for this renderer.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct DeviceReport {
+    pub index: usize,
+    pub name: String,
+    pub kind: String,
+    pub api_version: String,
+    pub driver: String,
+    /// Missing extensions / features; empty when the device qualifies.
+    pub missing: Vec<String>,
+}
+
+impl DeviceReport {
+    pub fn qualifies(&self) -> bool {
+        self.missing.is_empty()
+    }
+}
+
+impl std::fmt::Display for DeviceReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "[{}] {} ({}, Vulkan {}, {})", self.index, self.name, self.kind, self.api_version, self.driver)?;
+        if self.missing.is_empty() {
+            write!(f, ": ok")
+        } else {
+            write!(f, ": lacks {}", self.missing.join(", "))
+        }
+    }
+}
+
+/// No physical device supports what the renderer needs (ray queries and friends).
+#[derive(Debug, thiserror::Error)]
+#[error("no Vulkan device supports ray queries (VK_KHR_ray_query + VK_KHR_acceleration_structure + \
+VK_KHR_deferred_host_operations + bufferDeviceAddress); devices found:\n{}{}",
+    if devices.is_empty() { "  (none: is a Vulkan driver installed? run scripts/setup.sh)".to_string() }
+    else { devices.iter().map(|d| format!("  {d}")).collect::<Vec<_>>().join("\n") },
+    hint.as_deref().map(|h| format!("\n{h}")).unwrap_or_default())]
+pub struct NoRayQueryDevice {
+    pub devices: Vec<DeviceReport>,
+    pub hint: Option<String>,
+}
+
+/// Options for creating the context.
+#[derive(Clone, Debug, Default)]
+pub struct ContextOptions {
+    /// Enable the Khronos validation layer (warn when it is not installed).
+    pub validate: bool,
+    /// Pick this physical device (index as in `--list-devices`).
+    pub device_index: Option<usize>,
+}
+
+/// Shared Vulkan state.
+pub struct Context {
+    pub entry: ash::Entry,
+    pub instance: ash::Instance,
+    pub physical_device: vk::PhysicalDevice,
+    pub device: ash::Device,
+    pub queue: vk::Queue,
+    pub queue_family: u32,
+    pub allocator: ManuallyDrop<Mutex<Allocator>>,
+    pub accel: ash::khr::acceleration_structure::Device,
+    pub debug_utils: Option<ash::ext::debug_utils::Device>,
+    debug_instance: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    pub report: DeviceReport,
+    pub properties: vk::PhysicalDeviceProperties,
+    pub as_properties: AccelProperties,
+    /// Whether the validation layer is active.
+    pub validation_enabled: bool,
+    validation: Arc<ValidationCounter>,
+    pub command_pool: vk::CommandPool,
+}
+
+/// The acceleration-structure limits the renderer uses.
+#[derive(Clone, Copy, Debug)]
+pub struct AccelProperties {
+    pub min_scratch_offset_alignment: u32,
+}
+
+/// Counts validation-layer messages by severity (the debug messenger's user data).
+#[derive(Default)]
+pub struct ValidationCounter {
+    pub errors: AtomicU64,
+    pub warnings: AtomicU64,
+    pub first_error: Mutex<Option<String>>,
+}
+
+unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user: *mut c_void,
+) -> vk::Bool32 {
+    // SAFETY: the loader passes a valid callback-data pointer; `user` is the Arc'd counter that the
+    // context keeps alive for as long as the messenger exists.
+    let (msg, counter) = unsafe {
+        let msg = if data.is_null() || (*data).p_message.is_null() {
+            String::from("(no message)")
+        } else {
+            CStr::from_ptr((*data).p_message).to_string_lossy().into_owned()
+        };
+        (msg, &*(user as *const ValidationCounter))
+    };
+    if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
+        counter.errors.fetch_add(1, Ordering::SeqCst);
+        if let Ok(mut first) = counter.first_error.lock() {
+            first.get_or_insert_with(|| msg.clone());
+        }
+        log::error!("[vulkan {kind:?}] {msg}");
+    } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
+        counter.warnings.fetch_add(1, Ordering::SeqCst);
+        log::warn!("[vulkan {kind:?}] {msg}");
+    } else {
+        log::debug!("[vulkan {kind:?}] {msg}");
+    }
+    vk::FALSE
+}
+
+fn version_string(v: u32) -> String {
+    format!("{}.{}.{}", vk::api_version_major(v), vk::api_version_minor(v), vk::api_version_patch(v))
+}
+
+fn device_kind(t: vk::PhysicalDeviceType) -> (&'static str, u32) {
+    match t {
+        vk::PhysicalDeviceType::DISCRETE_GPU => ("discrete GPU", 0),
+        vk::PhysicalDeviceType::INTEGRATED_GPU => ("integrated GPU", 1),
+        vk::PhysicalDeviceType::VIRTUAL_GPU => ("virtual GPU", 2),
+        vk::PhysicalDeviceType::CPU => ("CPU", 3),
+        _ => ("other", 4),
+    }
+}
+
+const REQUIRED_EXTENSIONS: [&CStr; 3] = [
+    ash::khr::acceleration_structure::NAME,
+    ash::khr::ray_query::NAME,
+    ash::khr::deferred_host_operations::NAME,
+];
+
+/// Inspects one physical device.
+fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (DeviceReport, u32) {
+    // SAFETY: `pd` comes from `enumerate_physical_devices` of this instance.
+    let props = unsafe { instance.get_physical_device_properties(pd) };
+    let name = props.device_name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
+    let (kind, rank) = device_kind(props.device_type);
+    let mut missing = Vec::new();
+    if props.api_version < vk::API_VERSION_1_2 {
+        missing.push(format!("Vulkan 1.2 (has {})", version_string(props.api_version)));
+    }
+    // SAFETY: as above.
+    let exts = unsafe { instance.enumerate_device_extension_properties(pd) }.unwrap_or_default();
+    let has_ext = |n: &CStr| exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|x| x == n));
+    for n in REQUIRED_EXTENSIONS {
+        if !has_ext(n) {
+            missing.push(n.to_string_lossy().into_owned());
+        }
+    }
+    let mut driver = vk::PhysicalDeviceDriverProperties::default();
+    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+    // SAFETY: as above; Vulkan 1.1+ core query.
+    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    let driver_name = driver.driver_info_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
+    let driver_id = driver.driver_name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
+    if props.api_version >= vk::API_VERSION_1_2 {
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
+        let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
+        let mut frq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
+        if has_ext(ash::khr::acceleration_structure::NAME) {
+            f2 = f2.push_next(&mut fas);
+        }
+        if has_ext(ash::khr::ray_query::NAME) {
+            f2 = f2.push_next(&mut frq);
+        }
+        // SAFETY: the chain only holds structs of extensions the device exposes.
+        unsafe { instance.get_physical_device_features2(pd, &mut f2) };
+        if f12.buffer_device_address == 0 {
+            missing.push("feature bufferDeviceAddress".into());
+        }
+        if has_ext(ash::khr::acceleration_structure::NAME) && fas.acceleration_structure == 0 {
+            missing.push("feature accelerationStructure".into());
+        }
+        if has_ext(ash::khr::ray_query::NAME) && frq.ray_query == 0 {
+            missing.push("feature rayQuery".into());
+        }
+    }
+    // SAFETY: as above.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    if !families.iter().any(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)) {
+        missing.push("a compute queue".into());
+    }
+    let report = DeviceReport {
+        index,
+        name,
+        kind: kind.into(),
+        api_version: version_string(props.api_version),
+        driver: if driver_info_empty(&driver_name) { driver_id } else { format!("{driver_id} {driver_name}") },
+        missing,
+    };
+    (report, rank)
+}
+
+fn driver_info_empty(s: &str) -> bool {
+    s.trim().is_empty()
+}
+
+fn load_entry() -> Result<ash::Entry> {
+    // SAFETY: loading the system Vulkan loader; no other code is running Vulkan yet.
+    unsafe { ash::Entry::load() }.map_err(|e| {
+        anyhow::anyhow!("cannot load the Vulkan loader (libvulkan.so.1): {e}; run scripts/setup.sh to install it")
+    })
+}
+
+fn create_instance(entry: &ash::Entry, validate: bool) -> Result<(ash::Instance, bool, bool)> {
+    // SAFETY: plain enumeration calls on a loaded entry.
+    let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
+    let has_validation =
+        layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
+    // SAFETY: as above.
+    let exts = unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
+    let has_debug_utils =
+        exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME));
+    let use_validation = validate && has_validation;
+    if validate && !has_validation {
+        log::warn!("--validate: the Khronos validation layer is not installed (apt-get install vulkan-validationlayers); running without it");
+    }
+    let app_name = CString::new("restir-vpl").expect("no NUL in a literal");
+    let app = vk::ApplicationInfo::default()
+        .application_name(&app_name)
+        .application_version(vk::make_api_version(0, 0, 1, 0))
+        .engine_name(&app_name)
+        .api_version(vk::API_VERSION_1_2);
+    let layer_ptrs: Vec<*const i8> = if use_validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
+    let ext_ptrs: Vec<*const i8> = if has_debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+    let info = vk::InstanceCreateInfo::default()
+        .application_info(&app)
+        .enabled_layer_names(&layer_ptrs)
+        .enabled_extension_names(&ext_ptrs);
+    // SAFETY: the create info points at locals that outlive the call.
+    let instance = unsafe { entry.create_instance(&info, None) }.context("vkCreateInstance failed")?;
+    Ok((instance, use_validation, has_debug_utils))
+}
+
+/// Lists every physical device with what it lacks (for `--list-devices` and error messages).
+pub fn list_devices() -> Result<Vec<DeviceReport>> {
+    let entry = load_entry()?;
+    let (instance, _, _) = create_instance(&entry, false)?;
+    // SAFETY: the instance is valid; destroyed below after use.
+    let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
+    let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd).0).collect();
+    // SAFETY: nothing created from the instance outlives this point.
+    unsafe { instance.destroy_instance(None) };
+    Ok(reports)
+}
+
+impl Context {
+    pub fn new(opts: &ContextOptions) -> Result<Self> {
+        let entry = load_entry()?;
+        let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate)?;
+        let validation = Arc::new(ValidationCounter::default());
+        let debug_instance = if has_debug_utils {
+            let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+                )
+                .message_type(
+                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+                )
+                .pfn_user_callback(Some(debug_callback))
+                .user_data(Arc::as_ptr(&validation) as *mut c_void);
+            // SAFETY: the counter behind user_data lives in `validation`, which outlives the messenger.
+            let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
+                .context("vkCreateDebugUtilsMessengerEXT failed")?;
+            Some((loader, messenger))
+        } else {
+            None
+        };
+
+        // SAFETY: valid instance.
+        let pds = unsafe { instance.enumerate_physical_devices() }.context("vkEnumeratePhysicalDevices failed")?;
+        let inspected: Vec<(DeviceReport, u32, vk::PhysicalDevice)> = pds
+            .iter()
+            .enumerate()
+            .map(|(i, pd)| {
+                let (r, rank) = inspect(&instance, i, *pd);
+                (r, rank, *pd)
+            })
+            .collect();
+        let reports: Vec<DeviceReport> = inspected.iter().map(|x| x.0.clone()).collect();
+        let chosen = match opts.device_index {
+            Some(i) => {
+                let Some((r, _, pd)) = inspected.iter().find(|x| x.0.index == i) else {
+                    destroy_instance(&instance, &debug_instance);
+                    bail!(
+                        "--device {i}: there is no device {i}; devices:\n{}",
+                        reports.iter().map(|d| format!("  {d}")).collect::<Vec<_>>().join("\n")
+                    );
+                };
+                if !r.qualifies() {
+                    destroy_instance(&instance, &debug_instance);
+                    return Err(NoRayQueryDevice {
+                        devices: reports,
+                        hint: Some(format!("--device {i} picks a device that cannot run the renderer")),
+                    }
+                    .into());
+                }
+                (r.clone(), *pd)
+            }
+            None => {
+                let best = inspected.iter().filter(|x| x.0.qualifies()).min_by_key(|x| (x.1, x.0.index));
+                match best {
+                    Some((r, _, pd)) => (r.clone(), *pd),
+                    None => {
+                        destroy_instance(&instance, &debug_instance);
+                        let hint = reports.iter().any(|r| r.name.contains("H100") || r.name.contains("H200")).then(|| {
+                            "note: datacenter GPUs (H100/H200) expose ray-tracing pipelines but not VK_KHR_ray_query".to_string()
+                        });
+                        return Err(NoRayQueryDevice { devices: reports, hint }.into());
+                    }
+                }
+            }
+        };
+        let (report, physical_device) = chosen;
+
+        // SAFETY: valid physical device of this instance.
+        let properties = unsafe { instance.get_physical_device_properties(physical_device) };
+        let mut asp = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut asp);
+        // SAFETY: the device exposes VK_KHR_acceleration_structure (it qualified).
+        unsafe { instance.get_physical_device_properties2(physical_device, &mut p2) };
+        let as_properties =
+            AccelProperties { min_scratch_offset_alignment: asp.min_acceleration_structure_scratch_offset_alignment };
+
+        // SAFETY: as above.
+        let families = unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
+        let queue_family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0)
+            .or_else(|| families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)))
+            .context("the chosen device has no compute queue")? as u32;
+
+        let priorities = [1.0f32];
+        let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
+        let ext_ptrs: Vec<*const i8> = REQUIRED_EXTENSIONS.iter().map(|n| n.as_ptr()).collect();
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
+            .buffer_device_address(true)
+            .host_query_reset(true);
+        let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut frq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+        let features = vk::PhysicalDeviceFeatures::default();
+        let info = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&queue_info)
+            .enabled_extension_names(&ext_ptrs)
+            .enabled_features(&features)
+            .push_next(&mut f12)
+            .push_next(&mut fas)
+            .push_next(&mut frq);
+        // SAFETY: the create info references locals alive for the call; features were checked.
+        let device = unsafe { instance.create_device(physical_device, &info, None) }
+            .with_context(|| format!("vkCreateDevice failed on {}", report.name))?;
+        // SAFETY: queue family and index exist (created above).
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        let accel = ash::khr::acceleration_structure::Device::new(&instance, &device);
+        let debug_utils = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: instance.clone(),
+            device: device.clone(),
+            physical_device,
+            debug_settings: Default::default(),
+            buffer_device_address: true,
+            allocation_sizes: Default::default(),
+        })
+        .context("creating the GPU memory allocator")?;
+
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(queue_family)
+            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+        // SAFETY: valid device.
+        let command_pool = unsafe { device.create_command_pool(&pool_info, None) }.context("vkCreateCommandPool")?;
+
+        log::info!("device: {report}");
+        Ok(Self {
+            entry,
+            instance,
+            physical_device,
+            device,
+            queue,
+            queue_family,
+            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            accel,
+            debug_utils,
+            debug_instance,
+            report,
+            properties,
+            as_properties,
+            validation_enabled,
+            validation,
+            command_pool,
+        })
+    }
+
+    /// Validation-layer errors reported so far (0 when the layer is off).
+    pub fn validation_errors(&self) -> u64 {
+        self.validation.errors.load(Ordering::SeqCst)
+    }
+
+    /// The first validation error message, if any.
+    pub fn first_validation_error(&self) -> Option<String> {
+        self.validation.first_error.lock().ok().and_then(|g| g.clone())
+    }
+
+    /// Names a Vulkan object for debuggers (RenderDoc, Nsight) through VK_EXT_debug_utils.
+    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let Some(du) = &self.debug_utils {
+            let Ok(cname) = CString::new(name) else { return };
+            let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&cname);
+            // SAFETY: the handle belongs to this device; naming failures are harmless.
+            let _ = unsafe { du.set_debug_utils_object_name(&info) };
+        }
+    }
+
+    /// Opens a debug label region in a command buffer.
+    pub fn begin_label(&self, cmd: vk::CommandBuffer, name: &str) {
+        if let Some(du) = &self.debug_utils {
+            let Ok(cname) = CString::new(name) else { return };
+            let label = vk::DebugUtilsLabelEXT::default().label_name(&cname).color([0.3, 0.6, 1.0, 1.0]);
+            // SAFETY: cmd is in the recording state (caller's contract).
+            unsafe { du.cmd_begin_debug_utils_label(cmd, &label) };
+        }
+    }
+
+    pub fn end_label(&self, cmd: vk::CommandBuffer) {
+        if let Some(du) = &self.debug_utils {
+            // SAFETY: paired with begin_label on the same command buffer.
+            unsafe { du.cmd_end_debug_utils_label(cmd) };
+        }
+    }
+
+    /// Records commands into a one-time command buffer, submits it and waits.
+    pub fn one_shot(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        let alloc = vk::CommandBufferAllocateInfo::default()
+            .command_pool(self.command_pool)
+            .level(vk::CommandBufferLevel::PRIMARY)
+            .command_buffer_count(1);
+        // SAFETY: valid pool; the buffer is freed before returning.
+        unsafe {
+            let cmd = self.device.allocate_command_buffers(&alloc).context("allocate command buffer")?[0];
+            self.device.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )?;
+            record(cmd);
+            self.device.end_command_buffer(cmd)?;
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+            let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None)?;
+            let r = self.device.queue_submit(self.queue, &submit, fence).and_then(|_| {
+                self.device.wait_for_fences(&[fence], true, u64::MAX)
+            });
+            self.device.destroy_fence(fence, None);
+            self.device.free_command_buffers(self.command_pool, &cmds);
+            r.context("one-shot submission failed (device lost?)")?;
+        }
+        Ok(())
+    }
+}
+
+fn destroy_instance(
+    instance: &ash::Instance,
+    debug: &Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+) {
+    // SAFETY: called on error paths before any device object exists.
+    unsafe {
+        if let Some((loader, m)) = debug {
+            loader.destroy_debug_utils_messenger(*m, None);
+        }
+        instance.destroy_instance(None);
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        // SAFETY: every resource created from this device has been dropped before the context (the
+        // renderer owns the context last); we wait for idle first.
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            self.device.destroy_command_pool(self.command_pool, None);
+            ManuallyDrop::drop(&mut self.allocator);
+            self.device.destroy_device(None);
+            if let Some((loader, m)) = self.debug_instance.take() {
+                loader.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}

@@ -1,0 +1,13 @@
+//! Thin Vulkan layer: context, named buffers, acceleration structures, compute pipelines with
+//! binding tables, GPU timers.
+
+pub mod accel;
+pub mod buffer;
+pub mod context;
+pub mod pipeline;
+pub mod timer;
+
+pub use buffer::Buffer;
+pub use context::{Context, ContextOptions, DeviceReport, NoRayQueryDevice};
+pub use pipeline::{Binding, BindingKind, ComputePipeline, DescriptorSet};
+pub use timer::GpuTimer;

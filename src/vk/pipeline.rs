@@ -1,0 +1,268 @@
+//! Compute pipelines with explicit bindings: set 0 is the scene (declared once, see
+//! `crate::scene_gpu`), set 1 holds a pass's own resources, described by a binding table that the
+//! pass declares next to its `new`. Writing a resource checks it against that table.
+
+use std::io::Cursor;
+use std::sync::Arc;
+
+use anyhow::{bail, Context as _, Result};
+use ash::vk;
+
+use super::{Buffer, Context};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BindingKind {
+    StorageBuffer,
+    UniformBuffer,
+    AccelerationStructure,
+}
+
+impl BindingKind {
+    fn vk(self) -> vk::DescriptorType {
+        match self {
+            Self::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
+            Self::UniformBuffer => vk::DescriptorType::UNIFORM_BUFFER,
+            Self::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
+        }
+    }
+}
+
+/// One row of a binding table: binding number, kind and the GLSL name it has in the shader.
+#[derive(Clone, Copy, Debug)]
+pub struct Binding {
+    pub binding: u32,
+    pub kind: BindingKind,
+    pub name: &'static str,
+}
+
+pub const fn storage(binding: u32, name: &'static str) -> Binding {
+    Binding { binding, kind: BindingKind::StorageBuffer, name }
+}
+pub const fn uniform(binding: u32, name: &'static str) -> Binding {
+    Binding { binding, kind: BindingKind::UniformBuffer, name }
+}
+pub const fn accel(binding: u32, name: &'static str) -> Binding {
+    Binding { binding, kind: BindingKind::AccelerationStructure, name }
+}
+
+/// A descriptor set with its layout and pool, built from a binding table.
+pub struct DescriptorSet {
+    ctx: Arc<Context>,
+    pub layout: vk::DescriptorSetLayout,
+    pool: vk::DescriptorPool,
+    pub set: vk::DescriptorSet,
+    pub table: &'static [Binding],
+    pub name: String,
+}
+
+impl DescriptorSet {
+    pub fn new(ctx: &Arc<Context>, name: &str, table: &'static [Binding]) -> Result<Self> {
+        let bindings: Vec<vk::DescriptorSetLayoutBinding> = table
+            .iter()
+            .map(|b| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(b.binding)
+                    .descriptor_type(b.kind.vk())
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let device = &ctx.device;
+        // SAFETY: valid device; create infos reference locals.
+        unsafe {
+            let layout = device
+                .create_descriptor_set_layout(&vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings), None)
+                .with_context(|| format!("descriptor set layout '{name}'"))?;
+            ctx.set_name(layout, name);
+            let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+            for b in table {
+                match sizes.iter_mut().find(|s| s.ty == b.kind.vk()) {
+                    Some(s) => s.descriptor_count += 1,
+                    None => sizes.push(vk::DescriptorPoolSize { ty: b.kind.vk(), descriptor_count: 1 }),
+                }
+            }
+            if sizes.is_empty() {
+                sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 });
+            }
+            let pool = device
+                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+                .with_context(|| format!("descriptor pool '{name}'"))?;
+            ctx.set_name(pool, name);
+            let layouts = [layout];
+            let set = device
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts),
+                )
+                .with_context(|| format!("descriptor set '{name}'"))?[0];
+            ctx.set_name(set, name);
+            Ok(Self { ctx: ctx.clone(), layout, pool, set, table, name: name.to_string() })
+        }
+    }
+
+    fn row(&self, binding: u32, kind: BindingKind) -> Result<&Binding> {
+        let Some(row) = self.table.iter().find(|b| b.binding == binding) else {
+            bail!("set '{}' has no binding {binding}", self.name);
+        };
+        if row.kind != kind {
+            bail!("set '{}' binding {binding} ('{}') is {:?}, not {kind:?}", self.name, row.name, row.kind);
+        }
+        Ok(row)
+    }
+
+    /// Points `binding` at a buffer; the kind must match the table.
+    pub fn write_buffer(&self, binding: u32, buffer: &Buffer) -> Result<()> {
+        let kind = self
+            .table
+            .iter()
+            .find(|b| b.binding == binding)
+            .map(|b| b.kind)
+            .with_context(|| format!("set '{}' has no binding {binding}", self.name))?;
+        self.row(binding, kind)?;
+        anyhow::ensure!(kind != BindingKind::AccelerationStructure, "binding {binding} of '{}' takes an acceleration structure", self.name);
+        let info = [buffer.descriptor()];
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(self.set)
+            .dst_binding(binding)
+            .descriptor_type(kind.vk())
+            .buffer_info(&info);
+        // SAFETY: the set and buffer are valid; no command buffer using the set is pending.
+        unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
+        Ok(())
+    }
+
+    /// Points `binding` at an acceleration structure.
+    pub fn write_accel(&self, binding: u32, accel: vk::AccelerationStructureKHR) -> Result<()> {
+        self.row(binding, BindingKind::AccelerationStructure)?;
+        let structures = [accel];
+        let mut as_info = vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(&structures);
+        let mut write = vk::WriteDescriptorSet::default()
+            .dst_set(self.set)
+            .dst_binding(binding)
+            .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+            .push_next(&mut as_info);
+        write.descriptor_count = 1;
+        // SAFETY: as above.
+        unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
+        Ok(())
+    }
+}
+
+impl Drop for DescriptorSet {
+    fn drop(&mut self) {
+        // SAFETY: no pending work uses the set.
+        unsafe {
+            self.ctx.device.destroy_descriptor_pool(self.pool, None);
+            self.ctx.device.destroy_descriptor_set_layout(self.layout, None);
+        }
+    }
+}
+
+/// A compute pipeline: set 0 = scene, set 1 = the pass's own table, plus push constants.
+pub struct ComputePipeline {
+    ctx: Arc<Context>,
+    pub name: String,
+    pub pipeline: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+    pub set1: DescriptorSet,
+    pub push_size: u32,
+    pub local_size: [u32; 3],
+}
+
+impl ComputePipeline {
+    /// `spirv`: the module's bytes (from build.rs); `local_size`: the shader's workgroup size, used
+    /// by [`ComputePipeline::dispatch_2d`] and friends.
+    pub fn new(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        scene_layout: vk::DescriptorSetLayout,
+        table: &'static [Binding],
+        push_size: u32,
+        local_size: [u32; 3],
+    ) -> Result<Self> {
+        let set1 = DescriptorSet::new(ctx, &format!("{name}.set1"), table)?;
+        let code = ash::util::read_spv(&mut Cursor::new(spirv)).with_context(|| format!("SPIR-V of '{name}'"))?;
+        let device = &ctx.device;
+        // SAFETY: valid device; the SPIR-V was produced by glslang at build time.
+        unsafe {
+            let module = device
+                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None)
+                .with_context(|| format!("shader module '{name}'"))?;
+            ctx.set_name(module, name);
+            let set_layouts = [scene_layout, set1.layout];
+            let ranges = [vk::PushConstantRange::default()
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                .offset(0)
+                .size(push_size.max(4))];
+            let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+            let layout_info = if push_size > 0 { layout_info.push_constant_ranges(&ranges) } else { layout_info };
+            let layout = device.create_pipeline_layout(&layout_info, None).with_context(|| format!("pipeline layout '{name}'"))?;
+            ctx.set_name(layout, name);
+            let stage = vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::COMPUTE)
+                .module(module)
+                .name(c"main");
+            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+            let result = device.create_compute_pipelines(vk::PipelineCache::null(), &info, None);
+            device.destroy_shader_module(module, None);
+            let pipeline = result.map_err(|(_, e)| anyhow::anyhow!("compute pipeline '{name}': {e}"))?[0];
+            ctx.set_name(pipeline, name);
+            Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size })
+        }
+    }
+
+    /// Binds the pipeline and both sets, pushes constants and dispatches `groups`.
+    pub fn dispatch(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], groups: [u32; 3]) {
+        debug_assert_eq!(push.len() as u32, self.push_size, "push constant size of '{}'", self.name);
+        let d = &self.ctx.device;
+        // SAFETY: cmd is recording; all objects are alive for the command buffer's lifetime.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[scene_set, self.set1.set], &[]);
+            if !push.is_empty() {
+                d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+            }
+            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+        }
+    }
+
+    /// Dispatches one invocation per pixel of a `width`×`height` image.
+    pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], width: u32, height: u32) {
+        let groups = [width.div_ceil(self.local_size[0]), height.div_ceil(self.local_size[1]), 1];
+        self.dispatch(cmd, scene_set, push, groups);
+    }
+
+    /// Dispatches one invocation per item of a 1-D range of `count` items.
+    pub fn dispatch_1d(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], count: u32) {
+        self.dispatch(cmd, scene_set, push, [count.div_ceil(self.local_size[0]).max(1), 1, 1]);
+    }
+}
+
+impl Drop for ComputePipeline {
+    fn drop(&mut self) {
+        // SAFETY: no pending work uses the pipeline.
+        unsafe {
+            self.ctx.device.destroy_pipeline(self.pipeline, None);
+            self.ctx.device.destroy_pipeline_layout(self.layout, None);
+        }
+    }
+}
+
+/// A full compute→compute (and →transfer) memory barrier between passes.
+pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ)];
+    // SAFETY: cmd is recording.
+    unsafe {
+        ctx.device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}
