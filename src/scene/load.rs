@@ -1,0 +1,675 @@
+//! glTF 2.0 loader: parses with the `gltf` crate (without its importer), resolves buffers
+//! itself and reads accessors with explicit bounds checks, so malformed input yields an
+//! error instead of a panic.
+
+use super::{base64, Camera, Instance, Material, Mesh, PointLight, Scene};
+use anyhow::{anyhow, bail, Context, Result};
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use gltf::accessor::{DataType, Dimensions};
+use gltf::khr_lights_punctual::Kind as LightKind;
+use gltf::mesh::{Mode, Semantic};
+use gltf::Document;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// Accessors without a buffer view (all zeros, only sparse) larger than this are rejected,
+/// to avoid absurd allocations from a tiny malicious file.
+const MAX_VIEWLESS_ACCESSOR_BYTES: usize = 1 << 30;
+
+/// Reads and loads a `.gltf`/`.glb` file; external URIs resolve relative to its directory.
+pub(super) fn load_path(path: &Path) -> Result<Scene> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| anyhow!("cannot read scene file '{}': {e}", path.display()))?;
+    let base = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    let mut scene = load_slice(&bytes, Some(base), &path.display().to_string())?;
+    scene.path = path.to_path_buf();
+    Ok(scene)
+}
+
+/// Loads glTF JSON or GLB bytes; every error is prefixed with `label`.
+pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scene> {
+    load_inner(bytes, base_dir, label).map_err(|e| anyhow!("{label}: {e:#}"))
+}
+
+fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scene> {
+    let (doc, blob) = parse(bytes)?;
+    let buffers = load_buffers(&doc, base_dir, blob)?;
+    let mut warnings = Vec::new();
+
+    let nodes = traverse(&doc, &mut warnings);
+
+    // Materials: all glTF materials, the default one appended below if needed.
+    let mut materials: Vec<Material> = doc
+        .materials()
+        .map(|m| convert_material(&m, &mut warnings))
+        .collect();
+    let default_material = materials.len() as u32;
+    let mut uses_default = false;
+
+    // Meshes referenced by the chosen scene, in glTF index order.
+    let referenced: BTreeMap<usize, gltf::Mesh> = nodes
+        .iter()
+        .filter_map(|(node, _)| node.mesh().map(|m| (m.index(), m)))
+        .collect();
+    let mut mesh_map = BTreeMap::new();
+    let mut meshes = Vec::with_capacity(referenced.len());
+    for (gltf_index, gltf_mesh) in &referenced {
+        let mesh = load_mesh(
+            gltf_mesh,
+            &buffers,
+            default_material,
+            &mut uses_default,
+            &mut warnings,
+        )?;
+        mesh_map.insert(*gltf_index, meshes.len());
+        meshes.push(mesh);
+    }
+    if uses_default {
+        materials.push(Material::default_material());
+    }
+
+    let mut instances = Vec::new();
+    let mut camera = None;
+    let mut point_lights = Vec::new();
+    for (node, world) in &nodes {
+        let node_name = node
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("node{}", node.index()));
+        if let Some(m) = node.mesh() {
+            if let Some(&mesh) = mesh_map.get(&m.index()) {
+                instances.push(Instance {
+                    name: node_name.clone(),
+                    mesh,
+                    transform: *world,
+                });
+            }
+        }
+        if let Some(cam) = node.camera() {
+            let name = cam
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| node_name.clone());
+            match cam.projection() {
+                gltf::camera::Projection::Perspective(p) if camera.is_none() => {
+                    let yfov = p.yfov();
+                    if yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI {
+                        camera = Some(Camera {
+                            name,
+                            transform: *world,
+                            yfov,
+                        });
+                    } else {
+                        warnings.push(format!("camera '{name}' has invalid yfov {yfov}, ignored"));
+                    }
+                }
+                gltf::camera::Projection::Perspective(_) => warnings.push(format!(
+                    "camera '{name}' ignored (only the first perspective camera is used)"
+                )),
+                gltf::camera::Projection::Orthographic(_) => warnings.push(format!(
+                    "orthographic camera '{name}' not supported, ignored"
+                )),
+            }
+        }
+        if let Some(light) = node.light() {
+            let name = light
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| node_name.clone());
+            match light.kind() {
+                LightKind::Point => point_lights.push(PointLight {
+                    name,
+                    position: world.transform_point3(Vec3::ZERO),
+                    color: Vec3::from_array(light.color()),
+                    intensity: light.intensity(),
+                }),
+                LightKind::Directional => {
+                    warnings.push(format!("directional light '{name}' not supported, ignored"))
+                }
+                LightKind::Spot { .. } => {
+                    warnings.push(format!("spot light '{name}' not supported, ignored"))
+                }
+            }
+        }
+        if node.skin().is_some() {
+            warnings.push(format!(
+                "node '{node_name}': skinning not supported, ignored"
+            ));
+        }
+    }
+
+    let scene = Scene {
+        path: label.into(),
+        meshes,
+        instances,
+        materials,
+        camera,
+        point_lights,
+        warnings,
+    };
+    if scene.triangle_count() == 0 {
+        bail!("no triangles in scene");
+    }
+    Ok(scene)
+}
+
+/// Parses and validates the document; returns it with the GLB binary chunk, if any.
+fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
+    if bytes.starts_with(b"glTF") {
+        // The gltf crate trusts the header's length field; check it first.
+        let declared = bytes
+            .get(8..12)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+            .ok_or_else(|| anyhow!("truncated GLB header ({} bytes)", bytes.len()))?;
+        if declared < 12 || declared > bytes.len() {
+            bail!(
+                "GLB header declares {declared} bytes but the file has {}",
+                bytes.len()
+            );
+        }
+    }
+    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
+        .map_err(|e| anyhow!("malformed glTF: {e}"))?;
+    let root = gltf.document.as_json();
+    precheck(root)?;
+
+    use gltf::json::validation::Validate;
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |path, err| {
+        errors.push(format!("{}: {err}", path()))
+    });
+    if !errors.is_empty() {
+        bail!("invalid glTF: {}", errors.join("; "));
+    }
+    Ok((gltf.document, gltf.blob))
+}
+
+/// Checks done before the gltf crate's validation, which indexes the POSITION accessor
+/// unchecked, and to report a missing POSITION with the mesh name.
+fn precheck(root: &gltf::json::Root) -> Result<()> {
+    use gltf::json::validation::Checked;
+    for (mi, mesh) in root.meshes.iter().enumerate() {
+        let name = mesh.name.clone().unwrap_or_else(|| format!("mesh{mi}"));
+        for (pi, prim) in mesh.primitives.iter().enumerate() {
+            let Some(pos) = prim.attributes.get(&Checked::Valid(Semantic::Positions)) else {
+                bail!("mesh '{name}' primitive {pi} has no POSITION attribute");
+            };
+            if pos.value() >= root.accessors.len() {
+                bail!(
+                    "mesh '{name}' primitive {pi}: POSITION accessor {} does not exist ({} accessors)",
+                    pos.value(),
+                    root.accessors.len()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Resolves every buffer: GLB binary chunk, base64 `data:` URI or file relative to `base_dir`.
+fn load_buffers(
+    doc: &Document,
+    base_dir: Option<&Path>,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<Vec<u8>>> {
+    doc.buffers()
+        .map(|buffer| {
+            let i = buffer.index();
+            let data = match buffer.source() {
+                gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                    anyhow!("buffer {i} refers to the GLB binary chunk, but there is none")
+                })?,
+                gltf::buffer::Source::Uri(uri) => {
+                    read_uri(uri, base_dir).with_context(|| format!("buffer {i}"))?
+                }
+            };
+            if data.len() < buffer.length() {
+                bail!(
+                    "buffer {i}: expected {} bytes but found {}",
+                    buffer.length(),
+                    data.len()
+                );
+            }
+            Ok(data)
+        })
+        .collect()
+}
+
+fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (_, payload) = rest
+            .split_once(";base64,")
+            .ok_or_else(|| anyhow!("only base64 data URIs are supported"))?;
+        return base64::decode(payload).map_err(|e| anyhow!("bad data URI: {e}"));
+    }
+    if has_scheme(uri) {
+        bail!("unsupported URI '{uri}' (only data: URIs and relative paths are supported)");
+    }
+    let relative = percent_decode(uri)?;
+    let base = base_dir.ok_or_else(|| {
+        anyhow!("external file '{relative}' cannot be resolved without a base directory")
+    })?;
+    let path = base.join(&relative);
+    std::fs::read(&path).map_err(|e| anyhow!("cannot read '{}': {e}", path.display()))
+}
+
+/// True if `uri` starts with an RFC 3986 scheme (`scheme:`).
+fn has_scheme(uri: &str) -> bool {
+    match uri.split_once(':') {
+        Some((scheme, _)) => {
+            scheme.len() > 1
+                && scheme.starts_with(|c: char| c.is_ascii_alphabetic())
+                && scheme
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || "+-.".contains(c))
+        }
+        None => false,
+    }
+}
+
+fn percent_decode(uri: &str) -> Result<String> {
+    let bytes = uri.as_bytes();
+    let mut out = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = bytes
+            .get(i + 1..i + 3)
+            .and_then(|h| std::str::from_utf8(h).ok())
+            .and_then(|h| u8::from_str_radix(h, 16).ok());
+        match (bytes[i], hex) {
+            (b'%', Some(b)) => {
+                out.push(b);
+                i += 3;
+            }
+            (c, _) => {
+                out.push(c);
+                i += 1;
+            }
+        }
+    }
+    String::from_utf8(out).map_err(|_| anyhow!("URI '{uri}' is not valid UTF-8 after decoding"))
+}
+
+/// Depth-first traversal of the chosen scene (default scene, else scene 0, else all root
+/// nodes), returning each reachable node once with its world transform.
+fn traverse<'a>(doc: &'a Document, warnings: &mut Vec<String>) -> Vec<(gltf::Node<'a>, Mat4)> {
+    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(scene) => scene.nodes().collect(),
+        None => {
+            let mut is_child = vec![false; doc.nodes().len()];
+            for node in doc.nodes() {
+                for child in node.children() {
+                    if let Some(flag) = is_child.get_mut(child.index()) {
+                        *flag = true;
+                    }
+                }
+            }
+            doc.nodes().filter(|n| !is_child[n.index()]).collect()
+        }
+    };
+
+    let mut visited = vec![false; doc.nodes().len()];
+    let mut out = Vec::new();
+    let mut stack: Vec<(gltf::Node, Mat4)> = roots
+        .into_iter()
+        .rev()
+        .map(|n| (n, Mat4::IDENTITY))
+        .collect();
+    while let Some((node, parent)) = stack.pop() {
+        let Some(seen) = visited.get_mut(node.index()) else {
+            continue;
+        };
+        if *seen {
+            warnings.push(format!(
+                "node {} is reachable more than once (cycle or shared child); extra references ignored",
+                node.index()
+            ));
+            continue;
+        }
+        *seen = true;
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        stack.extend(
+            node.children()
+                .collect::<Vec<_>>()
+                .into_iter()
+                .rev()
+                .map(|c| (c, world)),
+        );
+        out.push((node, world));
+    }
+    out
+}
+
+fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Material {
+    let name = m
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
+    let pbr = m.pbr_metallic_roughness();
+    let base_color_texture = pbr.base_color_texture().map(|info| info.texture().index());
+    if let Some(t) = base_color_texture {
+        warnings.push(format!(
+            "material '{name}': base colour texture {t} ignored (only baseColorFactor is used)"
+        ));
+    }
+    let mut emission = Vec3::from_array(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
+    if !emission.is_finite() || emission.min_element() < 0.0 {
+        warnings.push(format!(
+            "material '{name}': invalid emission {emission}, set to zero"
+        ));
+        emission = Vec3::ZERO;
+    }
+    Material {
+        base_color: Vec4::from_array(pbr.base_color_factor()),
+        emission,
+        double_sided: m.double_sided(),
+        base_color_texture,
+        name,
+    }
+}
+
+/// Concatenates all primitives of `mesh` into one [`Mesh`].
+fn load_mesh(
+    mesh: &gltf::Mesh,
+    buffers: &[Vec<u8>],
+    default_material: u32,
+    uses_default: &mut bool,
+    warnings: &mut Vec<String>,
+) -> Result<Mesh> {
+    let name = mesh
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("mesh{}", mesh.index()));
+    let mut out = Mesh {
+        name: name.clone(),
+        ..Mesh::default()
+    };
+
+    for (pi, prim) in mesh.primitives().enumerate() {
+        let what = format!("mesh '{name}' primitive {pi}");
+        if prim.mode() != Mode::Triangles {
+            bail!(
+                "{what} uses mode {:?}; only TRIANGLES is supported",
+                prim.mode()
+            );
+        }
+        let pos_acc = prim
+            .get(&Semantic::Positions)
+            .ok_or_else(|| anyhow!("{what} has no POSITION attribute"))?;
+        let positions =
+            read_vec3(&pos_acc, buffers).with_context(|| format!("{what}: POSITION"))?;
+        let n = positions.len();
+        if positions.iter().any(|p| !p.is_finite()) {
+            warnings.push(format!("{what}: non-finite vertex positions"));
+        }
+
+        let normals = match prim.get(&Semantic::Normals) {
+            Some(acc)
+                if (acc.data_type(), acc.dimensions()) == (DataType::F32, Dimensions::Vec3) =>
+            {
+                read_vec3(&acc, buffers).with_context(|| format!("{what}: NORMAL"))?
+            }
+            Some(acc) => {
+                warnings.push(format!(
+                    "{what}: NORMAL of type {:?} {:?} not supported, ignored",
+                    acc.data_type(),
+                    acc.dimensions()
+                ));
+                vec![Vec3::ZERO; n]
+            }
+            None => vec![Vec3::ZERO; n],
+        };
+        if normals.len() != n {
+            bail!(
+                "{what}: NORMAL has {} elements but POSITION has {n}",
+                normals.len()
+            );
+        }
+
+        let uvs = match prim.get(&Semantic::TexCoords(0)) {
+            Some(acc) => {
+                match read_vec2(&acc, buffers).with_context(|| format!("{what}: TEXCOORD_0"))? {
+                    Some(uvs) => uvs,
+                    None => {
+                        warnings.push(format!(
+                            "{what}: TEXCOORD_0 of type {:?} {:?} not supported, ignored",
+                            acc.data_type(),
+                            acc.dimensions()
+                        ));
+                        vec![Vec2::ZERO; n]
+                    }
+                }
+            }
+            None => vec![Vec2::ZERO; n],
+        };
+        if uvs.len() != n {
+            bail!(
+                "{what}: TEXCOORD_0 has {} elements but POSITION has {n}",
+                uvs.len()
+            );
+        }
+
+        let indices = match prim.indices() {
+            Some(acc) => {
+                let indices =
+                    read_indices(&acc, buffers).with_context(|| format!("{what}: indices"))?;
+                if indices.len() % 3 != 0 {
+                    bail!(
+                        "{what}: index count {} is not a multiple of 3",
+                        indices.len()
+                    );
+                }
+                if let Some((k, &i)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
+                    bail!("{what}: index {i} at position {k} is out of range ({n} vertices)");
+                }
+                indices
+            }
+            None => {
+                if n % 3 != 0 {
+                    bail!("{what} is not indexed and its vertex count {n} is not a multiple of 3");
+                }
+                (0..n as u32).collect()
+            }
+        };
+
+        let material = match prim.material().index() {
+            Some(i) => i as u32,
+            None => {
+                *uses_default = true;
+                default_material
+            }
+        };
+
+        let base = out.positions.len();
+        if base + n > u32::MAX as usize {
+            bail!("{what}: mesh has more than 2^32 vertices");
+        }
+        let base = base as u32;
+        out.indices.extend(indices.iter().map(|&i| i + base));
+        out.triangle_materials
+            .extend(std::iter::repeat_n(material, indices.len() / 3));
+        out.positions.extend(positions);
+        out.normals.extend(normals);
+        out.uvs.extend(uvs);
+    }
+    Ok(out)
+}
+
+fn read_vec3(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<Vec3>> {
+    if (acc.data_type(), acc.dimensions()) != (DataType::F32, Dimensions::Vec3) {
+        bail!(
+            "accessor {} must be FLOAT VEC3, found {:?} {:?}",
+            acc.index(),
+            acc.data_type(),
+            acc.dimensions()
+        );
+    }
+    let bytes = accessor_bytes(acc, buffers)?;
+    Ok(bytes
+        .chunks_exact(12)
+        .map(|c| Vec3::new(f32_at(c, 0), f32_at(c, 4), f32_at(c, 8)))
+        .collect())
+}
+
+/// Texture coordinates (float, or normalised unsigned byte/short); `None` for other types.
+fn read_vec2(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Option<Vec<Vec2>>> {
+    if acc.dimensions() != Dimensions::Vec2 {
+        return Ok(None);
+    }
+    let decode: fn(&[u8]) -> Vec2 = match acc.data_type() {
+        DataType::F32 => |c| Vec2::new(f32_at(c, 0), f32_at(c, 4)),
+        DataType::U16 => |c| {
+            Vec2::new(
+                f32::from(u16::from_le_bytes([c[0], c[1]])),
+                f32::from(u16::from_le_bytes([c[2], c[3]])),
+            ) / 65535.0
+        },
+        DataType::U8 => |c| Vec2::new(f32::from(c[0]), f32::from(c[1])) / 255.0,
+        _ => return Ok(None),
+    };
+    let size = acc.size();
+    let bytes = accessor_bytes(acc, buffers)?;
+    Ok(Some(bytes.chunks_exact(size).map(decode).collect()))
+}
+
+fn read_indices(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>> {
+    let ok = acc.dimensions() == Dimensions::Scalar
+        && matches!(
+            acc.data_type(),
+            DataType::U8 | DataType::U16 | DataType::U32
+        );
+    if !ok {
+        bail!(
+            "index accessor {} must be an unsigned integer SCALAR, found {:?} {:?}",
+            acc.index(),
+            acc.data_type(),
+            acc.dimensions()
+        );
+    }
+    let size = acc.size();
+    let bytes = accessor_bytes(acc, buffers)?;
+    Ok(bytes
+        .chunks_exact(size)
+        .map(|c| match c {
+            [a] => u32::from(*a),
+            [a, b] => u32::from(u16::from_le_bytes([*a, *b])),
+            [a, b, c, d] => u32::from_le_bytes([*a, *b, *c, *d]),
+            _ => 0, // unreachable: size is 1, 2 or 4
+        })
+        .collect())
+}
+
+fn f32_at(c: &[u8], offset: usize) -> f32 {
+    f32::from_le_bytes([c[offset], c[offset + 1], c[offset + 2], c[offset + 3]])
+}
+
+/// Bytes of a buffer view, checked against its buffer.
+fn view_bytes<'b>(view: &gltf::buffer::View, buffers: &'b [Vec<u8>]) -> Result<&'b [u8]> {
+    let buffer = view.buffer().index();
+    let data = buffers.get(buffer).ok_or_else(|| {
+        anyhow!(
+            "buffer view {} refers to missing buffer {buffer}",
+            view.index()
+        )
+    })?;
+    let start = view.offset();
+    view.offset()
+        .checked_add(view.length())
+        .and_then(|end| data.get(start..end))
+        .ok_or_else(|| {
+            anyhow!(
+                "buffer view {} (offset {start}, length {}) exceeds buffer {buffer} ({} bytes)",
+                view.index(),
+                view.length(),
+                data.len()
+            )
+        })
+}
+
+/// The accessor's elements, tightly packed (`count * size` bytes), with sparse
+/// substitution applied. All offsets are bounds-checked.
+fn accessor_bytes(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u8>> {
+    let id = acc.index();
+    let size = acc.size();
+    let count = acc.count();
+    if count == 0 {
+        bail!("accessor {id} is empty");
+    }
+    let total = count
+        .checked_mul(size)
+        .ok_or_else(|| anyhow!("accessor {id} is too large"))?;
+
+    let mut out = match acc.view() {
+        Some(view) => {
+            let src = view_bytes(&view, buffers)?;
+            let stride = view.stride().unwrap_or(size);
+            if stride < size {
+                bail!(
+                    "accessor {id}: byte stride {stride} is smaller than the element size {size}"
+                );
+            }
+            let start = acc.offset();
+            let end = stride
+                .checked_mul(count - 1)
+                .and_then(|x| x.checked_add(start))
+                .and_then(|x| x.checked_add(size));
+            match end {
+                Some(end) if end <= src.len() => {}
+                _ => bail!(
+                    "accessor {id} ({count} elements of {size} bytes, offset {start}, stride {stride}) \
+                     exceeds buffer view {} ({} bytes)",
+                    view.index(),
+                    src.len()
+                ),
+            }
+            let mut out = Vec::with_capacity(total);
+            for i in 0..count {
+                let o = start + i * stride;
+                out.extend_from_slice(&src[o..o + size]);
+            }
+            out
+        }
+        None => {
+            if total > MAX_VIEWLESS_ACCESSOR_BYTES {
+                bail!("accessor {id} without buffer view is too large ({total} bytes)");
+            }
+            vec![0; total]
+        }
+    };
+
+    if let Some(sparse) = acc.sparse() {
+        let n = sparse.count();
+        let indices = sparse.indices();
+        let index_size = indices.index_type().size();
+        let values = sparse.values();
+        let range = |view: &gltf::buffer::View, offset: usize, len: Option<usize>| {
+            let src = view_bytes(view, buffers)?;
+            len.and_then(|len| offset.checked_add(len))
+                .and_then(|end| src.get(offset..end))
+                .ok_or_else(|| {
+                    anyhow!(
+                        "accessor {id}: sparse data exceeds buffer view {}",
+                        view.index()
+                    )
+                })
+        };
+        let index_bytes = range(&indices.view(), indices.offset(), n.checked_mul(index_size))?;
+        let value_bytes = range(&values.view(), values.offset(), n.checked_mul(size))?;
+        for (k, raw) in index_bytes.chunks_exact(index_size).enumerate() {
+            let i = match raw {
+                [a] => usize::from(*a),
+                [a, b] => usize::from(u16::from_le_bytes([*a, *b])),
+                [a, b, c, d] => u32::from_le_bytes([*a, *b, *c, *d]) as usize,
+                _ => bail!("accessor {id}: invalid sparse index size"),
+            };
+            if i >= count {
+                bail!("accessor {id}: sparse index {i} out of range ({count} elements)");
+            }
+            out[i * size..(i + 1) * size].copy_from_slice(&value_bytes[k * size..(k + 1) * size]);
+        }
+    }
+    Ok(out)
+}

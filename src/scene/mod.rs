@@ -1,0 +1,255 @@
+//! Scene description: glTF 2.0 loading into flat, renderer-friendly data,
+//! plus a small glTF writer used by tests and by the built-in scene generators
+//! (the Cornell box and a furnace box).
+//!
+//! All positions are in the glTF scene's units (metres for the built-in scenes).
+//! Error messages name the file (or label) and the offending mesh/primitive;
+//! they are single-level `anyhow` errors, so `{}` already shows everything.
+
+mod base64;
+pub mod builder;
+pub mod cornell;
+mod load;
+
+#[cfg(test)]
+mod tests;
+
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use std::path::PathBuf;
+
+pub use builder::{closed_box, GltfBuilder};
+pub use cornell::{cornell_box_gltf, furnace_box_gltf};
+
+/// A loaded scene: meshes (one BLAS each), their instances, materials, camera and lights.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// File the scene was loaded from (or the label given to [`Scene::from_gltf_slice`]).
+    pub path: PathBuf,
+    /// One per glTF mesh referenced by at least one node of the chosen glTF scene.
+    pub meshes: Vec<Mesh>,
+    /// One per node with a mesh, in depth-first traversal order.
+    pub instances: Vec<Instance>,
+    /// The glTF materials, plus a default material appended if any primitive has none.
+    pub materials: Vec<Material>,
+    /// The first node (depth-first from the roots) carrying a perspective camera.
+    pub camera: Option<Camera>,
+    /// `KHR_lights_punctual` point lights.
+    pub point_lights: Vec<PointLight>,
+    /// Non-fatal problems (unsupported features that were ignored).
+    pub warnings: Vec<String>,
+}
+
+/// Triangle mesh in object space; all glTF primitives of one mesh concatenated.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// glTF mesh name, or `mesh{index}`.
+    pub name: String,
+    /// Object-space vertex positions.
+    pub positions: Vec<Vec3>,
+    /// Same length as `positions`; `Vec3::ZERO` where the primitive has no `NORMAL`
+    /// (the renderer then uses the flat geometric normal).
+    pub normals: Vec<Vec3>,
+    /// Same length as `positions`; `Vec2::ZERO` where `TEXCOORD_0` is absent.
+    pub uvs: Vec<Vec2>,
+    /// Triangle list indexing `positions`.
+    pub indices: Vec<u32>,
+    /// One entry per triangle: index into [`Scene::materials`].
+    pub triangle_materials: Vec<u32>,
+}
+
+/// A placement of a mesh in the world.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    /// Node name, or `node{index}`.
+    pub name: String,
+    /// Index into [`Scene::meshes`].
+    pub mesh: usize,
+    /// World from object, with the full node hierarchy applied.
+    pub transform: Mat4,
+}
+
+/// Diffuse material with optional emission.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// glTF material name, or `material{index}` (`default` for the appended default material).
+    pub name: String,
+    /// `baseColorFactor` (linear RGBA).
+    pub base_color: Vec4,
+    /// Emitted radiance Le: `emissiveFactor * KHR_materials_emissive_strength`.
+    pub emission: Vec3,
+    /// Whether back faces are shaded/emit like front faces.
+    pub double_sided: bool,
+    /// glTF texture index of the base colour texture, if any (currently unused by the renderer).
+    pub base_color_texture: Option<usize>,
+}
+
+/// Perspective camera.
+#[derive(Clone, Debug)]
+pub struct Camera {
+    /// Camera (or node) name.
+    pub name: String,
+    /// World from camera; the camera looks down its local -Z with +Y up, as in glTF.
+    pub transform: Mat4,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+}
+
+/// Isotropic point light (`KHR_lights_punctual` type `point`).
+#[derive(Clone, Debug)]
+pub struct PointLight {
+    /// Light (or node) name.
+    pub name: String,
+    /// World-space position.
+    pub position: Vec3,
+    /// Linear RGB colour.
+    pub color: Vec3,
+    /// Luminous intensity in candela, as in glTF.
+    pub intensity: f32,
+}
+
+/// A world-space emitting triangle, for light sampling / photon emission.
+#[derive(Clone, Copy, Debug)]
+pub struct EmissiveTriangle {
+    /// World-space vertices in mesh order.
+    pub p: [Vec3; 3],
+    /// Emitted radiance Le.
+    pub emission: Vec3,
+    /// World-space area.
+    pub area: f32,
+    /// Unit front-face normal in world space (glTF front face, mirroring accounted for).
+    pub normal: Vec3,
+    /// Whether the back face emits too.
+    pub double_sided: bool,
+    /// Index into [`Scene::instances`].
+    pub instance: u32,
+    /// Triangle index within the instance's mesh.
+    pub triangle: u32,
+}
+
+impl Material {
+    /// The material used for primitives without a material: 0.8 grey, not emissive, single-sided.
+    pub fn default_material() -> Self {
+        Material {
+            name: "default".to_string(),
+            base_color: Vec4::new(0.8, 0.8, 0.8, 1.0),
+            emission: Vec3::ZERO,
+            double_sided: false,
+            base_color_texture: None,
+        }
+    }
+
+    /// Whether any emission channel is positive.
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+impl Mesh {
+    /// Number of triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.indices.len() / 3
+    }
+
+    /// Object-space vertices of triangle `t`, or `None` if `t` or its indices are out of range.
+    pub fn triangle(&self, t: usize) -> Option<[Vec3; 3]> {
+        let i = self.indices.get(3 * t..3 * t + 3)?;
+        Some([
+            *self.positions.get(i[0] as usize)?,
+            *self.positions.get(i[1] as usize)?,
+            *self.positions.get(i[2] as usize)?,
+        ])
+    }
+}
+
+impl Instance {
+    /// True if the transform mirrors (negative determinant): the glTF front face is
+    /// then clockwise in world space (e.g. needs a facing flip for ray-tracing instances).
+    pub fn is_mirrored(&self) -> bool {
+        self.transform.determinant() < 0.0
+    }
+}
+
+impl Scene {
+    /// Loads a `.gltf` (embedded `data:` URIs or external files relative to it) or `.glb` file.
+    pub fn load(path: &std::path::Path) -> anyhow::Result<Scene> {
+        load::load_path(path)
+    }
+
+    /// Loads glTF JSON or GLB bytes. External buffer URIs are resolved against `base_dir`
+    /// (and rejected when it is `None`); `label` names the source in error messages.
+    pub fn from_gltf_slice(
+        bytes: &[u8],
+        base_dir: Option<&std::path::Path>,
+        label: &str,
+    ) -> anyhow::Result<Scene> {
+        load::load_slice(bytes, base_dir, label)
+    }
+
+    /// Total number of instanced triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .filter_map(|inst| self.meshes.get(inst.mesh))
+            .map(Mesh::triangle_count)
+            .sum()
+    }
+
+    /// World-space AABB `(min, max)` of all instanced vertices; `(ZERO, ZERO)` if there are none.
+    pub fn world_bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for inst in &self.instances {
+            let Some(mesh) = self.meshes.get(inst.mesh) else {
+                continue;
+            };
+            for &p in &mesh.positions {
+                let w = inst.transform.transform_point3(p);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+        if lo.x > hi.x {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    /// Every instanced triangle with an emissive material and positive world-space area.
+    pub fn emissive_triangles(&self) -> Vec<EmissiveTriangle> {
+        let mut out = Vec::new();
+        for (ii, inst) in self.instances.iter().enumerate() {
+            let Some(mesh) = self.meshes.get(inst.mesh) else {
+                continue;
+            };
+            let flip = inst.is_mirrored();
+            for (t, &mat) in mesh.triangle_materials.iter().enumerate() {
+                let Some(material) = self.materials.get(mat as usize) else {
+                    continue;
+                };
+                if !material.is_emissive() {
+                    continue;
+                }
+                let Some(p) = mesh.triangle(t) else { continue };
+                let p = p.map(|v| inst.transform.transform_point3(v));
+                let cross = (p[1] - p[0]).cross(p[2] - p[0]);
+                let len = cross.length();
+                let area = 0.5 * len;
+                if !(area > 0.0 && area.is_finite()) {
+                    continue;
+                }
+                let normal = if flip { -cross / len } else { cross / len };
+                out.push(EmissiveTriangle {
+                    p,
+                    emission: material.emission,
+                    area,
+                    normal,
+                    double_sided: material.double_sided,
+                    instance: ii as u32,
+                    triangle: t as u32,
+                });
+            }
+        }
+        out
+    }
+}

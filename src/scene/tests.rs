@@ -1,0 +1,894 @@
+//! CPU-only unit tests for the scene loader, builder and built-in scenes.
+
+use super::cornell::{cornell_camera_yfov, LIGHT_EMISSION};
+use super::*;
+use glam::{Mat4, Vec3};
+use serde_json::{json, Value};
+use std::path::Path;
+
+const EPS: f32 = 1e-5;
+
+fn load_str(text: &str) -> anyhow::Result<Scene> {
+    Scene::from_gltf_slice(text.as_bytes(), None, "test.gltf")
+}
+
+fn load_value(v: &Value) -> anyhow::Result<Scene> {
+    load_str(&v.to_string())
+}
+
+/// Error text of a failed load (must not panic).
+fn load_err(v: &Value) -> String {
+    match load_value(v) {
+        Ok(_) => panic!("expected an error"),
+        Err(e) => format!("{e:#}"),
+    }
+}
+
+fn assert_contains(msg: &str, words: &[&str]) {
+    for w in words {
+        assert!(
+            msg.contains(w),
+            "error message {msg:?} does not contain {w:?}"
+        );
+    }
+}
+
+/// A one-triangle document (material 0, emissive), parsed to JSON for editing.
+fn triangle_doc() -> Value {
+    let mut b = GltfBuilder::new();
+    let m = b.material("glow", [0.5; 3], [2.0, 1.0, 0.5], false);
+    let mesh = b.mesh(
+        "tri",
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        None,
+        &[0, 1, 2],
+        m,
+    );
+    b.node("tri", mesh, [0.0; 3]);
+    serde_json::from_str(&b.to_json_string()).unwrap()
+}
+
+fn cornell() -> Scene {
+    load_str(&cornell_box_gltf()).expect("cornell box loads")
+}
+
+fn instance_named<'a>(scene: &'a Scene, name: &str) -> &'a Instance {
+    scene
+        .instances
+        .iter()
+        .find(|i| i.name == name)
+        .unwrap_or_else(|| panic!("no instance {name}"))
+}
+
+/// World-space centroid of an instance's vertices.
+fn instance_centroid(scene: &Scene, inst: &Instance) -> Vec3 {
+    let mesh = &scene.meshes[inst.mesh];
+    let sum: Vec3 = mesh
+        .positions
+        .iter()
+        .map(|&p| inst.transform.transform_point3(p))
+        .sum();
+    sum / mesh.positions.len() as f32
+}
+
+/// World-space (triangle centroid, unit CCW normal) of every triangle of an instance.
+fn triangle_frames(scene: &Scene, inst: &Instance) -> Vec<(Vec3, Vec3)> {
+    let mesh = &scene.meshes[inst.mesh];
+    (0..mesh.triangle_count())
+        .map(|t| {
+            let p = mesh
+                .triangle(t)
+                .unwrap()
+                .map(|v| inst.transform.transform_point3(v));
+            (
+                (p[0] + p[1] + p[2]) / 3.0,
+                (p[1] - p[0]).cross(p[2] - p[0]).normalize(),
+            )
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------- Cornell box
+
+#[test]
+fn cornell_file_matches_generator() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.gltf");
+    let generated = cornell_box_gltf();
+    if std::env::var_os("UPDATE_SCENES").is_some() {
+        std::fs::write(&path, &generated).unwrap();
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "cannot read {}: {e} (run with UPDATE_SCENES=1)",
+            path.display()
+        )
+    });
+    assert!(
+        committed == generated,
+        "{} is stale; regenerate with UPDATE_SCENES=1",
+        path.display()
+    );
+    assert_eq!(
+        generated,
+        cornell_box_gltf(),
+        "generator is not deterministic"
+    );
+    let scene = Scene::load(&path).unwrap();
+    assert_eq!(scene.path, path);
+}
+
+#[test]
+fn cornell_structure() {
+    let s = cornell();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let names: Vec<&str> = s.instances.iter().map(|i| i.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "floor",
+            "ceiling",
+            "back_wall",
+            "left_wall_red",
+            "right_wall_green",
+            "short_block",
+            "tall_block",
+            "light"
+        ]
+    );
+    assert_eq!(s.meshes.len(), 8);
+    assert_eq!(s.materials.len(), 4);
+    assert_eq!(s.triangle_count(), 5 * 2 + 2 * 5 * 2 + 2);
+    for m in &s.meshes {
+        assert_eq!(m.normals.len(), m.positions.len());
+        assert_eq!(m.uvs.len(), m.positions.len());
+        assert_eq!(m.triangle_materials.len(), m.triangle_count());
+    }
+    let (lo, hi) = s.world_bounds();
+    assert!(lo.abs_diff_eq(Vec3::ZERO, EPS), "{lo}");
+    assert!(
+        hi.abs_diff_eq(Vec3::new(0.556, 0.5488, 0.5592), EPS),
+        "{hi}"
+    );
+}
+
+#[test]
+fn cornell_camera() {
+    let s = cornell();
+    let cam = s.camera.as_ref().expect("camera");
+    let expected = 2.0 * (0.0125f32 / 0.035).atan();
+    assert!((cam.yfov - expected).abs() < 1e-6);
+    assert!((cam.yfov - cornell_camera_yfov()).abs() < 1e-6);
+    let eye = cam.transform.transform_point3(Vec3::ZERO);
+    assert!(eye.abs_diff_eq(Vec3::new(0.278, 0.273, -0.8), EPS), "{eye}");
+    let forward = cam.transform.transform_vector3(Vec3::NEG_Z);
+    let up = cam.transform.transform_vector3(Vec3::Y);
+    assert!(forward.abs_diff_eq(Vec3::Z, EPS), "{forward}");
+    assert!(up.abs_diff_eq(Vec3::Y, EPS), "{up}");
+}
+
+#[test]
+fn cornell_red_left_green_right() {
+    let s = cornell();
+    let cam = s.camera.as_ref().unwrap();
+    let eye = cam.transform.transform_point3(Vec3::ZERO);
+    let right = cam.transform.transform_vector3(Vec3::X);
+    assert!(
+        right.abs_diff_eq(Vec3::NEG_X, EPS),
+        "screen-right must be -x, got {right}"
+    );
+    let red = instance_centroid(&s, instance_named(&s, "left_wall_red"));
+    let green = instance_centroid(&s, instance_named(&s, "right_wall_green"));
+    assert!(red.x > green.x);
+    assert!((red - eye).dot(right) < 0.0, "red wall must be on the left");
+    assert!(
+        (green - eye).dot(right) > 0.0,
+        "green wall must be on the right"
+    );
+    let red_mat = &s.materials
+        [s.meshes[instance_named(&s, "left_wall_red").mesh].triangle_materials[0] as usize];
+    let green_mat = &s.materials
+        [s.meshes[instance_named(&s, "right_wall_green").mesh].triangle_materials[0] as usize];
+    assert_eq!(red_mat.name, "red");
+    assert!(red_mat.base_color.x > red_mat.base_color.y);
+    assert_eq!(green_mat.name, "green");
+    assert!(green_mat.base_color.y > green_mat.base_color.x);
+}
+
+#[test]
+fn cornell_light() {
+    let s = cornell();
+    let tris = s.emissive_triangles();
+    assert_eq!(tris.len(), 2);
+    let le = Vec3::from(LIGHT_EMISSION);
+    let mut power = Vec3::ZERO;
+    for t in &tris {
+        assert!(t.emission.abs_diff_eq(le, 1e-4), "{}", t.emission);
+        assert!(t.normal.abs_diff_eq(Vec3::NEG_Y, EPS), "{}", t.normal);
+        assert!(!t.double_sided);
+        assert_eq!(s.instances[t.instance as usize].name, "light");
+        assert!(t.p.iter().all(|p| (p.y - 0.5487).abs() < EPS));
+        power += std::f32::consts::PI * t.emission * t.area;
+    }
+    let expected = std::f32::consts::PI * le * (0.13 * 0.105);
+    assert!(
+        power.abs_diff_eq(expected, 1e-4 * expected.max_element()),
+        "{power} vs {expected}"
+    );
+}
+
+#[test]
+fn cornell_faces_oriented() {
+    let s = cornell();
+    let interior = Vec3::new(0.278, 0.274, 0.28);
+    for name in [
+        "floor",
+        "ceiling",
+        "back_wall",
+        "left_wall_red",
+        "right_wall_green",
+    ] {
+        for (c, n) in triangle_frames(&s, instance_named(&s, name)) {
+            assert!(
+                n.dot(interior - c) > 0.0,
+                "{name} faces away from the interior"
+            );
+        }
+    }
+    for name in ["short_block", "tall_block"] {
+        let inst = instance_named(&s, name);
+        let center = instance_centroid(&s, inst);
+        for (c, n) in triangle_frames(&s, inst) {
+            assert!(n.dot(c - center) > 0.0, "{name} face points inward");
+        }
+    }
+}
+
+#[test]
+fn furnace_box() {
+    let s = load_str(&furnace_box_gltf(0.5, 2.0, 1.0)).unwrap();
+    assert_eq!(s.instances.len(), 1);
+    assert_eq!(s.triangle_count(), 12);
+    let cam = s.camera.as_ref().unwrap();
+    assert!((cam.yfov - 60f32.to_radians()).abs() < 1e-6);
+    assert!(cam
+        .transform
+        .transform_point3(Vec3::ZERO)
+        .abs_diff_eq(Vec3::ZERO, EPS));
+    assert!(cam
+        .transform
+        .transform_vector3(Vec3::NEG_Z)
+        .abs_diff_eq(Vec3::NEG_Z, EPS));
+    let tris = s.emissive_triangles();
+    assert_eq!(tris.len(), 12);
+    let area: f32 = tris.iter().map(|t| t.area).sum();
+    assert!((area - 6.0).abs() < 1e-4);
+    for t in &tris {
+        assert!(t.double_sided);
+        assert!(t.emission.abs_diff_eq(Vec3::splat(2.0), 1e-5));
+        let c = (t.p[0] + t.p[1] + t.p[2]) / 3.0;
+        assert!(t.normal.dot(-c) > 0.0, "furnace faces must face inward");
+    }
+    assert!(s.materials[0]
+        .base_color
+        .truncate()
+        .abs_diff_eq(Vec3::splat(0.5), EPS));
+    let (lo, hi) = s.world_bounds();
+    assert!(lo.abs_diff_eq(Vec3::splat(-0.5), EPS) && hi.abs_diff_eq(Vec3::splat(0.5), EPS));
+}
+
+// ---------------------------------------------------------------- loader errors
+
+#[test]
+fn error_missing_file() {
+    let err = format!(
+        "{:#}",
+        Scene::load(Path::new("/nonexistent/dir/missing.gltf")).unwrap_err()
+    );
+    assert_contains(&err, &["missing.gltf", "cannot read"]);
+}
+
+#[test]
+fn error_malformed_json() {
+    let err = format!("{:#}", load_str("{ \"asset\": ").unwrap_err());
+    assert_contains(&err, &["test.gltf", "malformed glTF"]);
+    let err = format!(
+        "{:#}",
+        Scene::from_gltf_slice(b"", None, "empty.gltf").unwrap_err()
+    );
+    assert_contains(&err, &["empty.gltf"]);
+    // Valid JSON, invalid glTF (dangling mesh index).
+    let mut doc = triangle_doc();
+    doc["nodes"][0]["mesh"] = json!(7);
+    assert_contains(
+        &load_err(&doc),
+        &["test.gltf", "invalid glTF", "nodes[0].mesh"],
+    );
+}
+
+#[test]
+fn error_lines_mode() {
+    let mut doc = triangle_doc();
+    doc["meshes"][0]["primitives"][0]["mode"] = json!(1);
+    let err = load_err(&doc);
+    assert_contains(
+        &err,
+        &[
+            "test.gltf",
+            "mesh 'tri' primitive 0 uses mode Lines",
+            "only TRIANGLES",
+        ],
+    );
+}
+
+#[test]
+fn error_missing_position() {
+    let mut doc = triangle_doc();
+    doc["meshes"][0]["primitives"][0]["attributes"] = json!({ "NORMAL": 0 });
+    assert_contains(
+        &load_err(&doc),
+        &["test.gltf", "mesh 'tri' primitive 0", "POSITION"],
+    );
+    doc["meshes"][0]["primitives"][0]["attributes"] = json!({ "POSITION": 99 });
+    assert_contains(&load_err(&doc), &["POSITION accessor 99 does not exist"]);
+}
+
+#[test]
+fn error_index_out_of_range() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [0.0; 3], false);
+    let mesh = b.mesh(
+        "bad",
+        &[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        None,
+        &[0, 1, 5],
+        m,
+    );
+    b.node("bad", mesh, [0.0; 3]);
+    let err = format!("{:#}", load_str(&b.to_json_string()).unwrap_err());
+    assert_contains(&err, &["mesh 'bad' primitive 0", "index 5", "out of range"]);
+}
+
+#[test]
+fn error_non_indexed_not_multiple_of_three() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [0.0; 3], false);
+    let mesh = b.mesh(
+        "four",
+        &[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0; 3]],
+        None,
+        &[0, 1, 2],
+        m,
+    );
+    b.node("four", mesh, [0.0; 3]);
+    let mut doc: Value = serde_json::from_str(&b.to_json_string()).unwrap();
+    doc["meshes"][0]["primitives"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("indices");
+    assert_contains(
+        &load_err(&doc),
+        &["mesh 'four' primitive 0", "not indexed", "multiple of 3"],
+    );
+}
+
+#[test]
+fn error_no_triangles() {
+    let doc = json!({
+        "asset": { "version": "2.0" },
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "name": "empty" }],
+    });
+    assert_contains(&load_err(&doc), &["test.gltf", "no triangles in scene"]);
+    // Meshes that exist but are not referenced by the scene do not count.
+    let mut doc = triangle_doc();
+    doc["scenes"][0]["nodes"] = json!([]);
+    assert_contains(&load_err(&doc), &["no triangles in scene"]);
+}
+
+#[test]
+fn error_bad_buffers_do_not_panic() {
+    // Accessor reading past the end of its buffer view.
+    let mut doc = triangle_doc();
+    doc["accessors"][0]["count"] = json!(1000);
+    assert_contains(
+        &load_err(&doc),
+        &["mesh 'tri' primitive 0: POSITION", "exceeds buffer view"],
+    );
+    // Zero-count accessor.
+    let mut doc = triangle_doc();
+    doc["accessors"][1]["count"] = json!(0);
+    assert_contains(&load_err(&doc), &["indices", "empty"]);
+    // Byte stride smaller than the element.
+    let mut doc = triangle_doc();
+    doc["bufferViews"][0]["byteStride"] = json!(4);
+    assert_contains(&load_err(&doc), &["stride"]);
+    // Buffer view outside the buffer.
+    let mut doc = triangle_doc();
+    doc["bufferViews"][0]["byteOffset"] = json!(1_000_000);
+    assert_contains(&load_err(&doc), &["exceeds buffer 0"]);
+    // Float indices.
+    let mut doc = triangle_doc();
+    doc["accessors"][1]["componentType"] = json!(5126);
+    assert_contains(&load_err(&doc), &["index accessor"]);
+    // Broken base64.
+    let mut doc = triangle_doc();
+    doc["buffers"][0]["uri"] = json!("data:application/octet-stream;base64,@@@@");
+    assert_contains(&load_err(&doc), &["buffer 0", "base64"]);
+    // External file without a base directory.
+    let mut doc = triangle_doc();
+    doc["buffers"][0]["uri"] = json!("data.bin");
+    assert_contains(&load_err(&doc), &["data.bin", "base directory"]);
+    // Truncated / lying GLB headers.
+    for bytes in [
+        &b"glTF"[..],
+        b"glTF\x02\0\0\0\x04\0\0\0",
+        b"glTF\x02\0\0\0\xff\xff\0\0",
+    ] {
+        let err = format!(
+            "{:#}",
+            Scene::from_gltf_slice(bytes, None, "bad.glb").unwrap_err()
+        );
+        assert_contains(&err, &["bad.glb", "GLB"]);
+    }
+    // Node cycle: warning, no hang.
+    let mut doc = triangle_doc();
+    doc["nodes"][0]["children"] = json!([0]);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.instances.len(), 1);
+    assert!(s.warnings.iter().any(|w| w.contains("more than once")));
+}
+
+// ---------------------------------------------------------------- loader features
+
+#[test]
+fn non_indexed_primitive() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [0.0; 3], false);
+    let pos = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 1.0],
+        [0.0, 1.0, 1.0],
+    ];
+    let mesh = b.mesh("soup", &pos, None, &[0, 1, 2], m);
+    b.node("soup", mesh, [0.0; 3]);
+    let mut doc: Value = serde_json::from_str(&b.to_json_string()).unwrap();
+    doc["meshes"][0]["primitives"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("indices");
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.meshes[0].indices, [0, 1, 2, 3, 4, 5]);
+    assert_eq!(s.meshes[0].triangle_materials, [0, 0]);
+    assert_eq!(s.triangle_count(), 2);
+}
+
+#[test]
+fn normals_and_default_material() {
+    let mut b = GltfBuilder::new();
+    let pos = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let nrm = [[0.0, 0.0, 1.0]; 3];
+    let with = b.mesh("with_normals", &pos, Some(&nrm), &[0, 1, 2], 0);
+    let without = b.mesh("without_normals", &pos, None, &[0, 1, 2], 0);
+    b.node("a", with, [0.0; 3]);
+    b.node("b", without, [0.0; 3]);
+    let mut doc: Value = serde_json::from_str(&b.to_json_string()).unwrap();
+    for mesh in doc["meshes"].as_array_mut().unwrap() {
+        mesh["primitives"][0]
+            .as_object_mut()
+            .unwrap()
+            .remove("material");
+    }
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.materials, [Material::default_material()]);
+    assert_eq!(s.meshes[0].normals, vec![Vec3::Z; 3]);
+    assert_eq!(s.meshes[1].normals, vec![Vec3::ZERO; 3]);
+    assert!(s.emissive_triangles().is_empty());
+}
+
+#[test]
+fn node_hierarchy_transform() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [1.0; 3], false);
+    let mesh = b.quad(
+        "q",
+        [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        m,
+    );
+    let parent = b.group(
+        "parent",
+        Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)).to_cols_array(),
+    );
+    let child = b.node_matrix(
+        "child",
+        mesh,
+        Mat4::from_scale(Vec3::splat(2.0)).to_cols_array(),
+    );
+    b.add_child(parent, child);
+    let s = load_str(&b.to_json_string()).unwrap();
+    assert_eq!(s.instances.len(), 1);
+    let expected =
+        Mat4::from_translation(Vec3::new(1.0, 2.0, 3.0)) * Mat4::from_scale(Vec3::splat(2.0));
+    assert!(s.instances[0].transform.abs_diff_eq(expected, EPS));
+    let (lo, hi) = s.world_bounds();
+    assert!(lo.abs_diff_eq(Vec3::new(1.0, 2.0, 3.0), EPS), "{lo}");
+    assert!(hi.abs_diff_eq(Vec3::new(3.0, 4.0, 3.0), EPS), "{hi}");
+    let area: f32 = s.emissive_triangles().iter().map(|t| t.area).sum();
+    assert!((area - 4.0).abs() < 1e-5);
+}
+
+#[test]
+fn mirrored_transform_keeps_front_face() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [1.0; 3], false);
+    // A quad in the y = 1 plane facing down (-y).
+    let quad = builder::orient_quad(
+        [
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 1.0, 1.0],
+            [0.0, 1.0, 1.0],
+        ],
+        [0.0, -1.0, 0.0],
+    );
+    let mesh = b.quad("down", quad, m);
+    b.node("plain", mesh, [0.0; 3]);
+    b.node_matrix(
+        "mirror_x",
+        mesh,
+        Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0)).to_cols_array(),
+    );
+    // Mirroring in y flips the surface upside down: its front face now points +y.
+    b.node_matrix(
+        "mirror_y",
+        mesh,
+        Mat4::from_scale(Vec3::new(1.0, -1.0, 1.0)).to_cols_array(),
+    );
+    let s = load_str(&b.to_json_string()).unwrap();
+    assert!(!s.instances[0].is_mirrored());
+    assert!(s.instances[1].is_mirrored() && s.instances[2].is_mirrored());
+    let tris = s.emissive_triangles();
+    assert_eq!(tris.len(), 6);
+    for t in &tris {
+        let expected = if t.instance == 2 {
+            Vec3::Y
+        } else {
+            Vec3::NEG_Y
+        };
+        assert!(
+            t.normal.abs_diff_eq(expected, EPS),
+            "instance {}: {}",
+            t.instance,
+            t.normal
+        );
+        assert!((t.area - 0.5).abs() < EPS);
+    }
+}
+
+#[test]
+fn degenerate_triangles_not_emissive() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [1.0; 3], false);
+    let pos = [[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let mesh = b.mesh("m", &pos, None, &[0, 1, 2, 0, 1, 3], m);
+    b.node("m", mesh, [0.0; 3]);
+    let s = load_str(&b.to_json_string()).unwrap();
+    assert_eq!(s.triangle_count(), 2);
+    let tris = s.emissive_triangles();
+    assert_eq!(tris.len(), 1);
+    assert_eq!(tris[0].triangle, 1);
+}
+
+#[test]
+fn scene_selection() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [0.0; 3], false);
+    let mesh_a = b.quad(
+        "a",
+        [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        m,
+    );
+    let mesh_b = b.quad(
+        "b",
+        [[0.0; 3], [2.0, 0.0, 0.0], [2.0, 2.0, 0.0], [0.0, 2.0, 0.0]],
+        m,
+    );
+    b.node("a", mesh_a, [0.0; 3]);
+    b.node("b", mesh_b, [0.0; 3]);
+    let mut doc: Value = serde_json::from_str(&b.to_json_string()).unwrap();
+    doc["scenes"] = json!([{ "nodes": [0] }, { "nodes": [1] }]);
+
+    doc["scene"] = json!(1);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.instances.len(), 1);
+    assert_eq!(s.instances[0].name, "b");
+    assert_eq!(s.meshes.len(), 1, "only referenced meshes are loaded");
+    assert_eq!(s.meshes[0].name, "b");
+
+    doc.as_object_mut().unwrap().remove("scene");
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.instances[0].name, "a", "without 'scene', scene 0 is used");
+
+    doc.as_object_mut().unwrap().remove("scenes");
+    let s = load_value(&doc).unwrap();
+    assert_eq!(
+        s.instances.len(),
+        2,
+        "without scenes, all root nodes are used"
+    );
+}
+
+#[test]
+fn lights_cameras_and_warnings() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [0.0; 3], false);
+    let mesh = b.quad(
+        "q",
+        [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        m,
+    );
+    b.node("q", mesh, [0.0; 3]);
+    b.point_light("bulb", [1.0, 2.0, 3.0], [1.0, 0.5, 0.25], 40.0);
+    b.camera("first", [0.0, 0.0, 5.0], [0.0; 3], [0.0, 1.0, 0.0], 0.8);
+    b.camera("second", [0.0, 0.0, 9.0], [0.0; 3], [0.0, 1.0, 0.0], 0.5);
+    let mut doc: Value = serde_json::from_str(&b.to_json_string()).unwrap();
+    let lights = doc["extensions"]["KHR_lights_punctual"]["lights"]
+        .as_array_mut()
+        .unwrap();
+    lights.push(json!({ "name": "sun", "type": "directional" }));
+    lights.push(json!({ "name": "cone", "type": "spot", "spot": {} }));
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(json!({ "extensions": { "KHR_lights_punctual": { "light": 1 } } }));
+    nodes.push(json!({ "extensions": { "KHR_lights_punctual": { "light": 2 } } }));
+    nodes.push(json!({ "name": "ortho_node", "camera": 2 }));
+    doc["cameras"].as_array_mut().unwrap().push(
+        json!({ "name": "ortho", "type": "orthographic", "orthographic": { "xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 10 } }),
+    );
+    doc["scenes"][0]["nodes"] = json!([5, 0, 1, 2, 3, 4, 6]);
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
+    doc["textures"] = json!([{ "source": 0 }]);
+    doc["images"] = json!([{ "uri": "not_loaded.png" }]);
+
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.point_lights.len(), 1);
+    let l = &s.point_lights[0];
+    assert_eq!(l.name, "bulb");
+    assert!(l.position.abs_diff_eq(Vec3::new(1.0, 2.0, 3.0), EPS));
+    assert!(l.color.abs_diff_eq(Vec3::new(1.0, 0.5, 0.25), EPS));
+    assert_eq!(l.intensity, 40.0);
+    let cam = s.camera.as_ref().unwrap();
+    assert_eq!(cam.name, "first");
+    assert!((cam.yfov - 0.8).abs() < EPS);
+    assert!(cam
+        .transform
+        .transform_vector3(Vec3::NEG_Z)
+        .abs_diff_eq(Vec3::NEG_Z, EPS));
+    assert_eq!(s.materials[0].base_color_texture, Some(0));
+    let w = s.warnings.join("\n");
+    assert_contains(
+        &w,
+        &[
+            "directional light 'sun' not supported",
+            "spot light 'cone' not supported",
+            "orthographic camera 'ortho' not supported",
+            "camera 'second' ignored",
+            "texture",
+        ],
+    );
+}
+
+#[test]
+fn emissive_strength_round_trip() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("hot", [0.1; 3], [17.0, 12.0, 4.0], true);
+    let mesh = b.quad(
+        "q",
+        [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+        m,
+    );
+    b.node("q", mesh, [0.0; 3]);
+    let text = b.to_json_string();
+    assert!(text.contains("KHR_materials_emissive_strength"));
+    let s = load_str(&text).unwrap();
+    assert!(s.materials[0]
+        .emission
+        .abs_diff_eq(Vec3::new(17.0, 12.0, 4.0), 1e-4));
+    assert!(s.materials[0].double_sided);
+    let t = s.emissive_triangles();
+    assert_eq!(t.len(), 2);
+    assert!(t.iter().all(|t| t.normal.abs_diff_eq(Vec3::Z, EPS)));
+}
+
+/// Converts a builder document (one embedded buffer) to GLB; returns it and the JSON chunk length.
+fn to_glb(mut doc: Value) -> (Vec<u8>, usize) {
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_owned();
+    let bin = base64::decode(uri.split_once(";base64,").unwrap().1).unwrap();
+    doc["buffers"][0].as_object_mut().unwrap().remove("uri");
+
+    let mut json = doc.to_string().into_bytes();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut bin_padded = bin.clone();
+    while bin_padded.len() % 4 != 0 {
+        bin_padded.push(0);
+    }
+    let total = 12 + 8 + json.len() + 8 + bin_padded.len();
+    let mut glb = Vec::with_capacity(total);
+    glb.extend_from_slice(b"glTF");
+    glb.extend_from_slice(&2u32.to_le_bytes());
+    glb.extend_from_slice(&(total as u32).to_le_bytes());
+    glb.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"JSON");
+    glb.extend_from_slice(&json);
+    glb.extend_from_slice(&(bin_padded.len() as u32).to_le_bytes());
+    glb.extend_from_slice(b"BIN\0");
+    glb.extend_from_slice(&bin_padded);
+    (glb, json.len())
+}
+
+#[test]
+fn glb_round_trip() {
+    let (glb, json_len) = to_glb(triangle_doc());
+    let s = Scene::from_gltf_slice(&glb, None, "tiny.glb").unwrap();
+    assert_eq!(s.triangle_count(), 1);
+    assert_eq!(s.meshes[0].positions[1], Vec3::X);
+    assert_eq!(s.emissive_triangles().len(), 1);
+
+    // Without the BIN chunk the buffer cannot be resolved.
+    let mut no_bin = glb[..12 + 8 + json_len].to_vec();
+    let len = no_bin.len() as u32;
+    no_bin[8..12].copy_from_slice(&len.to_le_bytes());
+    let err = format!(
+        "{:#}",
+        Scene::from_gltf_slice(&no_bin, None, "tiny.glb").unwrap_err()
+    );
+    assert_contains(&err, &["tiny.glb", "buffer 0"]);
+}
+
+#[test]
+fn truncated_inputs_do_not_panic() {
+    let (glb, _) = to_glb(triangle_doc());
+    let text = triangle_doc().to_string();
+    for len in 0..glb.len() {
+        assert!(Scene::from_gltf_slice(&glb[..len], None, "cut.glb").is_err());
+    }
+    for len in (0..text.len()).step_by(7) {
+        assert!(Scene::from_gltf_slice(&text.as_bytes()[..len], None, "cut.gltf").is_err());
+    }
+}
+
+#[test]
+fn external_buffer_file() {
+    let mut doc = triangle_doc();
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_owned();
+    let bin = base64::decode(uri.split_once(";base64,").unwrap().1).unwrap();
+    let dir = std::env::temp_dir().join(format!("restir-vpl-scene-test-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("sub dir")).unwrap();
+    std::fs::write(dir.join("sub dir/data.bin"), &bin).unwrap();
+    doc["buffers"][0]["uri"] = json!("sub%20dir/data.bin");
+    let path = dir.join("ext.gltf");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let s = Scene::load(&path);
+    doc["buffers"][0]["uri"] = json!("sub%20dir/missing.bin");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let err = Scene::load(&path).map(|_| ()).unwrap_err();
+    std::fs::remove_dir_all(&dir).ok();
+    let s = s.unwrap();
+    assert_eq!(s.triangle_count(), 1);
+    assert_eq!(s.path, path);
+    assert_contains(&format!("{err:#}"), &["ext.gltf", "missing.bin"]);
+}
+
+// ---------------------------------------------------------------- builder
+
+#[test]
+fn builder_is_deterministic_and_valid() {
+    let make = || {
+        let mut b = GltfBuilder::new();
+        let m = b.material("m", [0.1, 0.2, 0.3], [0.5, 0.0, 0.0], true);
+        let mesh = closed_box(&mut b, "box", [-1.0; 3], [1.0; 3], m, false);
+        b.node("box", mesh, [0.5, 0.0, 0.0]);
+        b.camera("cam", [0.0, 0.0, 5.0], [0.0; 3], [0.0, 1.0, 0.0], 1.0);
+        b.to_json_string()
+    };
+    let text = make();
+    assert_eq!(text, make());
+    assert!(text.ends_with('\n'));
+    let doc: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(doc["accessors"][0]["min"], json!([-1.0, -1.0, -1.0]));
+    assert_eq!(
+        doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"],
+        json!([0.1, 0.2, 0.3, 1.0])
+    );
+    let s = load_str(&text).unwrap();
+    // Outward-facing box: all 12 triangle normals point away from the centre.
+    let inst = &s.instances[0];
+    for (c, n) in triangle_frames(&s, inst) {
+        assert!(n.dot(c - Vec3::new(0.5, 0.0, 0.0)) > 0.0);
+    }
+}
+
+#[test]
+fn base64_round_trip() {
+    for len in 0..20 {
+        let data: Vec<u8> = (0..len as u8)
+            .map(|i| i.wrapping_mul(37).wrapping_add(200))
+            .collect();
+        let text = base64::encode(&data);
+        assert_eq!(text.len() % 4, 0);
+        assert_eq!(base64::decode(&text).unwrap(), data);
+    }
+    assert_eq!(base64::encode(b"Man"), "TWFu");
+    assert_eq!(base64::encode(b"Ma"), "TWE=");
+    assert!(base64::decode("TW=u").is_err());
+    assert!(base64::decode("T").is_err());
+}
+
+#[test]
+fn sparse_accessor() {
+    let mut doc = triangle_doc();
+    // Second buffer: sparse index 2 (u32) followed by the replacement value (0, 2, 0).
+    let mut data = 2u32.to_le_bytes().to_vec();
+    for f in [0.0f32, 2.0, 0.0] {
+        data.extend_from_slice(&f.to_le_bytes());
+    }
+    doc["buffers"].as_array_mut().unwrap().push(json!({
+        "byteLength": data.len(),
+        "uri": format!("data:application/octet-stream;base64,{}", base64::encode(&data)),
+    }));
+    let views = doc["bufferViews"].as_array_mut().unwrap();
+    views.push(json!({ "buffer": 1, "byteOffset": 0, "byteLength": 4 }));
+    views.push(json!({ "buffer": 1, "byteOffset": 4, "byteLength": 12 }));
+    doc["accessors"][0]["sparse"] = json!({
+        "count": 1,
+        "indices": { "bufferView": 2, "componentType": 5125 },
+        "values": { "bufferView": 3 },
+    });
+    doc["accessors"][0]["max"] = json!([1.0, 2.0, 0.0]);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(
+        s.meshes[0].positions,
+        [Vec3::ZERO, Vec3::X, Vec3::new(0.0, 2.0, 0.0)]
+    );
+
+    doc["accessors"][0]["sparse"]["count"] = json!(2);
+    assert_contains(&load_err(&doc), &["sparse data exceeds buffer view"]);
+}
+
+#[test]
+fn dangling_indices_are_errors_not_panics() {
+    type Edit = fn(&mut Value);
+    let edits: [(&str, Edit); 10] = [
+        ("light", |d| {
+            d["nodes"][0]["extensions"] = json!({ "KHR_lights_punctual": { "light": 9 } })
+        }),
+        ("camera", |d| d["nodes"][0]["camera"] = json!(9)),
+        ("material", |d| {
+            d["meshes"][0]["primitives"][0]["material"] = json!(9)
+        }),
+        ("scene", |d| d["scene"] = json!(9)),
+        ("children", |d| d["nodes"][0]["children"] = json!([9])),
+        ("accessor view", |d| {
+            d["accessors"][0]["bufferView"] = json!(9)
+        }),
+        ("view buffer", |d| d["bufferViews"][0]["buffer"] = json!(9)),
+        ("indices", |d| {
+            d["meshes"][0]["primitives"][0]["indices"] = json!(9)
+        }),
+        ("normal", |d| {
+            d["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = json!(9)
+        }),
+        ("required extension", |d| {
+            d["extensionsRequired"] = json!(["KHR_draco_mesh_compression"])
+        }),
+    ];
+    for (what, edit) in edits {
+        let mut doc = triangle_doc();
+        edit(&mut doc);
+        let err = load_err(&doc);
+        assert!(err.contains("test.gltf: invalid glTF"), "{what}: {err}");
+    }
+}
