@@ -512,3 +512,11 @@ impl Drop for Context {
         }
     }
 }
+
+/// Whether the Khronos validation layer is installed (tests turn it on when it is).
+pub fn validation_layer_available() -> bool {
+    let Ok(entry) = load_entry() else { return false };
+    // SAFETY: plain enumeration on a loaded entry.
+    let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
+    layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER))
+}

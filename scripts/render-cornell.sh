@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# The main job: install what is missing, build, render the bundled Cornell box headless and print
+# where the images are and the GPU milliseconds per pass. Extra arguments go to restir-vpl.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+cargo build --release --quiet
+exec ./target/release/restir-vpl --headless --scene scenes/cornell_box.gltf --mode pt \
+  --frames 20 --width 512 --height 512 --out out/cornell "$@"

@@ -1,0 +1,140 @@
+//! The command line: a full headless run, and bad input that must give a clear message, a non-zero
+//! exit and no panic.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use common::*;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_restir-vpl"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    if validate() {
+        c.env("RESTIR_VPL_VALIDATE", "1");
+    }
+    c
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().expect("binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Fails with a message containing every word of `expect`, without panicking.
+fn assert_fails(args: &[&str], expect: &[&str]) {
+    let o = run(args);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{args:?} should fail; stderr: {err}");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    for e in expect {
+        assert!(err.contains(e), "{args:?}: stderr should mention '{e}': {err}");
+    }
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+#[test]
+fn headless_cornell_box_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let o = run(&[
+        "--headless", "--scene", "scenes/cornell_box.gltf", "--mode", "pt", "--frames", "3", "--width", "64",
+        "--height", "48", "--out", &out, "--save-every", "1",
+    ]);
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(stdout.contains("final.exr") && stdout.contains("pathtrace"), "{stdout}");
+    for f in ["final.exr", "final.png", "accum_0001.exr", "accum_0003.exr", "summary.json"] {
+        assert!(dir.path().join(f).is_file(), "{f} missing");
+    }
+    let img = restir_vpl::output::read_exr(&dir.path().join("final.exr")).unwrap();
+    assert_eq!((img.width, img.height), (64, 48));
+    assert_all_finite(&img.pixels, "final.exr");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["validation_errors"], 0, "validation errors: {s}");
+    assert_eq!(s["settings"]["width"], 64);
+}
+
+#[test]
+fn missing_scene_file() {
+    assert_fails(&["--headless", "--scene", "/nonexistent/scene.gltf", "--frames", "1"], &["/nonexistent/scene.gltf"]);
+}
+
+#[test]
+fn malformed_gltf() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "bad.gltf", "{ this is not json");
+    assert_fails(&["--headless", "--scene", &p, "--frames", "1"], &["bad.gltf"]);
+}
+
+const LINES_GLTF: &str = r#"{"asset":{"version":"2.0"},
+ "buffers":[{"byteLength":36,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA"}],
+ "bufferViews":[{"buffer":0,"byteLength":36}],
+ "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}],
+ "meshes":[{"name":"wire","primitives":[{"attributes":{"POSITION":0},"mode":1}]}],
+ "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#;
+
+#[test]
+fn non_triangle_primitive() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "lines.gltf", LINES_GLTF);
+    assert_fails(&["--headless", "--scene", &p, "--frames", "1"], &["lines.gltf", "wire", "TRIANGLES"]);
+}
+
+#[test]
+fn scene_without_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = write(dir.path(), "empty.gltf", r#"{"asset":{"version":"2.0"},"nodes":[{}],"scenes":[{"nodes":[0]}]}"#);
+    assert_fails(&["--headless", "--scene", &p, "--frames", "1"], &["empty.gltf", "no triangles"]);
+}
+
+#[test]
+fn bad_flags() {
+    assert_fails(&["--headless", "--frames", "0"], &["--frames"]);
+    assert_fails(&["--headless", "--width", "0"], &["--width"]);
+    assert_fails(&["--headless", "--height", "0"], &["--height"]);
+    assert_fails(&["--headless", "--mode", "nonsense"], &["--mode", "nonsense"]);
+    assert_fails(&["--headless", "--eye", "1,2"], &["--eye"]);
+    assert_fails(&["--headless", "--eye", "0,0,1"], &["--target"]);
+    assert_fails(&["--headless", "--max-bounces", "-5"], &["--max-bounces"]);
+    assert_fails(&["--headless", "--device", "99", "--frames", "1", "--width", "8", "--height", "8"], &["--device 99"]);
+}
+
+#[test]
+fn scene_without_emitters_renders_black_with_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = restir_vpl::scene::GltfBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let m = b.quad("floor", [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], grey);
+    b.node("floor", m, [0.0; 3]);
+    b.camera("cam", [0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 1.0);
+    let p = write(dir.path(), "dark.gltf", &b.to_json_string());
+    let out = dir.path().join("out");
+    let o = run(&[
+        "--headless", "--scene", &p, "--frames", "2", "--width", "16", "--height", "16", "--out",
+        &out.display().to_string(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let all = format!("{}{}", stderr(&o), String::from_utf8_lossy(&o.stdout));
+    assert!(all.contains("no emitters"), "warning expected: {all}");
+    let img = restir_vpl::output::read_exr(&out.join("final.exr")).unwrap();
+    assert!(img.pixels.iter().all(|p| *p == [0.0; 3]), "black image expected");
+}
+
+#[test]
+fn list_devices_reports_each_device() {
+    let o = run(&["--list-devices"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s = String::from_utf8_lossy(&o.stdout);
+    assert!(s.contains("[0]"), "{s}");
+}

@@ -1,0 +1,67 @@
+//! Shared helpers for the GPU tests: render in-process under the validation layer (where installed)
+//! and check the invariants every run must keep.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use restir_vpl::headless::{run_with, RunOutput};
+use restir_vpl::scene::Scene;
+use restir_vpl::vk::context::validation_layer_available;
+use restir_vpl::vk::{Context, ContextOptions};
+use restir_vpl::RenderSettings;
+
+pub fn repo_path(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
+}
+
+/// The validation layer is on in tests wherever it is installed.
+pub fn validate() -> bool {
+    validation_layer_available()
+}
+
+pub fn context() -> Arc<Context> {
+    Arc::new(Context::new(&ContextOptions { validate: validate(), device_index: None }).expect("a ray-query device"))
+}
+
+/// Renders `scene` with `settings`; asserts no validation errors and finite output.
+pub fn render(scene: &Scene, settings: &RenderSettings) -> RunOutput {
+    let ctx = context();
+    let out = run_with(ctx.clone(), scene, settings, Instant::now()).expect("render succeeds");
+    assert_eq!(
+        ctx.validation_errors(),
+        0,
+        "Vulkan validation errors; first: {:?}",
+        ctx.first_validation_error()
+    );
+    assert_all_finite(&out.mean, "mean image");
+    assert_eq!(out.summary.nonfinite_samples, 0, "non-finite samples were produced");
+    out
+}
+
+pub fn load_json(json: &str, label: &str) -> Scene {
+    Scene::from_gltf_slice(json.as_bytes(), None, label).expect("test scene loads")
+}
+
+pub fn small(width: u32, height: u32, frames: u32) -> RenderSettings {
+    RenderSettings { width, height, frames, validate: validate(), ..Default::default() }
+}
+
+pub fn assert_all_finite(pixels: &[[f32; 3]], what: &str) {
+    for (i, p) in pixels.iter().enumerate() {
+        assert!(p.iter().all(|c| c.is_finite()), "{what}: pixel {i} is not finite: {p:?}");
+    }
+}
+
+/// Mean over pixels of channel-averaged values, and its standard error from the per-pixel sample
+/// variances (pixels are independent; each pixel mean averages `frames` iid samples).
+pub fn image_mean_and_se(out: &RunOutput, frames: u32, pixels: impl Iterator<Item = usize> + Clone) -> (f64, f64) {
+    let n = pixels.clone().count() as f64;
+    let mean: f64 = pixels.clone().map(|i| out.mean[i].iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum::<f64>() / n;
+    // Channel average of a pixel has variance <= mean of channel variances (Cauchy-Schwarz); we use
+    // that bound, which makes the test conservative.
+    let var_sum: f64 = pixels.map(|i| out.variance[i].iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum();
+    let se = (var_sum / frames as f64).sqrt() / n;
+    (mean, se)
+}

@@ -1,0 +1,74 @@
+//! Furnace tests of the path tracer: a closed box whose surfaces all have albedo ρ and emit Le.
+//! Exact answer everywhere: L = Le / (1 − ρ) with unbounded depth, and the truncated sum
+//! Le·(1 − ρ^(D+1)) / (1 − ρ) with `--max-bounces D`.
+//!
+//! Tolerance: the image mean must be within 4 standard errors (false-failure rate ~6e-5 for a
+//! normal statistic; 64·64·frames samples make the CLT apply), and every 8×8 block of pixels within
+//! 5 standard errors of its own (64 blocks: Bonferroni false-failure rate ~4e-5). The block test
+//! catches bias that is local (corners, edges, self-intersection), which an image mean would hide.
+
+mod common;
+
+use common::*;
+use restir_vpl::scene::furnace_box_gltf;
+
+fn furnace(albedo: f32, emission: f32, max_bounces: i32, frames: u32) {
+    let scene = load_json(&furnace_box_gltf(albedo, emission, 2.0), "furnace");
+    let (w, h) = (64u32, 64u32);
+    let settings = restir_vpl::RenderSettings { max_bounces, seed: 7, ..small(w, h, frames) };
+    let out = render(&scene, &settings);
+    let rho = albedo as f64;
+    let le = emission as f64;
+    let expected = if max_bounces < 0 {
+        le / (1.0 - rho)
+    } else {
+        le * (1.0 - rho.powi(max_bounces + 1)) / (1.0 - rho)
+    };
+    let (mean, se) = image_mean_and_se(&out, frames, 0..(w * h) as usize);
+    eprintln!("furnace rho={albedo} Le={emission} D={max_bounces}: mean {mean:.5} expected {expected:.5} se {se:.2e}");
+    assert!(
+        (mean - expected).abs() <= 4.0 * se + 1e-6 * expected,
+        "image mean {mean} vs expected {expected}: {:.1} standard errors",
+        (mean - expected).abs() / se
+    );
+    for by in 0..h / 8 {
+        for bx in 0..w / 8 {
+            let block = (0..64usize).map(move |k| ((by * 8 + k as u32 / 8) * w + bx * 8 + k as u32 % 8) as usize);
+            let (m, s) = image_mean_and_se(&out, frames, block);
+            assert!(
+                (m - expected).abs() <= 5.0 * s + 1e-6 * expected,
+                "block ({bx},{by}) mean {m} vs {expected}: {:.1} standard errors",
+                (m - expected).abs() / s
+            );
+        }
+    }
+}
+
+#[test]
+fn furnace_unbounded_depth_half_albedo() {
+    furnace(0.5, 1.0, -1, 48);
+}
+
+#[test]
+fn furnace_unbounded_depth_high_albedo() {
+    furnace(0.8, 0.5, -1, 48);
+}
+
+#[test]
+fn furnace_truncated_depths() {
+    for d in [0, 1, 2, 4] {
+        furnace(0.6, 1.0, d, 24);
+    }
+}
+
+/// D = 0: only emission seen directly, which has no noise at all.
+#[test]
+fn furnace_zero_bounces_is_exact() {
+    let scene = load_json(&furnace_box_gltf(0.5, 1.5, 2.0), "furnace");
+    let out = render(&scene, &restir_vpl::RenderSettings { max_bounces: 0, ..small(32, 32, 2) });
+    for p in &out.mean {
+        for c in p {
+            assert!((c - 1.5).abs() < 1e-6, "{p:?}");
+        }
+    }
+}

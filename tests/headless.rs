@@ -1,0 +1,98 @@
+//! Headless runs of the bundled Cornell box through the library: outputs, finiteness, summary,
+//! determinism, and agreement between seeds.
+
+mod common;
+
+use common::*;
+use restir_vpl::output::read_exr;
+use restir_vpl::scene::Scene;
+use restir_vpl::RenderSettings;
+
+fn cornell() -> Scene {
+    Scene::load(&repo_path("scenes/cornell_box.gltf")).expect("bundled Cornell box loads")
+}
+
+#[test]
+fn cornell_box_writes_outputs_and_summary() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let settings = RenderSettings { out_dir: Some(dir.path().to_path_buf()), save_every: 2, ..small(64, 64, 4) };
+    let out = render(&cornell(), &settings);
+    for f in ["final.exr", "final.png", "accum_0002.exr", "accum_0004.exr", "summary.json"] {
+        assert!(dir.path().join(f).is_file(), "{f} missing");
+    }
+    let exr = read_exr(&dir.path().join("final.exr")).expect("final.exr reads back");
+    assert_eq!((exr.width, exr.height), (64, 64));
+    assert_all_finite(&exr.pixels, "final.exr");
+    assert_eq!(exr.pixels, out.mean, "final.exr holds the mean image, row 0 at the top");
+    let png = image::open(dir.path().join("final.png")).expect("final.png decodes");
+    assert_eq!((png.width(), png.height()), (64, 64));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).expect("summary parses");
+    assert_eq!(summary["frames"], 4);
+    assert_eq!(summary["nonfinite_samples"], 0);
+    assert_eq!(summary["validation_errors"], 0);
+    for pass in ["gbuffer", "pathtrace", "accumulate", "tonemap"] {
+        assert!(summary["pass_ms"][pass]["median"].as_f64().is_some(), "pass {pass} timed");
+    }
+    assert!(summary["rays_per_pixel"]["mean"].as_f64().unwrap() > 1.0);
+    // The image is lit: the light is visible and walls reflect.
+    let lum: f64 = out.mean.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>() / out.mean.len() as f64;
+    assert!(lum > 0.05, "image mean {lum}");
+}
+
+/// Row 0 is the top: the ceiling light appears in the upper part, the red wall on the left and the
+/// green wall on the right, as in the published photographs.
+#[test]
+fn cornell_box_orientation() {
+    let out = render(&cornell(), &small(64, 64, 8));
+    let px = |x: usize, y: usize| out.mean[y * 64 + x];
+    let light_rows: Vec<usize> =
+        (0..64).filter(|&y| (0..64).any(|x| px(x, y).iter().all(|&c| c > 3.0))).collect();
+    assert!(!light_rows.is_empty() && light_rows.iter().all(|&y| y < 12), "light rows {light_rows:?}");
+    // Average a patch of each side wall (x 1..5 and 59..63, rows 24..40) to tame the noise.
+    let patch = |x0: usize| {
+        let mut s = [0f32; 3];
+        for y in 24..40 {
+            for x in x0..x0 + 4 {
+                for c in 0..3 {
+                    s[c] += px(x, y)[c] / 64.0;
+                }
+            }
+        }
+        s
+    };
+    let (left, right) = (patch(1), patch(59));
+    // Red albedo (0.63, 0.065, 0.05) and green (0.14, 0.45, 0.091) under a warm light (17, 12, 4).
+    assert!(left[0] > 4.0 * left[1], "left wall is red: {left:?}");
+    assert!(right[1] > 1.5 * right[0] && right[1] > 2.0 * left[1], "right wall is green: {right:?}");
+}
+
+#[test]
+fn same_seed_same_image_different_seed_same_mean() {
+    let scene = cornell();
+    let frames = 16;
+    let a = render(&scene, &RenderSettings { seed: 11, ..small(48, 48, frames) });
+    let b = render(&scene, &RenderSettings { seed: 11, ..small(48, 48, frames) });
+    assert!(a.mean == b.mean, "same seed must give a bit-identical image");
+    let c = render(&scene, &RenderSettings { seed: 12, ..small(48, 48, frames) });
+    assert!(a.mean != c.mean, "different seeds must give different noise");
+    // Same expectation: the difference of the image means is within 4 standard errors.
+    let all = 0..(48 * 48) as usize;
+    let (ma, sa) = image_mean_and_se(&a, frames, all.clone());
+    let (mc, sc) = image_mean_and_se(&c, frames, all);
+    let se = (sa * sa + sc * sc).sqrt();
+    assert!((ma - mc).abs() <= 4.0 * se, "means {ma} vs {mc}: {:.1} standard errors", (ma - mc).abs() / se);
+}
+
+/// With --aa the G-buffer is retraced every frame (jittered); without it, once.
+#[test]
+fn gbuffer_traced_once_unless_aa() {
+    let scene = cornell();
+    let still = render(&scene, &small(32, 32, 5));
+    assert_eq!(still.summary.pass_ms["gbuffer"].count, 1);
+    let aa = render(&scene, &RenderSettings { aa: true, ..small(32, 32, 5) });
+    assert_eq!(aa.summary.pass_ms["gbuffer"].count, 5);
+    // Anti-aliasing changes edge pixels but not the image's overall brightness much.
+    let m = |o: &restir_vpl::RunOutput| o.mean.iter().map(|p| p[1] as f64).sum::<f64>() / o.mean.len() as f64;
+    assert!((m(&still) - m(&aa)).abs() < 0.1 * m(&still));
+}
