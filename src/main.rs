@@ -13,8 +13,10 @@ use restir_vpl::vk::NoRayQueryDevice;
 /// GPU global illumination: photon-traced VPLs + ReSTIR DI on Vulkan ray queries, with a path-traced
 /// ground truth.
 #[derive(Debug, Parser)]
-#[command(name = "restir-vpl", version, about)]
+#[command(name = "restir-vpl", version, about, args_conflicts_with_subcommands = true)]
 struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
     /// Render without a window and write images to --out.
     #[arg(long)]
     headless: bool,
@@ -75,6 +77,27 @@ struct Cli {
     verbose: bool,
 }
 
+#[derive(Debug, clap::Subcommand)]
+enum Command {
+    /// Throughput benchmark: primary rays and path tracing (Mrays/s, GPU ms per pass).
+    Bench {
+        #[arg(long, default_value = "scenes/cornell_box.gltf")]
+        scene: PathBuf,
+        #[arg(long, default_value_t = 512)]
+        width: u32,
+        #[arg(long, default_value_t = 512)]
+        height: u32,
+        /// Timed frames (after one warm-up frame).
+        #[arg(long, default_value_t = 10)]
+        frames: u32,
+        #[arg(long)]
+        device: Option<usize>,
+        /// Also write the figures as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+}
+
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {
@@ -128,6 +151,18 @@ fn settings_from(cli: &Cli) -> Result<RenderSettings> {
 }
 
 fn real_main(cli: Cli) -> Result<()> {
+    if let Some(Command::Bench { scene, width, height, frames, device, json }) = &cli.command {
+        if *frames == 0 {
+            bail!("--frames 0: at least one timed frame is needed");
+        }
+        let report = restir_vpl::bench::core(scene, *width, *height, *frames, *device)?;
+        print!("{}", report.markdown());
+        if let Some(path) = json {
+            std::fs::write(path, serde_json::to_string_pretty(&report)?)
+                .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
+        }
+        return Ok(());
+    }
     if cli.list_devices {
         let devices = restir_vpl::vk::context::list_devices()?;
         if devices.is_empty() {
