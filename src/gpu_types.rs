@@ -166,3 +166,25 @@ gpu_struct! {
 /// Jitter primary rays inside the pixel (box filter).
 pub const FRAME_AA: u32 = 1;
 
+
+/// VPL kinds (`GpuVpl::kind`).
+pub const VPL_DIRECT_AREA: u32 = 0;
+pub const VPL_DIRECT_POINT: u32 = 1;
+pub const VPL_INDIRECT: u32 = 2;
+
+gpu_struct! {
+    /// A virtual point light: a cosine emitter (isotropic for `VPL_DIRECT_POINT`) of flux `flux`.
+    pub struct GpuVpl as "Vpl" (48) {
+        /// World-space position, offset a few ulps off the surface along `normal`.
+        pub position: [f32; 3],
+        /// `VPL_*`.
+        pub kind: u32,
+        /// Unit normal, facing the side the photon arrived from (the emitting hemisphere).
+        pub normal: [f32; 3],
+        /// Index of the light sample (direct) or photon path (indirect) that made it.
+        pub path: u32,
+        /// Flux per channel (W).
+        pub flux: [f32; 3],
+        pub _pad0: u32,
+    }
+}

@@ -34,6 +34,8 @@ pub struct Summary {
     pub rays_per_pixel: TimingStats,
     /// Samples that were NaN or infinite (replaced by 0 in the accumulation).
     pub nonfinite_samples: u64,
+    /// The photon pass (run once before frame 0), when the run needed VPLs.
+    pub photons: Option<crate::passes::PhotonStats>,
     pub total_seconds: f64,
     pub outputs: Vec<String>,
     pub warnings: Vec<String>,
@@ -97,6 +99,11 @@ pub fn run_with(ctx: Arc<Context>, scene: &Scene, settings: &RenderSettings, sta
         );
     }
     let mut outputs = Vec::new();
+    if let Some(path) = &settings.dump_vpls {
+        let vpls = renderer.read_vpls()?.unwrap_or_default();
+        crate::ply::write_vpls(path, &vpls)?;
+        outputs.push(path.display().to_string());
+    }
     let mut gpu_frame = Vec::new();
     let mut wall_frame = Vec::new();
     let mut rpp = Vec::new();
@@ -161,6 +168,7 @@ pub fn run_with(ctx: Arc<Context>, scene: &Scene, settings: &RenderSettings, sta
         wall_ms_per_frame: TimingStats::of(&wall_frame),
         rays_per_pixel: TimingStats::of(&rpp),
         nonfinite_samples: renderer.nonfinite_samples,
+        photons: renderer.photons.as_ref().map(|p| p.1.clone()),
         total_seconds: start.elapsed().as_secs_f64(),
         outputs,
         warnings,

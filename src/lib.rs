@@ -12,6 +12,7 @@ pub mod lights;
 pub mod logger;
 pub mod output;
 pub mod passes;
+pub mod ply;
 pub mod renderer;
 pub mod scene;
 pub mod scene_gpu;

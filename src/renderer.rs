@@ -8,7 +8,7 @@ use ash::vk;
 use glam::{Mat4, Vec3};
 
 use crate::gpu_types::{GpuFrame, FRAME_AA};
-use crate::passes::{FramePlan, FrameTargets, Passes, Step};
+use crate::passes::{FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Step};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::settings::{Mode, RenderSettings};
@@ -88,6 +88,8 @@ pub struct Renderer {
     gbuffer_valid: bool,
     /// Non-finite samples replaced by zero so far (counted by the accumulate pass).
     pub nonfinite_samples: u64,
+    /// The VPL set, when the run needs one: traced once before the first frame (static scene).
+    pub photons: Option<(PhotonEmitPass, PhotonStats)>,
     /// Per-pass GPU times of every frame so far.
     pub pass_times: BTreeMap<&'static str, Vec<f64>>,
     pub ctx: Arc<Context>,
@@ -100,6 +102,25 @@ impl Renderer {
         let scene_gpu = SceneGpu::new(&ctx, scene).context("uploading the scene")?;
         let targets = FrameTargets::new(&ctx, settings.width, settings.height).context("allocating frame targets")?;
         let passes = Passes::new(&ctx, scene_gpu.set.layout, &targets).context("creating passes")?;
+        // The photon pass reads the frame constants (light count) from set 0.
+        scene_gpu.write_frame(&frame_constants(&settings, &camera, &scene_gpu, 0, 0))?;
+        let photons = if settings.needs_vpls() {
+            let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, &scene_gpu.lights, settings.photon_settings())
+                .context("creating the photon pass")?;
+            let stats = pass.run(scene_gpu.set.set, scene_gpu.lights.lights.len()).context("tracing photons")?;
+            if settings.verbose {
+                eprintln!(
+                    "photon_emit: ran once before frame 0 (static scene): {} direct + {} indirect VPLs from {} paths in {:.1} GPU ms",
+                    stats.direct_vpls, stats.indirect_vpls, stats.paths, stats.gpu_ms
+                );
+            }
+            Some((pass, stats))
+        } else {
+            if settings.verbose {
+                eprintln!("photon_emit: skipped (mode {} uses no VPLs and none are dumped)", settings.mode.name());
+            }
+            None
+        };
         let timer = GpuTimer::new(&ctx, 16)?;
         let readback = crate::vk::Buffer::new(
             &ctx,
@@ -134,6 +155,7 @@ impl Renderer {
             frame_index: 0,
             gbuffer_valid: false,
             nonfinite_samples: 0,
+            photons,
             pass_times: BTreeMap::new(),
             ctx,
         })
@@ -159,28 +181,7 @@ impl Renderer {
     }
 
     fn frame_constants(&self) -> GpuFrame {
-        let s = &self.settings;
-        let c = &self.camera;
-        GpuFrame {
-            camera_position: c.position.to_array(),
-            tan_half_fov: (c.yfov * 0.5).tan(),
-            camera_right: c.right.to_array(),
-            aspect: s.width as f32 / s.height as f32,
-            camera_up: c.up.to_array(),
-            frame_index: self.frame_index,
-            camera_forward: c.forward.to_array(),
-            seed: s.seed,
-            width: s.width,
-            height: s.height,
-            max_bounces: s.max_bounces,
-            flags: if s.aa { FRAME_AA } else { 0 },
-            light_count: self.scene.lights.lights.len() as u32,
-            instance_count: self.scene.instance_count as u32,
-            total_light_power: self.scene.lights.total_power_lum as f32,
-            exposure: 2f32.powf(s.exposure),
-            accumulated_frames: self.accumulated + 1,
-            ..Default::default()
-        }
+        frame_constants(&self.settings, &self.camera, &self.scene, self.frame_index, self.accumulated)
     }
 
     /// Renders and accumulates one frame; waits for it to finish.
@@ -235,6 +236,11 @@ impl Renderer {
         Ok(FrameStats { pass_ms, rays: primary + counters[0] as u64, wall_ms: start.elapsed().as_secs_f64() * 1e3 })
     }
 
+    /// The VPL set (direct first, then indirect), when the run has one.
+    pub fn read_vpls(&self) -> Result<Option<Vec<crate::gpu_types::GpuVpl>>> {
+        self.photons.as_ref().map(|(pass, stats)| pass.read_vpls(stats)).transpose()
+    }
+
     /// The running mean, row 0 at the top, RGB.
     pub fn read_mean(&self) -> Result<Vec<[f32; 3]>> {
         let bytes = read_back(&self.ctx, &self.targets.mean)?;
@@ -269,6 +275,30 @@ impl Renderer {
         let mut bytes = read_back(&self.ctx, &self.targets.preview)?;
         bytes.truncate(self.targets.pixels() as usize * 4);
         Ok(bytes)
+    }
+}
+
+/// The frame uniform block for frame `frame_index` with `accumulated` frames already averaged.
+fn frame_constants(s: &RenderSettings, c: &CameraSetup, scene: &SceneGpu, frame_index: u32, accumulated: u32) -> GpuFrame {
+    GpuFrame {
+        camera_position: c.position.to_array(),
+        tan_half_fov: (c.yfov * 0.5).tan(),
+        camera_right: c.right.to_array(),
+        aspect: s.width as f32 / s.height as f32,
+        camera_up: c.up.to_array(),
+        frame_index,
+        camera_forward: c.forward.to_array(),
+        seed: s.seed,
+        width: s.width,
+        height: s.height,
+        max_bounces: s.max_bounces,
+        flags: if s.aa { FRAME_AA } else { 0 },
+        light_count: scene.lights.lights.len() as u32,
+        instance_count: scene.instance_count as u32,
+        total_light_power: scene.lights.total_power_lum as f32,
+        exposure: 2f32.powf(s.exposure),
+        accumulated_frames: accumulated + 1,
+        ..Default::default()
     }
 }
 

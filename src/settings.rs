@@ -54,6 +54,17 @@ pub struct RenderSettings {
     pub verbose: bool,
     /// Show a progress bar (only on a terminal, and only for runs over a second).
     pub progress: bool,
+    /// Direct VPLs (they replace the area lights).
+    pub vpls_direct: u32,
+    /// Target number of indirect VPLs from photon paths.
+    pub vpls_indirect: u32,
+    /// Global illumination: indirect VPLs on (off: `--no-gi`).
+    pub gi: bool,
+    /// Russian roulette starts after this many photon bounces.
+    pub photon_min_bounces: u32,
+    pub photon_max_bounces: u32,
+    /// Write the VPLs as a PLY point cloud here.
+    pub dump_vpls: Option<PathBuf>,
 }
 
 impl Default for RenderSettings {
@@ -75,6 +86,12 @@ impl Default for RenderSettings {
             device_index: None,
             verbose: false,
             progress: false,
+            vpls_direct: 100_000,
+            vpls_indirect: 100_000,
+            gi: true,
+            photon_min_bounces: 0,
+            photon_max_bounces: 8,
+            dump_vpls: None,
         }
     }
 }
@@ -83,6 +100,22 @@ impl Default for RenderSettings {
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
 impl RenderSettings {
+    /// Whether this run needs the VPL set (and so the photon pass).
+    pub fn needs_vpls(&self) -> bool {
+        self.dump_vpls.is_some()
+    }
+
+    /// The photon pass's settings.
+    pub fn photon_settings(&self) -> crate::passes::PhotonSettings {
+        crate::passes::PhotonSettings {
+            direct: self.vpls_direct,
+            indirect: if self.gi { self.vpls_indirect } else { 0 },
+            min_bounces: self.photon_min_bounces,
+            max_bounces: self.photon_max_bounces,
+            seed: self.seed,
+        }
+    }
+
     /// Checks values the CLI cannot express as types; names the flag at fault.
     pub fn validate(&self) -> anyhow::Result<()> {
         use anyhow::bail;
@@ -100,6 +133,23 @@ impl RenderSettings {
         }
         if !self.exposure.is_finite() {
             bail!("--exposure must be a finite number");
+        }
+        if self.vpls_direct == 0 && self.gi {
+            bail!("--vpls-direct 0: direct VPLs replace the area lights, so the image would lack direct light; \
+                   use at least 1 (or --no-gi for an empty VPL set)");
+        }
+        if self.gi && self.vpls_indirect == 0 {
+            bail!("--vpls-indirect 0 with global illumination on: pass --no-gi to turn indirect VPLs off");
+        }
+        if self.photon_max_bounces == 0 {
+            bail!("--photon-max-bounces 0: photons need at least one bounce (use --no-gi for no indirect light)");
+        }
+        if self.photon_min_bounces > self.photon_max_bounces {
+            bail!(
+                "--photon-min-bounces {} exceeds --photon-max-bounces {}",
+                self.photon_min_bounces,
+                self.photon_max_bounces
+            );
         }
         if let Some(c) = &self.camera {
             if !(c.yfov_degrees > 0.0 && c.yfov_degrees < 180.0) {

@@ -138,3 +138,15 @@ fn list_devices_reports_each_device() {
     let s = String::from_utf8_lossy(&o.stdout);
     assert!(s.contains("[0]"), "{s}");
 }
+
+#[test]
+fn vpl_count_errors() {
+    assert_fails(&["--headless", "--vpls-direct", "0", "--frames", "1"], &["--vpls-direct 0"]);
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("v.ply").display().to_string();
+    // 4e9 VPLs of 48 bytes: rejected before any allocation.
+    assert_fails(
+        &["--headless", "--vpls-direct", "4000000000", "--frames", "1", "--width", "8", "--height", "8", "--dump-vpls", &ply],
+        &["--vpls-direct 4000000000", "GiB"],
+    );
+}

@@ -154,6 +154,11 @@ fn surface_layout_matches() {
 }
 
 #[test]
+fn vpl_layout_matches() {
+    check::<GpuVpl>();
+}
+
+#[test]
 fn frame_layout_matches_std430_and_std140() {
     check::<GpuFrame>();
     // The frame constants live in a uniform buffer (std140): same offsets required there too.

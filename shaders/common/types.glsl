@@ -82,4 +82,17 @@ struct Frame {
     uint _pad2;
 };
 
+const uint VPL_DIRECT_AREA = 0u;
+const uint VPL_DIRECT_POINT = 1u;
+const uint VPL_INDIRECT = 2u;
+
+struct Vpl {
+    vec3 position;
+    uint kind;
+    vec3 normal;
+    uint path;
+    vec3 flux;
+    uint _pad0;
+};
+
 #endif

@@ -15,10 +15,11 @@ layout(set = 0, binding = 4, std430) buffer B4 { AliasEntry layout_alias[]; };
 layout(set = 0, binding = 5, std430) buffer B5 { Surface layout_surface[]; };
 layout(set = 0, binding = 6, std430) buffer B6 { Frame layout_frame_std430[]; };
 layout(set = 0, binding = 7, std140) uniform B7 { Frame layout_frame_std140; };
+layout(set = 0, binding = 8, std430) buffer B8 { Vpl layout_vpl[]; };
 
 void main() {
     // Touch every buffer so glslang keeps their declarations.
     layout_vertex[0].u = layout_material[0].albedo.x + layout_instance[0].world_from_object[0][0]
         + layout_light[0].area + layout_alias[0].keep + layout_surface[0].hit_t
-        + layout_frame_std430[0].aspect + layout_frame_std140.aspect;
+        + layout_frame_std430[0].aspect + layout_frame_std140.aspect + layout_vpl[0].flux.x;
 }

@@ -5,6 +5,7 @@
 pub mod accumulate;
 pub mod gbuffer;
 pub mod pathtrace;
+pub mod photon_emit;
 pub mod tonemap;
 
 use std::sync::Arc;
@@ -20,6 +21,7 @@ use crate::vk::{Buffer, Context, GpuTimer};
 pub use accumulate::AccumulatePass;
 pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
+pub use photon_emit::{PhotonEmitPass, PhotonSettings, PhotonStats};
 pub use tonemap::TonemapPass;
 
 /// Per-pixel buffers shared between passes.

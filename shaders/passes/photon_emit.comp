@@ -1,0 +1,152 @@
+// photon_emit: virtual point lights from the area lights (../shared/notes/method.md).
+//   mode 0, direct VPLs: sample i of N_d picks light t by inverting the light CDF at the stratified
+//     u = (i + xi) / N_d, a uniform point on it, and gets flux Phi_t / (N_d P(t)).
+//   mode 1, photon paths: each path starts like a direct sample with flux Phi_t / P(t) in a cosine
+//     direction; at each hit it stores a VPL with flux Phi * albedo (normal toward the incoming
+//     photon) and bounces (cosine) with Phi *= albedo; Russian roulette after min_bounces on the
+//     throughput relative to the start, survival clamp(max channel, 0.05, 0.95). The 1/P of the
+//     path count is applied afterwards by mode 2, once the number of traced paths is known.
+//   mode 2, normalise: multiplies the flux of VPLs base + first .. + count by `scale`.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/scene.glsl"
+#include "../lib/random.glsl"
+#include "../lib/brdf.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 1, binding = 0, std430) buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 1, std430) buffer VplCounter { uint indirect_count; };
+layout(set = 1, binding = 2, std430) readonly buffer LightCdf { float light_cdf[]; };
+
+layout(push_constant) uniform Push {
+    uint mode;
+    uint first;        // first sample / path index of this dispatch
+    uint count;        // samples / paths / VPLs in this dispatch
+    uint total;        // N_d (mode 0)
+    uint base;         // first VPL slot of the region written
+    uint capacity;     // indirect slots available (mode 1)
+    uint min_bounces;
+    uint max_bounces;
+    uint seed;
+    float scale;       // mode 2
+};
+
+const uint SALT_DIRECT = 0x64697265u;
+const uint SALT_PATHS = 0x70617468u;
+
+// Smallest t with u < cdf[t] (inclusive CDF over the light pdfs).
+uint invert_light_cdf(float u) {
+    uint lo = 0u;
+    uint hi = frame.light_count - 1u;
+    while (lo < hi) {
+        uint mid = (lo + hi) / 2u;
+        if (u < light_cdf[mid]) {
+            hi = mid;
+        } else {
+            lo = mid + 1u;
+        }
+    }
+    return lo;
+}
+
+struct LightSample {
+    vec3 position;
+    vec3 normal;  // the emitting side
+    vec3 power_over_pdf;  // Phi_t / P(t)
+};
+
+LightSample sample_light_point(uint t, inout uint rng) {
+    Light l = lights[t];
+    vec3 b = sample_triangle_barycentrics(rand2(rng));
+    LightSample s;
+    s.position = b.x * l.p0 + b.y * l.p1 + b.z * l.p2;
+    s.normal = normalize(cross(l.p1 - l.p0, l.p2 - l.p0));
+    float sides = 1.0;
+    if ((l.flags & MATERIAL_DOUBLE_SIDED) != 0u) {
+        // Each face emits pi Le A: pick one with probability 1/2, the flux covers both.
+        sides = 2.0;
+        if (rand(rng) < 0.5) {
+            s.normal = -s.normal;
+        }
+    }
+    s.power_over_pdf = l.emission * (sides * PI * l.area / l.pdf);
+    return s;
+}
+
+void direct_vpl(uint i) {
+    uint rng = rng_init(i, 0u, seed, SALT_DIRECT);
+    float u = min((float(i) + rand(rng)) / float(total), 0.99999994);
+    uint t = invert_light_cdf(u);
+    LightSample s = sample_light_point(t, rng);
+    Vpl v;
+    v.position = offset_ray(s.position, s.normal);
+    v.kind = VPL_DIRECT_AREA;
+    v.normal = s.normal;
+    v.path = i;
+    v.flux = s.power_over_pdf / float(total);
+    v._pad0 = 0u;
+    vpls[base + i] = v;
+}
+
+void photon_path(uint p) {
+    uint rng = rng_init(p, 1u, seed, SALT_PATHS);
+    uint t = sample_light_index(rand(rng));
+    LightSample s = sample_light_point(t, rng);
+    vec3 phi0 = s.power_over_pdf;
+    vec3 phi = phi0;
+    vec3 origin = offset_ray(s.position, s.normal);
+    vec3 dir = sample_cosine_hemisphere(s.normal, rand2(rng));
+    for (uint k = 1u; k <= max_bounces; ++k) {
+        Hit hit;
+        float dist;
+        if (!trace_closest(origin, dir, 1e30, hit, dist)) {
+            break;  // left the scene
+        }
+        phi *= materials[hit.material].albedo;
+        if (max3(phi) <= 0.0) {
+            break;
+        }
+        uint slot = atomicAdd(indirect_count, 1u);
+        if (slot < capacity) {
+            Vpl v;
+            v.position = offset_ray(hit.position, hit.geometric_normal);
+            v.kind = VPL_INDIRECT;
+            v.normal = hit.geometric_normal;  // faces the incoming photon
+            v.path = p;
+            v.flux = phi;
+            v._pad0 = 0u;
+            vpls[base + slot] = v;
+        }
+        if (k == max_bounces) {
+            break;
+        }
+        if (k >= min_bounces) {
+            float q = clamp(max3(phi / phi0), 0.05, 0.95);
+            if (rand(rng) >= q) {
+                break;
+            }
+            phi /= q;
+        }
+        dir = sample_cosine_hemisphere(hit.shading_normal, rand2(rng));
+        if (dot(dir, hit.geometric_normal) <= 0.0) {
+            break;
+        }
+        origin = offset_ray(hit.position, hit.geometric_normal);
+    }
+}
+
+void main() {
+    uint k = gl_GlobalInvocationID.x;
+    if (k >= count) {
+        return;
+    }
+    if (mode == 0u) {
+        direct_vpl(first + k);
+    } else if (mode == 1u) {
+        photon_path(first + k);
+    } else {
+        vpls[base + first + k].flux *= scale;
+    }
+}

@@ -1,0 +1,289 @@
+//! `photon_emit`: direct VPLs from the area lights and indirect VPLs from photon paths, written to
+//! one VPL buffer (shaders/passes/photon_emit.comp). For a static scene it runs once, before the
+//! first frame, and its VPLs serve every frame.
+//!
+//! Layout of the VPL buffer: `[direct: N_d][indirect: up to capacity]`. Photon paths are launched
+//! in batches until the indirect count reaches the target; every launched path is traced to its
+//! end (the buffer has room for `batch · max_bounces` more), so the number of paths P is exact and
+//! the final 1/P normalisation is right.
+
+use std::sync::Arc;
+
+use anyhow::{bail, ensure, Context as _, Result};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use serde::Serialize;
+
+use crate::gpu_types::GpuVpl;
+use crate::lights::LightSet;
+use crate::shaders;
+use crate::vk::buffer::read_back;
+use crate::vk::pipeline::storage;
+use crate::vk::{Binding, Buffer, ComputePipeline, Context, GpuTimer};
+
+/// Photon/VPL settings.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PhotonSettings {
+    pub direct: u32,
+    /// Target indirect VPL count (0: no global illumination).
+    pub indirect: u32,
+    pub min_bounces: u32,
+    pub max_bounces: u32,
+    pub seed: u32,
+}
+
+/// What the photon pass produced.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PhotonStats {
+    pub direct_vpls: u32,
+    pub indirect_vpls: u32,
+    /// Photon paths traced (the normalisation count P).
+    pub paths: u64,
+    pub batches: u32,
+    /// GPU time of all batches (ms).
+    pub gpu_ms: f64,
+    pub wall_ms: f64,
+    /// Σ flux of the direct / indirect VPLs per channel (W).
+    pub direct_flux: [f64; 3],
+    pub indirect_flux: [f64; 3],
+    pub paths_per_second: f64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    mode: u32,
+    first: u32,
+    count: u32,
+    total: u32,
+    base: u32,
+    capacity: u32,
+    min_bounces: u32,
+    max_bounces: u32,
+    seed: u32,
+    scale: f32,
+}
+
+/// Largest single dispatch in items (keeps one submission short on slow devices).
+const MAX_DISPATCH: u32 = 1 << 18;
+
+pub struct PhotonEmitPass {
+    pipeline: ComputePipeline,
+    pub vpls: Buffer,
+    counter: Buffer,
+    _cdf: Buffer,
+    settings: PhotonSettings,
+    capacity: u32,
+    ctx: Arc<Context>,
+}
+
+impl PhotonEmitPass {
+    pub const NAME: &'static str = "photon_emit";
+    pub const BINDINGS: &'static [Binding] = &[storage(0, "vpls"), storage(1, "indirect_count"), storage(2, "light_cdf")];
+
+    /// Room for indirect VPLs beyond the target: the last batch may overshoot by at most this.
+    fn slack(s: &PhotonSettings) -> u32 {
+        if s.indirect == 0 {
+            0
+        } else {
+            (s.indirect / 4).max(1024 * s.max_bounces)
+        }
+    }
+
+    /// Checks the counts against the device's memory before anything is allocated.
+    pub fn check_memory(ctx: &Context, s: &PhotonSettings) -> Result<()> {
+        let total = s.direct as u64 + s.indirect as u64 + Self::slack(s) as u64;
+        let bytes = total * std::mem::size_of::<GpuVpl>() as u64;
+        // SAFETY: valid physical device.
+        let mem = unsafe { ctx.instance.get_physical_device_memory_properties(ctx.physical_device) };
+        let heap = mem.memory_heaps[..mem.memory_heap_count as usize]
+            .iter()
+            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
+            .map(|h| h.size)
+            .max()
+            .unwrap_or(0);
+        let max_buffer = ctx.properties.limits.max_storage_buffer_range as u64;
+        if bytes > heap / 2 || bytes > max_buffer || total > u32::MAX as u64 / 2 {
+            bail!(
+                "--vpls-direct {} / --vpls-indirect {}: {total} VPLs need {:.2} GiB, more than this device allows \
+                 (half its {:.2} GiB device-local heap, or its {:.2} GiB storage-buffer limit)",
+                s.direct,
+                s.indirect,
+                bytes as f64 / (1u64 << 30) as f64,
+                heap as f64 / (1u64 << 30) as f64,
+                max_buffer as f64 / (1u64 << 30) as f64
+            );
+        }
+        Ok(())
+    }
+
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene_layout: vk::DescriptorSetLayout,
+        lights: &LightSet,
+        settings: PhotonSettings,
+    ) -> Result<Self> {
+        Self::check_memory(ctx, &settings)?;
+        ensure!(settings.max_bounces >= 1, "--photon-max-bounces must be at least 1");
+        let capacity = settings.indirect + Self::slack(&settings);
+        let total = settings.direct as u64 + capacity as u64;
+        let pipeline = ComputePipeline::new(
+            ctx,
+            Self::NAME,
+            shaders::PASSES_PHOTON_EMIT,
+            scene_layout,
+            Self::BINDINGS,
+            std::mem::size_of::<Push>() as u32,
+            [64, 1, 1],
+        )?;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
+        let vpls = Buffer::new(ctx, "photon_emit.vpls", total * std::mem::size_of::<GpuVpl>() as u64, usage, MemoryLocation::GpuOnly)?;
+        let counter = Buffer::new(ctx, "photon_emit.indirect_count", 16, usage, MemoryLocation::GpuOnly)?;
+        let mut acc = 0.0f64;
+        let mut cdf: Vec<f32> = lights
+            .lights
+            .iter()
+            .map(|l| {
+                acc += l.pdf as f64;
+                acc as f32
+            })
+            .collect();
+        if let Some(last) = cdf.last_mut() {
+            *last = f32::MAX; // every u < 1 lands on a light despite rounding
+        }
+        let cdf_buf = Buffer::with_data(ctx, "photon_emit.light_cdf", bytemuck::cast_slice(&cdf), vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        pipeline.set1.write_buffer(0, &vpls)?;
+        pipeline.set1.write_buffer(1, &counter)?;
+        pipeline.set1.write_buffer(2, &cdf_buf)?;
+        Ok(Self { pipeline, vpls, counter, _cdf: cdf_buf, settings, capacity, ctx: ctx.clone() })
+    }
+
+    fn push(&self, mode: u32) -> Push {
+        Push {
+            mode,
+            first: 0,
+            count: 0,
+            total: self.settings.direct,
+            base: 0,
+            capacity: self.capacity,
+            min_bounces: self.settings.min_bounces,
+            max_bounces: self.settings.max_bounces,
+            seed: self.settings.seed,
+            scale: 1.0,
+        }
+    }
+
+    /// Records dispatches of `count` items starting at `first`, split into bounded chunks.
+    fn record_chunks(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, mut push: Push, first: u32, count: u32) {
+        let mut done = 0;
+        while done < count {
+            let n = (count - done).min(MAX_DISPATCH);
+            push.first = first + done;
+            push.count = n;
+            self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), n);
+            done += n;
+        }
+    }
+
+    fn submit(
+        &self,
+        timer: &mut GpuTimer,
+        gpu_ms: &mut f64,
+        record: impl FnOnce(vk::CommandBuffer, &mut GpuTimer),
+    ) -> Result<()> {
+        let ctx = &self.ctx;
+        ctx.one_shot(|cmd| {
+            timer.reset(cmd);
+            timer.begin(cmd, Self::NAME);
+            record(cmd, timer);
+            timer.end(cmd);
+        })?;
+        *gpu_ms += timer.collect()?.iter().map(|x| x.1).sum::<f64>();
+        Ok(())
+    }
+
+    fn read_counter(&self) -> Result<u32> {
+        let bytes = read_back(&self.ctx, &self.counter)?;
+        Ok(u32::from_le_bytes(bytes[..4].try_into().expect("4 bytes")))
+    }
+
+    /// Traces the photons and fills the VPL buffer. Returns the statistics; the VPLs stay on the GPU.
+    pub fn run(&self, scene_set: vk::DescriptorSet, light_count: usize) -> Result<PhotonStats> {
+        let start = std::time::Instant::now();
+        let mut timer = GpuTimer::new(&self.ctx, 4)?;
+        let mut stats = PhotonStats::default();
+        let s = self.settings;
+        let ctx = self.ctx.clone();
+        // Zero the counter.
+        // SAFETY: the counter is alive until one_shot's wait returns.
+        ctx.one_shot(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 0, vk::WHOLE_SIZE, 0) })?;
+        if light_count == 0 {
+            return Ok(stats);
+        }
+        let mut gpu_ms = 0.0;
+        // Direct VPLs.
+        if s.direct > 0 {
+            self.submit(&mut timer, &mut gpu_ms, |cmd, _| self.record_chunks(cmd, scene_set, self.push(0), 0, s.direct))?;
+            stats.direct_vpls = s.direct;
+        }
+        // Photon paths, in batches sized from the VPLs per path seen so far.
+        if s.indirect > 0 {
+            let mut count = 0u32;
+            let mut paths = 0u64;
+            let max_paths = 64 * s.indirect as u64 + 1_000_000;
+            while count < s.indirect && paths < max_paths {
+                let per_path = if paths == 0 { s.max_bounces as f64 } else { (count as f64 / paths as f64).max(1e-3) };
+                let wanted = ((s.indirect - count) as f64 / per_path).ceil() as u64;
+                let room = ((self.capacity - count) / s.max_bounces) as u64;
+                let batch = wanted.clamp(64, MAX_DISPATCH as u64 * 4).min(room).min(max_paths - paths) as u32;
+                if batch == 0 {
+                    break;
+                }
+                let push = Push { base: s.direct, ..self.push(1) };
+                self.submit(&mut timer, &mut gpu_ms, |cmd, _| self.record_chunks(cmd, scene_set, push, paths as u32, batch))?;
+                paths += batch as u64;
+                stats.batches += 1;
+                count = self.read_counter()?;
+                ensure!(count <= self.capacity, "photon_emit overflowed its buffer ({count} > {})", self.capacity);
+            }
+            if count < s.indirect {
+                log::warn!(
+                    "--vpls-indirect {}: only {count} indirect VPLs after {paths} photon paths (photons leave the scene?)",
+                    s.indirect
+                );
+            }
+            if count > 0 {
+                let push = Push { base: s.direct, scale: (1.0 / paths as f64) as f32, ..self.push(2) };
+                self.submit(&mut timer, &mut gpu_ms, |cmd, _| self.record_chunks(cmd, scene_set, push, 0, count))?;
+            }
+            stats.indirect_vpls = count;
+            stats.paths = paths;
+        }
+        stats.gpu_ms = gpu_ms;
+        stats.wall_ms = start.elapsed().as_secs_f64() * 1e3;
+        stats.paths_per_second = if gpu_ms > 0.0 { stats.paths as f64 / (gpu_ms * 1e-3) } else { 0.0 };
+        let vpls = self.read_vpls(&stats)?;
+        for v in &vpls {
+            let target = if v.kind == crate::gpu_types::VPL_INDIRECT { &mut stats.indirect_flux } else { &mut stats.direct_flux };
+            for c in 0..3 {
+                target[c] += v.flux[c] as f64;
+            }
+        }
+        Ok(stats)
+    }
+
+    /// The VPLs on the host: direct first, then indirect.
+    pub fn read_vpls(&self, stats: &PhotonStats) -> Result<Vec<GpuVpl>> {
+        let bytes = read_back(&self.ctx, &self.vpls).context("reading VPLs back")?;
+        let all: &[GpuVpl] = bytemuck::cast_slice(&bytes);
+        let mut out = all[..stats.direct_vpls as usize].to_vec();
+        let base = self.settings.direct as usize;
+        out.extend_from_slice(&all[base..base + stats.indirect_vpls as usize]);
+        Ok(out)
+    }
+
+    /// Number of VPL slots in use (direct + indirect, contiguous).
+    pub fn vpl_count(stats: &PhotonStats) -> u32 {
+        stats.direct_vpls + stats.indirect_vpls
+    }
+}

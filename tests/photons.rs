@@ -1,0 +1,232 @@
+//! The photon pass: VPL flux normalisation (../shared/notes/method.md), geometry, determinism, PLY.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use common::*;
+use glam::Vec3;
+use restir_vpl::gpu_types::{GpuVpl, VPL_DIRECT_AREA, VPL_INDIRECT};
+use restir_vpl::renderer::Renderer;
+use restir_vpl::scene::{closed_box, GltfBuilder, Scene};
+use restir_vpl::RenderSettings;
+
+/// Runs only the photon pass (through the renderer) and returns the VPLs and the paths traced.
+fn vpls(scene: &Scene, settings: RenderSettings) -> (Vec<GpuVpl>, u64) {
+    let ctx = context();
+    let settings = RenderSettings { dump_vpls: Some("unused.ply".into()), ..settings };
+    let r = Renderer::new(Arc::clone(&ctx), scene, settings).expect("renderer");
+    let v = r.read_vpls().expect("read").expect("VPLs present");
+    let paths = r.photons.as_ref().map(|p| p.1.paths).unwrap_or(0);
+    assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
+    for x in &v {
+        assert!(x.flux.iter().all(|c| c.is_finite() && *c >= 0.0), "bad flux {x:?}");
+        assert!(x.position.iter().chain(&x.normal).all(|c| c.is_finite()), "bad VPL {x:?}");
+        assert!((Vec3::from(x.normal).length() - 1.0).abs() < 1e-4, "normal not unit: {x:?}");
+    }
+    (v, paths)
+}
+
+fn light_power(scene: &Scene) -> [f64; 3] {
+    restir_vpl::lights::LightSet::from_scene(scene).total_power
+}
+
+fn flux_sum(v: &[GpuVpl], kind: impl Fn(u32) -> bool) -> [f64; 3] {
+    let mut s = [0.0; 3];
+    for x in v.iter().filter(|x| kind(x.kind)) {
+        for c in 0..3 {
+            s[c] += x.flux[c] as f64;
+        }
+    }
+    s
+}
+
+fn cornell() -> Scene {
+    Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap()
+}
+
+/// Two lights of different colours and areas: the direct VPLs' flux still sums to Σ π·Le·A.
+fn two_lights() -> Scene {
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let warm = b.material("warm", [0.5; 3], [9.0, 3.0, 1.0], false);
+    let cool = b.material("cool", [0.5; 3], [0.5, 1.0, 4.0], true);
+    let floor = b.quad("floor", [[-2.0, 0.0, -2.0], [-2.0, 0.0, 2.0], [2.0, 0.0, 2.0], [2.0, 0.0, -2.0]], grey);
+    b.node("floor", floor, [0.0; 3]);
+    let l1 = b.quad("warm", [[-1.0, 2.0, -1.0], [1.0, 2.0, -1.0], [1.0, 2.0, -0.5], [-1.0, 2.0, -0.5]], warm);
+    b.node("warm", l1, [0.0; 3]);
+    let l2 = b.quad("cool", [[0.0, 1.0, 0.0], [0.3, 1.0, 0.0], [0.3, 1.5, 0.0], [0.0, 1.5, 0.0]], cool);
+    b.node("cool", l2, [0.0; 3]);
+    b.camera("cam", [0.0, 1.0, 4.0], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 1.0);
+    load_json(&b.to_json_string(), "two_lights")
+}
+
+fn assert_rel(a: [f64; 3], b: [f64; 3], tol: f64, what: &str) {
+    for c in 0..3 {
+        assert!((a[c] - b[c]).abs() <= tol * b[c].abs().max(1e-12), "{what}: channel {c}: {} vs {}", a[c], b[c]);
+    }
+}
+
+#[test]
+fn direct_vpl_flux_equals_light_power() {
+    for (scene, n) in [(cornell(), 20_000), (two_lights(), 30_000)] {
+        let settings = RenderSettings { vpls_direct: n, gi: false, ..small(8, 8, 1) };
+        let (v, _) = vpls(&scene, settings);
+        assert_eq!(v.len(), n as usize);
+        assert!(v.iter().all(|x| x.kind == VPL_DIRECT_AREA));
+        assert_rel(flux_sum(&v, |_| true), light_power(&scene), 1e-3, "direct flux");
+    }
+}
+
+/// A closed box of albedo ρ (the emitter quad inside it too), lit by one emitter of power Φ.
+fn closed_box_scene(rho: f32) -> Scene {
+    let mut b = GltfBuilder::new();
+    let wall = b.material("wall", [rho; 3], [0.0; 3], false);
+    let lamp = b.material("lamp", [rho; 3], [2.0, 2.0, 2.0], false);
+    let m = closed_box(&mut b, "room", [-1.0; 3], [1.0; 3], wall, true);
+    b.node("room", m, [0.0; 3]);
+    // Facing down (-y): counter-clockwise seen from below.
+    let l = b.quad("lamp", [[-0.2, 0.9, -0.2], [0.2, 0.9, -0.2], [0.2, 0.9, 0.2], [-0.2, 0.9, 0.2]], lamp);
+    b.node("lamp", l, [0.0; 3]);
+    b.camera("cam", [0.0, 0.0, 0.9], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 1.2);
+    load_json(&b.to_json_string(), "closed_box")
+}
+
+/// Without Russian roulette every photon path in a closed box makes exactly B VPLs whose flux sums
+/// to Φ·(ρ + … + ρ^B): the normalisation must be exact up to float rounding.
+#[test]
+fn indirect_flux_closed_box_without_roulette_is_exact() {
+    let rho = 0.6f64;
+    let scene = closed_box_scene(rho as f32);
+    let phi = light_power(&scene);
+    assert!(phi[0] > 0.0);
+    let b = 5u32;
+    let settings = RenderSettings {
+        vpls_direct: 1000,
+        vpls_indirect: 20_000,
+        photon_min_bounces: b,
+        photon_max_bounces: b,
+        ..small(8, 8, 1)
+    };
+    let (v, paths) = vpls(&scene, settings);
+    let indirect: Vec<&GpuVpl> = v.iter().filter(|x| x.kind == VPL_INDIRECT).collect();
+    assert_eq!(indirect.len() as u64, paths * b as u64, "every path bounces B times in a closed box");
+    let series: f64 = (1..=b).map(|k| rho.powi(k as i32)).sum();
+    let expected = phi.map(|p| p * series);
+    assert_rel(flux_sum(&v, |k| k == VPL_INDIRECT), expected, 1e-4, "indirect flux");
+}
+
+/// With Russian roulette from the first bounce the total is right in expectation: within 4
+/// standard errors of Φ·(ρ + … + ρ^B), the standard error taken from the per-path totals.
+#[test]
+fn indirect_flux_closed_box_with_roulette_is_unbiased() {
+    let rho = 0.7f64;
+    let scene = closed_box_scene(rho as f32);
+    let phi = light_power(&scene);
+    let b = 8u32;
+    let settings = RenderSettings { vpls_direct: 1000, vpls_indirect: 40_000, seed: 5, ..small(8, 8, 1) };
+    let (v, paths) = vpls(&scene, settings);
+    let mut per_path: BTreeMap<u32, f64> = BTreeMap::new();
+    for x in v.iter().filter(|x| x.kind == VPL_INDIRECT) {
+        *per_path.entry(x.path).or_default() += x.flux[0] as f64 * paths as f64;
+    }
+    let p = paths as f64;
+    let mean = per_path.values().sum::<f64>() / p;
+    let sq = per_path.values().map(|x| x * x).sum::<f64>() / p;
+    let se = ((sq - mean * mean).max(0.0) / (p - 1.0)).sqrt();
+    let series: f64 = (1..=b).map(|k| rho.powi(k as i32)).sum();
+    let expected = phi[0] * series;
+    eprintln!("indirect flux {mean} expected {expected} se {se} ({paths} paths)");
+    assert!((mean - expected).abs() <= 4.0 * se, "{mean} vs {expected}: {:.1} SE", (mean - expected).abs() / se);
+}
+
+/// Möller–Trumbore distance along a ray, or None.
+fn ray_triangle(o: Vec3, d: Vec3, t: [Vec3; 3]) -> Option<f32> {
+    let e1 = t[1] - t[0];
+    let e2 = t[2] - t[0];
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let s = o - t[0];
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let dist = e2.dot(q) / det;
+    (u >= -1e-6 && v >= -1e-6 && u + v <= 1.0 + 1e-6 && dist >= 0.0).then_some(dist)
+}
+
+fn world_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
+    let mut out = Vec::new();
+    for inst in &scene.instances {
+        let m = &scene.meshes[inst.mesh];
+        for t in 0..m.triangle_count() {
+            let tri = m.triangle(t).unwrap();
+            out.push(tri.map(|p| inst.transform.transform_point3(p)));
+        }
+    }
+    out
+}
+
+/// Every VPL lies on a surface (a short ray along −normal meets geometry within 1e-4 m), and in the
+/// closed Cornell box every VPL's normal faces the room's interior (photons arrive from inside).
+#[test]
+fn vpls_lie_on_surfaces_facing_the_photons() {
+    let scene = cornell();
+    let tris = world_triangles(&scene);
+    let (v, _) = vpls(&scene, RenderSettings { vpls_direct: 500, vpls_indirect: 3000, ..small(8, 8, 1) });
+    let (lo, hi) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.5565, 0.5488, 0.5592));
+    for x in &v {
+        let p = Vec3::from(x.position);
+        let n = Vec3::from(x.normal);
+        let nearest = tris.iter().filter_map(|t| ray_triangle(p, -n, *t)).fold(f32::INFINITY, f32::min);
+        assert!(nearest < 1e-4, "VPL {x:?} is {nearest} m from the surface behind it");
+        let inside = p + n * 1e-3;
+        assert!(
+            inside.cmpge(lo - 1e-3).all() && inside.cmple(hi + 1e-3).all(),
+            "VPL normal points out of the room: {x:?}"
+        );
+    }
+}
+
+#[test]
+fn same_seed_same_vpl_set() {
+    let scene = cornell();
+    let s = || RenderSettings { vpls_direct: 2000, vpls_indirect: 4000, seed: 9, ..small(8, 8, 1) };
+    let key = |v: &GpuVpl| (v.kind, v.path, v.position.map(f32::to_bits), v.flux.map(f32::to_bits));
+    let sorted = |mut v: Vec<GpuVpl>| {
+        v.sort_by_key(key);
+        v.iter().map(key).collect::<Vec<_>>()
+    };
+    let (a, pa) = vpls(&scene, s());
+    let (b, pb) = vpls(&scene, s());
+    assert_eq!(pa, pb);
+    assert_eq!(sorted(a.clone()), sorted(b), "same seed, same VPLs (the append order may differ)");
+    let (c, _) = vpls(&scene, RenderSettings { seed: 10, ..s() });
+    assert_ne!(sorted(a), sorted(c));
+}
+
+#[test]
+fn ply_dump_parses_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = dir.path().join("vpls.ply");
+    let settings = RenderSettings {
+        vpls_direct: 3000,
+        vpls_indirect: 5000,
+        dump_vpls: Some(ply.clone()),
+        out_dir: Some(dir.path().to_path_buf()),
+        ..small(16, 16, 1)
+    };
+    let out = render(&cornell(), &settings);
+    let stats = out.summary.photons.clone().expect("photon stats in the summary");
+    let back = restir_vpl::ply::read_vpls(&ply).expect("PLY parses");
+    assert_eq!(back.len() as u32, stats.direct_vpls + stats.indirect_vpls);
+    assert_eq!(back.iter().filter(|v| v.kind == VPL_INDIRECT).count() as u32, stats.indirect_vpls);
+    assert_rel(flux_sum(&back, |k| k != VPL_INDIRECT), stats.direct_flux, 1e-6, "PLY direct flux");
+    assert_rel(flux_sum(&back, |k| k == VPL_INDIRECT), stats.indirect_flux, 1e-6, "PLY indirect flux");
+    let header = std::fs::read(&ply).unwrap();
+    let text = String::from_utf8_lossy(&header[..200]);
+    assert!(text.starts_with("ply\nformat binary_little_endian 1.0\n"), "{text}");
+}
