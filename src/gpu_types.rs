@@ -44,8 +44,11 @@ gpu_struct! {
 }
 }
 
-/// Material flags.
+/// Material flags (also `GpuLight::flags`).
 pub const MATERIAL_DOUBLE_SIDED: u32 = 1;
+/// `GpuLight::flags`: a point light (KHR_lights_punctual) at `p0` with radiant intensity
+/// `emission` (W/sr), power 4π·I.
+pub const LIGHT_POINT: u32 = 2;
 
 gpu_struct! {
     /// Lambertian material: albedo = baseColorFactor, emitted radiance `emission`.

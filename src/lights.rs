@@ -1,9 +1,10 @@
-//! Area lights: every emissive triangle, with power Φ = sides·π·Le·A (sides = 2 for a double-sided
-//! emitter), chosen in proportion to lum(Φ) through Vose's alias table.
+//! Lights: every emissive triangle, with power Φ = sides·π·Le·A (sides = 2 for a double-sided
+//! emitter), and every KHR_lights_punctual point light, with power Φ = 4π·I; chosen in proportion
+//! to lum(Φ) through Vose's alias table.
 
 use glam::Vec3;
 
-use crate::gpu_types::{GpuAliasEntry, GpuLight, MATERIAL_DOUBLE_SIDED};
+use crate::gpu_types::{GpuAliasEntry, GpuLight, LIGHT_POINT, MATERIAL_DOUBLE_SIDED};
 use crate::scene::Scene;
 
 /// Rec. 709 luminance.
@@ -25,13 +26,21 @@ pub struct LightSet {
 impl LightSet {
     pub fn from_scene(scene: &Scene) -> Self {
         let tris = scene.emissive_triangles();
+        // glTF point-light intensity is in candela; radiometrically we read it as W/sr per channel.
+        let points: Vec<(Vec3, Vec3)> = scene
+            .point_lights
+            .iter()
+            .map(|p| (p.position, p.color * p.intensity))
+            .filter(|(_, i)| i.max_element() > 0.0 && i.is_finite())
+            .collect();
         let powers: Vec<(Vec3, f64)> = tris
             .iter()
             .map(|t| {
                 let sides = if t.double_sided { 2.0 } else { 1.0 };
-                let phi = t.emission * (sides * std::f32::consts::PI * t.area);
-                (phi, luminance(phi) as f64)
+                t.emission * (sides * std::f32::consts::PI * t.area)
             })
+            .chain(points.iter().map(|(_, i)| *i * (4.0 * std::f32::consts::PI)))
+            .map(|phi| (phi, luminance(phi) as f64))
             .collect();
         let total_power_lum: f64 = powers.iter().map(|p| p.1).sum();
         let mut total_power = [0.0f64; 3];
@@ -41,6 +50,7 @@ impl LightSet {
             total_power[2] += phi.z as f64;
         }
         let weights: Vec<f64> = powers.iter().map(|p| p.1).collect();
+        let pdf = |w: f64| if total_power_lum > 0.0 { (w / total_power_lum) as f32 } else { 0.0 };
         let lights = tris
             .iter()
             .zip(&weights)
@@ -48,12 +58,19 @@ impl LightSet {
                 p0: t.p[0].to_array(),
                 area: t.area,
                 p1: t.p[1].to_array(),
-                pdf: if total_power_lum > 0.0 { (w / total_power_lum) as f32 } else { 0.0 },
+                pdf: pdf(*w),
                 p2: t.p[2].to_array(),
                 flags: if t.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
                 emission: t.emission.to_array(),
                 _pad0: 0,
             })
+            .chain(points.iter().zip(&weights[tris.len()..]).map(|((pos, i), w)| GpuLight {
+                p0: pos.to_array(),
+                pdf: pdf(*w),
+                flags: LIGHT_POINT,
+                emission: i.to_array(),
+                ..Default::default()
+            }))
             .collect();
         Self { lights, alias: alias_table(&weights), total_power_lum, total_power }
     }

@@ -46,7 +46,8 @@ fn cornell() -> Scene {
     Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap()
 }
 
-/// Two lights of different colours and areas: the direct VPLs' flux still sums to Σ π·Le·A.
+/// Two area lights of different colours and areas (one double-sided) and a point light: the direct
+/// VPLs' flux still sums to the total power Σ π·Le·A·sides + 4π·I.
 fn two_lights() -> Scene {
     let mut b = GltfBuilder::new();
     let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
@@ -58,6 +59,7 @@ fn two_lights() -> Scene {
     b.node("warm", l1, [0.0; 3]);
     let l2 = b.quad("cool", [[0.0, 1.0, 0.0], [0.3, 1.0, 0.0], [0.3, 1.5, 0.0], [0.0, 1.5, 0.0]], cool);
     b.node("cool", l2, [0.0; 3]);
+    b.point_light("bulb", [0.5, 1.2, 0.5], [1.0, 0.8, 0.6], 0.7);
     b.camera("cam", [0.0, 1.0, 4.0], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 1.0);
     load_json(&b.to_json_string(), "two_lights")
 }
@@ -74,7 +76,7 @@ fn direct_vpl_flux_equals_light_power() {
         let settings = RenderSettings { vpls_direct: n, gi: false, ..small(8, 8, 1) };
         let (v, _) = vpls(&scene, settings);
         assert_eq!(v.len(), n as usize);
-        assert!(v.iter().all(|x| x.kind == VPL_DIRECT_AREA));
+        assert!(v.iter().all(|x| x.kind == VPL_DIRECT_AREA || x.kind == restir_vpl::gpu_types::VPL_DIRECT_POINT));
         assert_rel(flux_sum(&v, |_| true), light_power(&scene), 1e-3, "direct flux");
     }
 }

@@ -4,6 +4,7 @@
 #define TYPES_GLSL
 
 const uint MATERIAL_DOUBLE_SIDED = 1u;
+const uint LIGHT_POINT = 2u;
 const uint INSTANCE_MIRRORED = 1u;
 const uint FRAME_AA = 1u;
 

@@ -35,6 +35,14 @@ vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
     return normalize(disk.x * t + disk.y * b + z * n);
 }
 
+// Uniform direction on the unit sphere; pdf = 1 / (4 pi).
+vec3 sample_uniform_sphere(vec2 u) {
+    float z = 1.0 - 2.0 * u.x;
+    float r = sqrt(max(0.0, 1.0 - z * z));
+    float phi = 2.0 * PI * u.y;
+    return vec3(r * cos(phi), r * sin(phi), z);
+}
+
 // Uniform point on a triangle (area-uniform), as barycentric weights (b0, b1, b2).
 vec3 sample_triangle_barycentrics(vec2 u) {
     float su = sqrt(u.x);

@@ -60,6 +60,21 @@ void main() {
         if (frame.light_count > 0u) {
             uint li = sample_light_index(rand(rng));
             Light l = lights[li];
+            if ((l.flags & LIGHT_POINT) != 0u) {
+                // A point light (delta): radiant intensity I, no MIS.
+                vec3 to_light = l.p0 - x;
+                float d2 = dot(to_light, to_light);
+                vec3 wi = to_light * inversesqrt(max(d2, 1e-30));
+                float cos_x = dot(ns, wi);
+                if (cos_x > 0.0 && dot(ng, wi) > 0.0 && d2 > 0.0) {
+                    rays += 1u;
+                    if (segment_visible(offset_ray(x, ng), l.p0)) {
+                        radiance += throughput * lambert_brdf(albedo) * l.emission * (cos_x / (d2 * l.pdf));
+                    }
+                }
+                // Consume the same random numbers as an area light would (keeps streams aligned).
+                rand2(rng);
+            } else {
             vec3 bc = sample_triangle_barycentrics(rand2(rng));
             vec3 y = bc.x * l.p0 + bc.y * l.p1 + bc.z * l.p2;
             vec3 nl = normalize(cross(l.p1 - l.p0, l.p2 - l.p0));
@@ -80,6 +95,7 @@ void main() {
                 if (segment_visible(offset_ray(x, ng), offset_ray(y, nl_toward_x))) {
                     radiance += throughput * lambert_brdf(albedo) * l.emission * (cos_x * w / pdf_light);
                 }
+            }
             }
         }
 

@@ -59,6 +59,14 @@ struct LightSample {
 
 LightSample sample_light_point(uint t, inout uint rng) {
     Light l = lights[t];
+    if ((l.flags & LIGHT_POINT) != 0u) {
+        // Isotropic: power 4 pi I; `normal` is a uniform direction, used only to start photons.
+        LightSample s;
+        s.position = l.p0;
+        s.normal = sample_uniform_sphere(rand2(rng));
+        s.power_over_pdf = l.emission * (4.0 * PI / l.pdf);
+        return s;
+    }
     vec3 b = sample_triangle_barycentrics(rand2(rng));
     LightSample s;
     s.position = b.x * l.p0 + b.y * l.p1 + b.z * l.p2;
@@ -80,9 +88,10 @@ void direct_vpl(uint i) {
     float u = min((float(i) + rand(rng)) / float(total), 0.99999994);
     uint t = invert_light_cdf(u);
     LightSample s = sample_light_point(t, rng);
+    bool point = (lights[t].flags & LIGHT_POINT) != 0u;
     Vpl v;
-    v.position = offset_ray(s.position, s.normal);
-    v.kind = VPL_DIRECT_AREA;
+    v.position = point ? s.position : offset_ray(s.position, s.normal);
+    v.kind = point ? VPL_DIRECT_POINT : VPL_DIRECT_AREA;
     v.normal = s.normal;
     v.path = i;
     v.flux = s.power_over_pdf / float(total);
@@ -96,8 +105,9 @@ void photon_path(uint p) {
     LightSample s = sample_light_point(t, rng);
     vec3 phi0 = s.power_over_pdf;
     vec3 phi = phi0;
-    vec3 origin = offset_ray(s.position, s.normal);
-    vec3 dir = sample_cosine_hemisphere(s.normal, rand2(rng));
+    bool point = (lights[t].flags & LIGHT_POINT) != 0u;
+    vec3 origin = point ? s.position : offset_ray(s.position, s.normal);
+    vec3 dir = point ? s.normal : sample_cosine_hemisphere(s.normal, rand2(rng));
     for (uint k = 1u; k <= max_bounces; ++k) {
         Hit hit;
         float dist;

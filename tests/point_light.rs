@@ -1,0 +1,60 @@
+//! Point lights (KHR_lights_punctual) in the path tracer, against the closed form.
+//!
+//! A point light of intensity I at height h above an infinite-enough plane of albedo ρ, nothing
+//! else: the radiance leaving the plane at x is L = (ρ/π)·I·cos θ / d² (d the distance to the light,
+//! cos θ = h/d); no other light path exists (a plane cannot see itself). With a single light the
+//! next-event estimate is deterministic, so every pixel must match to float precision.
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use restir_vpl::renderer::CameraSetup;
+use restir_vpl::scene::GltfBuilder;
+use restir_vpl::settings::CameraOverride;
+use restir_vpl::RenderSettings;
+
+#[test]
+fn point_light_over_a_plane_matches_the_closed_form() {
+    let (rho, intensity, h) = (0.5f32, 2.0f32, 1.0f32);
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [rho; 3], [0.0; 3], false);
+    let m = b.quad("plane", [[-5.0, 0.0, -5.0], [-5.0, 0.0, 5.0], [5.0, 0.0, 5.0], [5.0, 0.0, -5.0]], grey);
+    b.node("plane", m, [0.0; 3]);
+    b.point_light("bulb", [0.0, h, 0.0], [1.0, 1.0, 1.0], intensity);
+    let scene = load_json(&b.to_json_string(), "point_light");
+    let (w, hgt) = (48u32, 48u32);
+    let cam = CameraOverride {
+        eye: Vec3::new(0.3, 3.0, 0.2),
+        target: Vec3::new(0.0, 0.0, 0.0),
+        up: Vec3::new(0.0, 0.0, -1.0),
+        yfov_degrees: 60.0,
+    };
+    let settings = RenderSettings { camera: Some(cam), max_bounces: 3, ..small(w, hgt, 2) };
+    let out = render(&scene, &settings);
+    let c = CameraSetup::look_at(cam.eye, cam.target, cam.up, cam.yfov_degrees.to_radians(), "test");
+    let tan = (c.yfov * 0.5).tan();
+    let light = Vec3::new(0.0, h, 0.0);
+    let mut checked = 0;
+    for py in 0..hgt {
+        for px in 0..w {
+            let ndc_x = 2.0 * (px as f32 + 0.5) / w as f32 - 1.0;
+            let ndc_y = 1.0 - 2.0 * (py as f32 + 0.5) / hgt as f32;
+            let dir = (c.forward + ndc_x * tan * c.right + ndc_y * tan * c.up).normalize();
+            let t = -c.position.y / dir.y;
+            let x = c.position + t * dir;
+            if x.x.abs() > 4.9 || x.z.abs() > 4.9 {
+                continue;
+            }
+            let d2 = (light - x).length_squared();
+            let cos = h / d2.sqrt();
+            let expected = rho / std::f32::consts::PI * intensity * cos / d2;
+            let got = out.mean[(py * w + px) as usize];
+            for ch in got {
+                assert!((ch - expected).abs() <= 1e-3 * expected, "pixel ({px},{py}): {ch} vs {expected}");
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000);
+}
