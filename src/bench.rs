@@ -88,3 +88,90 @@ impl CoreBench {
         s
     }
 }
+
+/// A room with a ceiling light and a finely tessellated bumpy sphere of `2·rings·segments`
+/// triangles (≥ 100k for the photon benchmark).
+pub fn dense_scene(rings: u32, segments: u32) -> Result<Scene> {
+    use crate::scene::{closed_box, GltfBuilder};
+    let mut b = GltfBuilder::new();
+    let wall = b.material("wall", [0.7; 3], [0.0; 3], false);
+    let red = b.material("red", [0.7, 0.1, 0.1], [0.0; 3], false);
+    let lamp = b.material("lamp", [0.7; 3], [15.0, 14.0, 12.0], false);
+    let room = closed_box(&mut b, "room", [-1.0, 0.0, -1.0], [1.0, 2.0, 1.0], wall, true);
+    b.node("room", room, [0.0; 3]);
+    let light = b.quad("lamp", [[-0.25, 1.99, -0.25], [0.25, 1.99, -0.25], [0.25, 1.99, 0.25], [-0.25, 1.99, 0.25]], lamp);
+    b.node("lamp", light, [0.0; 3]);
+    let mut positions = Vec::new();
+    for r in 0..=rings {
+        let theta = std::f32::consts::PI * r as f32 / rings as f32;
+        for s in 0..=segments {
+            let phi = 2.0 * std::f32::consts::PI * s as f32 / segments as f32;
+            let bump = 1.0 + 0.06 * (7.0 * theta).sin() * (11.0 * phi).cos();
+            let rad = 0.5 * bump;
+            positions.push([rad * theta.sin() * phi.cos(), 0.7 + rad * theta.cos(), rad * theta.sin() * phi.sin()]);
+        }
+    }
+    let mut indices = Vec::new();
+    let row = segments + 1;
+    for r in 0..rings {
+        for s in 0..segments {
+            let (a, c) = (r * row + s, (r + 1) * row + s);
+            indices.extend_from_slice(&[a, a + 1, c, a + 1, c + 1, c]);
+        }
+    }
+    let sphere = b.mesh("bumpy_sphere", &positions, None, &indices, red);
+    b.node("bumpy_sphere", sphere, [0.0; 3]);
+    b.camera("cam", [0.0, 1.0, 0.95], [0.0, 0.8, 0.0], [0.0, 1.0, 0.0], 1.2);
+    Scene::from_gltf_slice(b.to_json_string().as_bytes(), None, "dense_scene")
+}
+
+/// Photon-pass timing for one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct PhotonBench {
+    pub scene: String,
+    pub triangles: usize,
+    pub direct: u32,
+    pub indirect_target: u32,
+    /// Median over runs.
+    pub gpu_ms: f64,
+    pub paths: u64,
+    pub paths_per_second: f64,
+    pub indirect_vpls: u32,
+}
+
+/// Times the photon pass `runs` times (after a warm-up) on `scene`.
+pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32, device: Option<usize>) -> Result<PhotonBench> {
+    use crate::passes::PhotonEmitPass;
+    use crate::scene_gpu::SceneGpu;
+    let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
+    let settings = RenderSettings { vpls_direct: direct, vpls_indirect: indirect, ..Default::default() };
+    let scene_gpu = SceneGpu::new(&ctx, scene)?;
+    let mut times = Vec::new();
+    let mut last = None;
+    for i in 0..=runs {
+        let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, &scene_gpu.lights, settings.photon_settings())?;
+        // The pass reads the light count from the frame constants.
+        scene_gpu.write_frame(&crate::gpu_types::GpuFrame {
+            light_count: scene_gpu.lights.lights.len() as u32,
+            total_light_power: scene_gpu.lights.total_power_lum as f32,
+            ..Default::default()
+        })?;
+        let stats = pass.run(scene_gpu.set.set, scene_gpu.lights.lights.len())?;
+        if i > 0 {
+            times.push(stats.gpu_ms);
+        }
+        last = Some(stats);
+    }
+    let stats = last.expect("at least one run");
+    let gpu_ms = TimingStats::of(&times).median;
+    Ok(PhotonBench {
+        scene: label.to_string(),
+        triangles: scene.triangle_count(),
+        direct,
+        indirect_target: indirect,
+        gpu_ms,
+        paths: stats.paths,
+        paths_per_second: stats.paths as f64 / (gpu_ms * 1e-3),
+        indirect_vpls: stats.indirect_vpls,
+    })
+}

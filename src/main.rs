@@ -113,6 +113,10 @@ enum Command {
         /// Also write the figures as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Instead: time the photon pass (100k + 100k VPLs) on this scene and on a generated
+        /// scene of over 100k triangles.
+        #[arg(long)]
+        photons: bool,
     },
 }
 
@@ -175,9 +179,24 @@ fn settings_from(cli: &Cli) -> Result<RenderSettings> {
 }
 
 fn real_main(cli: Cli) -> Result<()> {
-    if let Some(Command::Bench { scene, width, height, frames, device, json }) = &cli.command {
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons }) = &cli.command {
         if *frames == 0 {
             bail!("--frames 0: at least one timed frame is needed");
+        }
+        if *photons {
+            let runs = (*frames).min(5);
+            let loaded = restir_vpl::scene::Scene::load(scene)?;
+            let dense = restir_vpl::bench::dense_scene(160, 320)?;
+            println!("| scene | triangles | VPLs (direct + indirect) | photon paths | GPU ms (median of {runs}) | M paths/s |");
+            println!("|---|---:|---:|---:|---:|---:|");
+            for (s, label) in [(&loaded, scene.display().to_string()), (&dense, "generated bumpy sphere in a room".to_string())] {
+                let b = restir_vpl::bench::photons(s, &label, 100_000, 100_000, runs, *device)?;
+                println!(
+                    "| {} | {} | {} + {} | {} | {:.1} | {:.2} |",
+                    b.scene, b.triangles, b.direct, b.indirect_vpls, b.paths, b.gpu_ms, b.paths_per_second * 1e-6
+                );
+            }
+            return Ok(());
         }
         let report = restir_vpl::bench::core(scene, *width, *height, *frames, *device)?;
         print!("{}", report.markdown());
