@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use clap::Parser;
 use glam::Vec3;
 
-use restir_vpl::settings::{CameraOverride, Mode, RenderSettings};
+use restir_vpl::settings::{CameraOverride, Mode, RenderSettings, View};
 use restir_vpl::vk::NoRayQueryDevice;
 
 /// GPU global illumination: photon-traced VPLs + ReSTIR DI on Vulkan ray queries, with a path-traced
@@ -81,6 +81,12 @@ struct Cli {
     /// Write the VPLs as a PLY point cloud (opens in MeshLab/Blender).
     #[arg(long, value_name = "FILE.ply")]
     dump_vpls: Option<PathBuf>,
+    /// What the image shows: the estimate, or the VPL debug view (blue direct, red indirect).
+    #[arg(long, value_enum, default_value = "final")]
+    view: View,
+    /// Sphere radius of `--view vpls` in scene units (default: 0.25% of the scene's diagonal).
+    #[arg(long)]
+    vpl_radius: Option<f32>,
     /// Vulkan device index (see --list-devices).
     #[arg(long)]
     device: Option<usize>,
@@ -175,6 +181,8 @@ fn settings_from(cli: &Cli) -> Result<RenderSettings> {
         photon_min_bounces: cli.photon_min_bounces,
         photon_max_bounces: cli.photon_max_bounces,
         dump_vpls: cli.dump_vpls.clone(),
+        view: cli.view,
+        vpl_radius: cli.vpl_radius,
     })
 }
 

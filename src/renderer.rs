@@ -8,10 +8,10 @@ use ash::vk;
 use glam::{Mat4, Vec3};
 
 use crate::gpu_types::{GpuFrame, FRAME_AA};
-use crate::passes::{FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Step};
+use crate::passes::{FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Step, VplViewPass};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
-use crate::settings::{Mode, RenderSettings};
+use crate::settings::{Mode, RenderSettings, View};
 use crate::vk::buffer::read_back;
 use crate::vk::{Context, GpuTimer};
 
@@ -101,7 +101,7 @@ impl Renderer {
         let camera = CameraSetup::choose(scene, &settings);
         let scene_gpu = SceneGpu::new(&ctx, scene).context("uploading the scene")?;
         let targets = FrameTargets::new(&ctx, settings.width, settings.height).context("allocating frame targets")?;
-        let passes = Passes::new(&ctx, scene_gpu.set.layout, &targets).context("creating passes")?;
+        let mut passes = Passes::new(&ctx, scene_gpu.set.layout, &targets).context("creating passes")?;
         // The photon pass reads the frame constants (light count) from set 0.
         scene_gpu.write_frame(&frame_constants(&settings, &camera, &scene_gpu, 0, 0))?;
         let photons = if settings.needs_vpls() {
@@ -121,6 +121,19 @@ impl Renderer {
             }
             None
         };
+        if settings.view == View::Vpls {
+            let (pass, stats) = photons.as_ref().expect("--view vpls builds the VPL set");
+            let (lo, hi) = scene.world_bounds();
+            let radius = settings.vpl_radius.unwrap_or(0.0025 * (hi - lo).length().max(1e-6));
+            passes.vpl_view = Some(VplViewPass::new(
+                &ctx,
+                scene_gpu.set.layout,
+                &targets,
+                &pass.vpls,
+                PhotonEmitPass::vpl_count(stats),
+                radius,
+            )?);
+        }
         let timer = GpuTimer::new(&ctx, 16)?;
         let readback = crate::vk::Buffer::new(
             &ctx,
@@ -171,8 +184,13 @@ impl Renderer {
             } else {
                 Step::Run
             },
-            pathtrace: match self.settings.mode {
-                Mode::Pt => Step::Run,
+            pathtrace: match (self.settings.view, self.settings.mode) {
+                (View::Vpls, _) => Step::Skip("--view vpls draws the VPLs instead"),
+                (View::Final, Mode::Pt) => Step::Run,
+            },
+            vpl_view: match self.settings.view {
+                View::Vpls => Step::Run,
+                View::Final => Step::Skip("no --view vpls"),
             },
             accumulate: Step::Run,
             tonemap: if preview { Step::Run } else { Step::Skip("no preview needed this frame") },

@@ -21,6 +21,17 @@ impl Mode {
     }
 }
 
+/// What the output image shows.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum View {
+    /// The mode's radiance estimate.
+    #[default]
+    Final,
+    /// Debug: diffuse-shaded scene with every VPL as a sphere (blue direct, red indirect).
+    Vpls,
+}
+
 /// A camera given on the command line; replaces the scene's camera.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct CameraOverride {
@@ -65,6 +76,9 @@ pub struct RenderSettings {
     pub photon_max_bounces: u32,
     /// Write the VPLs as a PLY point cloud here.
     pub dump_vpls: Option<PathBuf>,
+    pub view: View,
+    /// VPL sphere radius for `--view vpls` (scene units); default 0.25% of the scene's diagonal.
+    pub vpl_radius: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -92,6 +106,8 @@ impl Default for RenderSettings {
             photon_min_bounces: 0,
             photon_max_bounces: 8,
             dump_vpls: None,
+            view: View::Final,
+            vpl_radius: None,
         }
     }
 }
@@ -102,7 +118,7 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 impl RenderSettings {
     /// Whether this run needs the VPL set (and so the photon pass).
     pub fn needs_vpls(&self) -> bool {
-        self.dump_vpls.is_some()
+        self.dump_vpls.is_some() || self.view == View::Vpls
     }
 
     /// The photon pass's settings.
@@ -150,6 +166,11 @@ impl RenderSettings {
                 self.photon_min_bounces,
                 self.photon_max_bounces
             );
+        }
+        if let Some(r) = self.vpl_radius {
+            if !(r > 0.0 && r.is_finite()) {
+                bail!("--vpl-radius {r}: must be a positive number (scene units)");
+            }
         }
         if let Some(c) = &self.camera {
             if !(c.yfov_degrees > 0.0 && c.yfov_degrees < 180.0) {

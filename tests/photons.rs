@@ -232,3 +232,33 @@ fn ply_dump_parses_back() {
     let text = String::from_utf8_lossy(&header[..200]);
     assert!(text.starts_with("ply\nformat binary_little_endian 1.0\n"), "{text}");
 }
+
+/// `--view vpls`: blue spheres only at the light (direct VPLs), red spheres on the white back wall
+/// only when global illumination is on.
+#[test]
+fn vpl_debug_view() {
+    use restir_vpl::settings::View;
+    let scene = cornell();
+    let s = |gi: bool| RenderSettings {
+        view: View::Vpls,
+        gi,
+        vpls_direct: 20_000,
+        vpls_indirect: 40_000,
+        vpl_radius: Some(0.006),
+        ..small(96, 96, 1)
+    };
+    let is_blue = |p: &[f32; 3]| p[2] > 0.3 && p[2] > 3.0 * p[0] && p[2] > 2.0 * p[1];
+    let is_red = |p: &[f32; 3]| p[0] > 0.25 && p[0] > 5.0 * p[1] && p[0] > 5.0 * p[2];
+    // Back wall, between the blocks and below the light: rows 30..45, columns 40..56.
+    let back_wall = |o: &restir_vpl::RunOutput| {
+        (30..45).flat_map(|y| (40..56).map(move |x| y * 96 + x)).filter(|&i| is_red(&o.mean[i])).count()
+    };
+    let gi = render(&scene, &s(true));
+    assert!(gi.summary.pass_ms.contains_key("vpl_view") && !gi.summary.pass_ms.contains_key("pathtrace"));
+    let blue: Vec<usize> = (0..96 * 96).filter(|&i| is_blue(&gi.mean[i])).collect();
+    assert!(!blue.is_empty(), "direct VPLs drawn");
+    assert!(blue.iter().all(|i| i / 96 < 16), "blue spheres only near the ceiling light");
+    assert!(back_wall(&gi) > 5, "indirect VPLs drawn on the back wall");
+    let direct_only = render(&scene, &s(false));
+    assert_eq!(back_wall(&direct_only), 0, "no indirect VPLs with --no-gi");
+}

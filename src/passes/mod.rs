@@ -7,6 +7,7 @@ pub mod gbuffer;
 pub mod pathtrace;
 pub mod photon_emit;
 pub mod tonemap;
+pub mod vpl_view;
 
 use std::sync::Arc;
 
@@ -23,6 +24,7 @@ pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
 pub use photon_emit::{PhotonEmitPass, PhotonSettings, PhotonStats};
 pub use tonemap::TonemapPass;
+pub use vpl_view::VplViewPass;
 
 /// Per-pixel buffers shared between passes.
 pub struct FrameTargets {
@@ -84,6 +86,7 @@ pub enum Step {
 pub struct FramePlan {
     pub gbuffer: Step,
     pub pathtrace: Step,
+    pub vpl_view: Step,
     pub accumulate: Step,
     pub tonemap: Step,
     /// Start a new accumulation (first frame, or after a change).
@@ -91,10 +94,11 @@ pub struct FramePlan {
 }
 
 impl FramePlan {
-    pub fn steps(&self) -> [(&'static str, &Step); 4] {
+    pub fn steps(&self) -> [(&'static str, &Step); 5] {
         [
             (GbufferPass::NAME, &self.gbuffer),
             (PathtracePass::NAME, &self.pathtrace),
+            (VplViewPass::NAME, &self.vpl_view),
             (AccumulatePass::NAME, &self.accumulate),
             (TonemapPass::NAME, &self.tonemap),
         ]
@@ -119,6 +123,8 @@ pub struct Passes {
     pub pathtrace: PathtracePass,
     pub accumulate: AccumulatePass,
     pub tonemap: TonemapPass,
+    /// Only with `--view vpls`.
+    pub vpl_view: Option<VplViewPass>,
 }
 
 impl Passes {
@@ -128,6 +134,7 @@ impl Passes {
             pathtrace: PathtracePass::new(ctx, scene_layout, targets)?,
             accumulate: AccumulatePass::new(ctx, scene_layout, targets)?,
             tonemap: TonemapPass::new(ctx, scene_layout, targets)?,
+            vpl_view: None,
         })
     }
 
@@ -153,6 +160,9 @@ impl Passes {
 
         scoped(ctx, cmd, timer, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
         scoped(ctx, cmd, timer, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
+        if let Some(view) = &self.vpl_view {
+            scoped(ctx, cmd, timer, &plan.vpl_view, VplViewPass::NAME, |cmd| view.record(cmd, scene_set, pixels));
+        }
         scoped(ctx, cmd, timer, &plan.accumulate, AccumulatePass::NAME, |cmd| {
             self.accumulate.record(cmd, scene_set, pixels, plan.reset_accumulation)
         });

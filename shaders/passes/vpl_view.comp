@@ -1,0 +1,110 @@
+// vpl_view: the VPL debug image (the thesis's Figure 5). The scene gets simple headlight diffuse
+// shading; every VPL is drawn as a small sphere, blue for direct and red for indirect. VPLs are
+// projected to the screen; each tests the exact ray-sphere intersection over its projected footprint
+// against the G-buffer depth (no loop over all VPLs per pixel).
+//   mode 0, per pixel: clear the sphere depth.
+//   mode 1, per VPL: atomicMin of the sphere's hit distance (float bits order like uints for t > 0).
+//   mode 2, per VPL: the VPL whose distance won records its index.
+//   mode 3, per pixel: shade.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/scene.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 2, std430) buffer SphereDepthBuffer { uint sphere_t[]; };
+layout(set = 1, binding = 3, std430) buffer SphereIdBuffer { uint sphere_id[]; };
+layout(set = 1, binding = 4, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
+
+layout(push_constant) uniform Push {
+    uint mode;
+    uint vpl_count;
+    float radius;
+    uint max_footprint;  // pixels, half-width
+};
+
+const uint NO_HIT = 0x7F800000u;  // +inf
+
+// Distance along the unit ray to the sphere, or -1.
+float ray_sphere(vec3 o, vec3 d, vec3 c, float r) {
+    vec3 oc = o - c;
+    float b = dot(oc, d);
+    float q = dot(oc, oc) - r * r;
+    float disc = b * b - q;
+    if (disc < 0.0) {
+        return -1.0;
+    }
+    float s = sqrt(disc);
+    float t = -b - s;
+    return t > 0.0 ? t : (-b + s > 0.0 ? -b + s : -1.0);
+}
+
+void splat(uint v, bool record) {
+    vec3 c = vpls[v].position;
+    vec3 rel = c - frame.camera_position;
+    float z = dot(rel, frame.camera_forward);
+    if (z <= radius) {
+        return;
+    }
+    float sx = dot(rel, frame.camera_right) / (z * frame.tan_half_fov * frame.aspect);
+    float sy = dot(rel, frame.camera_up) / (z * frame.tan_half_fov);
+    vec2 centre = vec2((sx + 1.0) * 0.5 * float(frame.width), (1.0 - sy) * 0.5 * float(frame.height));
+    float pr = radius / (z * frame.tan_half_fov) * 0.5 * float(frame.height) * 1.5 + 1.0;
+    int half_w = int(min(ceil(pr), float(max_footprint)));
+    ivec2 ci = ivec2(floor(centre));
+    for (int dy = -half_w; dy <= half_w; ++dy) {
+        for (int dx = -half_w; dx <= half_w; ++dx) {
+            ivec2 p = ci + ivec2(dx, dy);
+            if (p.x < 0 || p.y < 0 || p.x >= int(frame.width) || p.y >= int(frame.height)) {
+                continue;
+            }
+            uint i = uint(p.y) * frame.width + uint(p.x);
+            vec3 dir = camera_ray_direction(vec2(p) + 0.5);
+            float t = ray_sphere(frame.camera_position, dir, c, radius);
+            float surface_t = surfaces[i].hit_t;
+            if (t <= 0.0 || (surface_t >= 0.0 && t >= surface_t)) {
+                continue;
+            }
+            if (!record) {
+                atomicMin(sphere_t[i], floatBitsToUint(t));
+            } else if (sphere_t[i] == floatBitsToUint(t)) {
+                sphere_id[i] = v;
+            }
+        }
+    }
+}
+
+void main() {
+    uint k = gl_GlobalInvocationID.x;
+    uint pixels = frame.width * frame.height;
+    if (mode == 0u) {
+        if (k < pixels) {
+            sphere_t[k] = NO_HIT;
+            sphere_id[k] = 0xFFFFFFFFu;
+        }
+    } else if (mode == 1u || mode == 2u) {
+        if (k < vpl_count) {
+            splat(k, mode == 2u);
+        }
+    } else if (k < pixels) {
+        uvec2 p = uvec2(k % frame.width, k / frame.width);
+        vec3 dir = camera_ray_direction(vec2(p) + 0.5);
+        Surface s = surfaces[k];
+        vec3 colour = vec3(0.0);
+        if (s.hit_t >= 0.0) {
+            colour = s.albedo * (0.15 + 0.85 * abs(dot(s.shading_normal, dir))) + min(s.emission, vec3(1.0));
+        }
+        uint id = sphere_id[k];
+        if (sphere_t[k] != NO_HIT && id != 0xFFFFFFFFu) {
+            Vpl v = vpls[id];
+            float t = uintBitsToFloat(sphere_t[k]);
+            vec3 n = normalize(frame.camera_position + t * dir - v.position);
+            vec3 base = v.kind == VPL_INDIRECT ? vec3(0.9, 0.12, 0.08) : vec3(0.12, 0.3, 0.95);
+            colour = base * (0.3 + 0.7 * max(0.0, -dot(n, dir)));
+        }
+        samples[k] = vec4(colour, 1.0);
+    }
+}
