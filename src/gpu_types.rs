@@ -188,6 +188,7 @@ gpu_struct! {
         pub path: u32,
         /// Flux per channel (W).
         pub flux: [f32; 3],
-        pub _pad0: u32,
+        /// Bounce that made it (1 = first hit of the photon path); 0 for direct VPLs.
+        pub bounce: u32,
     }
 }

@@ -89,7 +89,7 @@ pub fn read_vpls(path: &Path) -> Result<Vec<GpuVpl>> {
             normal: [f(3), f(4), f(5)],
             path: 0,
             flux: [f(6), f(7), f(8)],
-            _pad0: 0,
+            bounce: 0,
         });
     }
     Ok(out)

@@ -205,7 +205,11 @@ fn same_seed_same_vpl_set() {
     let (a, pa) = vpls(&scene, s());
     let (b, pb) = vpls(&scene, s());
     assert_eq!(pa, pb);
-    assert_eq!(sorted(a.clone()), sorted(b), "same seed, same VPLs (the append order may differ)");
+    let exact = |v: &[GpuVpl]| v.iter().map(key).collect::<Vec<_>>();
+    assert_eq!(exact(&a), exact(&b), "same seed, same VPLs in the same order");
+    for w in a.iter().filter(|v| v.kind == VPL_INDIRECT).collect::<Vec<_>>().windows(2) {
+        assert!((w[0].path, w[0].bounce) < (w[1].path, w[1].bounce), "indirect VPLs in (path, bounce) order");
+    }
     let (c, _) = vpls(&scene, RenderSettings { seed: 10, ..s() });
     assert_ne!(sorted(a), sorted(c));
 }

@@ -93,7 +93,7 @@ struct Vpl {
     vec3 normal;
     uint path;
     vec3 flux;
-    uint _pad0;
+    uint bounce;
 };
 
 #endif

@@ -95,7 +95,7 @@ void direct_vpl(uint i) {
     v.normal = s.normal;
     v.path = i;
     v.flux = s.power_over_pdf / float(total);
-    v._pad0 = 0u;
+    v.bounce = 0u;
     vpls[base + i] = v;
 }
 
@@ -126,7 +126,7 @@ void photon_path(uint p) {
             v.normal = hit.geometric_normal;  // faces the incoming photon
             v.path = p;
             v.flux = phi;
-            v._pad0 = 0u;
+            v.bounce = k;
             vpls[base + slot] = v;
         }
         if (k == max_bounces) {
