@@ -13,7 +13,7 @@ use restir_vpl::vk::NoRayQueryDevice;
 /// GPU global illumination: photon-traced VPLs + ReSTIR DI on Vulkan ray queries, with a path-traced
 /// ground truth.
 #[derive(Debug, Parser)]
-#[command(name = "restir-vpl", version, about, args_conflicts_with_subcommands = true)]
+#[command(name = "restir-vpl", version, about, args_conflicts_with_subcommands = true, args_override_self = true)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
