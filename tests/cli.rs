@@ -150,3 +150,12 @@ fn vpl_count_errors() {
         &["--vpls-direct 4000000000", "GiB"],
     );
 }
+
+/// A repeated flag overrides the earlier one (the render script appends the user's arguments).
+#[test]
+fn later_flag_overrides_earlier() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let o = run(&["--headless", "--frames", "0", "--frames", "1", "--width", "8", "--height", "8", "--out", &out]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
