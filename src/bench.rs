@@ -41,8 +41,7 @@ pub fn core(scene_path: &std::path::Path, width: u32, height: u32, frames: u32, 
         aa: true,
         ..Default::default()
     };
-    settings.validate()?;
-    let mut r = Renderer::new(ctx.clone(), &scene, settings)?;
+    let mut r = Renderer::new(ctx.clone(), &scene, settings)?; // validates the settings
     r.render_frame(false)?; // warm-up: shader compilation, first-touch allocations
     r.pass_times.clear();
     let pixels = (width * height) as f64;
@@ -148,15 +147,9 @@ pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32
     let scene_gpu = SceneGpu::new(&ctx, scene)?;
     let mut times = Vec::new();
     let mut last = None;
+    let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, &scene_gpu.lights, settings.photon_settings())?;
     for i in 0..=runs {
-        let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, &scene_gpu.lights, settings.photon_settings())?;
-        // The pass reads the light count from the frame constants.
-        scene_gpu.write_frame(&crate::gpu_types::GpuFrame {
-            light_count: scene_gpu.lights.lights.len() as u32,
-            total_light_power: scene_gpu.lights.total_power_lum as f32,
-            ..Default::default()
-        })?;
-        let stats = pass.run(scene_gpu.set.set, scene_gpu.lights.lights.len())?;
+        let stats = pass.run(scene_gpu.set.set)?;
         if i > 0 {
             times.push(stats.gpu_ms);
         }

@@ -102,12 +102,10 @@ impl Renderer {
         let scene_gpu = SceneGpu::new(&ctx, scene).context("uploading the scene")?;
         let targets = FrameTargets::new(&ctx, settings.width, settings.height).context("allocating frame targets")?;
         let mut passes = Passes::new(&ctx, scene_gpu.set.layout, &targets).context("creating passes")?;
-        // The photon pass reads the frame constants (light count) from set 0.
-        scene_gpu.write_frame(&frame_constants(&settings, &camera, &scene_gpu, 0, 0))?;
         let photons = if settings.needs_vpls() {
             let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, &scene_gpu.lights, settings.photon_settings())
                 .context("creating the photon pass")?;
-            let stats = pass.run(scene_gpu.set.set, scene_gpu.lights.lights.len()).context("tracing photons")?;
+            let stats = pass.run(scene_gpu.set.set).context("tracing photons")?;
             if settings.verbose {
                 eprintln!(
                     "photon_emit: ran once before frame 0 (static scene): {} direct + {} indirect VPLs from {} paths in {:.1} GPU ms",
@@ -199,7 +197,28 @@ impl Renderer {
     }
 
     fn frame_constants(&self) -> GpuFrame {
-        frame_constants(&self.settings, &self.camera, &self.scene, self.frame_index, self.accumulated)
+        let s = &self.settings;
+        let c = &self.camera;
+        GpuFrame {
+            camera_position: c.position.to_array(),
+            tan_half_fov: (c.yfov * 0.5).tan(),
+            camera_right: c.right.to_array(),
+            aspect: s.width as f32 / s.height as f32,
+            camera_up: c.up.to_array(),
+            frame_index: self.frame_index,
+            camera_forward: c.forward.to_array(),
+            seed: s.seed,
+            width: s.width,
+            height: s.height,
+            max_bounces: s.max_bounces,
+            flags: if s.aa { FRAME_AA } else { 0 },
+            light_count: self.scene.lights.lights.len() as u32,
+            instance_count: self.scene.instance_count as u32,
+            total_light_power: self.scene.lights.total_power_lum as f32,
+            exposure: 2f32.powf(s.exposure),
+            accumulated_frames: self.accumulated + 1,
+            ..Default::default()
+        }
     }
 
     /// Renders and accumulates one frame; waits for it to finish.
@@ -293,30 +312,6 @@ impl Renderer {
         let mut bytes = read_back(&self.ctx, &self.targets.preview)?;
         bytes.truncate(self.targets.pixels() as usize * 4);
         Ok(bytes)
-    }
-}
-
-/// The frame uniform block for frame `frame_index` with `accumulated` frames already averaged.
-fn frame_constants(s: &RenderSettings, c: &CameraSetup, scene: &SceneGpu, frame_index: u32, accumulated: u32) -> GpuFrame {
-    GpuFrame {
-        camera_position: c.position.to_array(),
-        tan_half_fov: (c.yfov * 0.5).tan(),
-        camera_right: c.right.to_array(),
-        aspect: s.width as f32 / s.height as f32,
-        camera_up: c.up.to_array(),
-        frame_index,
-        camera_forward: c.forward.to_array(),
-        seed: s.seed,
-        width: s.width,
-        height: s.height,
-        max_bounces: s.max_bounces,
-        flags: if s.aa { FRAME_AA } else { 0 },
-        light_count: scene.lights.lights.len() as u32,
-        instance_count: scene.instance_count as u32,
-        total_light_power: scene.lights.total_power_lum as f32,
-        exposure: 2f32.powf(s.exposure),
-        accumulated_frames: accumulated + 1,
-        ..Default::default()
     }
 }
 

@@ -1,4 +1,5 @@
-// photon_emit: virtual point lights from the area lights (../shared/notes/method.md).
+// photon_emit: virtual point lights from the area lights (../shared/notes/method.md). Lights are
+// chosen by inverting their CDF (push constant `light_count` entries), never from the frame constants.
 //   mode 0, direct VPLs: sample i of N_d picks light t by inverting the light CDF at the stratified
 //     u = (i + xi) / N_d, a uniform point on it, and gets flux Phi_t / (N_d P(t)).
 //   mode 1, photon paths: each path starts like a direct sample with flux Phi_t / P(t) in a cosine
@@ -31,6 +32,7 @@ layout(push_constant) uniform Push {
     uint max_bounces;
     uint seed;
     float scale;       // mode 2
+    uint light_count;  // entries of light_cdf
 };
 
 const uint SALT_DIRECT = 0x64697265u;
@@ -39,7 +41,7 @@ const uint SALT_PATHS = 0x70617468u;
 // Smallest t with u < cdf[t] (inclusive CDF over the light pdfs).
 uint invert_light_cdf(float u) {
     uint lo = 0u;
-    uint hi = frame.light_count - 1u;
+    uint hi = light_count - 1u;
     while (lo < hi) {
         uint mid = (lo + hi) / 2u;
         if (u < light_cdf[mid]) {
@@ -101,7 +103,7 @@ void direct_vpl(uint i) {
 
 void photon_path(uint p) {
     uint rng = rng_init(p, 1u, seed, SALT_PATHS);
-    uint t = sample_light_index(rand(rng));
+    uint t = invert_light_cdf(rand(rng));
     LightSample s = sample_light_point(t, rng);
     vec3 phi0 = s.power_over_pdf;
     vec3 phi = phi0;

@@ -62,6 +62,7 @@ struct Push {
     max_bounces: u32,
     seed: u32,
     scale: f32,
+    light_count: u32,
 }
 
 /// Largest single dispatch in items (keeps one submission short on slow devices).
@@ -74,6 +75,7 @@ pub struct PhotonEmitPass {
     _cdf: Buffer,
     settings: PhotonSettings,
     capacity: u32,
+    light_count: u32,
     ctx: Arc<Context>,
 }
 
@@ -155,7 +157,8 @@ impl PhotonEmitPass {
         pipeline.set1.write_buffer(0, &vpls)?;
         pipeline.set1.write_buffer(1, &counter)?;
         pipeline.set1.write_buffer(2, &cdf_buf)?;
-        Ok(Self { pipeline, vpls, counter, _cdf: cdf_buf, settings, capacity, ctx: ctx.clone() })
+        let light_count = lights.lights.len() as u32;
+        Ok(Self { pipeline, vpls, counter, _cdf: cdf_buf, settings, capacity, light_count, ctx: ctx.clone() })
     }
 
     fn push(&self, mode: u32) -> Push {
@@ -170,6 +173,7 @@ impl PhotonEmitPass {
             max_bounces: self.settings.max_bounces,
             seed: self.settings.seed,
             scale: 1.0,
+            light_count: self.light_count,
         }
     }
 
@@ -185,17 +189,12 @@ impl PhotonEmitPass {
         }
     }
 
-    fn submit(
-        &self,
-        timer: &mut GpuTimer,
-        gpu_ms: &mut f64,
-        record: impl FnOnce(vk::CommandBuffer, &mut GpuTimer),
-    ) -> Result<()> {
-        let ctx = &self.ctx;
-        ctx.one_shot(|cmd| {
+    /// Submits `record` inside the pass's label and timestamp scope, waits, and adds its GPU time.
+    fn submit(&self, timer: &mut GpuTimer, gpu_ms: &mut f64, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        self.ctx.one_shot(|cmd| {
             timer.reset(cmd);
             timer.begin(cmd, Self::NAME);
-            record(cmd, timer);
+            record(cmd);
             timer.end(cmd);
         })?;
         *gpu_ms += timer.collect()?.iter().map(|x| x.1).sum::<f64>();
@@ -207,8 +206,9 @@ impl PhotonEmitPass {
         Ok(u32::from_le_bytes(bytes[..4].try_into().expect("4 bytes")))
     }
 
-    /// Traces the photons and fills the VPL buffer. Returns the statistics; the VPLs stay on the GPU.
-    pub fn run(&self, scene_set: vk::DescriptorSet, light_count: usize) -> Result<PhotonStats> {
+    /// Traces the photons and fills the VPL buffer (direct, then indirect in (path, bounce) order).
+    /// Returns the statistics; the VPLs stay on the GPU.
+    pub fn run(&self, scene_set: vk::DescriptorSet) -> Result<PhotonStats> {
         let start = std::time::Instant::now();
         let mut timer = GpuTimer::new(&self.ctx, 4)?;
         let mut stats = PhotonStats::default();
@@ -217,13 +217,13 @@ impl PhotonEmitPass {
         // Zero the counter.
         // SAFETY: the counter is alive until one_shot's wait returns.
         ctx.one_shot(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 0, vk::WHOLE_SIZE, 0) })?;
-        if light_count == 0 {
+        if self.light_count == 0 {
             return Ok(stats);
         }
         let mut gpu_ms = 0.0;
         // Direct VPLs.
         if s.direct > 0 {
-            self.submit(&mut timer, &mut gpu_ms, |cmd, _| self.record_chunks(cmd, scene_set, self.push(0), 0, s.direct))?;
+            self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, self.push(0), 0, s.direct))?;
             stats.direct_vpls = s.direct;
         }
         // Photon paths, in batches sized from the VPLs per path seen so far.
@@ -240,7 +240,7 @@ impl PhotonEmitPass {
                     break;
                 }
                 let push = Push { base: s.direct, ..self.push(1) };
-                self.submit(&mut timer, &mut gpu_ms, |cmd, _| self.record_chunks(cmd, scene_set, push, paths as u32, batch))?;
+                self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, push, paths as u32, batch))?;
                 paths += batch as u64;
                 stats.batches += 1;
                 count = self.read_counter()?;
@@ -254,8 +254,7 @@ impl PhotonEmitPass {
             }
             if count > 0 {
                 let push = Push { base: s.direct, scale: (1.0 / paths as f64) as f32, ..self.push(2) };
-                self.submit(&mut timer, &mut gpu_ms, |cmd, _| self.record_chunks(cmd, scene_set, push, 0, count))?;
-                self.sort_indirect(count)?;
+                self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, push, 0, count))?;
             }
             stats.indirect_vpls = count;
             stats.paths = paths;
@@ -263,7 +262,8 @@ impl PhotonEmitPass {
         stats.gpu_ms = gpu_ms;
         stats.wall_ms = start.elapsed().as_secs_f64() * 1e3;
         stats.paths_per_second = if gpu_ms > 0.0 { stats.paths as f64 / (gpu_ms * 1e-3) } else { 0.0 };
-        let vpls = self.read_vpls(&stats)?;
+        let mut vpls = self.read_vpls(&stats)?;
+        self.sort_indirect(&mut vpls[stats.direct_vpls as usize..])?;
         for v in &vpls {
             let target = if v.kind == crate::gpu_types::VPL_INDIRECT { &mut stats.indirect_flux } else { &mut stats.direct_flux };
             for c in 0..3 {
@@ -276,27 +276,13 @@ impl PhotonEmitPass {
     /// Puts the indirect VPLs in (path, bounce) order: the atomic append order varies from run to
     /// run, and sampling indexes VPLs, so a fixed order keeps same-seed images bit-identical. Done
     /// once per static scene on the host (a few ms for 100k VPLs).
-    fn sort_indirect(&self, count: u32) -> Result<()> {
-        let bytes = read_back(&self.ctx, &self.vpls)?;
-        let all: &[GpuVpl] = bytemuck::cast_slice(&bytes);
-        let base = self.settings.direct as usize;
-        let mut indirect = all[base..base + count as usize].to_vec();
+    fn sort_indirect(&self, indirect: &mut [GpuVpl]) -> Result<()> {
+        if indirect.is_empty() {
+            return Ok(());
+        }
         indirect.sort_unstable_by_key(|v| (v.path, v.bounce));
-        let staging = Buffer::new(
-            &self.ctx,
-            "photon_emit.sort_staging",
-            std::mem::size_of_val(indirect.as_slice()) as u64,
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            MemoryLocation::CpuToGpu,
-        )?;
-        staging.write(0, bytemuck::cast_slice(&indirect))?;
-        let region = [vk::BufferCopy::default()
-            .src_offset(0)
-            .dst_offset((base * std::mem::size_of::<GpuVpl>()) as u64)
-            .size(staging.size.min(std::mem::size_of_val(indirect.as_slice()) as u64))];
-        let ctx = &self.ctx;
-        // SAFETY: both buffers outlive one_shot's wait; the region lies inside the VPL buffer.
-        ctx.one_shot(|cmd| unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, self.vpls.raw, &region) })
+        let offset = self.settings.direct as u64 * std::mem::size_of::<GpuVpl>() as u64;
+        self.vpls.upload(offset, bytemuck::cast_slice(indirect))
     }
 
     /// The VPLs on the host: direct first, then indirect.

@@ -62,22 +62,32 @@ impl Buffer {
     /// A device-local buffer filled with `data` through a staging copy.
     pub fn with_data(ctx: &Arc<Context>, name: &str, data: &[u8], usage: vk::BufferUsageFlags) -> Result<Self> {
         let buffer = Self::new(ctx, name, data.len() as u64, usage | vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuOnly)?;
-        if !data.is_empty() {
-            let staging = Self::new(
-                ctx,
-                &format!("{name}.staging"),
-                data.len() as u64,
-                vk::BufferUsageFlags::TRANSFER_SRC,
-                MemoryLocation::CpuToGpu,
-            )?;
-            staging.write(0, data)?;
-            let region = [vk::BufferCopy::default().size(data.len() as u64)];
-            ctx.one_shot(|cmd| {
-                // SAFETY: both buffers are large enough and alive until the wait completes.
-                unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, buffer.raw, &region) }
-            })?;
-        }
+        buffer.upload(0, data)?;
         Ok(buffer)
+    }
+
+    /// Copies `data` to byte `offset` of a (device-local) buffer with TRANSFER_DST usage through a
+    /// staging buffer, and waits.
+    pub fn upload(&self, offset: u64, data: &[u8]) -> Result<()> {
+        if data.is_empty() {
+            return Ok(());
+        }
+        anyhow::ensure!(offset + data.len() as u64 <= self.size, "upload past the end of '{}'", self.name);
+        let ctx = &self.ctx;
+        let staging = Self::new(
+            ctx,
+            &format!("{}.staging", self.name),
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
+        staging.write(0, data)?;
+        let region = [vk::BufferCopy::default().dst_offset(offset).size(data.len() as u64)];
+        ctx.one_shot(|cmd| {
+            // SAFETY: the region lies inside both buffers (checked above), which stay alive until
+            // one_shot's wait completes.
+            unsafe { ctx.device.cmd_copy_buffer(cmd, staging.raw, self.raw, &region) }
+        })
     }
 
     /// Writes bytes into a host-visible buffer.
