@@ -192,3 +192,56 @@ gpu_struct! {
         pub bounce: u32,
     }
 }
+
+gpu_struct! {
+    /// A ReSTIR reservoir after finalisation: the chosen VPL, its unbiased contribution weight W,
+    /// its confidence M and the target p̂ of the chosen VPL at the reservoir's own pixel.
+    pub struct GpuReservoir as "Reservoir" (16) {
+        /// Index into the VPL buffer, or `RESERVOIR_EMPTY`.
+        pub vpl: u32,
+        /// Unbiased contribution weight W (0 when empty).
+        pub ucw: f32,
+        /// Confidence M (initial reservoirs count 1).
+        pub confidence: f32,
+        /// p̂ of `vpl` at the pixel that owns this reservoir.
+        pub target: f32,
+    }
+}
+
+/// `GpuReservoir::vpl` of an empty reservoir.
+pub const RESERVOIR_EMPTY: u32 = u32::MAX;
+
+/// `GpuVplParams::attenuation`.
+pub const ATTENUATION_INVERSE_SQUARE: u32 = 0;
+pub const ATTENUATION_YUKSEL: u32 = 1;
+/// `GpuVplParams::kind_mask` bits.
+pub const KIND_MASK_DIRECT: u32 = 1;
+pub const KIND_MASK_INDIRECT: u32 = 2;
+/// `GpuVplParams::flags` bits.
+/// Targets include visibility: the initial sample is shadow-tested (and zeroed when occluded).
+pub const VPL_FLAG_INITIAL_VISIBILITY: u32 = 1;
+/// Unbiased (visibility-aware generalised MIS) reuse.
+pub const VPL_FLAG_UNBIASED: u32 = 2;
+/// The previous frame's pixels are the same surface points (no jitter, static camera).
+pub const VPL_FLAG_SAME_DOMAIN: u32 = 4;
+
+gpu_struct! {
+    /// Parameters every VPL pass shares: the head of their push constants.
+    pub struct GpuVplParams as "VplParams" (32) {
+        pub vpl_count: u32,
+        /// `ATTENUATION_*`.
+        pub attenuation: u32,
+        /// Yuksel's r² (scene units²).
+        pub yuksel_r2: f32,
+        /// `KIND_MASK_*`: which VPL kinds contribute (debug views direct/indirect).
+        pub kind_mask: u32,
+        /// RIS candidates per pixel (1: uniform sampling).
+        pub candidates: u32,
+        /// Candidate source: 0 uniform, 1 ∝ lum(Φ) through the VPL alias table.
+        pub source: u32,
+        /// Σ lum(Φ_i) over the VPLs (the power source's normalisation).
+        pub total_vpl_lum: f32,
+        /// `VPL_FLAG_*`.
+        pub flags: u32,
+    }
+}

@@ -32,6 +32,10 @@ pub struct Summary {
     pub wall_ms_per_frame: TimingStats,
     /// Rays per pixel per frame (primary + sampling passes).
     pub rays_per_pixel: TimingStats,
+    /// Rays per pixel per frame, by the pass that traced them (primary rays under "gbuffer").
+    pub rays_per_pixel_by_pass: BTreeMap<String, TimingStats>,
+    /// The VPL shading setup (VPL modes only).
+    pub vpl: Option<crate::renderer::VplSummary>,
     /// Samples that were NaN or infinite (replaced by 0 in the accumulation).
     pub nonfinite_samples: u64,
     /// The photon pass (run once before frame 0), when the run needed VPLs.
@@ -167,6 +171,12 @@ pub fn run_with(ctx: Arc<Context>, scene: &Scene, settings: &RenderSettings, sta
         gpu_ms_per_frame: TimingStats::of(&gpu_frame),
         wall_ms_per_frame: TimingStats::of(&wall_frame),
         rays_per_pixel: TimingStats::of(&rpp),
+        rays_per_pixel_by_pass: renderer
+            .pass_rays
+            .iter()
+            .map(|(k, v)| (k.to_string(), TimingStats::of(&v.iter().map(|n| *n as f64 / pixels).collect::<Vec<_>>())))
+            .collect(),
+        vpl: renderer.vpl_summary(),
         nonfinite_samples: renderer.nonfinite_samples,
         photons: renderer.photons.as_ref().map(|p| p.1.clone()),
         total_seconds: start.elapsed().as_secs_f64(),

@@ -7,7 +7,9 @@ use anyhow::{bail, Result};
 use clap::Parser;
 use glam::Vec3;
 
-use restir_vpl::settings::{CameraOverride, Mode, RenderSettings, View};
+use restir_vpl::settings::{
+    Attenuation, Bias, CameraOverride, CandidateSource, Mode, RenderSettings, RestirSettings, View,
+};
 use restir_vpl::vk::NoRayQueryDevice;
 
 /// GPU global illumination: photon-traced VPLs + ReSTIR DI on Vulkan ray queries, with a path-traced
@@ -81,12 +83,54 @@ struct Cli {
     /// Write the VPLs as a PLY point cloud (opens in MeshLab/Blender).
     #[arg(long, value_name = "FILE.ply")]
     dump_vpls: Option<PathBuf>,
-    /// What the image shows: the estimate, or the VPL debug view (blue direct, red indirect).
+    /// What the image shows: the estimate; the VPLs as spheres (blue direct, red indirect); the
+    /// final reservoir's W or M or the kind of VPL it holds; or only direct / only indirect light.
     #[arg(long, value_enum, default_value = "final")]
     view: View,
     /// Sphere radius of `--view vpls` in scene units (default: 0.25% of the scene's diagonal).
     #[arg(long)]
     vpl_radius: Option<f32>,
+    /// RIS candidates per pixel (ris and restir).
+    #[arg(long, default_value_t = 32)]
+    candidates: u32,
+    /// Where RIS candidates come from: uniformly over the VPLs, or in proportion to their power.
+    #[arg(long, value_enum, default_value = "uniform")]
+    candidate_source: CandidateSource,
+    /// ReSTIR temporal reuse of the previous frame's reservoirs.
+    #[arg(long, value_enum, default_value = "on")]
+    temporal: Toggle,
+    /// Temporal history confidence cap, in multiples of the current frame's.
+    #[arg(long, default_value_t = 20.0)]
+    mcap: f32,
+    /// ReSTIR spatial neighbours per pass (at most 32).
+    #[arg(long, default_value_t = 8)]
+    spatial_neighbours: u32,
+    /// Radius of the disc spatial neighbours are drawn from (pixels).
+    #[arg(long, default_value_t = 20.0)]
+    spatial_radius: f32,
+    /// Spatial reuse passes per frame.
+    #[arg(long, default_value_t = 1)]
+    spatial_passes: u32,
+    /// Reject spatial neighbours whose shading normals' dot product is below this.
+    #[arg(long, default_value_t = 0.9, allow_negative_numbers = true)]
+    normal_threshold: f32,
+    /// Reject spatial neighbours whose view depth differs by more than this fraction.
+    #[arg(long, default_value_t = 0.1)]
+    depth_threshold: f32,
+    /// ReSTIR reuse: biased (confidence weights, no visibility in the targets) or unbiased
+    /// (visibility-aware pairwise MIS; converges to the brute-force sum, more shadow rays).
+    #[arg(long, value_enum, default_value = "biased")]
+    bias: Bias,
+    /// Shadow-test the initial ReSTIR sample (default: on for unbiased, where it is required; off
+    /// for biased).
+    #[arg(long, value_enum)]
+    initial_visibility: Option<Toggle>,
+    /// VPL distance attenuation.
+    #[arg(long, value_enum, default_value = "yuksel")]
+    attenuation: Attenuation,
+    /// Yuksel's r in scene units (default: the mean VPL spacing, sqrt(scene area / (pi * VPLs))).
+    #[arg(long)]
+    yuksel_radius: Option<f32>,
     /// Vulkan device index (see --list-devices).
     #[arg(long)]
     device: Option<usize>,
@@ -124,6 +168,18 @@ enum Command {
         #[arg(long)]
         photons: bool,
     },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Toggle {
+    On,
+    Off,
+}
+
+impl Toggle {
+    fn on(self) -> bool {
+        self == Toggle::On
+    }
 }
 
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
@@ -183,6 +239,21 @@ fn settings_from(cli: &Cli) -> Result<RenderSettings> {
         dump_vpls: cli.dump_vpls.clone(),
         view: cli.view,
         vpl_radius: cli.vpl_radius,
+        candidates: cli.candidates,
+        candidate_source: cli.candidate_source,
+        restir: RestirSettings {
+            temporal: cli.temporal.on(),
+            mcap: cli.mcap,
+            spatial_neighbours: cli.spatial_neighbours,
+            spatial_radius: cli.spatial_radius,
+            spatial_passes: cli.spatial_passes,
+            normal_threshold: cli.normal_threshold,
+            depth_threshold: cli.depth_threshold,
+            bias: cli.bias,
+            initial_visibility: cli.initial_visibility.map(Toggle::on),
+        },
+        attenuation: cli.attenuation,
+        yuksel_radius: cli.yuksel_radius,
     })
 }
 

@@ -11,13 +11,110 @@ use serde::Serialize;
 pub enum Mode {
     /// Path tracing with next-event estimation and MIS: the ground truth.
     Pt,
+    /// One VPL per pixel, chosen uniformly; one shadow ray.
+    Uniform,
+    /// Resampled importance sampling over --candidates VPLs; one shadow ray.
+    Ris,
+    /// ReSTIR DI over the VPLs: initial RIS, temporal and spatial reservoir reuse.
+    Restir,
+    /// Every VPL with a shadow ray: the VPL model's exact answer (small images only).
+    Bruteforce,
 }
 
 impl Mode {
     pub fn name(self) -> &'static str {
         match self {
             Mode::Pt => "pt",
+            Mode::Uniform => "uniform",
+            Mode::Ris => "ris",
+            Mode::Restir => "restir",
+            Mode::Bruteforce => "bruteforce",
         }
+    }
+
+    /// Whether the mode shades with the VPL set.
+    pub fn uses_vpls(self) -> bool {
+        !matches!(self, Mode::Pt)
+    }
+
+    /// Whether the mode picks VPLs through reservoirs (restir_initial + vpl_shade).
+    pub fn uses_reservoirs(self) -> bool {
+        matches!(self, Mode::Uniform | Mode::Ris | Mode::Restir)
+    }
+}
+
+/// Where RIS candidates come from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum CandidateSource {
+    /// Uniformly over the VPLs (as in the thesis).
+    #[default]
+    Uniform,
+    /// In proportion to lum(Φ) through an alias table.
+    Power,
+}
+
+/// ReSTIR reuse flavour.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Bias {
+    /// Confidence-weighted reuse, targets without visibility: cheap, biased.
+    #[default]
+    Biased,
+    /// Visibility-aware generalised (pairwise) MIS: converges to the brute-force sum.
+    Unbiased,
+}
+
+/// VPL distance attenuation.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Attenuation {
+    /// Yuksel's non-singular G(d) = 2 / (d² + r² + d·√(d² + r²)).
+    #[default]
+    Yuksel,
+    /// G(d) = 1/d² (singular next to a VPL).
+    InverseSquare,
+}
+
+/// The ReSTIR settings.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct RestirSettings {
+    pub temporal: bool,
+    /// Temporal history confidence cap, in multiples of the current frame's.
+    pub mcap: f32,
+    pub spatial_neighbours: u32,
+    /// Disc radius for spatial neighbours (pixels).
+    pub spatial_radius: f32,
+    pub spatial_passes: u32,
+    /// Neighbours whose shading normals' dot product is below this are rejected.
+    pub normal_threshold: f32,
+    /// Neighbours whose view depth differs by more than this fraction are rejected.
+    pub depth_threshold: f32,
+    pub bias: Bias,
+    /// Shadow-test the initial sample (targets include visibility). None: on for unbiased
+    /// (required there), off for biased.
+    pub initial_visibility: Option<bool>,
+}
+
+impl Default for RestirSettings {
+    fn default() -> Self {
+        Self {
+            temporal: true,
+            mcap: 20.0,
+            spatial_neighbours: 8,
+            spatial_radius: 20.0,
+            spatial_passes: 1,
+            normal_threshold: 0.9,
+            depth_threshold: 0.1,
+            bias: Bias::Biased,
+            initial_visibility: None,
+        }
+    }
+}
+
+impl RestirSettings {
+    pub fn initial_visibility(&self) -> bool {
+        self.initial_visibility.unwrap_or(self.bias == Bias::Unbiased)
     }
 }
 
@@ -30,6 +127,36 @@ pub enum View {
     Final,
     /// Debug: diffuse-shaded scene with every VPL as a sphere (blue direct, red indirect).
     Vpls,
+    /// Debug: the final reservoir's unbiased contribution weight W (grey).
+    ReservoirW,
+    /// Debug: the final reservoir's confidence M (grey).
+    ReservoirM,
+    /// Debug: the kind of VPL each pixel's reservoir holds (blue direct, cyan point light, red
+    /// indirect, black none).
+    VplKind,
+    /// Only the emitters seen directly and the direct VPLs (direct light).
+    Direct,
+    /// Only the indirect VPLs (global illumination).
+    Indirect,
+}
+
+impl View {
+    pub fn name(self) -> &'static str {
+        match self {
+            View::Final => "final",
+            View::Vpls => "vpls",
+            View::ReservoirW => "reservoir-w",
+            View::ReservoirM => "reservoir-m",
+            View::VplKind => "vpl-kind",
+            View::Direct => "direct",
+            View::Indirect => "indirect",
+        }
+    }
+
+    /// Whether the view reads the reservoirs.
+    pub fn shows_reservoirs(self) -> bool {
+        matches!(self, View::ReservoirW | View::ReservoirM | View::VplKind)
+    }
 }
 
 /// A camera given on the command line; replaces the scene's camera.
@@ -79,6 +206,13 @@ pub struct RenderSettings {
     pub view: View,
     /// VPL sphere radius for `--view vpls` (scene units); default 0.25% of the scene's diagonal.
     pub vpl_radius: Option<f32>,
+    /// RIS candidates per pixel (ris and restir).
+    pub candidates: u32,
+    pub candidate_source: CandidateSource,
+    pub restir: RestirSettings,
+    pub attenuation: Attenuation,
+    /// Yuksel's r (scene units); None: the mean VPL spacing √(A / (π N)).
+    pub yuksel_radius: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -108,6 +242,11 @@ impl Default for RenderSettings {
             dump_vpls: None,
             view: View::Final,
             vpl_radius: None,
+            candidates: 32,
+            candidate_source: CandidateSource::Uniform,
+            restir: RestirSettings::default(),
+            attenuation: Attenuation::Yuksel,
+            yuksel_radius: None,
         }
     }
 }
@@ -118,7 +257,15 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 impl RenderSettings {
     /// Whether this run needs the VPL set (and so the photon pass).
     pub fn needs_vpls(&self) -> bool {
-        self.dump_vpls.is_some() || self.view == View::Vpls
+        self.dump_vpls.is_some() || self.view == View::Vpls || self.mode.uses_vpls()
+    }
+
+    /// RIS candidates the restir_initial pass draws: one for uniform sampling.
+    pub fn initial_candidates(&self) -> u32 {
+        match self.mode {
+            Mode::Uniform => 1,
+            _ => self.candidates,
+        }
     }
 
     /// The photon pass's settings.
@@ -166,6 +313,45 @@ impl RenderSettings {
                 self.photon_min_bounces,
                 self.photon_max_bounces
             );
+        }
+        if self.candidates == 0 || self.candidates > 1024 {
+            bail!("--candidates {}: must be between 1 and 1024", self.candidates);
+        }
+        let r = &self.restir;
+        if !(r.mcap >= 0.0 && r.mcap.is_finite()) {
+            bail!("--mcap {}: must be a finite number >= 0", r.mcap);
+        }
+        if r.spatial_neighbours > 32 {
+            bail!("--spatial-neighbours {}: at most 32", r.spatial_neighbours);
+        }
+        if !(r.spatial_radius >= 1.0 && r.spatial_radius.is_finite()) {
+            bail!("--spatial-radius {}: must be at least 1 pixel", r.spatial_radius);
+        }
+        if r.spatial_passes > 8 {
+            bail!("--spatial-passes {}: at most 8", r.spatial_passes);
+        }
+        if !(-1.0..=1.0).contains(&r.normal_threshold) {
+            bail!("--normal-threshold {}: a cosine, must be in [-1, 1]", r.normal_threshold);
+        }
+        if !(r.depth_threshold >= 0.0 && r.depth_threshold.is_finite()) {
+            bail!("--depth-threshold {}: a relative depth difference, must be >= 0", r.depth_threshold);
+        }
+        if r.bias == Bias::Unbiased && r.initial_visibility == Some(false) {
+            bail!("--initial-visibility off with --bias unbiased: the visibility-aware MIS needs targets that include visibility");
+        }
+        if let Some(y) = self.yuksel_radius {
+            if !(y > 0.0 && y.is_finite()) {
+                bail!("--yuksel-radius {y}: must be a positive number (scene units)");
+            }
+            if self.attenuation != Attenuation::Yuksel {
+                bail!("--yuksel-radius is only used with --attenuation yuksel");
+            }
+        }
+        if self.mode != Mode::Restir && self.view.shows_reservoirs() && !self.mode.uses_reservoirs() {
+            bail!("--view {}: mode {} has no reservoirs (use --mode uniform, ris or restir)", self.view.name(), self.mode.name());
+        }
+        if self.mode == Mode::Pt && matches!(self.view, View::Direct | View::Indirect) {
+            bail!("--view {}: splits the VPL image; use a VPL mode (--mode uniform, ris, restir or bruteforce)", self.view.name());
         }
         if let Some(r) = self.vpl_radius {
             if !(r > 0.0 && r.is_finite()) {

@@ -178,3 +178,13 @@ fn a_drifted_layout_is_detected() {
     drifted.swap(0, 1);
     assert_ne!(glsl, drifted);
 }
+
+#[test]
+fn reservoir_layout_matches() {
+    check::<GpuReservoir>();
+}
+
+#[test]
+fn vpl_params_layout_matches() {
+    check::<GpuVplParams>();
+}

@@ -96,4 +96,41 @@ struct Vpl {
     uint bounce;
 };
 
+
+// Slots of the per-frame ray counter (one per pass that traces rays besides gbuffer).
+const uint RAYS_PATHTRACE = 0u;
+const uint RAYS_INITIAL = 1u;
+const uint RAYS_TEMPORAL = 2u;
+const uint RAYS_SPATIAL = 3u;
+const uint RAYS_SHADE = 4u;
+const uint RAYS_BRUTEFORCE = 5u;
+
+const uint RESERVOIR_EMPTY = 0xFFFFFFFFu;
+
+struct Reservoir {
+    uint vpl;
+    float ucw;
+    float confidence;
+    float target;
+};
+
+const uint ATTENUATION_INVERSE_SQUARE = 0u;
+const uint ATTENUATION_YUKSEL = 1u;
+const uint KIND_MASK_DIRECT = 1u;
+const uint KIND_MASK_INDIRECT = 2u;
+const uint VPL_FLAG_INITIAL_VISIBILITY = 1u;
+const uint VPL_FLAG_UNBIASED = 2u;
+const uint VPL_FLAG_SAME_DOMAIN = 4u;
+
+struct VplParams {
+    uint vpl_count;
+    uint attenuation;
+    float yuksel_r2;
+    uint kind_mask;
+    uint candidates;
+    uint source;
+    float total_vpl_lum;
+    uint flags;
+};
+
 #endif

@@ -14,21 +14,23 @@ void onb(vec3 n, out vec3 t, out vec3 b) {
     b = vec3(c, s + n.y * n.y * a, -n.y);
 }
 
+// Uniform point on the unit disk (Shirley & Chiu's concentric map).
+vec2 sample_concentric_disk(vec2 u) {
+    vec2 d = 2.0 * u - 1.0;
+    if (d.x == 0.0 && d.y == 0.0) {
+        return vec2(0.0);
+    }
+    if (abs(d.x) > abs(d.y)) {
+        float phi = (PI / 4.0) * (d.y / d.x);
+        return d.x * vec2(cos(phi), sin(phi));
+    }
+    float phi = (PI / 2.0) - (PI / 4.0) * (d.x / d.y);
+    return d.y * vec2(cos(phi), sin(phi));
+}
+
 // Cosine-weighted direction around unit n; pdf = cos / pi (Malley's method on a concentric disk).
 vec3 sample_cosine_hemisphere(vec3 n, vec2 u) {
-    vec2 d = 2.0 * u - 1.0;
-    vec2 disk;
-    if (d.x == 0.0 && d.y == 0.0) {
-        disk = vec2(0.0);
-    } else if (abs(d.x) > abs(d.y)) {
-        float r = d.x;
-        float phi = (PI / 4.0) * (d.y / d.x);
-        disk = r * vec2(cos(phi), sin(phi));
-    } else {
-        float r = d.y;
-        float phi = (PI / 2.0) - (PI / 4.0) * (d.x / d.y);
-        disk = r * vec2(cos(phi), sin(phi));
-    }
+    vec2 disk = sample_concentric_disk(u);
     float z = sqrt(max(0.0, 1.0 - dot(disk, disk)));
     vec3 t, b;
     onb(n, t, b);

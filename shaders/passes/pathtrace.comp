@@ -126,5 +126,5 @@ void main() {
         albedo = m.albedo;
     }
     samples[index] = vec4(radiance, 1.0);
-    atomicAdd(ray_count[0], rays);
+    atomicAdd(ray_count[RAYS_PATHTRACE], rays);
 }

@@ -6,7 +6,12 @@ pub mod accumulate;
 pub mod gbuffer;
 pub mod pathtrace;
 pub mod photon_emit;
+pub mod restir_initial;
+pub mod restir_spatial;
+pub mod restir_temporal;
 pub mod tonemap;
+pub mod vpl_bruteforce;
+pub mod vpl_shade;
 pub mod vpl_view;
 
 use std::sync::Arc;
@@ -15,7 +20,8 @@ use anyhow::Result;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use crate::gpu_types::GpuSurface;
+use crate::gpu_types::{GpuReservoir, GpuSurface, GpuVplParams};
+use crate::settings::{RestirSettings, View};
 use crate::vk::pipeline::compute_barrier;
 use crate::vk::{Buffer, Context, GpuTimer};
 
@@ -23,8 +29,24 @@ pub use accumulate::AccumulatePass;
 pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
 pub use photon_emit::{PhotonEmitPass, PhotonSettings, PhotonStats};
+pub use restir_initial::RestirInitialPass;
+pub use restir_spatial::RestirSpatialPass;
+pub use restir_temporal::RestirTemporalPass;
 pub use tonemap::TonemapPass;
+pub use vpl_bruteforce::VplBruteforcePass;
+pub use vpl_shade::VplShadePass;
 pub use vpl_view::VplViewPass;
+
+/// Slots of `FrameTargets::ray_counter` (mirrors `RAYS_*` in shaders/common/types.glsl): the pass
+/// that traced them.
+pub const RAY_SLOTS: [&str; 6] = [
+    PathtracePass::NAME,
+    RestirInitialPass::NAME,
+    RestirTemporalPass::NAME,
+    RestirSpatialPass::NAME,
+    VplShadePass::NAME,
+    VplBruteforcePass::NAME,
+];
 
 /// Per-pixel buffers shared between passes.
 pub struct FrameTargets {
@@ -64,13 +86,49 @@ impl FrameTargets {
             accum_squares: make("accumulate.squares", n * 16)?,
             mean: make("accumulate.mean", n * 16)?,
             preview: make("tonemap.preview", n * 4)?,
-            ray_counter: make("frame.ray_counter", 16)?,
+            ray_counter: make("frame.ray_counter", 4 * RAY_SLOTS.len() as u64)?,
             stats: make("frame.stats", 16)?,
         })
     }
 
     pub fn pixels(&self) -> u32 {
         self.width * self.height
+    }
+}
+
+/// The VPL set as the VPL passes read it.
+pub struct VplInputs<'a> {
+    /// `GpuVpl`s, direct then indirect.
+    pub vpls: &'a Buffer,
+    /// Alias table over lum(Φ_i) (a placeholder when the power source is not used).
+    pub alias: &'a Buffer,
+}
+
+/// The two reservoir buffers the ReSTIR passes ping-pong between. Which one holds what is decided
+/// per frame in [`FramePlan`]: `current` receives the initial reservoirs, the other one holds the
+/// previous frame's final reservoirs (the temporal history).
+pub struct Reservoirs {
+    pub a: Buffer,
+    pub b: Buffer,
+}
+
+impl Reservoirs {
+    pub fn new(ctx: &Arc<Context>, pixels: u32) -> Result<Self> {
+        let bytes = pixels as u64 * std::mem::size_of::<GpuReservoir>() as u64;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        Ok(Self {
+            a: Buffer::new(ctx, "reservoirs_a", bytes, usage, MemoryLocation::GpuOnly)?,
+            b: Buffer::new(ctx, "reservoirs_b", bytes, usage, MemoryLocation::GpuOnly)?,
+        })
+    }
+
+    /// 0: `reservoirs_a`, 1: `reservoirs_b`.
+    pub fn buffer(&self, index: usize) -> &Buffer {
+        if index == 0 {
+            &self.a
+        } else {
+            &self.b
+        }
     }
 }
 
@@ -84,24 +142,65 @@ pub enum Step {
 /// The frame's pass list, decided before recording (printed with `--verbose`).
 #[derive(Clone, Debug)]
 pub struct FramePlan {
+    /// Copy last frame's G-buffer aside before the new one (unbiased temporal reuse with jitter).
+    pub keep_previous_gbuffer: bool,
     pub gbuffer: Step,
     pub pathtrace: Step,
+    pub vpl_bruteforce: Step,
+    pub restir_initial: Step,
+    pub restir_temporal: Step,
+    pub restir_spatial: Step,
+    pub vpl_shade: Step,
     pub vpl_view: Step,
     pub accumulate: Step,
     pub tonemap: Step,
     /// Start a new accumulation (first frame, or after a change).
     pub reset_accumulation: bool,
+    /// What the VPL passes need this frame.
+    pub vpl: VplFrame,
+}
+
+/// Per-frame inputs of the VPL passes.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct VplFrame {
+    pub params: GpuVplParams,
+    pub restir: RestirSettings,
+    pub view: View,
+    /// Reservoir buffer (0 = a, 1 = b) that receives this frame's initial reservoirs; the other
+    /// holds the history.
+    pub current: usize,
+}
+
+impl VplFrame {
+    /// The buffer holding the final reservoirs after `spatial_passes` ping-pong passes.
+    pub fn final_buffer(&self, spatial_passes: u32) -> usize {
+        self.current ^ (spatial_passes as usize & 1)
+    }
 }
 
 impl FramePlan {
-    pub fn steps(&self) -> [(&'static str, &Step); 5] {
-        [
+    pub fn steps(&self) -> Vec<(&'static str, &Step)> {
+        vec![
             (GbufferPass::NAME, &self.gbuffer),
             (PathtracePass::NAME, &self.pathtrace),
+            (VplBruteforcePass::NAME, &self.vpl_bruteforce),
+            (RestirInitialPass::NAME, &self.restir_initial),
+            (RestirTemporalPass::NAME, &self.restir_temporal),
+            (RestirSpatialPass::NAME, &self.restir_spatial),
+            (VplShadePass::NAME, &self.vpl_shade),
             (VplViewPass::NAME, &self.vpl_view),
             (AccumulatePass::NAME, &self.accumulate),
             (TonemapPass::NAME, &self.tonemap),
         ]
+    }
+
+    /// Spatial dispatches this frame.
+    pub fn spatial_passes(&self) -> u32 {
+        if self.restir_spatial == Step::Run {
+            self.vpl.restir.spatial_passes
+        } else {
+            0
+        }
     }
 
     /// One line per pass: `run` or `skip (why)`.
@@ -109,12 +208,25 @@ impl FramePlan {
         self.steps()
             .iter()
             .map(|(name, step)| match step {
-                Step::Run => format!("  {name:<12} run"),
-                Step::Skip(why) => format!("  {name:<12} skip ({why})"),
+                Step::Run if *name == RestirSpatialPass::NAME => {
+                    format!("  {name:<16} run ×{}", self.spatial_passes())
+                }
+                Step::Run => format!("  {name:<16} run"),
+                Step::Skip(why) => format!("  {name:<16} skip ({why})"),
             })
             .collect::<Vec<_>>()
             .join("\n")
     }
+}
+
+/// The VPL passes a run needs (only those its mode uses are created).
+#[derive(Default)]
+pub struct VplPasses {
+    pub bruteforce: Option<VplBruteforcePass>,
+    pub initial: Option<RestirInitialPass>,
+    pub temporal: Option<RestirTemporalPass>,
+    pub spatial: Option<RestirSpatialPass>,
+    pub shade: Option<VplShadePass>,
 }
 
 /// Every pass of the renderer.
@@ -125,6 +237,10 @@ pub struct Passes {
     pub tonemap: TonemapPass,
     /// Only with `--view vpls`.
     pub vpl_view: Option<VplViewPass>,
+    /// Only in the VPL modes.
+    pub vpl: VplPasses,
+    /// Last frame's G-buffer (only for unbiased temporal reuse with jittered pixels).
+    pub prev_surfaces: Option<Buffer>,
 }
 
 impl Passes {
@@ -135,6 +251,8 @@ impl Passes {
             accumulate: AccumulatePass::new(ctx, scene_layout, targets)?,
             tonemap: TonemapPass::new(ctx, scene_layout, targets)?,
             vpl_view: None,
+            vpl: VplPasses::default(),
+            prev_surfaces: None,
         })
     }
 
@@ -158,8 +276,44 @@ impl Passes {
         }
         compute_barrier(ctx, cmd);
 
+        if let (true, Some(prev)) = (plan.keep_previous_gbuffer, &self.prev_surfaces) {
+            let region = [vk::BufferCopy::default().size(targets.surfaces.size.min(prev.size))];
+            // SAFETY: both buffers are alive; the barrier orders the copy before the gbuffer pass.
+            unsafe { ctx.device.cmd_copy_buffer(cmd, targets.surfaces.raw, prev.raw, &region) };
+            compute_barrier(ctx, cmd);
+        }
         scoped(ctx, cmd, timer, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
         scoped(ctx, cmd, timer, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
+
+        // VPL modes: brute force, or initial RIS -> temporal -> spatial ×n -> shade.
+        let v = &plan.vpl;
+        let p = &v.params;
+        if let Some(pass) = &self.vpl.bruteforce {
+            scoped(ctx, cmd, timer, &plan.vpl_bruteforce, VplBruteforcePass::NAME, |cmd| pass.record(cmd, scene_set, p, w, h));
+        }
+        if let Some(pass) = &self.vpl.initial {
+            scoped(ctx, cmd, timer, &plan.restir_initial, RestirInitialPass::NAME, |cmd| {
+                pass.record(cmd, scene_set, p, v.current, w, h)
+            });
+        }
+        if let Some(pass) = &self.vpl.temporal {
+            scoped(ctx, cmd, timer, &plan.restir_temporal, RestirTemporalPass::NAME, |cmd| {
+                pass.record(cmd, scene_set, p, v.restir.mcap, v.current, w, h)
+            });
+        }
+        if let Some(pass) = &self.vpl.spatial {
+            for j in 0..plan.spatial_passes() {
+                scoped(ctx, cmd, timer, &plan.restir_spatial, RestirSpatialPass::NAME, |cmd| {
+                    pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
+                });
+            }
+        }
+        if let Some(pass) = &self.vpl.shade {
+            let reservoir = v.final_buffer(plan.spatial_passes());
+            scoped(ctx, cmd, timer, &plan.vpl_shade, VplShadePass::NAME, |cmd| {
+                pass.record(cmd, scene_set, p, v.view, reservoir, w, h)
+            });
+        }
         if let Some(view) = &self.vpl_view {
             scoped(ctx, cmd, timer, &plan.vpl_view, VplViewPass::NAME, |cmd| view.record(cmd, scene_set, pixels));
         }

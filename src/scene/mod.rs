@@ -194,6 +194,30 @@ impl Scene {
             .sum()
     }
 
+    /// Total world-space area of all instanced triangles (one side each).
+    pub fn surface_area(&self) -> f64 {
+        let mut area = 0.0f64;
+        for inst in &self.instances {
+            let Some(mesh) = self.meshes.get(inst.mesh) else {
+                continue;
+            };
+            for t in 0..mesh.triangle_count() {
+                if let Some([a, b, c]) = mesh.triangle(t) {
+                    let (a, b, c) = (
+                        inst.transform.transform_point3(a),
+                        inst.transform.transform_point3(b),
+                        inst.transform.transform_point3(c),
+                    );
+                    let x = 0.5 * (b - a).cross(c - a).length() as f64;
+                    if x.is_finite() {
+                        area += x;
+                    }
+                }
+            }
+        }
+        area
+    }
+
     /// World-space AABB `(min, max)` of all instanced vertices; `(ZERO, ZERO)` if there are none.
     pub fn world_bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);

@@ -45,18 +45,26 @@ pub const fn accel(binding: u32, name: &'static str) -> Binding {
     Binding { binding, kind: BindingKind::AccelerationStructure, name }
 }
 
-/// A descriptor set with its layout and pool, built from a binding table.
+/// A descriptor set with its layout and pool, built from a binding table. It may hold several
+/// *variants* of the set (same layout, e.g. ping-pong buffers swapped); `set` is variant 0.
 pub struct DescriptorSet {
     ctx: Arc<Context>,
     pub layout: vk::DescriptorSetLayout,
     pool: vk::DescriptorPool,
     pub set: vk::DescriptorSet,
+    pub variants: Vec<vk::DescriptorSet>,
     pub table: &'static [Binding],
     pub name: String,
 }
 
 impl DescriptorSet {
     pub fn new(ctx: &Arc<Context>, name: &str, table: &'static [Binding]) -> Result<Self> {
+        Self::with_variants(ctx, name, table, 1)
+    }
+
+    /// `count` variants of the set, all with the layout of `table`.
+    pub fn with_variants(ctx: &Arc<Context>, name: &str, table: &'static [Binding], count: u32) -> Result<Self> {
+        anyhow::ensure!(count >= 1, "descriptor set '{name}' needs at least one variant");
         let bindings: Vec<vk::DescriptorSetLayoutBinding> = table
             .iter()
             .map(|b| {
@@ -77,25 +85,31 @@ impl DescriptorSet {
             let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
             for b in table {
                 match sizes.iter_mut().find(|s| s.ty == b.kind.vk()) {
-                    Some(s) => s.descriptor_count += 1,
-                    None => sizes.push(vk::DescriptorPoolSize { ty: b.kind.vk(), descriptor_count: 1 }),
+                    Some(s) => s.descriptor_count += count,
+                    None => sizes.push(vk::DescriptorPoolSize { ty: b.kind.vk(), descriptor_count: count }),
                 }
             }
             if sizes.is_empty() {
                 sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 });
             }
             let pool = device
-                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes), None)
+                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(count).pool_sizes(&sizes), None)
                 .with_context(|| format!("descriptor pool '{name}'"))?;
             ctx.set_name(pool, name);
-            let layouts = [layout];
-            let set = device
+            let layouts = vec![layout; count as usize];
+            let variants = device
                 .allocate_descriptor_sets(
                     &vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts),
                 )
-                .with_context(|| format!("descriptor set '{name}'"))?[0];
-            ctx.set_name(set, name);
-            Ok(Self { ctx: ctx.clone(), layout, pool, set, table, name: name.to_string() })
+                .with_context(|| format!("descriptor set '{name}'"))?;
+            for (i, set) in variants.iter().enumerate() {
+                if count == 1 {
+                    ctx.set_name(*set, name);
+                } else {
+                    ctx.set_name(*set, &format!("{name}.variant{i}"));
+                }
+            }
+            Ok(Self { ctx: ctx.clone(), layout, pool, set: variants[0], variants, table, name: name.to_string() })
         }
     }
 
@@ -109,8 +123,20 @@ impl DescriptorSet {
         Ok(row)
     }
 
-    /// Points `binding` at a buffer; the kind must match the table.
+    /// Points `binding` of every variant at a buffer; the kind must match the table.
     pub fn write_buffer(&self, binding: u32, buffer: &Buffer) -> Result<()> {
+        for v in 0..self.variants.len() {
+            self.write_buffer_in(v, binding, buffer)?;
+        }
+        Ok(())
+    }
+
+    /// Points `binding` of variant `variant` at a buffer.
+    pub fn write_buffer_in(&self, variant: usize, binding: u32, buffer: &Buffer) -> Result<()> {
+        let set = *self
+            .variants
+            .get(variant)
+            .with_context(|| format!("set '{}' has no variant {variant}", self.name))?;
         let kind = self
             .table
             .iter()
@@ -121,7 +147,7 @@ impl DescriptorSet {
         anyhow::ensure!(kind != BindingKind::AccelerationStructure, "binding {binding} of '{}' takes an acceleration structure", self.name);
         let info = [buffer.descriptor()];
         let write = vk::WriteDescriptorSet::default()
-            .dst_set(self.set)
+            .dst_set(set)
             .dst_binding(binding)
             .descriptor_type(kind.vk())
             .buffer_info(&info);
@@ -135,6 +161,7 @@ impl DescriptorSet {
         self.row(binding, BindingKind::AccelerationStructure)?;
         let structures = [accel];
         let mut as_info = vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(&structures);
+        // Acceleration structures belong to the scene set, which has one variant.
         let mut write = vk::WriteDescriptorSet::default()
             .dst_set(self.set)
             .dst_binding(binding)
@@ -180,7 +207,22 @@ impl ComputePipeline {
         push_size: u32,
         local_size: [u32; 3],
     ) -> Result<Self> {
-        let set1 = DescriptorSet::new(ctx, &format!("{name}.set1"), table)?;
+        Self::with_variants(ctx, name, spirv, scene_layout, table, push_size, local_size, 1)
+    }
+
+    /// As [`ComputePipeline::new`] with `variants` set-1 variants (see [`DescriptorSet::with_variants`]).
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_variants(
+        ctx: &Arc<Context>,
+        name: &str,
+        spirv: &[u8],
+        scene_layout: vk::DescriptorSetLayout,
+        table: &'static [Binding],
+        push_size: u32,
+        local_size: [u32; 3],
+        variants: u32,
+    ) -> Result<Self> {
+        let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
         let code = ash::util::read_spv(&mut Cursor::new(spirv)).with_context(|| format!("SPIR-V of '{name}'"))?;
         let device = &ctx.device;
         // SAFETY: valid device; the SPIR-V was produced by glslang at build time.
@@ -213,12 +255,25 @@ impl ComputePipeline {
 
     /// Binds the pipeline and both sets, pushes constants and dispatches `groups`.
     pub fn dispatch(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], groups: [u32; 3]) {
+        self.dispatch_variant(cmd, 0, scene_set, push, groups);
+    }
+
+    /// As [`ComputePipeline::dispatch`] with set-1 variant `variant`.
+    pub fn dispatch_variant(
+        &self,
+        cmd: vk::CommandBuffer,
+        variant: usize,
+        scene_set: vk::DescriptorSet,
+        push: &[u8],
+        groups: [u32; 3],
+    ) {
+        let set1 = self.set1.variants[variant];
         debug_assert_eq!(push.len() as u32, self.push_size, "push constant size of '{}'", self.name);
         let d = &self.ctx.device;
         // SAFETY: cmd is recording; all objects are alive for the command buffer's lifetime.
         unsafe {
             d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-            d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[scene_set, self.set1.set], &[]);
+            d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[scene_set, set1], &[]);
             if !push.is_empty() {
                 d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
             }
@@ -230,6 +285,20 @@ impl ComputePipeline {
     pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], width: u32, height: u32) {
         let groups = [width.div_ceil(self.local_size[0]), height.div_ceil(self.local_size[1]), 1];
         self.dispatch(cmd, scene_set, push, groups);
+    }
+
+    /// [`ComputePipeline::dispatch_2d`] with set-1 variant `variant`.
+    pub fn dispatch_2d_variant(
+        &self,
+        cmd: vk::CommandBuffer,
+        variant: usize,
+        scene_set: vk::DescriptorSet,
+        push: &[u8],
+        width: u32,
+        height: u32,
+    ) {
+        let groups = [width.div_ceil(self.local_size[0]), height.div_ceil(self.local_size[1]), 1];
+        self.dispatch_variant(cmd, variant, scene_set, push, groups);
     }
 
     /// Dispatches one invocation per item of a 1-D range of `count` items.

@@ -1,0 +1,70 @@
+// restir_initial: per pixel, resampled importance sampling over the VPL set (Talbot 2005).
+// M candidates from the source pdf (uniform, or proportional to lum(flux) through the VPL alias
+// table), target p^ = lum of the unshadowed contribution, one chosen with probability
+// w_j / sum w, w_j = p^(i_j) / (M p(i_j)); W = sum w / p^(y). With one uniform candidate this is
+// uniform sampling exactly (W = N). Optionally the chosen sample is shadow-tested and the
+// reservoir zeroed when occluded (then the target includes visibility).
+// Shared by the uniform, ris and restir modes.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/vpl_target.glsl"
+#include "../lib/random.glsl"
+#include "../restir/reservoir.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 2, std430) readonly buffer VplAliasBuffer { AliasEntry vpl_alias[]; };
+layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
+layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
+
+layout(push_constant) uniform Push {
+    VplParams params;
+} pc;
+
+const uint SALT_INITIAL = 0x7269u;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
+    Surface s = surfaces[index];
+    VplParams p = pc.params;
+    if (s.hit_t < 0.0 || p.vpl_count == 0u || p.candidates == 0u) {
+        reservoirs_out[index] = reservoir_empty(1.0);
+        return;
+    }
+    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_INITIAL);
+    ReservoirStream st = stream_begin();
+    float inv_m = 1.0 / float(p.candidates);
+    float uniform_pdf = 1.0 / float(p.vpl_count);
+    for (uint j = 0u; j < p.candidates; ++j) {
+        uint i = rand_index(rng, p.vpl_count);
+        if (p.source == 1u) {
+            AliasEntry e = vpl_alias[i];
+            i = alias_resolve(i, e.keep, e.alias, rand(rng));
+        }
+        Vpl v = vpls[i];
+        float source_pdf = p.source == 1u ? luminance(v.flux) / p.total_vpl_lum : uniform_pdf;
+        float t = vpl_target(surface_vpl_contribution(s, v, p));
+        float w = source_pdf > 0.0 ? t * inv_m / source_pdf : 0.0;
+        stream_update(st, i, w, t, rand(rng));
+    }
+    st.confidence = 1.0;
+    Reservoir r = stream_finish(st);
+    uint rays = 0u;
+    if (reservoir_valid(r) && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u) {
+        rays = 1u;
+        if (!vpl_visible(s, vpls[r.vpl])) {
+            r = reservoir_empty(1.0);
+        }
+    }
+    reservoirs_out[index] = r;
+    if (rays > 0u) {
+        atomicAdd(ray_count[RAYS_INITIAL], rays);
+    }
+}

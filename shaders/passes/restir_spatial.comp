@@ -1,0 +1,118 @@
+// restir_spatial: merges each pixel's reservoir (canonical) with those of up to K random
+// neighbours within a disc of `radius` pixels; neighbours whose normal or depth differ too much
+// are rejected. Targets are always evaluated at the receiving pixel.
+//  - biased: confidence weights M_k / sum M, targets without visibility (no rays);
+//  - unbiased: targets with visibility and confidence-weighted pairwise MIS (Lin et al. 2022),
+//    two shadow rays per neighbour: receiving pixel -> neighbour's sample, neighbour -> canonical
+//    sample. Its converged mean is the brute-force sum.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/vpl_target.glsl"
+#include "../lib/random.glsl"
+#include "../restir/reservoir.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 2, std430) readonly buffer ReservoirIn { Reservoir src[]; };
+layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir dst[]; };
+layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
+
+layout(push_constant) uniform Push {
+    VplParams params;
+    uint neighbours;
+    float radius;
+    float normal_threshold;
+    float depth_threshold;
+    uint pass_index;
+} pc;
+
+const uint SALT_SPATIAL = 0x7370u;
+const uint MAX_NEIGHBOURS = 32u;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
+    Surface s = surfaces[index];
+    Reservoir rc = src[index];
+    if (s.hit_t < 0.0) {
+        dst[index] = rc;
+        return;
+    }
+    VplParams p = pc.params;
+    bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
+    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (pc.pass_index << 16));
+
+    // Pick the neighbours (geometry only: the choice never depends on the reservoirs' samples).
+    uint nb[MAX_NEIGHBOURS];
+    uint k = 0u;
+    uint wanted = min(pc.neighbours, MAX_NEIGHBOURS);
+    for (uint j = 0u; j < wanted; ++j) {
+        vec2 d = sample_concentric_disk(rand2(rng)) * pc.radius;
+        ivec2 q = ivec2(pixel) + ivec2(round(d));
+        if (q.x < 0 || q.y < 0 || q.x >= int(frame.width) || q.y >= int(frame.height) || q == ivec2(pixel)) {
+            continue;
+        }
+        uint qi = uint(q.y) * frame.width + uint(q.x);
+        Surface sq = surfaces[qi];
+        if (sq.hit_t < 0.0 || dot(sq.shading_normal, s.shading_normal) < pc.normal_threshold
+            || abs(sq.view_depth - s.view_depth) > pc.depth_threshold * s.view_depth) {
+            continue;
+        }
+        nb[k] = qi;
+        k += 1u;
+    }
+    if (k == 0u) {
+        dst[index] = rc;
+        return;
+    }
+
+    float mc = rc.confidence;
+    float m_total = mc;
+    for (uint j = 0u; j < k; ++j) {
+        m_total += src[nb[j]].confidence;
+    }
+    uint rays = 0u;
+    bool canonical_valid = reservoir_valid(rc);
+    float pc_yc = canonical_valid ? rc.target : 0.0;
+    Vpl vc;
+    if (canonical_valid) {
+        vc = vpls[rc.vpl];
+    }
+    float m_c_share = mc / float(k);
+    float canonical_mis = unbiased ? 0.0 : mc / m_total;
+
+    ReservoirStream st = stream_begin();
+    for (uint j = 0u; j < k; ++j) {
+        uint qi = nb[j];
+        Reservoir rn = src[qi];
+        float mn = rn.confidence;
+        if (unbiased) {
+            Surface sq = surfaces[qi];
+            // The canonical sample as the neighbour would have produced it.
+            float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, true, rays) : 0.0;
+            canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);
+            if (reservoir_valid(rn)) {
+                float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, true, rays);
+                float m = pairwise_neighbour_weight(mn, rn.target, m_c_share, pc_yn, m_total);
+                stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng));
+            }
+        } else if (reservoir_valid(rn)) {
+            float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, false, rays);
+            stream_update(st, rn.vpl, (mn / m_total) * pc_yn * rn.ucw, pc_yn, rand(rng));
+        }
+    }
+    if (canonical_valid) {
+        stream_update(st, rc.vpl, canonical_mis * pc_yc * rc.ucw, pc_yc, rand(rng));
+    }
+    st.confidence = m_total;
+    dst[index] = stream_finish(st);
+    if (rays > 0u) {
+        atomicAdd(ray_count[RAYS_SPATIAL], rays);
+    }
+}

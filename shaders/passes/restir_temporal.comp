@@ -1,0 +1,88 @@
+// restir_temporal: merges this frame's initial reservoir (canonical) with the previous frame's
+// final reservoir of the same pixel (the camera is static, so reprojection is the identity).
+// The history's confidence is capped at mcap times the canonical's. Targets are evaluated at this
+// frame's pixel.
+//  - biased: confidence weights M_k / sum M, targets without visibility;
+//  - unbiased: targets with visibility and the generalised balance heuristic over the two
+//    techniques (Lin et al. 2022). When the pixel is the same surface point as last frame (no
+//    jitter) both techniques have the same target, so the heuristic reduces to confidence
+//    weights and the history's sample is known visible (its target there was positive).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/vpl_target.glsl"
+#include "../lib/random.glsl"
+#include "../restir/reservoir.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+layout(set = 1, binding = 1, std430) readonly buffer PrevSurfaceBuffer { Surface prev_surfaces[]; };
+layout(set = 1, binding = 2, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 3, std430) buffer ReservoirCurrent { Reservoir reservoirs[]; };
+layout(set = 1, binding = 4, std430) readonly buffer ReservoirHistory { Reservoir history[]; };
+layout(set = 1, binding = 5, std430) buffer RayCounter { uint ray_count[]; };
+
+layout(push_constant) uniform Push {
+    VplParams params;
+    float mcap;
+} pc;
+
+const uint SALT_TEMPORAL = 0x746du;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
+    Surface s = surfaces[index];
+    if (s.hit_t < 0.0) {
+        return;
+    }
+    VplParams p = pc.params;
+    Reservoir rc = reservoirs[index];
+    Reservoir rh = history[index];
+    float mc = rc.confidence;
+    float mh = min(rh.confidence, pc.mcap * mc);
+    if (!(mh > 0.0)) {
+        return;
+    }
+    bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
+    bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
+    uint rays = 0u;
+
+    // Targets at this pixel: the canonical's was computed here; the history's sample is evaluated
+    // here (visible for sure when unbiased and the surface point is the same).
+    float pc_yc = reservoir_valid(rc) ? rc.target : 0.0;
+    float pc_yh = 0.0;
+    if (reservoir_valid(rh)) {
+        pc_yh = surface_vpl_target(s, vpls[rh.vpl], p, unbiased && !same_domain, rays);
+    }
+
+    float m_c = mc / (mc + mh);
+    float m_h = mh / (mc + mh);
+    if (unbiased && !same_domain) {
+        Surface sp = prev_surfaces[index];
+        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpls[rc.vpl], p, true, rays) : 0.0;
+        float ph_yh = reservoir_valid(rh) ? rh.target : 0.0;
+        float dc = mc * pc_yc + mh * ph_yc;
+        float dh = mh * ph_yh + mc * pc_yh;
+        m_c = dc > 0.0 ? mc * pc_yc / dc : 0.0;
+        m_h = dh > 0.0 ? mh * ph_yh / dh : 0.0;
+    }
+
+    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_TEMPORAL);
+    ReservoirStream st = stream_begin();
+    if (reservoir_valid(rc)) {
+        stream_update(st, rc.vpl, m_c * pc_yc * rc.ucw, pc_yc, rand(rng));
+    }
+    if (reservoir_valid(rh)) {
+        stream_update(st, rh.vpl, m_h * pc_yh * rh.ucw, pc_yh, rand(rng));
+    }
+    st.confidence = mc + mh;
+    reservoirs[index] = stream_finish(st);
+    if (rays > 0u) {
+        atomicAdd(ray_count[RAYS_TEMPORAL], rays);
+    }
+}

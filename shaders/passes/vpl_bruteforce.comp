@@ -1,0 +1,52 @@
+// vpl_bruteforce: Le + sum over every VPL of c_i(x) with a shadow ray each: the VPL model's exact
+// answer (small images). Dispatched in chunks of VPLs [first, first + count); the first chunk
+// writes Le, later chunks add to the sample.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/vpl_target.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 2, std430) buffer SampleBuffer { vec4 samples[]; };
+layout(set = 1, binding = 3, std430) buffer RayCounter { uint ray_count[]; };
+
+layout(push_constant) uniform Push {
+    VplParams params;
+    uint first;
+    uint count;
+} pc;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
+    Surface s = surfaces[index];
+    VplParams p = pc.params;
+    if (s.hit_t < 0.0) {
+        samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
+        return;
+    }
+    vec3 radiance = pc.first == 0u ? ((p.kind_mask & KIND_MASK_DIRECT) != 0u ? s.emission : vec3(0.0))
+                                   : samples[index].rgb;
+    uint rays = 0u;
+    uint end = min(pc.first + pc.count, p.vpl_count);
+    for (uint i = pc.first; i < end; ++i) {
+        Vpl v = vpls[i];
+        vec3 c = surface_vpl_contribution(s, v, p);
+        if (max3(c) > 0.0) {
+            rays += 1u;
+            if (vpl_visible(s, v)) {
+                radiance += c;
+            }
+        }
+    }
+    samples[index] = vec4(radiance, 1.0);
+    if (rays > 0u) {
+        atomicAdd(ray_count[RAYS_BRUTEFORCE], rays);
+    }
+}

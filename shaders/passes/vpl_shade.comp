@@ -1,0 +1,79 @@
+// vpl_shade: the pixel's estimate from its final reservoir: Le + c_y(x) W, with a shadow ray for
+// y (none in unbiased ReSTIR, where a sample with positive target at x is visible from x). Also
+// writes the reservoir debug views. Shared by the uniform, ris and restir modes.
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/vpl_target.glsl"
+#include "../restir/reservoir.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 2, std430) readonly buffer ReservoirIn { Reservoir reservoirs[]; };
+layout(set = 1, binding = 3, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
+layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
+
+const uint VIEW_FINAL = 0u;
+const uint VIEW_RESERVOIR_W = 1u;
+const uint VIEW_RESERVOIR_M = 2u;
+const uint VIEW_VPL_KIND = 3u;
+
+layout(push_constant) uniform Push {
+    VplParams params;
+    uint view;
+} pc;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
+    Surface s = surfaces[index];
+    VplParams p = pc.params;
+    if (s.hit_t < 0.0) {
+        samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
+        return;
+    }
+    Reservoir r = reservoirs[index];
+    bool valid = reservoir_valid(r);
+    if (pc.view == VIEW_RESERVOIR_W) {
+        samples[index] = vec4(vec3(r.ucw), 1.0);
+        return;
+    }
+    if (pc.view == VIEW_RESERVOIR_M) {
+        samples[index] = vec4(vec3(r.confidence), 1.0);
+        return;
+    }
+    if (pc.view == VIEW_VPL_KIND) {
+        vec3 colour = vec3(0.0);
+        if (valid) {
+            uint kind = vpls[r.vpl].kind;
+            colour = kind == VPL_INDIRECT ? vec3(1.0, 0.1, 0.05) : kind == VPL_DIRECT_POINT ? vec3(0.1, 0.9, 1.0) : vec3(0.1, 0.25, 1.0);
+        }
+        samples[index] = vec4(colour, 1.0);
+        return;
+    }
+    vec3 radiance = (p.kind_mask & KIND_MASK_DIRECT) != 0u ? s.emission : vec3(0.0);
+    uint rays = 0u;
+    if (valid) {
+        Vpl v = vpls[r.vpl];
+        vec3 c = surface_vpl_contribution(s, v, p);
+        if (max3(c) > 0.0) {
+            bool visible = true;
+            if ((p.flags & VPL_FLAG_UNBIASED) == 0u) {
+                rays = 1u;
+                visible = vpl_visible(s, v);
+            }
+            if (visible) {
+                radiance += c * r.ucw;
+            }
+        }
+    }
+    samples[index] = vec4(radiance, 1.0);
+    if (rays > 0u) {
+        atomicAdd(ray_count[RAYS_SHADE], rays);
+    }
+}

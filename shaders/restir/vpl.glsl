@@ -1,0 +1,59 @@
+// The contribution of one VPL to a surface point, as in ../shared/notes/method.md:
+//   c_i(x) = (rho_x/pi) * I_i(w) * max(0, -n_x.w) * G(d) * V(x, y_i),  w = (x - y_i)/d,
+// with I_i(w) = Phi_i max(0, n_i.w)/pi for a cosine VPL and Phi_i/(4 pi) for a point-light VPL.
+// G is 1/d^2 or Yuksel's non-singular 2/(d^2 + r^2 + d sqrt(d^2 + r^2)). Visibility is the
+// caller's (shadow rays need the scene bindings). Binding-free.
+#ifndef VPL_GLSL
+#define VPL_GLSL
+
+#include "../common/types.glsl"
+#include "../lib/brdf.glsl"
+
+// Geometry term: inverse square, or Yuksel's form, which is finite at d = 0 (2/r^2) and tends to
+// 1/d^2 when d >> r.
+float vpl_attenuation(float d2, uint mode, float r2) {
+    if (mode == ATTENUATION_YUKSEL) {
+        return 2.0 / (d2 + r2 + sqrt(d2) * sqrt(d2 + r2));
+    }
+    return 1.0 / d2;
+}
+
+bool vpl_kind_enabled(uint kind, uint kind_mask) {
+    uint bit = kind == VPL_INDIRECT ? KIND_MASK_INDIRECT : KIND_MASK_DIRECT;
+    return (kind_mask & bit) != 0u;
+}
+
+// Unshadowed contribution of `v` to point x (shading normal ns, geometric normal ng, both facing
+// the viewer's side; albedo rho). Zero when the VPL lies behind either surface, coincides with x,
+// or its kind is masked out. Never NaN/Inf for finite inputs with d2 > 0 or Yuksel's r2 > 0.
+vec3 vpl_contribution(Vpl v, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    if (!vpl_kind_enabled(v.kind, p.kind_mask)) {
+        return vec3(0.0);
+    }
+    vec3 to_x = x - v.position;
+    float d2 = dot(to_x, to_x);
+    if (!(d2 > 1e-20)) {
+        return vec3(0.0);  // on the point itself: the cosines are undefined (and zero in the limit)
+    }
+    vec3 w = to_x * inversesqrt(d2);
+    float cos_x = -dot(ns, w);
+    if (cos_x <= 0.0 || dot(ng, w) >= 0.0) {
+        return vec3(0.0);
+    }
+    float emit = v.kind == VPL_DIRECT_POINT ? 0.25 : max(dot(v.normal, w), 0.0);
+    if (emit <= 0.0) {
+        return vec3(0.0);
+    }
+    float g = vpl_attenuation(d2, p.attenuation, p.yuksel_r2);
+    if (p.attenuation == ATTENUATION_INVERSE_SQUARE && isinf(g)) {
+        return vec3(0.0);
+    }
+    return lambert_brdf(rho) * v.flux * (INV_PI * emit * cos_x * g);
+}
+
+// The resampling target p^ (without visibility): luminance of the unshadowed contribution.
+float vpl_target(vec3 contribution) {
+    return luminance(contribution);
+}
+
+#endif

@@ -1,0 +1,77 @@
+// Not used by the renderer: runs the binding-free VPL and reservoir headers on the GPU for
+// tests/vpl_math.rs. `pc.test` picks the case:
+//  0: attenuation G(d) for (d2, r2, mode) triples in `inputs` -> `outputs[i].x`
+//  1: vpl_contribution for the VPL/point pairs in `vpls`/`points` -> `outputs[i].xyz`
+//  2: stream `pc.n` candidates with weights `inputs[j].x` through a reservoir; index -> `chosen[i]`,
+//     and W * target of the chosen one -> `outputs[i].x` (should be sum w)
+//  3: pairwise MIS weights for random confidences/targets: sum over all techniques -> `outputs[i].x`
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../lib/random.glsl"
+#include "../restir/vpl.glsl"
+#include "../restir/reservoir.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer Inputs { vec4 inputs[]; };
+layout(set = 1, binding = 1, std430) readonly buffer Vpls { Vpl vpls[]; };
+layout(set = 1, binding = 2, std430) readonly buffer Points { vec4 points[]; };
+layout(set = 1, binding = 3, std430) writeonly buffer Outputs { vec4 outputs[]; };
+layout(set = 1, binding = 4, std430) writeonly buffer Chosen { uint chosen[]; };
+
+layout(push_constant) uniform Push {
+    uint test;
+    uint count;
+    uint n;
+    uint seed;
+    VplParams params;
+} pc;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= pc.count) {
+        return;
+    }
+    if (pc.test == 0u) {
+        vec4 c = inputs[i];
+        outputs[i] = vec4(vpl_attenuation(c.x, floatBitsToUint(c.z), c.y), 0.0, 0.0, 0.0);
+    } else if (pc.test == 1u) {
+        // points[2i] = position, points[2i+1] = normal (shading = geometric); albedo 1.
+        vec3 x = points[2u * i].xyz;
+        vec3 n = points[2u * i + 1u].xyz;
+        outputs[i] = vec4(vpl_contribution(vpls[i], x, n, n, vec3(1.0), pc.params), 0.0);
+    } else if (pc.test == 2u) {
+        uint rng = rng_init(i, 17u, 0u, pc.seed);
+        ReservoirStream s = stream_begin();
+        for (uint j = 0u; j < pc.n; ++j) {
+            float w = inputs[j].x;
+            float target = inputs[j].y;
+            stream_update(s, j, w, target, rand(rng));
+        }
+        s.confidence = 1.0;
+        Reservoir r = stream_finish(s);
+        chosen[i] = r.vpl;
+        outputs[i] = vec4(r.ucw * r.target, r.confidence, 0.0, 0.0);
+    } else if (pc.test == 3u) {
+        uint rng = rng_init(i, 29u, 0u, pc.seed);
+        uint k = 1u + rand_index(rng, 8u);
+        float mc = 1.0 + 20.0 * rand(rng);
+        float m[8];
+        float p[8];
+        float total = mc;
+        for (uint j = 0u; j < k; ++j) {
+            m[j] = 1.0 + 20.0 * rand(rng);
+            // Some techniques cannot produce the sample (target 0).
+            p[j] = rand(rng) < 0.3 ? 0.0 : rand(rng) * 5.0;
+            total += m[j];
+        }
+        float p_c = 0.01 + rand(rng);
+        float sum = 0.0;
+        for (uint j = 0u; j < k; ++j) {
+            sum += pairwise_neighbour_weight(m[j], p[j], mc / float(k), p_c, total);
+            sum += pairwise_canonical_weight(m[j], p[j], mc / float(k), p_c, total);
+        }
+        outputs[i] = vec4(sum, float(k), 0.0, 0.0);
+    }
+}

@@ -1,0 +1,69 @@
+//! `vpl_bruteforce`: every VPL with a shadow ray, per pixel (shaders/passes/vpl_bruteforce.comp).
+//! Recorded as chunks of VPLs so no single dispatch runs for long.
+
+use std::sync::Arc;
+
+use anyhow::Result;
+use ash::vk;
+
+use crate::gpu_types::GpuVplParams;
+use crate::shaders;
+use crate::vk::pipeline::{compute_barrier, storage};
+use crate::vk::{Binding, ComputePipeline, Context};
+
+use super::{FrameTargets, VplInputs};
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    params: GpuVplParams,
+    first: u32,
+    count: u32,
+}
+
+/// Pixel × VPL pairs per dispatch.
+const PAIRS_PER_DISPATCH: u64 = 1 << 24;
+
+pub struct VplBruteforcePass {
+    pipeline: ComputePipeline,
+    ctx: Arc<Context>,
+}
+
+impl VplBruteforcePass {
+    pub const NAME: &'static str = "vpl_bruteforce";
+    pub const BINDINGS: &'static [Binding] =
+        &[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")];
+
+    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets, vpls: &VplInputs) -> Result<Self> {
+        let pipeline = ComputePipeline::new(
+            ctx,
+            Self::NAME,
+            shaders::PASSES_VPL_BRUTEFORCE,
+            scene_layout,
+            Self::BINDINGS,
+            std::mem::size_of::<Push>() as u32,
+            [8, 8, 1],
+        )?;
+        let s = &pipeline.set1;
+        s.write_buffer(0, &targets.surfaces)?;
+        s.write_buffer(1, vpls.vpls)?;
+        s.write_buffer(2, &targets.samples)?;
+        s.write_buffer(3, &targets.ray_counter)?;
+        Ok(Self { pipeline, ctx: ctx.clone() })
+    }
+
+    pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, w: u32, h: u32) {
+        let pixels = (w as u64 * h as u64).max(1);
+        let chunk = (PAIRS_PER_DISPATCH / pixels).clamp(1, u32::MAX as u64) as u32;
+        let mut first = 0u32;
+        loop {
+            let push = Push { params: *params, first, count: chunk };
+            self.pipeline.dispatch_2d(cmd, scene_set, bytemuck::bytes_of(&push), w, h);
+            first = first.saturating_add(chunk);
+            if first >= params.vpl_count {
+                break;
+            }
+            compute_barrier(&self.ctx, cmd);
+        }
+    }
+}
