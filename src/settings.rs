@@ -336,9 +336,6 @@ impl RenderSettings {
         if !(r.depth_threshold >= 0.0 && r.depth_threshold.is_finite()) {
             bail!("--depth-threshold {}: a relative depth difference, must be >= 0", r.depth_threshold);
         }
-        if r.bias == Bias::Unbiased && r.initial_visibility == Some(false) {
-            bail!("--initial-visibility off with --bias unbiased: the visibility-aware MIS needs targets that include visibility");
-        }
         if let Some(y) = self.yuksel_radius {
             if !(y > 0.0 && y.is_finite()) {
                 bail!("--yuksel-radius {y}: must be a positive number (scene units)");

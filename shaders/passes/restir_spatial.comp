@@ -2,9 +2,11 @@
 // neighbours within a disc of `radius` pixels; neighbours whose normal or depth differ too much
 // are rejected. Targets are always evaluated at the receiving pixel.
 //  - biased: confidence weights M_k / sum M, targets without visibility (no rays);
-//  - unbiased: targets with visibility and confidence-weighted pairwise MIS (Lin et al. 2022),
-//    two shadow rays per neighbour: receiving pixel -> neighbour's sample, neighbour -> canonical
-//    sample. Its converged mean is the brute-force sum.
+//  - unbiased: confidence-weighted pairwise MIS (Lin et al. 2022) with the same target everywhere.
+//    With --initial-visibility on (the default there) the targets include visibility: two shadow
+//    rays per neighbour (receiving pixel -> neighbour's sample, neighbour -> canonical sample).
+//    Off: unshadowed targets, no rays here, visibility only in vpl_shade. Either way the converged
+//    mean is the brute-force sum.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -46,6 +48,9 @@ void main() {
     }
     VplParams p = pc.params;
     bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
+    // Unbiased reuse evaluates every target the way the reservoirs were built: with visibility
+    // when the initial samples were shadow-tested, without otherwise.
+    bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
     uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (pc.pass_index << 16));
 
     // Pick the neighbours (geometry only: the choice never depends on the reservoirs' samples).
@@ -95,10 +100,10 @@ void main() {
         if (unbiased) {
             Surface sq = surfaces[qi];
             // The canonical sample as the neighbour would have produced it.
-            float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, true, rays) : 0.0;
+            float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, visible_targets, rays) : 0.0;
             canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);
             if (reservoir_valid(rn)) {
-                float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, true, rays);
+                float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, visible_targets, rays);
                 float m = pairwise_neighbour_weight(mn, rn.target, m_c_share, pc_yn, m_total);
                 stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng));
             }

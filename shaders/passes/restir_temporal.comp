@@ -3,8 +3,8 @@
 // The history's confidence is capped at mcap times the canonical's. Targets are evaluated at this
 // frame's pixel.
 //  - biased: confidence weights M_k / sum M, targets without visibility;
-//  - unbiased: targets with visibility and the generalised balance heuristic over the two
-//    techniques (Lin et al. 2022). When the pixel is the same surface point as last frame (no
+//  - unbiased: the generalised balance heuristic over the two techniques (Lin et al. 2022), with
+//    targets that include visibility when the initial samples were shadow-tested. When the pixel is the same surface point as last frame (no
 //    jitter) both techniques have the same target, so the heuristic reduces to confidence
 //    weights and the history's sample is known visible (its target there was positive).
 #version 460
@@ -50,6 +50,7 @@ void main() {
     }
     bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
     bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
+    bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
     uint rays = 0u;
 
     // Targets at this pixel: the canonical's was computed here; the history's sample is evaluated
@@ -57,14 +58,14 @@ void main() {
     float pc_yc = reservoir_valid(rc) ? rc.target : 0.0;
     float pc_yh = 0.0;
     if (reservoir_valid(rh)) {
-        pc_yh = surface_vpl_target(s, vpls[rh.vpl], p, unbiased && !same_domain, rays);
+        pc_yh = surface_vpl_target(s, vpls[rh.vpl], p, visible_targets && !same_domain, rays);
     }
 
     float m_c = mc / (mc + mh);
     float m_h = mh / (mc + mh);
     if (unbiased && !same_domain) {
         Surface sp = prev_surfaces[index];
-        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpls[rc.vpl], p, true, rays) : 0.0;
+        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpls[rc.vpl], p, visible_targets, rays) : 0.0;
         float ph_yh = reservoir_valid(rh) ? rh.target : 0.0;
         float dc = mc * pc_yc + mh * ph_yc;
         float dh = mh * ph_yh + mc * pc_yh;

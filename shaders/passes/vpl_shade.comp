@@ -1,5 +1,6 @@
 // vpl_shade: the pixel's estimate from its final reservoir: Le + c_y(x) W, with a shadow ray for
-// y (none in unbiased ReSTIR, where a sample with positive target at x is visible from x). Also
+// y (none in unbiased ReSTIR with visibility in the targets, where a sample with positive target
+// at x is visible from x). Also
 // writes the reservoir debug views. Shared by the uniform, ris and restir modes.
 #version 460
 #extension GL_GOOGLE_include_directive : require
@@ -63,7 +64,8 @@ void main() {
         vec3 c = surface_vpl_contribution(s, v, p);
         if (max3(c) > 0.0) {
             bool visible = true;
-            if ((p.flags & VPL_FLAG_UNBIASED) == 0u) {
+            bool visible_targets = (p.flags & VPL_FLAG_UNBIASED) != 0u && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
+            if (!visible_targets) {
                 rays = 1u;
                 visible = vpl_visible(s, v);
             }
