@@ -168,3 +168,118 @@ pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32
         indirect_vpls: stats.indirect_vpls,
     })
 }
+
+/// One VPL mode's cost at one resolution.
+#[derive(Clone, Debug, Serialize)]
+pub struct ModeBench {
+    pub label: String,
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    /// Median GPU ms per pass.
+    pub pass_ms: Vec<(String, f64)>,
+    /// Median GPU ms per frame (sum of its passes).
+    pub gpu_ms_per_frame: f64,
+    /// Median rays per pixel per frame by pass.
+    pub rays_per_pixel: Vec<(String, f64)>,
+    pub rays_per_pixel_total: f64,
+    /// This frame time over the uniform mode's at the same resolution (same run).
+    pub ratio_to_uniform: f64,
+}
+
+/// The VPL modes the `bench --modes` table compares.
+pub fn mode_cases() -> Vec<(&'static str, crate::settings::Mode, crate::settings::RestirSettings)> {
+    use crate::settings::{Bias, Mode, RestirSettings};
+    let restir = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), ..Default::default() };
+    vec![
+        ("uniform", Mode::Uniform, RestirSettings::default()),
+        ("ris (32 candidates)", Mode::Ris, RestirSettings::default()),
+        ("restir biased", Mode::Restir, restir(Bias::Biased, false)),
+        ("restir unbiased, unshadowed targets", Mode::Restir, restir(Bias::Unbiased, false)),
+        ("restir unbiased, visibility in targets", Mode::Restir, restir(Bias::Unbiased, true)),
+    ]
+}
+
+/// Frame cost of uniform, RIS and ReSTIR on one scene at the given sizes with `direct + indirect`
+/// VPLs: two warm-up frames (shader JIT, temporal history), then `frames` timed frames, all modes
+/// in one process so the ratios share the machine's state.
+pub fn modes(
+    scene_path: &std::path::Path,
+    sizes: &[(u32, u32)],
+    direct: u32,
+    indirect: u32,
+    frames: u32,
+    device: Option<usize>,
+) -> Result<Vec<ModeBench>> {
+    let scene = Scene::load(scene_path)?;
+    let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
+    let mut out = Vec::new();
+    for &(width, height) in sizes {
+        let mut uniform_ms = None;
+        for (label, mode, restir) in mode_cases() {
+            let settings = RenderSettings {
+                scene: scene_path.to_path_buf(),
+                mode,
+                restir,
+                width,
+                height,
+                frames: frames + 2,
+                vpls_direct: direct,
+                vpls_indirect: indirect,
+                ..Default::default()
+            };
+            let mut r = Renderer::new(ctx.clone(), &scene, settings)?;
+            r.render_frame(false)?;
+            r.render_frame(false)?;
+            r.pass_times.clear();
+            r.pass_rays.clear();
+            let mut frame_ms = Vec::new();
+            for _ in 0..frames {
+                let s = r.render_frame(false)?;
+                frame_ms.push(s.pass_ms.iter().map(|p| p.1).sum::<f64>());
+            }
+            let pixels = (width * height) as f64;
+            let gpu = TimingStats::of(&frame_ms).median;
+            let rays: Vec<(String, f64)> = r
+                .pass_rays
+                .iter()
+                .map(|(k, v)| (k.to_string(), TimingStats::of(&v.iter().map(|n| *n as f64 / pixels).collect::<Vec<_>>()).median))
+                .filter(|(_, n)| *n > 0.0)
+                .collect();
+            let uniform = *uniform_ms.get_or_insert(gpu);
+            out.push(ModeBench {
+                label: label.to_string(),
+                width,
+                height,
+                frames,
+                pass_ms: r.pass_times.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v).median)).collect(),
+                gpu_ms_per_frame: gpu,
+                rays_per_pixel_total: rays.iter().map(|r| r.1).sum(),
+                rays_per_pixel: rays,
+                ratio_to_uniform: if uniform > 0.0 { gpu / uniform } else { 0.0 },
+            });
+        }
+    }
+    Ok(out)
+}
+
+/// Markdown table of [`modes`]: one row per mode and size.
+pub fn modes_markdown(rows: &[ModeBench]) -> String {
+    let mut s = String::from(
+        "| size | mode | GPU ms / frame | × uniform | rays / pixel | per pass (GPU ms) |\n|---|---|---:|---:|---:|---|\n",
+    );
+    for r in rows {
+        let passes: Vec<String> = r.pass_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        s += &format!(
+            "| {}×{} | {} | {:.1} | {:.2} | {:.2} | {} |\n",
+            r.width,
+            r.height,
+            r.label,
+            r.gpu_ms_per_frame,
+            r.ratio_to_uniform,
+            r.rays_per_pixel_total,
+            passes.join(", ")
+        );
+    }
+    s
+}

@@ -167,6 +167,10 @@ enum Command {
         /// scene of over 100k triangles.
         #[arg(long)]
         photons: bool,
+        /// Instead: frame cost of uniform, RIS and ReSTIR (per pass, rays per pixel, ratio to
+        /// uniform) at 1280×720 and 1280×1280 (or --width × --height if given) with 100k + 100k VPLs.
+        #[arg(long)]
+        modes: bool,
     },
 }
 
@@ -258,9 +262,20 @@ fn settings_from(cli: &Cli) -> Result<RenderSettings> {
 }
 
 fn real_main(cli: Cli) -> Result<()> {
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons }) = &cli.command {
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes }) = &cli.command {
         if *frames == 0 {
             bail!("--frames 0: at least one timed frame is needed");
+        }
+        if *modes {
+            let explicit = std::env::args().any(|a| a.starts_with("--width") || a.starts_with("--height"));
+            let sizes = if explicit { vec![(*width, *height)] } else { vec![(1280, 720), (1280, 1280)] };
+            let rows = restir_vpl::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device)?;
+            print!("{}", restir_vpl::bench::modes_markdown(&rows));
+            if let Some(path) = json {
+                std::fs::write(path, serde_json::to_string_pretty(&rows)?)
+                    .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
+            }
+            return Ok(());
         }
         if *photons {
             let runs = (*frames).min(5);
@@ -321,9 +336,21 @@ fn real_main(cli: Cli) -> Result<()> {
             p.indirect_vpls
         );
     }
-    println!("GPU ms per pass (median / min / max):");
+    if let Some(v) = &s.vpl {
+        println!(
+            "vpl: {} VPLs, {} candidate(s) ({} source), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}",
+            v.vpl_count,
+            v.candidates,
+            v.candidate_source,
+            v.yuksel_radius.map(|r| format!("{r:.4}")).unwrap_or_else(|| "- (inverse square)".into()),
+            v.initial_visibility,
+            v.unbiased_reuse
+        );
+    }
+    println!("GPU ms per pass (median / min / max), rays per pixel per frame (mean):");
     for (name, t) in &s.pass_ms {
-        println!("  {name:<12} {:>9.2} {:>9.2} {:>9.2}", t.median, t.min, t.max);
+        let rays = s.rays_per_pixel_by_pass.get(name).map(|r| format!("{:>8.2} rays/px", r.mean)).unwrap_or_default();
+        println!("  {name:<16} {:>9.2} {:>9.2} {:>9.2} {rays}", t.median, t.min, t.max);
     }
     println!(
         "ms per frame: {:.2} GPU, {:.2} wall (median); total {:.2} s",

@@ -159,3 +159,51 @@ fn later_flag_overrides_earlier() {
     let o = run(&["--headless", "--frames", "0", "--frames", "1", "--width", "8", "--height", "8", "--out", &out]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+#[test]
+fn vpl_mode_flag_errors() {
+    let h = ["--headless", "--width", "8", "--height", "8", "--frames", "1"];
+    let with = |extra: &[&'static str]| -> Vec<&'static str> { h.iter().copied().chain(extra.iter().copied()).collect() };
+    assert_fails(&with(&["--mode", "ris", "--candidates", "0"]), &["--candidates 0"]);
+    assert_fails(&with(&["--mode", "restir", "--spatial-neighbours", "33"]), &["--spatial-neighbours 33"]);
+    assert_fails(&with(&["--mode", "restir", "--spatial-radius", "0"]), &["--spatial-radius 0"]);
+    assert_fails(&with(&["--mode", "restir", "--normal-threshold", "2"]), &["--normal-threshold 2"]);
+    assert_fails(&with(&["--mode", "restir", "--mcap=-1"]), &["--mcap"]);
+    assert_fails(&with(&["--mode", "restir", "--yuksel-radius=-3"]), &["--yuksel-radius -3"]);
+    assert_fails(&with(&["--mode", "restir", "--attenuation", "inverse-square", "--yuksel-radius", "1"]), &["--yuksel-radius", "yuksel"]);
+    assert_fails(&with(&["--mode", "pt", "--view", "reservoir-w"]), &["--view reservoir-w", "no reservoirs"]);
+    assert_fails(&with(&["--mode", "bruteforce", "--view", "vpl-kind"]), &["--view vpl-kind"]);
+    assert_fails(&with(&["--mode", "pt", "--view", "indirect"]), &["--view indirect"]);
+    assert_fails(&with(&["--mode", "restir", "--temporal", "maybe"]), &["--temporal"]);
+    assert_fails(&with(&["--mode", "restir", "--bias", "slightly"]), &["--bias"]);
+    // Brute force refuses a frame that would take hours, naming the flags to change.
+    assert_fails(
+        &["--headless", "--mode", "bruteforce", "--width", "4096", "--height", "4096", "--frames", "1"],
+        &["--mode bruteforce", "--width"],
+    );
+}
+
+#[test]
+fn restir_summary_reports_rays_per_pass() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = run(&[
+        "--headless", "--mode", "restir", "--bias", "unbiased", "--width", "24", "--height", "24", "--frames", "3",
+        "--vpls-direct", "100", "--vpls-indirect", "200", "--out", out, "--verbose",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    for pass in ["restir_initial", "restir_temporal", "restir_spatial", "vpl_shade"] {
+        assert!(err.contains(&format!("  {pass}")), "pass list lacks {pass}: {err}");
+    }
+    assert!(err.contains("pathtrace        skip (mode is not pt)"), "{err}");
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    let by_pass = &summary["rays_per_pixel_by_pass"];
+    // Unbiased reuse with visibility in the targets: rays in the initial and spatial passes,
+    // none in the shade pass (the chosen sample is known visible).
+    assert!(by_pass["restir_initial"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
+    assert!(by_pass["restir_spatial"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
+    assert!(by_pass.get("vpl_shade").is_none(), "{by_pass}");
+    assert_eq!(summary["vpl"]["unbiased_reuse"], true);
+    assert!(summary["vpl"]["yuksel_radius"].as_f64().unwrap() > 0.0);
+}

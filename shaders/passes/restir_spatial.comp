@@ -53,10 +53,49 @@ void main() {
     bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
     uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (pc.pass_index << 16));
 
-    // Pick the neighbours (geometry only: the choice never depends on the reservoirs' samples).
+    uint wanted = min(pc.neighbours, MAX_NEIGHBOURS);
+    bool canonical_valid = reservoir_valid(rc);
+    float pc_yc = canonical_valid ? rc.target : 0.0;
+    uint rays = 0u;
+
+    if (!unbiased) {
+        // Biased: confidence weights M_k / sum M. The common factor 1 / sum M is applied at the
+        // end, so one loop suffices: w'_k = M_k p^_x(y_k) W_k, W = sum w' / (sum M p^_x(y)).
+        ReservoirStream st = stream_begin();
+        float m_total = rc.confidence;
+        for (uint j = 0u; j < wanted; ++j) {
+            vec2 d = sample_concentric_disk(rand2(rng)) * pc.radius;
+            float u = rand(rng);
+            ivec2 q = ivec2(pixel) + ivec2(round(d));
+            if (q.x < 0 || q.y < 0 || q.x >= int(frame.width) || q.y >= int(frame.height) || q == ivec2(pixel)) {
+                continue;
+            }
+            uint qi = uint(q.y) * frame.width + uint(q.x);
+            Surface sq = surfaces[qi];
+            if (sq.hit_t < 0.0 || dot(sq.shading_normal, s.shading_normal) < pc.normal_threshold
+                || abs(sq.view_depth - s.view_depth) > pc.depth_threshold * s.view_depth) {
+                continue;
+            }
+            Reservoir rn = src[qi];
+            m_total += rn.confidence;
+            if (reservoir_valid(rn)) {
+                float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, false, rays);
+                stream_update(st, rn.vpl, rn.confidence * pc_yn * rn.ucw, pc_yn, u);
+            }
+        }
+        if (canonical_valid) {
+            stream_update(st, rc.vpl, rc.confidence * pc_yc * rc.ucw, pc_yc, rand(rng));
+        }
+        st.w_sum /= m_total;
+        st.confidence = m_total;
+        dst[index] = stream_finish(st);
+        return;
+    }
+
+    // Unbiased: pick the neighbours first (geometry only: the choice never depends on the
+    // reservoirs' samples), since the pairwise weights need their count and total confidence.
     uint nb[MAX_NEIGHBOURS];
     uint k = 0u;
-    uint wanted = min(pc.neighbours, MAX_NEIGHBOURS);
     for (uint j = 0u; j < wanted; ++j) {
         vec2 d = sample_concentric_disk(rand2(rng)) * pc.radius;
         ivec2 q = ivec2(pixel) + ivec2(round(d));
@@ -82,34 +121,26 @@ void main() {
     for (uint j = 0u; j < k; ++j) {
         m_total += src[nb[j]].confidence;
     }
-    uint rays = 0u;
-    bool canonical_valid = reservoir_valid(rc);
-    float pc_yc = canonical_valid ? rc.target : 0.0;
     Vpl vc;
     if (canonical_valid) {
         vc = vpls[rc.vpl];
     }
     float m_c_share = mc / float(k);
-    float canonical_mis = unbiased ? 0.0 : mc / m_total;
+    float canonical_mis = 0.0;
 
     ReservoirStream st = stream_begin();
     for (uint j = 0u; j < k; ++j) {
         uint qi = nb[j];
         Reservoir rn = src[qi];
         float mn = rn.confidence;
-        if (unbiased) {
-            Surface sq = surfaces[qi];
-            // The canonical sample as the neighbour would have produced it.
-            float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, visible_targets, rays) : 0.0;
-            canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);
-            if (reservoir_valid(rn)) {
-                float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, visible_targets, rays);
-                float m = pairwise_neighbour_weight(mn, rn.target, m_c_share, pc_yn, m_total);
-                stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng));
-            }
-        } else if (reservoir_valid(rn)) {
-            float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, false, rays);
-            stream_update(st, rn.vpl, (mn / m_total) * pc_yn * rn.ucw, pc_yn, rand(rng));
+        Surface sq = surfaces[qi];
+        // The canonical sample as the neighbour would have produced it.
+        float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, visible_targets, rays) : 0.0;
+        canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);
+        if (reservoir_valid(rn)) {
+            float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, visible_targets, rays);
+            float m = pairwise_neighbour_weight(mn, rn.target, m_c_share, pc_yn, m_total);
+            stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng));
         }
     }
     if (canonical_valid) {
