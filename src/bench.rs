@@ -201,8 +201,8 @@ pub fn mode_cases() -> Vec<(&'static str, crate::settings::Mode, crate::settings
 }
 
 /// Frame cost of uniform, RIS and ReSTIR on one scene at the given sizes with `direct + indirect`
-/// VPLs: two warm-up frames (shader JIT, temporal history), then `frames` timed frames, all modes
-/// in one process so the ratios share the machine's state.
+/// VPLs: two warm-up frames (shader JIT, temporal history), then `frames` timed frames per mode,
+/// interleaved across modes so the ratios share the machine's state.
 pub fn modes(
     scene_path: &std::path::Path,
     sizes: &[(u32, u32)],
@@ -215,7 +215,9 @@ pub fn modes(
     let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
     let mut out = Vec::new();
     for &(width, height) in sizes {
-        let mut uniform_ms = None;
+        // All modes are alive at once and their timed frames interleave (one frame of each mode per
+        // round), so drift on a shared machine hits every mode alike.
+        let mut renderers = Vec::new();
         for (label, mode, restir) in mode_cases() {
             let settings = RenderSettings {
                 scene: scene_path.to_path_buf(),
@@ -233,11 +235,16 @@ pub fn modes(
             r.render_frame(false)?;
             r.pass_times.clear();
             r.pass_rays.clear();
-            let mut frame_ms = Vec::new();
-            for _ in 0..frames {
+            renderers.push((label, r, Vec::new()));
+        }
+        for _ in 0..frames {
+            for (_, r, frame_ms) in renderers.iter_mut() {
                 let s = r.render_frame(false)?;
                 frame_ms.push(s.pass_ms.iter().map(|p| p.1).sum::<f64>());
             }
+        }
+        let mut uniform_ms = None;
+        for (label, r, frame_ms) in renderers {
             let pixels = (width * height) as f64;
             let gpu = TimingStats::of(&frame_ms).median;
             let rays: Vec<(String, f64)> = r
