@@ -5,5 +5,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 cargo build --release --quiet
-exec ./target/release/restir-vpl --headless --scene scenes/cornell_box.gltf --mode pt \
+exec ./target/release/restir-vpl --headless --scene scenes/cornell_box.gltf --mode restir \
   --frames 20 --width 512 --height 512 --out out/cornell "$@"
