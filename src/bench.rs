@@ -245,14 +245,9 @@ pub fn modes(
         }
         let mut uniform_ms = None;
         for (label, r, frame_ms) in renderers {
-            let pixels = (width * height) as f64;
             let gpu = TimingStats::of(&frame_ms).median;
-            let rays: Vec<(String, f64)> = r
-                .pass_rays
-                .iter()
-                .map(|(k, v)| (k.to_string(), TimingStats::of(&v.iter().map(|n| *n as f64 / pixels).collect::<Vec<_>>()).median))
-                .filter(|(_, n)| *n > 0.0)
-                .collect();
+            let rays: Vec<(String, f64)> =
+                r.rays_per_pixel_by_pass().into_iter().map(|(k, t)| (k, t.median)).filter(|(_, n)| *n > 0.0).collect();
             let uniform = *uniform_ms.get_or_insert(gpu);
             out.push(ModeBench {
                 label: label.to_string(),

@@ -171,11 +171,7 @@ pub fn run_with(ctx: Arc<Context>, scene: &Scene, settings: &RenderSettings, sta
         gpu_ms_per_frame: TimingStats::of(&gpu_frame),
         wall_ms_per_frame: TimingStats::of(&wall_frame),
         rays_per_pixel: TimingStats::of(&rpp),
-        rays_per_pixel_by_pass: renderer
-            .pass_rays
-            .iter()
-            .map(|(k, v)| (k.to_string(), TimingStats::of(&v.iter().map(|n| *n as f64 / pixels).collect::<Vec<_>>())))
-            .collect(),
+        rays_per_pixel_by_pass: renderer.rays_per_pixel_by_pass(),
         vpl: renderer.vpl_summary(),
         nonfinite_samples: renderer.nonfinite_samples,
         photons: renderer.photons.as_ref().map(|p| p.1.clone()),

@@ -151,10 +151,12 @@ enum Command {
     Bench {
         #[arg(long, default_value = "scenes/cornell_box.gltf")]
         scene: PathBuf,
-        #[arg(long, default_value_t = 512)]
-        width: u32,
-        #[arg(long, default_value_t = 512)]
-        height: u32,
+        /// Image width (default 512; with --modes, both sizes of the issue unless a size is given).
+        #[arg(long)]
+        width: Option<u32>,
+        /// Image height (default 512).
+        #[arg(long)]
+        height: Option<u32>,
         /// Timed frames (after one warm-up frame).
         #[arg(long, default_value_t = 10)]
         frames: u32,
@@ -267,8 +269,11 @@ fn real_main(cli: Cli) -> Result<()> {
             bail!("--frames 0: at least one timed frame is needed");
         }
         if *modes {
-            let explicit = std::env::args().any(|a| a.starts_with("--width") || a.starts_with("--height"));
-            let sizes = if explicit { vec![(*width, *height)] } else { vec![(1280, 720), (1280, 1280)] };
+            let sizes = if width.is_some() || height.is_some() {
+                vec![(width.unwrap_or(512), height.unwrap_or(512))]
+            } else {
+                vec![(1280, 720), (1280, 1280)]
+            };
             let rows = restir_vpl::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device)?;
             print!("{}", restir_vpl::bench::modes_markdown(&rows));
             if let Some(path) = json {
@@ -292,7 +297,7 @@ fn real_main(cli: Cli) -> Result<()> {
             }
             return Ok(());
         }
-        let report = restir_vpl::bench::core(scene, *width, *height, *frames, *device)?;
+        let report = restir_vpl::bench::core(scene, width.unwrap_or(512), height.unwrap_or(512), *frames, *device)?;
         print!("{}", report.markdown());
         if let Some(path) = json {
             std::fs::write(path, serde_json::to_string_pretty(&report)?)

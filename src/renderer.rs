@@ -112,8 +112,8 @@ pub struct Renderer {
     pub ctx: Arc<Context>,
 }
 
-/// How the VPL modes shade: the VPL set's size and the parameters every VPL pass gets.
-#[derive(serde::Serialize)]
+/// How the VPL modes shade: the VPL set's size and the parameters every VPL pass gets (reported
+/// through [`VplSummary`]).
 pub struct VplSetup {
     pub vpl_count: u32,
     /// Yuksel's r actually used (scene units), when the attenuation is Yuksel's.
@@ -122,11 +122,8 @@ pub struct VplSetup {
     pub yuksel_radius_source: Option<&'static str>,
     /// Σ lum(Φ_i) over the VPLs.
     pub total_vpl_lum: f64,
-    #[serde(skip)]
     pub params: GpuVplParams,
-    #[serde(skip)]
     _alias: crate::vk::Buffer,
-    #[serde(skip)]
     reservoirs: Option<Reservoirs>,
 }
 
@@ -373,17 +370,18 @@ impl Renderer {
         let s = &self.settings;
         let mode = s.mode;
         let vpls_view = s.view == View::Vpls;
-        let not_mode = |m: &'static str| Step::Skip(m);
-        let restir_step = |enabled: bool, why_not: &'static str| {
+        // A shading pass runs when its mode wants it, unless --view vpls replaces the shading.
+        let shading = |runs: bool, why_not: &'static str| {
             if vpls_view {
                 Step::Skip("--view vpls draws the VPLs instead")
-            } else if mode != Mode::Restir {
-                not_mode("mode is not restir")
-            } else if enabled {
+            } else if runs {
                 Step::Run
             } else {
                 Step::Skip(why_not)
             }
+        };
+        let restir_step = |enabled: bool, why_not: &'static str| {
+            shading(mode == Mode::Restir && enabled, if mode == Mode::Restir { why_not } else { "mode is not restir" })
         };
         let r = &s.restir;
         let vpl = match &self.vpl {
@@ -400,23 +398,9 @@ impl Renderer {
         FramePlan {
             keep_previous_gbuffer: self.passes.prev_surfaces.is_some() && self.gbuffer_valid && gbuffer == Step::Run,
             gbuffer,
-            pathtrace: match (vpls_view, mode) {
-                (true, _) => Step::Skip("--view vpls draws the VPLs instead"),
-                (false, Mode::Pt) => Step::Run,
-                _ => not_mode("mode is not pt"),
-            },
-            vpl_bruteforce: match (vpls_view, mode) {
-                (true, _) => Step::Skip("--view vpls draws the VPLs instead"),
-                (false, Mode::Bruteforce) => Step::Run,
-                _ => not_mode("mode is not bruteforce"),
-            },
-            restir_initial: if vpls_view {
-                Step::Skip("--view vpls draws the VPLs instead")
-            } else if mode.uses_reservoirs() {
-                Step::Run
-            } else {
-                not_mode("mode picks no VPLs per pixel")
-            },
+            pathtrace: shading(mode == Mode::Pt, "mode is not pt"),
+            vpl_bruteforce: shading(mode == Mode::Bruteforce, "mode is not bruteforce"),
+            restir_initial: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             restir_temporal: restir_step(
                 r.temporal && self.history_valid,
                 if r.temporal { "no history before the first frame" } else { "--temporal off" },
@@ -425,13 +409,7 @@ impl Renderer {
                 r.spatial_passes > 0 && r.spatial_neighbours > 0,
                 "--spatial-passes 0 or --spatial-neighbours 0",
             ),
-            vpl_shade: if vpls_view {
-                Step::Skip("--view vpls draws the VPLs instead")
-            } else if mode.uses_reservoirs() {
-                Step::Run
-            } else {
-                not_mode("mode picks no VPLs per pixel")
-            },
+            vpl_shade: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             vpl_view: match self.settings.view {
                 View::Vpls => Step::Run,
                 _ => Step::Skip("no --view vpls"),
@@ -555,6 +533,15 @@ impl Renderer {
         self.history_valid = false;
         self.pass_times.clear();
         self.pass_rays.clear();
+    }
+
+    /// Rays per pixel per frame, by the pass that traced them, over the frames so far.
+    pub fn rays_per_pixel_by_pass(&self) -> BTreeMap<String, crate::output::TimingStats> {
+        let pixels = self.targets.pixels() as f64;
+        self.pass_rays
+            .iter()
+            .map(|(k, v)| (k.to_string(), crate::output::TimingStats::of(&v.iter().map(|n| *n as f64 / pixels).collect::<Vec<_>>())))
+            .collect()
     }
 
     /// The VPL setup as summary.json reports it.

@@ -344,7 +344,7 @@ impl RenderSettings {
                 bail!("--yuksel-radius is only used with --attenuation yuksel");
             }
         }
-        if self.mode != Mode::Restir && self.view.shows_reservoirs() && !self.mode.uses_reservoirs() {
+        if self.view.shows_reservoirs() && !self.mode.uses_reservoirs() {
             bail!("--view {}: mode {} has no reservoirs (use --mode uniform, ris or restir)", self.view.name(), self.mode.name());
         }
         if self.mode == Mode::Pt && matches!(self.view, View::Direct | View::Indirect) {

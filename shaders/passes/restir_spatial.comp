@@ -34,6 +34,21 @@ layout(push_constant) uniform Push {
 const uint SALT_SPATIAL = 0x7370u;
 const uint MAX_NEIGHBOURS = 32u;
 
+// A neighbour of `pixel` from the disc of radius pc.radius (u: two uniforms), accepted when it is
+// inside the image, not the pixel itself, and a surface like `s` (normal and depth thresholds).
+// The choice depends on geometry only, never on the reservoirs' samples.
+bool pick_neighbour(uvec2 pixel, Surface s, vec2 u, out uint qi) {
+    ivec2 q = ivec2(pixel) + ivec2(round(sample_concentric_disk(u) * pc.radius));
+    qi = 0u;
+    if (q.x < 0 || q.y < 0 || q.x >= int(frame.width) || q.y >= int(frame.height) || q == ivec2(pixel)) {
+        return false;
+    }
+    qi = uint(q.y) * frame.width + uint(q.x);
+    Surface sq = surfaces[qi];
+    return sq.hit_t >= 0.0 && dot(sq.shading_normal, s.shading_normal) >= pc.normal_threshold
+        && abs(sq.view_depth - s.view_depth) <= pc.depth_threshold * s.view_depth;
+}
+
 void main() {
     uvec2 pixel = gl_GlobalInvocationID.xy;
     if (pixel.x >= frame.width || pixel.y >= frame.height) {
@@ -64,16 +79,10 @@ void main() {
         ReservoirStream st = stream_begin();
         float m_total = rc.confidence;
         for (uint j = 0u; j < wanted; ++j) {
-            vec2 d = sample_concentric_disk(rand2(rng)) * pc.radius;
+            uint qi;
+            bool found = pick_neighbour(pixel, s, rand2(rng), qi);
             float u = rand(rng);
-            ivec2 q = ivec2(pixel) + ivec2(round(d));
-            if (q.x < 0 || q.y < 0 || q.x >= int(frame.width) || q.y >= int(frame.height) || q == ivec2(pixel)) {
-                continue;
-            }
-            uint qi = uint(q.y) * frame.width + uint(q.x);
-            Surface sq = surfaces[qi];
-            if (sq.hit_t < 0.0 || dot(sq.shading_normal, s.shading_normal) < pc.normal_threshold
-                || abs(sq.view_depth - s.view_depth) > pc.depth_threshold * s.view_depth) {
+            if (!found) {
                 continue;
             }
             Reservoir rn = src[qi];
@@ -92,20 +101,13 @@ void main() {
         return;
     }
 
-    // Unbiased: pick the neighbours first (geometry only: the choice never depends on the
-    // reservoirs' samples), since the pairwise weights need their count and total confidence.
+    // Unbiased: pick the neighbours first, since the pairwise weights need their count and total
+    // confidence.
     uint nb[MAX_NEIGHBOURS];
     uint k = 0u;
     for (uint j = 0u; j < wanted; ++j) {
-        vec2 d = sample_concentric_disk(rand2(rng)) * pc.radius;
-        ivec2 q = ivec2(pixel) + ivec2(round(d));
-        if (q.x < 0 || q.y < 0 || q.x >= int(frame.width) || q.y >= int(frame.height) || q == ivec2(pixel)) {
-            continue;
-        }
-        uint qi = uint(q.y) * frame.width + uint(q.x);
-        Surface sq = surfaces[qi];
-        if (sq.hit_t < 0.0 || dot(sq.shading_normal, s.shading_normal) < pc.normal_threshold
-            || abs(sq.view_depth - s.view_depth) > pc.depth_threshold * s.view_depth) {
+        uint qi;
+        if (!pick_neighbour(pixel, s, rand2(rng), qi)) {
             continue;
         }
         nb[k] = qi;

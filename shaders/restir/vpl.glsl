@@ -44,10 +44,7 @@ vec3 vpl_contribution(Vpl v, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
     if (emit <= 0.0) {
         return vec3(0.0);
     }
-    float g = vpl_attenuation(d2, p.attenuation, p.yuksel_r2);
-    if (p.attenuation == ATTENUATION_INVERSE_SQUARE && isinf(g)) {
-        return vec3(0.0);
-    }
+    float g = vpl_attenuation(d2, p.attenuation, p.yuksel_r2);  // finite: d2 > 1e-20
     return lambert_brdf(rho) * v.flux * (INV_PI * emit * cos_x * g);
 }
 
