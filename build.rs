@@ -18,7 +18,13 @@ use glslang::{
 
 /// Extra compilations of one source with preprocessor defines: (source relative to `shaders/`,
 /// variant suffix, defines). The default variant (no defines) of every `.comp` is always built.
-const VARIANTS: &[(&str, &str, &[(&str, &str)])] = &[];
+/// The `textured` variants read base-colour textures (set 0 bindings 9 and 10); a scene without
+/// textures (or `--textures off`) uses the default variants, which contain no texture code.
+const VARIANTS: &[(&str, &str, &[(&str, &str)])] = &[
+    ("passes/gbuffer.comp", "textured", &[("SCENE_TEXTURES", "1")]),
+    ("passes/pathtrace.comp", "textured", &[("SCENE_TEXTURES", "1")]),
+    ("passes/photon_emit.comp", "textured", &[("SCENE_TEXTURES", "1")]),
+];
 
 struct Includer {
     root: PathBuf,

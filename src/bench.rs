@@ -144,10 +144,10 @@ pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32
     use crate::scene_gpu::SceneGpu;
     let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
     let settings = RenderSettings { vpls_direct: direct, vpls_indirect: indirect, ..Default::default() };
-    let scene_gpu = SceneGpu::new(&ctx, scene)?;
+    let scene_gpu = SceneGpu::new(&ctx, scene, true)?;
     let mut times = Vec::new();
     let mut last = None;
-    let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, &scene_gpu.lights, settings.photon_settings())?;
+    let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, scene_gpu.textured, &scene_gpu.lights, settings.photon_settings())?;
     for i in 0..=runs {
         let stats = pass.run(scene_gpu.set.set)?;
         if i > 0 {

@@ -62,6 +62,17 @@ gpu_struct! {
 }
 }
 
+gpu_struct! {
+    /// One base-colour texture in the scene's texel buffer: `width × height` RGBA8 texels (sRGB
+    /// encoded, row 0 = v 0) starting at texel `offset`. Sampled bilinearly with repeat wrapping.
+    pub struct GpuTexture as "TextureInfo" (16) {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub _pad0: u32,
+}
+}
+
 /// Instance flags.
 pub const INSTANCE_MIRRORED: u32 = 1;
 

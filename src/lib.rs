@@ -6,6 +6,7 @@
 //! [`renderer`] (submission), [`headless`] (runs and outputs).
 
 pub mod bench;
+pub mod compare;
 pub mod gpu_types;
 pub mod headless;
 pub mod lights;
@@ -13,7 +14,10 @@ pub mod logger;
 pub mod output;
 pub mod passes;
 pub mod ply;
+pub mod reference;
 pub mod renderer;
+pub mod results;
+pub mod report;
 pub mod scene;
 pub mod scene_gpu;
 pub mod settings;

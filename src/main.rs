@@ -22,6 +22,19 @@ struct Cli {
     /// Render without a window and write images to --out.
     #[arg(long)]
     headless: bool,
+    #[command(flatten)]
+    render: RenderArgs,
+    /// Output directory (final.exr, final.png, accum_NNNN.exr, summary.json).
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// List Vulkan devices and what each lacks, then exit.
+    #[arg(long)]
+    list_devices: bool,
+}
+
+/// Everything that decides what is rendered (shared by the main command and `reference`).
+#[derive(Debug, clap::Args)]
+struct RenderArgs {
     /// glTF 2.0 scene (.gltf or .glb).
     #[arg(long, default_value = "scenes/cornell_box.gltf")]
     scene: PathBuf,
@@ -35,9 +48,6 @@ struct Cli {
     width: u32,
     #[arg(long, default_value_t = 512)]
     height: u32,
-    /// Output directory (final.exr, final.png, accum_NNNN.exr, summary.json).
-    #[arg(long, default_value = "out")]
-    out: PathBuf,
     /// Also write accum_NNNN.exr every K frames.
     #[arg(long, default_value_t = 0, value_name = "K")]
     save_every: u32,
@@ -131,12 +141,13 @@ struct Cli {
     /// Yuksel's r in scene units (default: the mean VPL spacing, sqrt(scene area / (pi * VPLs))).
     #[arg(long)]
     yuksel_radius: Option<f32>,
+    /// Sample glTF base colour textures (off: base colour factors only; a scene without textures
+    /// never compiles the texture path).
+    #[arg(long, value_enum, default_value = "on")]
+    textures: Toggle,
     /// Vulkan device index (see --list-devices).
     #[arg(long)]
     device: Option<usize>,
-    /// List Vulkan devices and what each lacks, then exit.
-    #[arg(long)]
-    list_devices: bool,
     /// Enable the Khronos validation layer (also RESTIR_VPL_VALIDATE=1).
     #[arg(long)]
     validate: bool,
@@ -173,6 +184,121 @@ enum Command {
         /// uniform) at 1280×720 and 1280×1280 (or --width × --height if given) with 100k + 100k VPLs.
         #[arg(long)]
         modes: bool,
+        /// Instead: error against frames and time on this scene (uniform, RIS, ReSTIR and the
+        /// unbiased ReSTIR variants) against a path-traced and a converged VPL reference, both
+        /// rendered first (cached in --out/references). Writes --out/curves.md, curves.csv,
+        /// frame_times.csv and plots/*.svg. Default size 320×320 (--width/--height to change).
+        #[arg(long)]
+        curves: bool,
+        /// With --curves: a smoke test (64×64, 2k + 2k VPLs, 16-frame references, t = 1, 2, 5).
+        #[arg(long, requires = "curves")]
+        quick: bool,
+        /// With --curves: output directory.
+        #[arg(long, default_value = "bench-out", requires = "curves")]
+        out: PathBuf,
+        /// With --curves: checkpoints (accumulated frames), comma separated [default: 1,2,5,10,20].
+        #[arg(long, value_delimiter = ',', requires = "curves")]
+        checkpoints: Option<Vec<u32>>,
+        /// With --curves: independent runs averaged [default: 3].
+        #[arg(long, requires = "curves")]
+        runs: Option<u32>,
+    },
+    /// Compare a test image A with a reference B: RMSE, relMSE, mean ratio (bias) and LDR-FLIP.
+    ///
+    /// RMSE, relMSE and the mean ratio mean(A)/mean(B) are over the pixels finite in both images.
+    /// FLIP is NVIDIA's LDR-FLIP (mean over the image) on both images mapped to 8-bit sRGB as the
+    /// renderer's PNG (2^exposure, clamp, sRGB), with non-finite pixels as black.
+    ///
+    /// Exit status: 0 on success; 3 if either image has NaN or Inf pixels (reported on stderr with
+    /// the file, count and first positions; the metrics over the finite pixels are still printed);
+    /// 1 on other errors (missing or unreadable file, sizes differ); 2 on bad arguments.
+    Compare {
+        /// Test image (EXR).
+        #[arg(value_name = "A.exr")]
+        test: PathBuf,
+        /// Reference image (EXR).
+        #[arg(value_name = "B.exr")]
+        reference: PathBuf,
+        /// Exposure in EV of FLIP's 8-bit mapping (as --exposure of the PNG preview).
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+        /// Skip FLIP (the slow metric).
+        #[arg(long, conflicts_with = "error_image")]
+        no_flip: bool,
+        /// FLIP's pixels per degree of visual angle.
+        #[arg(long, default_value_t = 67.0)]
+        ppd: f32,
+        /// Write FLIP's error map as a false-colour PNG (magma: black = no error).
+        #[arg(long, value_name = "OUT.png")]
+        error_image: Option<PathBuf>,
+        /// Also write the metrics as JSON.
+        #[arg(long, value_name = "OUT.json")]
+        json: Option<PathBuf>,
+    },
+    /// Merge partial references (EXRs with restir-vpl reference metadata) rendered over disjoint
+    /// frame ranges into their frame-count-weighted mean.
+    ///
+    /// The parts must agree in size, mode, scene, seed and settings; their frame ranges must not
+    /// overlap. Prints the merged frame count and ranges.
+    MergeReferences {
+        /// Partial references.
+        #[arg(required = true, value_name = "REF.exr")]
+        inputs: Vec<PathBuf>,
+        /// Merged reference to write.
+        #[arg(long, value_name = "C.exr")]
+        out: PathBuf,
+    },
+    /// Render a reference: a long accumulation (--mode pt for the ground truth; bruteforce or ris
+    /// for the VPL answer) written as EXR with its frame range and settings in the header.
+    ///
+    /// Resumable (--resume renders --frames more frames after the file's last one and merges) and
+    /// splittable (runs with disjoint --first-frame ranges combine with `merge-references`; frame k
+    /// uses the same random numbers in every run, so the merge equals one long run).
+    Reference {
+        #[command(flatten)]
+        render: RenderArgs,
+        /// The reference to write (with --resume: to extend). An existing file is never overwritten
+        /// without --resume.
+        #[arg(long, value_name = "REF.exr")]
+        out: PathBuf,
+        /// Index of the first frame: give each machine its own range.
+        #[arg(long, default_value_t = 0)]
+        first_frame: u64,
+        /// Extend --out: render --frames more frames after its last frame and merge them in.
+        #[arg(long)]
+        resume: bool,
+    },
+    /// Regenerate docs/results.md: references, error against frames and time, Table 1/2-shaped
+    /// tables, CSVs and plots for the Cornell box, the living room and the open box with a figure.
+    ///
+    /// References are cached under OUT/references and resumed when more frames are asked for.
+    Results {
+        /// Output directory (results.md, curves.csv, frame_times.csv, plots/, references/).
+        #[arg(long, default_value = "docs")]
+        out: PathBuf,
+        /// Image sizes as a fraction of the thesis's (Cornell box 1280×1280, others 1280×720).
+        #[arg(long, default_value_t = 0.25)]
+        scale: f64,
+        /// Smoke test: tiny images, few frames and VPLs, three modes (seconds on lavapipe).
+        #[arg(long)]
+        quick: bool,
+        /// Independent runs averaged per checkpoint.
+        #[arg(long)]
+        runs: Option<u32>,
+        /// Frames of the path-traced references.
+        #[arg(long)]
+        pt_frames: Option<u32>,
+        /// Frames of the converged VPL references (RIS).
+        #[arg(long)]
+        vpl_frames: Option<u32>,
+        /// Checkpoints (accumulated frames), comma separated.
+        #[arg(long, value_delimiter = ',')]
+        checkpoints: Option<Vec<u32>>,
+        /// Skip FLIP.
+        #[arg(long)]
+        no_flip: bool,
+        #[arg(long)]
+        device: Option<usize>,
     },
 }
 
@@ -203,7 +329,7 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
     Ok(Vec3::from_array(v))
 }
 
-fn settings_from(cli: &Cli) -> Result<RenderSettings> {
+fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSettings> {
     let camera = match (cli.eye, cli.target) {
         (Some(eye), Some(target)) => Some(CameraOverride {
             eye,
@@ -232,7 +358,7 @@ fn settings_from(cli: &Cli) -> Result<RenderSettings> {
         exposure: cli.exposure,
         camera,
         save_every: cli.save_every,
-        out_dir: Some(cli.out.clone()),
+        out_dir,
         validate,
         device_index: cli.device,
         verbose: cli.verbose,
@@ -260,11 +386,77 @@ fn settings_from(cli: &Cli) -> Result<RenderSettings> {
         },
         attenuation: cli.attenuation,
         yuksel_radius: cli.yuksel_radius,
+        textures: cli.textures.on(),
     })
 }
 
 fn real_main(cli: Cli) -> Result<()> {
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes }) = &cli.command {
+    if let Some(Command::Compare { test, reference, exposure, no_flip, ppd, error_image, json }) = &cli.command {
+        let opts = restir_vpl::compare::CompareOptions { flip: !*no_flip, exposure: *exposure, ppd: *ppd };
+        return restir_vpl::compare::run_cli(test, reference, &opts, error_image.as_deref(), json.as_deref());
+    }
+    if let Some(Command::MergeReferences { inputs, out }) = &cli.command {
+        return restir_vpl::reference::run_merge_cli(inputs, out);
+    }
+    if let Some(Command::Reference { render, out, first_frame, resume }) = &cli.command {
+        let settings = settings_from(render, None)?;
+        settings.validate()?;
+        return reference_main(&settings, out, *first_frame, *resume);
+    }
+    if let Some(Command::Results { out, scale, quick, runs, pt_frames, vpl_frames, checkpoints, no_flip, device }) =
+        &cli.command
+    {
+        if !(scale.is_finite() && *scale > 0.0 && *scale <= 4.0) {
+            bail!("--scale {scale}: expected a number in (0, 4]");
+        }
+        let root = std::env::current_dir()?;
+        let mut opts = if *quick {
+            restir_vpl::results::ResultsOptions::quick(&root)
+        } else {
+            restir_vpl::results::ResultsOptions::full(&root, *scale)
+        };
+        opts.out_dir = out.clone();
+        opts.runs = runs.unwrap_or(opts.runs);
+        opts.pt_reference_frames = pt_frames.unwrap_or(opts.pt_reference_frames);
+        opts.vpl_reference_frames = vpl_frames.unwrap_or(opts.vpl_reference_frames);
+        if let Some(c) = checkpoints {
+            opts.checkpoints = c.clone();
+        }
+        opts.flip = !*no_flip;
+        opts.device_index = *device;
+        opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
+        return results_main(&opts);
+    }
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, quick, out, checkpoints, runs }) =
+        &cli.command
+    {
+        if *curves {
+            let root = std::env::current_dir()?;
+            let mut opts = if *quick {
+                restir_vpl::results::ResultsOptions::quick(&root)
+            } else {
+                restir_vpl::results::ResultsOptions::full(&root, 0.25)
+            };
+            let default_side = if *quick { 64 } else { 320 };
+            opts.scenes = vec![restir_vpl::results::SceneSpec {
+                path: scene.clone(),
+                width: width.unwrap_or(default_side),
+                height: height.unwrap_or(default_side),
+            }];
+            if *quick {
+                opts.vpls_direct = 2_000;
+                opts.vpls_indirect = 2_000;
+            }
+            opts.out_dir = out.clone();
+            opts.markdown_name = "curves.md".into();
+            opts.device_index = *device;
+            if let Some(c) = checkpoints {
+                opts.checkpoints = c.clone();
+            }
+            opts.runs = runs.unwrap_or(opts.runs);
+            opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
+            return results_main(&opts);
+        }
         if *frames == 0 {
             bail!("--frames 0: at least one timed frame is needed");
         }
@@ -315,7 +507,7 @@ fn real_main(cli: Cli) -> Result<()> {
         }
         return Ok(());
     }
-    let settings = settings_from(&cli)?;
+    let settings = settings_from(&cli.render, Some(cli.out.clone()))?;
     settings.validate()?;
     if !cli.headless {
         bail!("windowed mode is not available yet: pass --headless to render to files");
@@ -377,15 +569,86 @@ fn real_main(cli: Cli) -> Result<()> {
     Ok(())
 }
 
+fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame: u64, resume: bool) -> Result<()> {
+    use restir_vpl::reference::{merge, read_reference, write_reference};
+    use restir_vpl::results::{file_hash, reference_config, render_reference, reference_mode_ok};
+    reference_mode_ok(settings)?;
+    let existing = if resume {
+        if first_frame != 0 {
+            bail!("--resume continues after the last frame in --out; --first-frame cannot be given with it");
+        }
+        let (image, meta) = read_reference(out)?;
+        let config = reference_config(settings, &file_hash(&settings.scene)?)?;
+        if meta.config != config || meta.seed != settings.seed as u64 {
+            bail!(
+                "--resume: {} was rendered with other settings (scene, mode, size, seed or sampling flags differ);                  pass the flags it was made with",
+                out.display()
+            );
+        }
+        Some((image, meta))
+    } else {
+        if out.exists() {
+            bail!("--out {}: file exists; pass --resume to extend it, or choose another file", out.display());
+        }
+        None
+    };
+    let first = existing.as_ref().map(|(_, m)| m.ranges.iter().map(|r| r.1).max().unwrap_or(0)).unwrap_or(first_frame);
+    let scene = restir_vpl::scene::Scene::load(&settings.scene)?;
+    let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+        validate: settings.validate,
+        device_index: settings.device_index,
+    })?);
+    let total = settings.frames;
+    let mut next_report = 0u32;
+    let started = std::time::Instant::now();
+    let part = render_reference(ctx, &scene, settings, first, total, |done| {
+        if done >= next_report || done == total {
+            eprint!("\r{done}/{total} frames, {:.0} s", started.elapsed().as_secs_f64());
+            next_report = done + (total / 20).max(1);
+        }
+    })?;
+    eprintln!();
+    let (gpu_ms, wall_ms) = (part.gpu_ms, part.wall_ms);
+    let (image, meta) = match existing {
+        Some(old) => merge(&[old, (part.image, part.meta)])?,
+        None => (part.image, part.meta),
+    };
+    write_reference(out, &image, &meta)?;
+    println!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
+    println!("frames: {}", meta.describe_frames());
+    if let Some(mse) = meta.noise_mse {
+        println!("estimated noise RMSE of the reference (sqrt(mean variance / frames)): {:.3e}", mse.sqrt());
+    }
+    println!("this run: {total} frames in {:.1} s wall, {:.1} s GPU", wall_ms * 1e-3, gpu_ms * 1e-3);
+    Ok(())
+}
+
+fn results_main(opts: &restir_vpl::results::ResultsOptions) -> Result<()> {
+    let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+        validate: opts.validate,
+        device_index: opts.device_index,
+    })?);
+    let out = restir_vpl::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
+    println!("{}", out.markdown.display());
+    println!("{}", out.csv.display());
+    println!("{}", out.frame_times_csv.display());
+    for p in &out.plots {
+        println!("{}", p.display());
+    }
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    restir_vpl::logger::init(cli.verbose);
+    restir_vpl::logger::init(cli.render.verbose);
     match real_main(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.downcast_ref::<NoRayQueryDevice>().is_some() {
                 ExitCode::from(2)
+            } else if e.downcast_ref::<restir_vpl::compare::NonFiniteInput>().is_some() {
+                ExitCode::from(3)
             } else {
                 ExitCode::FAILURE
             }

@@ -149,11 +149,25 @@ impl Renderer {
     pub fn new(ctx: Arc<Context>, scene: &Scene, settings: RenderSettings) -> Result<Self> {
         settings.validate()?;
         let camera = CameraSetup::choose(scene, &settings);
-        let scene_gpu = SceneGpu::new(&ctx, scene).context("uploading the scene")?;
+        let scene_gpu = SceneGpu::new(&ctx, scene, settings.textures).context("uploading the scene")?;
         let targets = FrameTargets::new(&ctx, settings.width, settings.height).context("allocating frame targets")?;
-        let mut passes = Passes::new(&ctx, scene_gpu.set.layout, &targets).context("creating passes")?;
+        let mut passes = Passes::new(&ctx, scene_gpu.set.layout, scene_gpu.textured, &targets).context("creating passes")?;
+        if settings.verbose {
+            let texture_materials = scene.materials.iter().filter(|m| m.base_color_texture.is_some()).count();
+            if scene_gpu.textured {
+                eprintln!(
+                    "textures: {} ({:.1} MiB of texels, {texture_materials} textured materials): gbuffer, pathtrace and photon_emit use their textured variants",
+                    scene_gpu.texture_count,
+                    scene_gpu.texel_bytes as f64 / (1 << 20) as f64
+                );
+            } else if texture_materials > 0 {
+                eprintln!("textures: off (--textures off): {texture_materials} textured materials use their base colour factor; no texture code compiled in");
+            } else {
+                eprintln!("textures: none in the scene: untextured shader variants, no texture bindings");
+            }
+        }
         let photons = if settings.needs_vpls() {
-            let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, &scene_gpu.lights, settings.photon_settings())
+            let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, scene_gpu.textured, &scene_gpu.lights, settings.photon_settings())
                 .context("creating the photon pass")?;
             let stats = pass.run(scene_gpu.set.set).context("tracing photons")?;
             if settings.verbose {
@@ -531,6 +545,15 @@ impl Renderer {
         self.accumulated = 0;
         self.frame_index = 0;
         self.history_valid = false;
+        self.pass_times.clear();
+        self.pass_rays.clear();
+    }
+
+    /// Starts a new accumulation but keeps everything else: the frame counter (so random numbers
+    /// continue), the ReSTIR history and the G-buffer. Timing and ray statistics restart too.
+    /// Used after warm-up frames, so that ReSTIR is measured in its steady state.
+    pub fn reset_accumulation(&mut self) {
+        self.accumulated = 0;
         self.pass_times.clear();
         self.pass_rays.clear();
     }

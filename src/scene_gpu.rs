@@ -28,12 +28,34 @@ pub const SCENE_BINDINGS: &[Binding] = &[
     uniform(8, "frame"),
 ];
 
+/// Set 0 of scenes drawn with base-colour textures: [`SCENE_BINDINGS`] plus the texture table and
+/// the texels (RGBA8, sRGB-encoded), read by the `textured` shader variants only.
+pub const SCENE_BINDINGS_TEXTURED: &[Binding] = &[
+    accel_binding(0, "tlas"),
+    storage(1, "vertices"),
+    storage(2, "indices"),
+    storage(3, "triangle_materials"),
+    storage(4, "materials"),
+    storage(5, "instances"),
+    storage(6, "lights"),
+    storage(7, "light_alias"),
+    uniform(8, "frame"),
+    storage(9, "textures"),
+    storage(10, "texels"),
+];
+
 pub struct SceneGpu {
     pub set: DescriptorSet,
     pub frame: Buffer,
     pub lights: LightSet,
     pub triangle_count: usize,
     pub instance_count: usize,
+    /// Base-colour textures are bound (set 0 is [`SCENE_BINDINGS_TEXTURED`]); passes that read
+    /// albedo then use their `textured` shader variant.
+    pub textured: bool,
+    /// Texture count and texel bytes uploaded (0 when untextured).
+    pub texture_count: usize,
+    pub texel_bytes: usize,
     pub build_ms: f64,
     // Kept alive for the descriptors.
     _tlas: AccelerationStructure,
@@ -53,7 +75,10 @@ fn geometry_usage() -> vk::BufferUsageFlags {
 }
 
 impl SceneGpu {
-    pub fn new(ctx: &Arc<Context>, scene: &Scene) -> Result<Self> {
+    /// Uploads `scene`; with `textures` false (or a scene without textures) nothing texture-related
+    /// is created and materials keep their base colour factor only.
+    pub fn new(ctx: &Arc<Context>, scene: &Scene, textures: bool) -> Result<Self> {
+        let textured = textures && scene.materials.iter().any(|m| m.base_color_texture.is_some());
         let start = std::time::Instant::now();
         let mut vertices: Vec<GpuVertex> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
@@ -86,7 +111,10 @@ impl SceneGpu {
             .iter()
             .map(|m| GpuMaterial {
                 albedo: m.base_color.truncate().to_array(),
-                texture: -1,
+                texture: match m.base_color_texture {
+                    Some(t) if textured => t as i32,
+                    _ => -1,
+                },
                 emission: m.emission.to_array(),
                 flags: if m.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
             })
@@ -129,10 +157,33 @@ impl SceneGpu {
             .context("building BLASes")?;
         let (tlas, tlas_instances) = accel::build_tlas(ctx, &blases, &descs).context("building the TLAS")?;
 
-        let set = DescriptorSet::new(ctx, "scene", SCENE_BINDINGS)?;
+        let set = DescriptorSet::new(ctx, "scene", if textured { SCENE_BINDINGS_TEXTURED } else { SCENE_BINDINGS })?;
         set.write_accel(0, tlas.raw)?;
         for (binding, buffer) in [(1, &vb), (2, &ib), (3, &tm), (4, &mb), (5, &inb), (6, &lb), (7, &ab), (8, &frame)] {
             set.write_buffer(binding, buffer)?;
+        }
+        let mut buffers = vec![vb, ib, tm, mb, inb, lb, ab];
+        let (mut texture_count, mut texel_bytes) = (0, 0);
+        if textured {
+            let mut table = Vec::with_capacity(scene.textures.len());
+            let mut texels: Vec<u8> = Vec::new();
+            for t in &scene.textures {
+                table.push(GpuTexture { offset: (texels.len() / 4) as u32, width: t.width, height: t.height, _pad0: 0 });
+                texels.extend_from_slice(&t.rgba8);
+            }
+            anyhow::ensure!(
+                texels.len() / 4 <= u32::MAX as usize,
+                "{}: textures hold {} texels, more than a 32-bit index reaches",
+                scene.path.display(),
+                texels.len() / 4
+            );
+            let tb = Buffer::with_data(ctx, "scene.textures", bytemuck::cast_slice(&table), storage_usage())?;
+            let xb = Buffer::with_data(ctx, "scene.texels", &texels, storage_usage())?;
+            set.write_buffer(9, &tb)?;
+            set.write_buffer(10, &xb)?;
+            texture_count = table.len();
+            texel_bytes = texels.len();
+            buffers.extend([tb, xb]);
         }
         Ok(Self {
             set,
@@ -140,11 +191,14 @@ impl SceneGpu {
             lights,
             triangle_count: scene.triangle_count(),
             instance_count: scene.instances.len(),
+            textured,
+            texture_count,
+            texel_bytes,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
             _tlas: tlas,
             _tlas_instances: tlas_instances,
             _blases: blases,
-            _buffers: vec![vb, ib, tm, mb, inb, lb, ab],
+            _buffers: buffers,
         })
     }
 

@@ -213,6 +213,8 @@ pub struct RenderSettings {
     pub attenuation: Attenuation,
     /// Yuksel's r (scene units); None: the mean VPL spacing √(A / (π N)).
     pub yuksel_radius: Option<f32>,
+    /// Sample base-colour textures (off: base colour factors only, untextured shader variants).
+    pub textures: bool,
 }
 
 impl Default for RenderSettings {
@@ -247,6 +249,7 @@ impl Default for RenderSettings {
             restir: RestirSettings::default(),
             attenuation: Attenuation::Yuksel,
             yuksel_radius: None,
+            textures: true,
         }
     }
 }

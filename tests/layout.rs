@@ -188,3 +188,8 @@ fn reservoir_layout_matches() {
 fn vpl_params_layout_matches() {
     check::<GpuVplParams>();
 }
+
+#[test]
+fn texture_layout_matches() {
+    check::<GpuTexture>();
+}

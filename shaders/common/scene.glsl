@@ -8,6 +8,9 @@
 
 #include "types.glsl"
 #include "../lib/sampling.glsl"
+#ifdef SCENE_TEXTURES
+#include "../lib/texture.glsl"
+#endif
 
 layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
 layout(set = 0, binding = 1, std430) readonly buffer VertexBuffer { Vertex vertices[]; };
@@ -18,6 +21,11 @@ layout(set = 0, binding = 5, std430) readonly buffer InstanceBuffer { Instance i
 layout(set = 0, binding = 6, std430) readonly buffer LightBuffer { Light lights[]; };
 layout(set = 0, binding = 7, std430) readonly buffer LightAliasBuffer { AliasEntry light_alias[]; };
 layout(set = 0, binding = 8, std140) uniform FrameBuffer { Frame frame; };
+#ifdef SCENE_TEXTURES
+// Only in the `textured` shader variants, used when the scene has base-colour textures.
+layout(set = 0, binding = 9, std430) readonly buffer TextureBuffer { TextureInfo textures[]; };
+layout(set = 0, binding = 10, std430) readonly buffer TexelBuffer { uint texels[]; };
+#endif
 
 // A surface point reached by a ray, with normals oriented toward the ray's origin side.
 struct Hit {
@@ -28,6 +36,9 @@ struct Hit {
     bool front_face;        // the ray hit the glTF front face (counter-clockwise side)
     uint instance;
     uint triangle;
+#ifdef SCENE_TEXTURES
+    vec2 uv;                // TEXCOORD_0
+#endif
 };
 
 // Primary camera ray through image position `pixel` (in pixels, row 0 at the top).
@@ -75,7 +86,39 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     h.material = triangle_materials[ins.first_triangle + prim];
     h.instance = inst;
     h.triangle = prim;
+#ifdef SCENE_TEXTURES
+    h.uv = b.x * vec2(v0.u, v0.v) + b.y * vec2(v1.u, v1.v) + b.z * vec2(v2.u, v2.v);
+#endif
     return h;
+}
+
+#ifdef SCENE_TEXTURES
+// Bilinear, sRGB-decoded base colour of texture `t` at `uv` (repeat wrapping; decoded per texel
+// before filtering, as an sRGB image format would).
+vec3 sample_base_color(uint t, vec2 uv) {
+    TextureInfo info = textures[t];
+    uvec2 x, y;
+    vec2 f;
+    bilinear_footprint(uv, uvec2(info.width, info.height), x, y, f);
+    uint row0 = info.offset + y.x * info.width;
+    uint row1 = info.offset + y.y * info.width;
+    vec3 c00 = srgb_to_linear(unpack_rgba8(texels[row0 + x.x]).rgb);
+    vec3 c10 = srgb_to_linear(unpack_rgba8(texels[row0 + x.y]).rgb);
+    vec3 c01 = srgb_to_linear(unpack_rgba8(texels[row1 + x.x]).rgb);
+    vec3 c11 = srgb_to_linear(unpack_rgba8(texels[row1 + x.y]).rgb);
+    return mix(mix(c00, c10, f.x), mix(c01, c11, f.x), f.y);
+}
+#endif
+
+// Diffuse albedo at a hit: baseColorFactor, times the base colour texture where there is one.
+vec3 hit_albedo(Hit h) {
+    Material m = materials[h.material];
+#ifdef SCENE_TEXTURES
+    if (m.texture >= 0) {
+        return m.albedo * sample_base_color(uint(m.texture), h.uv);
+    }
+#endif
+    return m.albedo;
 }
 
 // Closest hit along a ray; false when it leaves the scene.

@@ -22,6 +22,13 @@ struct Material {
     uint flags;
 };
 
+struct TextureInfo {
+    uint offset;
+    uint width;
+    uint height;
+    uint _pad0;
+};
+
 struct Instance {
     mat4 world_from_object;
     mat4 normal_to_world;

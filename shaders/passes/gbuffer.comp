@@ -48,7 +48,7 @@ void main() {
         s.instance = hit.instance;
         s.geometric_normal = hit.geometric_normal;
         s.triangle = hit.triangle;
-        s.albedo = m.albedo;
+        s.albedo = hit_albedo(hit);
         s.material = hit.material;
         bool emits = hit.front_face || (m.flags & MATERIAL_DOUBLE_SIDED) != 0u;
         s.emission = emits ? m.emission : vec3(0.0);

@@ -123,7 +123,7 @@ void main() {
         x = hit.position;
         ng = hit.geometric_normal;
         ns = hit.shading_normal;
-        albedo = m.albedo;
+        albedo = hit_albedo(hit);
     }
     samples[index] = vec4(radiance, 1.0);
     atomicAdd(ray_count[RAYS_PATHTRACE], rays);

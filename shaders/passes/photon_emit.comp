@@ -116,7 +116,7 @@ void photon_path(uint p) {
         if (!trace_closest(origin, dir, 1e30, hit, dist)) {
             break;  // left the scene
         }
-        phi *= materials[hit.material].albedo;
+        phi *= hit_albedo(hit);
         if (max3(phi) <= 0.0) {
             break;
         }

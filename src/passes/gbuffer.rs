@@ -19,9 +19,15 @@ impl GbufferPass {
     pub const NAME: &'static str = "gbuffer";
     pub const BINDINGS: &'static [Binding] = &[storage(0, "surfaces")];
 
-    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets) -> Result<Self> {
-        let pipeline =
-            ComputePipeline::new(ctx, Self::NAME, shaders::PASSES_GBUFFER, scene_layout, Self::BINDINGS, 0, [8, 8, 1])?;
+    /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene_layout: vk::DescriptorSetLayout,
+        textured: bool,
+        targets: &FrameTargets,
+    ) -> Result<Self> {
+        let spirv = if textured { shaders::PASSES_GBUFFER_TEXTURED } else { shaders::PASSES_GBUFFER };
+        let pipeline = ComputePipeline::new(ctx, Self::NAME, spirv, scene_layout, Self::BINDINGS, 0, [8, 8, 1])?;
         pipeline.set1.write_buffer(0, &targets.surfaces)?;
         Ok(Self { pipeline })
     }

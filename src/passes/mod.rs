@@ -244,10 +244,16 @@ pub struct Passes {
 }
 
 impl Passes {
-    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets) -> Result<Self> {
+    /// `textured`: set 0 carries textures, so the passes that read albedo use `textured` variants.
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene_layout: vk::DescriptorSetLayout,
+        textured: bool,
+        targets: &FrameTargets,
+    ) -> Result<Self> {
         Ok(Self {
-            gbuffer: GbufferPass::new(ctx, scene_layout, targets)?,
-            pathtrace: PathtracePass::new(ctx, scene_layout, targets)?,
+            gbuffer: GbufferPass::new(ctx, scene_layout, textured, targets)?,
+            pathtrace: PathtracePass::new(ctx, scene_layout, textured, targets)?,
             accumulate: AccumulatePass::new(ctx, scene_layout, targets)?,
             tonemap: TonemapPass::new(ctx, scene_layout, targets)?,
             vpl_view: None,

@@ -21,9 +21,15 @@ impl PathtracePass {
     pub const BINDINGS: &'static [Binding] =
         &[storage(0, "surfaces"), storage(1, "samples"), storage(2, "ray_count")];
 
-    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets) -> Result<Self> {
-        let pipeline =
-            ComputePipeline::new(ctx, Self::NAME, shaders::PASSES_PATHTRACE, scene_layout, Self::BINDINGS, 0, [8, 8, 1])?;
+    /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene_layout: vk::DescriptorSetLayout,
+        textured: bool,
+        targets: &FrameTargets,
+    ) -> Result<Self> {
+        let spirv = if textured { shaders::PASSES_PATHTRACE_TEXTURED } else { shaders::PASSES_PATHTRACE };
+        let pipeline = ComputePipeline::new(ctx, Self::NAME, spirv, scene_layout, Self::BINDINGS, 0, [8, 8, 1])?;
         pipeline.set1.write_buffer(0, &targets.surfaces)?;
         pipeline.set1.write_buffer(1, &targets.samples)?;
         pipeline.set1.write_buffer(2, &targets.ray_counter)?;

@@ -122,6 +122,7 @@ impl PhotonEmitPass {
     pub fn new(
         ctx: &Arc<Context>,
         scene_layout: vk::DescriptorSetLayout,
+        textured: bool,
         lights: &LightSet,
         settings: PhotonSettings,
     ) -> Result<Self> {
@@ -132,7 +133,7 @@ impl PhotonEmitPass {
         let pipeline = ComputePipeline::new(
             ctx,
             Self::NAME,
-            shaders::PASSES_PHOTON_EMIT,
+            if textured { shaders::PASSES_PHOTON_EMIT_TEXTURED } else { shaders::PASSES_PHOTON_EMIT },
             scene_layout,
             Self::BINDINGS,
             std::mem::size_of::<Push>() as u32,

@@ -1,7 +1,8 @@
 //! A small glTF 2.0 writer for tests and scene generators.
 //!
 //! Produces pretty-printed JSON with a single embedded base64 buffer, indexed `u32`
-//! triangle meshes (POSITION with min/max, optional NORMAL), diffuse/emissive materials,
+//! triangle meshes (POSITION with min/max, optional NORMAL and TEXCOORD_0),
+//! diffuse/emissive materials (optionally with an embedded PNG base colour texture),
 //! a perspective camera and `KHR_lights_punctual` point lights. Output is deterministic:
 //! the same calls give byte-identical text.
 
@@ -13,6 +14,8 @@ const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+const LINEAR: u32 = 9729;
+const REPEAT: u32 = 10497;
 const EMISSIVE_STRENGTH: &str = "KHR_materials_emissive_strength";
 const LIGHTS_PUNCTUAL: &str = "KHR_lights_punctual";
 
@@ -26,6 +29,9 @@ pub struct GltfBuilder {
     meshes: Vec<Value>,
     cameras: Vec<Value>,
     lights: Vec<Value>,
+    images: Vec<Value>,
+    samplers: Vec<Value>,
+    textures: Vec<Value>,
     nodes: Vec<Node>,
     uses_emissive_strength: bool,
 }
@@ -86,6 +92,72 @@ impl GltfBuilder {
         self.materials.len() - 1
     }
 
+    /// Adds a material whose base colour is `base_color_factor` times the texture
+    /// `texture` (an index returned by [`GltfBuilder::texture_png`], read with `TEXCOORD_0`);
+    /// not emissive. Returns the material index.
+    pub fn textured_material(
+        &mut self,
+        name: &str,
+        base_color_factor: [f32; 3],
+        texture: usize,
+        double_sided: bool,
+    ) -> usize {
+        let index = self.material(name, base_color_factor, [0.0; 3], double_sided);
+        if let Some(Value::Object(pbr)) = self.materials[index].get_mut("pbrMetallicRoughness") {
+            pbr.insert(
+                "baseColorTexture".into(),
+                json!({ "index": texture, "texCoord": 0 }),
+            );
+        }
+        index
+    }
+
+    /// Encodes `rgba8` (row-major, `width * height * 4` bytes, sRGB as glTF expects; row 0
+    /// is the top of the image, v = 0) as a PNG embedded in the buffer and adds an image,
+    /// the shared sampler (repeat wrapping, linear filtering; created on first use) and a
+    /// texture. Returns the texture index.
+    ///
+    /// # Panics
+    /// If `rgba8` does not hold exactly `width * height * 4` bytes.
+    pub fn texture_png(&mut self, name: &str, width: u32, height: u32, rgba8: &[u8]) -> usize {
+        assert_eq!(
+            rgba8.len(),
+            width as usize * height as usize * 4,
+            "texture '{name}': RGBA8 data does not match {width}x{height}"
+        );
+        let mut png = Vec::new();
+        image::ImageEncoder::write_image(
+            image::codecs::png::PngEncoder::new(&mut png),
+            rgba8,
+            width,
+            height,
+            image::ExtendedColorType::Rgba8,
+        )
+        .unwrap_or_else(|e| panic!("texture '{name}': PNG encoding failed: {e}"));
+        let view = self.push_view(&png, None);
+        // Keep the buffer 4-byte aligned after the image for the accessors that follow.
+        self.pad_buffer();
+        self.images.push(json!({
+            "name": name,
+            "bufferView": view,
+            "mimeType": "image/png",
+        }));
+        if self.samplers.is_empty() {
+            self.samplers.push(json!({
+                "magFilter": LINEAR,
+                "minFilter": LINEAR,
+                "wrapS": REPEAT,
+                "wrapT": REPEAT,
+            }));
+        }
+        self.textures.push(json!({
+            "name": name,
+            "sampler": 0,
+            "source": self.images.len() - 1,
+        }));
+        self.textures.len() - 1
+    }
+
     /// Adds a single-primitive indexed triangle mesh and returns its index.
     /// `normals`, when given, must have one entry per position.
     pub fn mesh(
@@ -93,6 +165,31 @@ impl GltfBuilder {
         name: &str,
         positions: &[[f32; 3]],
         normals: Option<&[[f32; 3]]>,
+        indices: &[u32],
+        material: usize,
+    ) -> usize {
+        self.mesh_impl(name, positions, normals, None, indices, material)
+    }
+
+    /// Like [`GltfBuilder::mesh`], with `TEXCOORD_0` texture coordinates (one per position).
+    pub fn mesh_with_uvs(
+        &mut self,
+        name: &str,
+        positions: &[[f32; 3]],
+        normals: Option<&[[f32; 3]]>,
+        uvs: &[[f32; 2]],
+        indices: &[u32],
+        material: usize,
+    ) -> usize {
+        self.mesh_impl(name, positions, normals, Some(uvs), indices, material)
+    }
+
+    fn mesh_impl(
+        &mut self,
+        name: &str,
+        positions: &[[f32; 3]],
+        normals: Option<&[[f32; 3]]>,
+        uvs: Option<&[[f32; 2]]>,
         indices: &[u32],
         material: usize,
     ) -> usize {
@@ -106,8 +203,19 @@ impl GltfBuilder {
         if let Some(normals) = normals {
             attributes.insert("NORMAL".into(), json!(self.vec3_accessor(normals, None)));
         }
+        if let Some(uvs) = uvs {
+            let bytes: Vec<u8> = uvs.iter().flatten().flat_map(|f| f.to_le_bytes()).collect();
+            let view = self.push_view(&bytes, Some(ARRAY_BUFFER));
+            let accessor = self.push_accessor(json!({
+                "bufferView": view,
+                "componentType": FLOAT,
+                "count": uvs.len(),
+                "type": "VEC2",
+            }));
+            attributes.insert("TEXCOORD_0".into(), json!(accessor));
+        }
         let bytes: Vec<u8> = indices.iter().flat_map(|i| i.to_le_bytes()).collect();
-        let view = self.push_view(&bytes, ELEMENT_ARRAY_BUFFER);
+        let view = self.push_view(&bytes, Some(ELEMENT_ARRAY_BUFFER));
         let index_accessor = self.push_accessor(json!({
             "bufferView": view,
             "componentType": UNSIGNED_INT,
@@ -273,6 +381,9 @@ impl GltfBuilder {
             ("meshes", &self.meshes),
             ("materials", &self.materials),
             ("cameras", &self.cameras),
+            ("textures", &self.textures),
+            ("images", &self.images),
+            ("samplers", &self.samplers),
             ("accessors", &self.accessors),
             ("bufferViews", &self.buffer_views),
             ("buffers", &buffers),
@@ -291,19 +402,28 @@ impl GltfBuilder {
         self.nodes.len() - 1
     }
 
-    /// Appends `bytes` (4-byte aligned) to the buffer as a new buffer view.
-    fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
-        while self.buffer.len() % 4 != 0 {
-            self.buffer.push(0);
-        }
-        self.buffer_views.push(json!({
+    /// Appends `bytes` (4-byte aligned) to the buffer as a new buffer view; `target` is
+    /// omitted for non-vertex data (images).
+    fn push_view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
+        self.pad_buffer();
+        let mut view = json!({
             "buffer": 0,
             "byteOffset": self.buffer.len(),
             "byteLength": bytes.len(),
-            "target": target,
-        }));
+        });
+        if let (Some(target), Value::Object(map)) = (target, &mut view) {
+            map.insert("target".into(), json!(target));
+        }
+        self.buffer_views.push(view);
         self.buffer.extend_from_slice(bytes);
         self.buffer_views.len() - 1
+    }
+
+    /// Pads the buffer with zeros to a multiple of 4 bytes.
+    fn pad_buffer(&mut self) {
+        while self.buffer.len() % 4 != 0 {
+            self.buffer.push(0);
+        }
     }
 
     fn push_accessor(&mut self, accessor: Value) -> usize {
@@ -317,7 +437,7 @@ impl GltfBuilder {
             .flatten()
             .flat_map(|f| f.to_le_bytes())
             .collect();
-        let view = self.push_view(&bytes, ARRAY_BUFFER);
+        let view = self.push_view(&bytes, Some(ARRAY_BUFFER));
         let mut a = json!({
             "bufferView": view,
             "componentType": FLOAT,

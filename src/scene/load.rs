@@ -2,7 +2,7 @@
 //! itself and reads accessors with explicit bounds checks, so malformed input yields an
 //! error instead of a panic.
 
-use super::{base64, Camera, Instance, Material, Mesh, PointLight, Scene};
+use super::{base64, Camera, Instance, Material, Mesh, PointLight, Scene, Texture};
 use anyhow::{anyhow, bail, Context, Result};
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
@@ -46,6 +46,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         .materials()
         .map(|m| convert_material(&m, &mut warnings))
         .collect();
+    let textures = load_textures(&doc, &buffers, base_dir, &mut materials, &mut warnings)?;
     let default_material = materials.len() as u32;
     let mut uses_default = false;
 
@@ -148,6 +149,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         materials,
         camera,
         point_lights,
+        textures,
         warnings,
     };
     if scene.triangle_count() == 0 {
@@ -349,12 +351,6 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Material 
         .map(str::to_owned)
         .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
     let pbr = m.pbr_metallic_roughness();
-    let base_color_texture = pbr.base_color_texture().map(|info| info.texture().index());
-    if let Some(t) = base_color_texture {
-        warnings.push(format!(
-            "material '{name}': base colour texture {t} ignored (only baseColorFactor is used)"
-        ));
-    }
     let mut emission = Vec3::from_array(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
     if !emission.is_finite() || emission.min_element() < 0.0 {
         warnings.push(format!(
@@ -366,9 +362,88 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Material 
         base_color: Vec4::from_array(pbr.base_color_factor()),
         emission,
         double_sided: m.double_sided(),
-        base_color_texture,
+        // Filled in by `load_textures`.
+        base_color_texture: None,
         name,
     }
+}
+
+/// Largest texture accepted (texels), so a corrupt header cannot ask for gigabytes.
+const MAX_TEXELS: u64 = 1 << 26;
+
+/// Decodes every glTF image used as a base colour texture (once each) and points the materials
+/// at them. An unreadable or undecodable image is an error naming the material and the image.
+fn load_textures(
+    doc: &Document,
+    buffers: &[Vec<u8>],
+    base_dir: Option<&Path>,
+    materials: &mut [Material],
+    warnings: &mut Vec<String>,
+) -> Result<Vec<Texture>> {
+    let mut textures = Vec::new();
+    let mut by_image: BTreeMap<usize, usize> = BTreeMap::new();
+    for (m, material) in doc.materials().zip(materials.iter_mut()) {
+        let Some(info) = m.pbr_metallic_roughness().base_color_texture() else {
+            continue;
+        };
+        let name = material.name.clone();
+        if info.tex_coord() != 0 {
+            warnings.push(format!(
+                "material '{name}': base colour texture uses TEXCOORD_{}, only TEXCOORD_0 is supported; texture ignored",
+                info.tex_coord()
+            ));
+            continue;
+        }
+        let texture = info.texture();
+        let sampler = texture.sampler();
+        use gltf::texture::WrappingMode::Repeat;
+        if sampler.wrap_s() != Repeat || sampler.wrap_t() != Repeat {
+            warnings.push(format!(
+                "material '{name}': texture {} asks for {:?}/{:?} wrapping; sampled with repeat wrapping",
+                texture.index(),
+                sampler.wrap_s(),
+                sampler.wrap_t()
+            ));
+        }
+        let image = texture.source();
+        let index = match by_image.get(&image.index()) {
+            Some(&i) => i,
+            None => {
+                let decoded = decode_image(&image, buffers, base_dir).with_context(|| {
+                    format!("material '{name}': base colour texture image {}", image.index())
+                })?;
+                textures.push(decoded);
+                by_image.insert(image.index(), textures.len() - 1);
+                textures.len() - 1
+            }
+        };
+        material.base_color_texture = Some(index);
+    }
+    Ok(textures)
+}
+
+fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path>) -> Result<Texture> {
+    let name = image
+        .name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("image{}", image.index()));
+    let bytes = match image.source() {
+        gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)?.to_vec(),
+        gltf::image::Source::Uri { uri, .. } => read_uri(uri, base_dir)?,
+    };
+    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+        .with_guessed_format()
+        .map_err(|e| anyhow!("'{name}': {e}"))?;
+    let (w, h) = reader
+        .into_dimensions()
+        .map_err(|e| anyhow!("'{name}': cannot decode (PNG and JPEG are supported): {e}"))?;
+    if w == 0 || h == 0 || u64::from(w) * u64::from(h) > MAX_TEXELS {
+        bail!("'{name}': {w}x{h} texels is outside 1..={MAX_TEXELS}");
+    }
+    let decoded = image::load_from_memory(&bytes)
+        .map_err(|e| anyhow!("'{name}': cannot decode (PNG and JPEG are supported): {e}"))?
+        .to_rgba8();
+    Ok(Texture { name, width: w, height: h, rgba8: decoded.into_raw() })
 }
 
 /// Concatenates all primitives of `mesh` into one [`Mesh`].

@@ -9,6 +9,7 @@
 mod base64;
 pub mod builder;
 pub mod cornell;
+pub mod thesis;
 mod load;
 
 #[cfg(test)]
@@ -19,6 +20,7 @@ use std::path::PathBuf;
 
 pub use builder::{closed_box, GltfBuilder};
 pub use cornell::{cornell_box_gltf, furnace_box_gltf};
+pub use thesis::{living_room_gltf, open_box_figure_gltf};
 
 /// A loaded scene: meshes (one BLAS each), their instances, materials, camera and lights.
 #[derive(Clone, Debug)]
@@ -35,6 +37,8 @@ pub struct Scene {
     pub camera: Option<Camera>,
     /// `KHR_lights_punctual` point lights.
     pub point_lights: Vec<PointLight>,
+    /// Decoded base colour textures, indexed by [`Material::base_color_texture`].
+    pub textures: Vec<Texture>,
     /// Non-fatal problems (unsupported features that were ignored).
     pub warnings: Vec<String>,
 }
@@ -79,8 +83,20 @@ pub struct Material {
     pub emission: Vec3,
     /// Whether back faces are shaded/emit like front faces.
     pub double_sided: bool,
-    /// glTF texture index of the base colour texture, if any (currently unused by the renderer).
+    /// Index into [`Scene::textures`] of the base colour texture (`TEXCOORD_0`), if any; the
+    /// albedo is `base_color` times the texture's linear (sRGB-decoded) colour.
     pub base_color_texture: Option<usize>,
+}
+
+/// A decoded glTF image used as a base colour texture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    /// glTF image name, or `image{index}`.
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// Row-major RGBA8, sRGB-encoded as stored in the file; row 0 is v = 0 (the image's top row).
+    pub rgba8: Vec<u8>,
 }
 
 /// Perspective camera.

@@ -647,9 +647,6 @@ fn lights_cameras_and_warnings() {
         json!({ "name": "ortho", "type": "orthographic", "orthographic": { "xmag": 1, "ymag": 1, "znear": 0.1, "zfar": 10 } }),
     );
     doc["scenes"][0]["nodes"] = json!([5, 0, 1, 2, 3, 4, 6]);
-    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
-    doc["textures"] = json!([{ "source": 0 }]);
-    doc["images"] = json!([{ "uri": "not_loaded.png" }]);
 
     let s = load_value(&doc).unwrap();
     assert_eq!(s.point_lights.len(), 1);
@@ -665,7 +662,6 @@ fn lights_cameras_and_warnings() {
         .transform
         .transform_vector3(Vec3::NEG_Z)
         .abs_diff_eq(Vec3::NEG_Z, EPS));
-    assert_eq!(s.materials[0].base_color_texture, Some(0));
     let w = s.warnings.join("\n");
     assert_contains(
         &w,
@@ -674,9 +670,67 @@ fn lights_cameras_and_warnings() {
             "spot light 'cone' not supported",
             "orthographic camera 'ortho' not supported",
             "camera 'second' ignored",
-            "texture",
         ],
     );
+}
+
+/// A PNG (RGBA8) as a base64 data URI.
+fn png_data_uri(width: u32, height: u32, rgba: &[u8]) -> String {
+    let mut bytes = Vec::new();
+    image::ImageEncoder::write_image(
+        image::codecs::png::PngEncoder::new(&mut bytes),
+        rgba,
+        width,
+        height,
+        image::ExtendedColorType::Rgba8,
+    )
+    .unwrap();
+    format!("data:image/png;base64,{}", base64::encode(&bytes))
+}
+
+#[test]
+fn base_color_textures_are_decoded_once_and_shared() {
+    let mut doc = triangle_doc();
+    let rgba = [255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 255, 255, 10, 20, 30, 255];
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 1 });
+    doc["materials"].as_array_mut().unwrap().push(json!({
+        "name": "second",
+        "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } },
+    }));
+    doc["textures"] = json!([{ "source": 0 }, { "source": 0, "sampler": 0 }]);
+    doc["samplers"] = json!([{ "wrapS": 33071 }]);
+    doc["images"] = json!([{ "name": "checker", "uri": png_data_uri(2, 2, &rgba) }]);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.textures.len(), 1, "one image, decoded once");
+    let t = &s.textures[0];
+    assert_eq!((t.name.as_str(), t.width, t.height), ("checker", 2, 2));
+    assert_eq!(t.rgba8, rgba);
+    assert_eq!(s.materials[0].base_color_texture, Some(0));
+    assert_eq!(s.materials[1].base_color_texture, Some(0));
+    assert_contains(&s.warnings.join("\n"), &["material 'glow'", "ClampToEdge", "repeat wrapping"]);
+}
+
+#[test]
+fn texture_errors_name_the_material_and_image() {
+    let mut doc = triangle_doc();
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
+    doc["textures"] = json!([{ "source": 0 }]);
+    doc["images"] = json!([{ "uri": "missing_texture.png" }]);
+    let e = match Scene::from_gltf_slice(doc.to_string().as_bytes(), Some(Path::new("/nonexistent-dir")), "t.gltf") {
+        Ok(_) => panic!("expected an error"),
+        Err(e) => format!("{e:#}"),
+    };
+    assert_contains(&e, &["t.gltf", "material 'glow'", "image 0", "missing_texture.png"]);
+
+    doc["images"] = json!([{ "uri": "data:image/png;base64,AAAA" }]);
+    assert_contains(&load_err(&doc), &["material 'glow'", "cannot decode"]);
+
+    doc["images"] = json!([{ "uri": png_data_uri(1, 1, &[1, 2, 3, 4]) }]);
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0, "texCoord": 1 });
+    let s = load_value(&doc).unwrap();
+    assert!(s.textures.is_empty());
+    assert_eq!(s.materials[0].base_color_texture, None);
+    assert_contains(&s.warnings.join("\n"), &["TEXCOORD_1", "ignored"]);
 }
 
 #[test]
@@ -890,5 +944,409 @@ fn dangling_indices_are_errors_not_panics() {
         edit(&mut doc);
         let err = load_err(&doc);
         assert!(err.contains("test.gltf: invalid glTF"), "{what}: {err}");
+    }
+}
+
+// ---------------------------------------------------------------- thesis scenes
+
+use super::thesis::{
+    FIGURE_MIN_TRIANGLES, FIGURE_NAME, FURNITURE_PREFIX, LIGHT_NAME, LIVING_ROOM_FURNITURE_PIECES,
+    LIVING_ROOM_MAX, LIVING_ROOM_MIN, LIVING_ROOM_WINDOW_MAX, LIVING_ROOM_WINDOW_MIN, OPEN_BOX_MAX,
+    OPEN_BOX_MIN, SCENE_ASPECT,
+};
+
+/// Checks that `scenes/<file>` is exactly `generate()` (rewriting it first with
+/// `UPDATE_SCENES=1`) and that the generator is deterministic; returns the loaded scene.
+fn committed_scene(file: &str, generate: fn() -> String) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(file);
+    let generated = generate();
+    if std::env::var_os("UPDATE_SCENES").is_some() {
+        std::fs::write(&path, &generated).unwrap();
+    }
+    let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!("cannot read {}: {e} (run with UPDATE_SCENES=1)", path.display())
+    });
+    assert!(
+        committed == generated,
+        "{} is stale; regenerate with UPDATE_SCENES=1",
+        path.display()
+    );
+    assert!(generated == generate(), "{file}: generator is not deterministic");
+    assert!(generated.len() < 4_500_000, "{file}: {} bytes", generated.len());
+    Scene::load(&path).unwrap()
+}
+
+fn open_box_scene() -> Scene {
+    load_str(&open_box_figure_gltf()).expect("open box loads")
+}
+
+fn living_room_scene() -> Scene {
+    load_str(&living_room_gltf()).expect("living room loads")
+}
+
+/// The scene's single area light: exactly two emissive triangles, both from the instance
+/// named [`LIGHT_NAME`], coplanar with equal normals and sharing an edge (one quad).
+/// Returns its four distinct corners and its front-face normal.
+fn single_light_quad(s: &Scene) -> (Vec<Vec3>, Vec3) {
+    let tris = s.emissive_triangles();
+    assert_eq!(tris.len(), 2, "one quad light");
+    for t in &tris {
+        assert_eq!(s.instances[t.instance as usize].name, LIGHT_NAME);
+        assert!(t.normal.abs_diff_eq(tris[0].normal, 1e-5));
+        assert!(t.emission.min_element() > 0.0);
+    }
+    let mut corners: Vec<Vec3> = Vec::new();
+    for p in tris.iter().flat_map(|t| t.p) {
+        if !corners.iter().any(|c| c.abs_diff_eq(p, 1e-6)) {
+            corners.push(p);
+        }
+    }
+    assert_eq!(corners.len(), 4, "two triangles sharing an edge");
+    (corners, tris[0].normal)
+}
+
+/// Whether any part of the convex planar polygon `poly` (world space) lies inside the view
+/// frustum of `cam` for an image of aspect `aspect` (width / height; `yfov` is vertical).
+/// The polygon is taken to camera space (camera looks down -Z) and clipped
+/// (Sutherland-Hodgman) against the near plane `z <= -1e-3` and the four side planes
+/// `|x| <= -z tan(yfov/2) aspect`, `|y| <= -z tan(yfov/2)`; it is outside the frustum
+/// exactly when nothing is left. (Checking only the vertices would miss a large quad that
+/// straddles the view with all corners outside it.)
+fn polygon_in_frustum(cam: &Camera, aspect: f32, poly: &[Vec3]) -> bool {
+    let view = cam.transform.inverse();
+    let ty = (0.5 * cam.yfov).tan();
+    let tx = ty * aspect;
+    // Plane functions, >= 0 inside.
+    let planes: [Box<dyn Fn(Vec3) -> f32>; 5] = [
+        Box::new(|p: Vec3| -p.z - 1e-3),
+        Box::new(move |p: Vec3| -p.z * tx - p.x),
+        Box::new(move |p: Vec3| -p.z * tx + p.x),
+        Box::new(move |p: Vec3| -p.z * ty - p.y),
+        Box::new(move |p: Vec3| -p.z * ty + p.y),
+    ];
+    let mut pts: Vec<Vec3> = poly.iter().map(|&p| view.transform_point3(p)).collect();
+    for plane in &planes {
+        let mut out = Vec::new();
+        for i in 0..pts.len() {
+            let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+            let (da, db) = (plane(a), plane(b));
+            if da >= 0.0 {
+                out.push(a);
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                out.push(a + (b - a) * (da / (da - db)));
+            }
+        }
+        pts = out;
+        if pts.is_empty() {
+            return false;
+        }
+    }
+    true
+}
+
+/// Camera-space position of a world point, divided by its depth: (x / -z, y / -z, -z).
+fn project(cam: &Camera, p: Vec3) -> Vec3 {
+    let c = cam.transform.inverse().transform_point3(p);
+    Vec3::new(c.x / -c.z, c.y / -c.z, -c.z)
+}
+
+/// World-space bounds of the instances whose names start with `prefix`.
+fn bounds_of(s: &Scene, prefix: &str) -> (Vec3, Vec3) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for inst in s.instances.iter().filter(|i| i.name.starts_with(prefix)) {
+        for &p in &s.meshes[inst.mesh].positions {
+            let w = inst.transform.transform_point3(p);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    assert!(lo.x <= hi.x, "no instance named {prefix}*");
+    (lo, hi)
+}
+
+/// Parameter t in (0, 1) where the segment `a -> b` hits triangle `p`, if it does
+/// (Möller-Trumbore, both faces).
+fn segment_hits(a: Vec3, b: Vec3, p: [Vec3; 3]) -> Option<f32> {
+    let d = b - a;
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let h = d.cross(e2);
+    let det = e1.dot(h);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let s = a - p[0];
+    let u = s.dot(h) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let t = e2.dot(q) / det;
+    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 1e-4 && t < 1.0 - 1e-4).then_some(t)
+}
+
+/// Names of the instances that the segment `a -> b` passes through.
+fn occluders(s: &Scene, a: Vec3, b: Vec3) -> Vec<String> {
+    let mut hit = Vec::new();
+    for inst in &s.instances {
+        let mesh = &s.meshes[inst.mesh];
+        for t in 0..mesh.triangle_count() {
+            let p = mesh.triangle(t).unwrap().map(|v| inst.transform.transform_point3(v));
+            if segment_hits(a, b, p).is_some() && !hit.contains(&inst.name) {
+                hit.push(inst.name.clone());
+            }
+        }
+    }
+    hit
+}
+
+/// Every vertex normal present is unit length (no zero or NaN normals from the generators).
+fn assert_unit_normals(s: &Scene) {
+    for m in &s.meshes {
+        assert_eq!(m.normals.len(), m.positions.len());
+        for n in &m.normals {
+            assert!((n.length() - 1.0).abs() < 1e-3, "mesh {}: normal {n}", m.name);
+        }
+    }
+}
+
+#[test]
+fn open_box_figure_file_matches_generator() {
+    let s = committed_scene("open_box_figure.gltf", open_box_figure_gltf);
+    assert_eq!(s.triangle_count(), open_box_scene().triangle_count());
+}
+
+#[test]
+fn living_room_file_matches_generator() {
+    let s = committed_scene("living_room.gltf", living_room_gltf);
+    assert_eq!(s.triangle_count(), living_room_scene().triangle_count());
+}
+
+#[test]
+fn open_box_figure_structure() {
+    let s = open_box_scene();
+    let figure = instance_named(&s, FIGURE_NAME);
+    let n = s.meshes[figure.mesh].triangle_count();
+    assert!(n >= FIGURE_MIN_TRIANGLES, "figure has {n} triangles");
+    assert!(s.triangle_count() < 100_000);
+    for name in ["floor", "back_wall", "left_wall", "right_wall_red", "sphere", "cube", "cylinder", "cone"] {
+        instance_named(&s, name);
+    }
+    assert_unit_normals(&s);
+
+    // Walls face the box's interior; the red wall is at +x, on the right of the image.
+    let (lo, hi) = (Vec3::from(OPEN_BOX_MIN), Vec3::from(OPEN_BOX_MAX));
+    let centre = 0.5 * (lo + hi);
+    for name in ["floor", "back_wall", "left_wall", "right_wall_red"] {
+        for (c, n) in triangle_frames(&s, instance_named(&s, name)) {
+            assert!(n.dot(centre - c) > 0.0, "{name} faces away from the interior");
+        }
+    }
+    let red = instance_named(&s, "right_wall_red");
+    let material = &s.materials[s.meshes[red.mesh].triangle_materials[0] as usize];
+    assert!(material.base_color.x > 0.5 && material.base_color.y < 0.15 && material.base_color.z < 0.15);
+    let cam = s.camera.as_ref().expect("camera");
+    assert!(project(cam, instance_centroid(&s, red)).x > 0.0, "red wall on screen right");
+    // Open at the top and the front: no geometry above the walls or in front of the box.
+    for inst in s.instances.iter().filter(|i| i.name != LIGHT_NAME) {
+        let (ilo, ihi) = bounds_of(&s, &inst.name);
+        assert!(ihi.y <= hi.y + 1e-4 && ihi.z <= hi.z + 1e-4, "{} sticks out", inst.name);
+        assert!(ilo.cmpge(lo - 1e-4).all(), "{} outside the box", inst.name);
+    }
+
+    // The figure, in the middle of the image.
+    let (flo, fhi) = bounds_of(&s, FIGURE_NAME);
+    let f = project(cam, 0.5 * (flo + fhi));
+    assert!(f.x.abs() < 0.2 && f.y.abs() < 0.2, "figure at {f}");
+
+    // One area light, entirely outside the view frustum at 16:9, shining into the box.
+    let (corners, normal) = single_light_quad(&s);
+    assert!(!polygon_in_frustum(cam, SCENE_ASPECT, &corners), "light visible");
+    let lc = corners.iter().sum::<Vec3>() / 4.0;
+    assert!(normal.dot(centre - lc) > 0.5 * (centre - lc).length(), "light not aimed into the box");
+    assert!(occluders(&s, lc, centre).is_empty(), "{:?}", occluders(&s, lc, centre));
+    assert!(corners.iter().all(|c| c.y > hi.y || c.z > hi.z), "light inside the box");
+    let area = (corners[1] - corners[0]).cross(corners[3] - corners[0]).length();
+    assert!(area > 1.0, "a large light: {area} m^2");
+}
+
+#[test]
+fn living_room_structure() {
+    let s = living_room_scene();
+    assert_unit_normals(&s);
+    // Furniture: every part instance is named `<piece>/<part>` with the prefix.
+    let mut pieces: Vec<&str> = s
+        .instances
+        .iter()
+        .filter(|i| i.name.starts_with(FURNITURE_PREFIX))
+        .map(|i| i.name.split('/').next().unwrap())
+        .collect();
+    pieces.dedup();
+    let mut sorted = pieces.clone();
+    sorted.sort();
+    sorted.dedup();
+    assert_eq!(sorted.len(), pieces.len(), "parts of a piece are adjacent");
+    assert_eq!(pieces.len(), LIVING_ROOM_FURNITURE_PIECES);
+    assert!(pieces.len() >= 20);
+    for piece in ["furniture_couch", "furniture_dining_table", "furniture_coffee_table", "furniture_tv", "furniture_rug"] {
+        assert!(pieces.contains(&piece), "{piece}");
+    }
+
+    // The room: everything but the light inside it.
+    let (lo, hi) = (Vec3::from(LIVING_ROOM_MIN), Vec3::from(LIVING_ROOM_MAX));
+    let (wlo, whi) = (Vec3::from(LIVING_ROOM_WINDOW_MIN), Vec3::from(LIVING_ROOM_WINDOW_MAX));
+    let window = 0.5 * (wlo + whi);
+    for inst in s.instances.iter().filter(|i| i.name != LIGHT_NAME) {
+        let (ilo, ihi) = bounds_of(&s, &inst.name);
+        let slack = Vec3::new(0.25, 1e-3, 1e-3); // the window reveal sticks out in +x
+        assert!(ilo.cmpge(lo - slack).all() && ihi.cmple(hi + slack).all(), "{} outside the room", inst.name);
+    }
+    let centre = 0.5 * (lo + hi);
+    for (c, n) in triangle_frames(&s, instance_named(&s, "floor")) {
+        assert!(n.dot(centre - c) > 0.0);
+    }
+    for (c, n) in triangle_frames(&s, instance_named(&s, "ceiling")) {
+        assert!(n.dot(centre - c) > 0.0);
+    }
+    // Walls: the ones on the room's faces point inward.
+    for (c, n) in triangle_frames(&s, instance_named(&s, "walls")) {
+        let on_face = [c.x - lo.x, hi.x - c.x, c.z - lo.z, hi.z - c.z].iter().any(|d| d.abs() < 1e-4);
+        if on_face {
+            assert!(n.dot(centre - c) > 0.0, "wall triangle at {c} faces out");
+        }
+    }
+
+    // One area light, outside the room, facing the window, not occluded from it,
+    // and outside the view frustum at 16:9.
+    let (corners, normal) = single_light_quad(&s);
+    for c in &corners {
+        assert!(c.x > hi.x + 0.2 || c.y > hi.y, "light corner {c} inside the room or its wall");
+    }
+    let (llo, lhi) = bounds_of(&s, LIGHT_NAME);
+    assert!(llo.x > hi.x || lhi.x < lo.x || llo.y > hi.y || llo.z > hi.z || lhi.z < lo.z, "light AABB overlaps the room");
+    let lc = corners.iter().sum::<Vec3>() / 4.0;
+    assert!(normal.dot(window - lc) > 0.0, "light faces away from the window");
+    let sunlit = Vec3::new(1.5, 0.0, window.z);
+    assert!(occluders(&s, lc, window).is_empty(), "{:?}", occluders(&s, lc, window));
+    assert_eq!(occluders(&s, lc, sunlit + Vec3::Y * 0.01), Vec::<String>::new(), "window light reaches the floor");
+    let cam = s.camera.as_ref().expect("camera");
+    assert!(!polygon_in_frustum(cam, SCENE_ASPECT, &corners), "light visible");
+    // The camera is inside the room and sees the couch and the dining table.
+    let eye = cam.transform.transform_point3(Vec3::ZERO);
+    assert!(eye.cmpgt(lo).all() && eye.cmplt(hi).all());
+    let ty = (0.5 * cam.yfov).tan();
+    for piece in ["furniture_couch/", "furniture_dining_table/", "furniture_tv/"] {
+        let (plo, phi) = bounds_of(&s, piece);
+        let p = project(cam, 0.5 * (plo + phi));
+        assert!(p.x.abs() < ty * SCENE_ASPECT && p.y.abs() < ty && p.z > 0.0, "{piece} out of view: {p}");
+    }
+    // Something blocks the light from reaching under the dining table.
+    let under_table = bounds_of(&s, "furniture_dining_table/");
+    let under = Vec3::new(0.5 * (under_table.0.x + under_table.1.x), 0.01, 0.5 * (under_table.0.z + under_table.1.z));
+    assert!(!occluders(&s, lc, under).is_empty());
+}
+
+/// The textured materials (floor, rug, painting) reference valid textures, images and a
+/// sampler; their meshes carry TEXCOORD_0; images are embedded PNGs that decode; buffer
+/// views are 4-byte aligned. Checked on the JSON since the loader may ignore textures.
+#[test]
+fn living_room_textures_are_valid() {
+    let text = living_room_gltf();
+    let doc: Value = serde_json::from_str(&text).unwrap();
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap();
+    let buffer = base64::decode(uri.split_once("base64,").unwrap().1).unwrap();
+    assert_eq!(buffer.len() as u64, doc["buffers"][0]["byteLength"].as_u64().unwrap());
+    let views = doc["bufferViews"].as_array().unwrap();
+    for v in views {
+        assert_eq!(v["byteOffset"].as_u64().unwrap() % 4, 0);
+    }
+    let textures = doc["textures"].as_array().unwrap();
+    let images = doc["images"].as_array().unwrap();
+    let samplers = doc["samplers"].as_array().unwrap();
+    assert_eq!(samplers.len(), 1);
+    assert_eq!(samplers[0]["wrapS"], json!(10497));
+    let mut textured = Vec::new();
+    for (mi, m) in doc["materials"].as_array().unwrap().iter().enumerate() {
+        let Some(info) = m["pbrMetallicRoughness"].get("baseColorTexture") else {
+            continue;
+        };
+        textured.push((mi, m["name"].as_str().unwrap().to_string()));
+        assert_eq!(info["texCoord"], json!(0));
+        let t = &textures[info["index"].as_u64().unwrap() as usize];
+        assert!((t["sampler"].as_u64().unwrap() as usize) < samplers.len());
+        let image = &images[t["source"].as_u64().unwrap() as usize];
+        assert_eq!(image["mimeType"], json!("image/png"));
+        let v = &views[image["bufferView"].as_u64().unwrap() as usize];
+        let start = v["byteOffset"].as_u64().unwrap() as usize;
+        let bytes = &buffer[start..start + v["byteLength"].as_u64().unwrap() as usize];
+        let decoded = image::load_from_memory_with_format(bytes, image::ImageFormat::Png).unwrap();
+        assert!(decoded.width() >= 64 && decoded.width() <= 256 && decoded.height() >= 64);
+    }
+    let names: Vec<&str> = textured.iter().map(|(_, n)| n.as_str()).collect();
+    assert_eq!(names, ["floor_wood", "rug", "painting"]);
+    // Every primitive with a textured material has TEXCOORD_0, with one UV per position.
+    let mut uses = 0;
+    for mesh in doc["meshes"].as_array().unwrap() {
+        for prim in mesh["primitives"].as_array().unwrap() {
+            let m = prim["material"].as_u64().unwrap() as usize;
+            if textured.iter().any(|(mi, _)| *mi == m) {
+                uses += 1;
+                let attrs = &prim["attributes"];
+                let uv = &doc["accessors"][attrs["TEXCOORD_0"].as_u64().expect("TEXCOORD_0") as usize];
+                let pos = &doc["accessors"][attrs["POSITION"].as_u64().unwrap() as usize];
+                assert_eq!(uv["type"], json!("VEC2"));
+                assert_eq!(uv["count"], pos["count"]);
+            }
+        }
+    }
+    assert_eq!(uses, 3);
+    // The loaded scene keeps the material's texture reference.
+    let s = living_room_scene();
+    let floor = instance_named(&s, "floor");
+    let mat = &s.materials[s.meshes[floor.mesh].triangle_materials[0] as usize];
+    assert!(mat.base_color_texture.is_some());
+    assert!(s.meshes[floor.mesh].uvs.iter().any(|uv| uv.x.abs() > 1.0));
+}
+
+#[test]
+fn builder_textures_and_uvs() {
+    let make = || {
+        let mut b = GltfBuilder::new();
+        let rgba: Vec<u8> = (0..3 * 2 * 4).map(|i| (i * 10) as u8).collect();
+        let t = b.texture_png("tiny", 3, 2, &rgba);
+        let t2 = b.texture_png("tiny2", 1, 1, &[1, 2, 3, 255]);
+        let m = b.textured_material("tex", [1.0, 0.5, 1.0], t2, true);
+        let mesh = b.mesh_with_uvs(
+            "tri",
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            None,
+            &[[0.0, 0.0], [2.0, 0.0], [0.0, 0.5]],
+            &[0, 1, 2],
+            m,
+        );
+        b.node("tri", mesh, [0.0; 3]);
+        (t, t2, b.to_json_string())
+    };
+    let (t, t2, text) = make();
+    assert_eq!((t, t2), (0, 1));
+    assert_eq!(text, make().2);
+    let doc: Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(doc["textures"].as_array().unwrap().len(), 2);
+    assert_eq!(doc["images"].as_array().unwrap().len(), 2);
+    assert_eq!(doc["samplers"].as_array().unwrap().len(), 1, "one shared sampler");
+    assert_eq!(doc["textures"][1]["source"], json!(1));
+    assert_eq!(doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"], json!({ "index": 1, "texCoord": 0 }));
+    assert_eq!(doc["materials"][0]["doubleSided"], json!(true));
+    assert!(doc["images"][0].get("uri").is_none());
+    assert!(doc["bufferViews"][0].get("target").is_none(), "image views have no target");
+    for v in doc["bufferViews"].as_array().unwrap() {
+        assert_eq!(v["byteOffset"].as_u64().unwrap() % 4, 0);
+    }
+    let s = load_str(&text).unwrap();
+    assert_eq!(s.meshes[0].uvs[1], glam::Vec2::new(2.0, 0.0));
+    assert!(s.materials[0].base_color_texture.is_some());
+    // Without textures, none of the new arrays appear.
+    let plain: Value = serde_json::from_str(&cornell_box_gltf()).unwrap();
+    for key in ["textures", "images", "samplers"] {
+        assert!(plain.get(key).is_none());
     }
 }

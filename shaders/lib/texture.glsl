@@ -1,0 +1,33 @@
+// Texture math without bindings: sRGB decoding and the footprint of a bilinear lookup with
+// repeat wrapping. The texel loads themselves live in shaders/common/scene.glsl.
+#ifndef LIB_TEXTURE_GLSL
+#define LIB_TEXTURE_GLSL
+
+// The sRGB transfer function (IEC 61966-2-1), per channel, for values in [0, 1].
+vec3 srgb_to_linear(vec3 c) {
+    vec3 lo = c / 12.92;
+    vec3 hi = pow((c + 0.055) / 1.055, vec3(2.4));
+    return mix(hi, lo, lessThanEqual(c, vec3(0.04045)));
+}
+
+// Unpacks an RGBA8 texel stored little-endian (r in the low byte) to [0, 1].
+vec4 unpack_rgba8(uint t) {
+    return vec4(t & 0xFFu, (t >> 8) & 0xFFu, (t >> 16) & 0xFFu, t >> 24) / 255.0;
+}
+
+// Bilinear footprint of `uv` (glTF convention: (0, 0) is the first texel of row 0) on a
+// `size` texture with repeat wrapping: texel columns x.xy, rows y.xy and the weights of the
+// second column / row in f.
+void bilinear_footprint(vec2 uv, uvec2 size, out uvec2 x, out uvec2 y, out vec2 f) {
+    vec2 p = fract(uv) * vec2(size) - 0.5;
+    vec2 base = floor(p);
+    f = p - base;
+    ivec2 i0 = ivec2(base);
+    ivec2 s = ivec2(size);
+    ivec2 w0 = (i0 % s + s) % s;
+    ivec2 w1 = (w0 + 1) % s;
+    x = uvec2(w0.x, w1.x);
+    y = uvec2(w0.y, w1.y);
+}
+
+#endif

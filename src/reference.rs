@@ -1,0 +1,331 @@
+//! Reference images that can be rendered in parts and merged.
+//!
+//! A reference is the mean of N frames, stored as a float32 RGB EXR whose header carries a
+//! [`ReferenceMeta`]: the JSON text attribute `restir_vpl.reference` (what is read back) and, for
+//! people (`exrheader`), `restir_vpl.frames` ("8 frames: [0, 8)"). Parts rendered with the same
+//! settings over disjoint frame ranges merge into the frame-count-weighted mean ([`merge`]), which
+//! equals one render over all their frames.
+
+use std::path::Path;
+
+use anyhow::{bail, ensure, Context as _, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::output::RgbImage;
+
+/// EXR header attribute holding the [`ReferenceMeta`] as JSON.
+pub const META_ATTRIBUTE: &str = "restir_vpl.reference";
+/// Human-readable frame count and ranges.
+pub const FRAMES_ATTRIBUTE: &str = "restir_vpl.frames";
+
+/// What a reference image is the mean of.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReferenceMeta {
+    /// Frames averaged.
+    pub frames: u64,
+    /// Index of the first frame; a single run covers [first_frame, first_frame + frames).
+    pub first_frame: u64,
+    /// The frame ranges [start, end) averaged, sorted and coalesced (one range when contiguous);
+    /// their lengths sum to `frames`.
+    #[serde(default)]
+    pub ranges: Vec<(u64, u64)>,
+    pub seed: u64,
+    pub mode: String,
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    /// Opaque key of every other render setting that must agree for images to be merged.
+    pub config: String,
+    /// Estimated mean squared error of the mean image against its expectation (mean per-pixel
+    /// sample variance / frames), when known. Merging combines it as Σ (frames_i / frames)² ·
+    /// noise_mse_i (None if any part lacks it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_mse: Option<f64>,
+}
+
+impl ReferenceMeta {
+    /// A single run's metadata: frames [first_frame, first_frame + frames).
+    #[allow(clippy::too_many_arguments)]
+    pub fn new(
+        frames: u64,
+        first_frame: u64,
+        seed: u64,
+        mode: impl Into<String>,
+        scene: impl Into<String>,
+        width: u32,
+        height: u32,
+        config: impl Into<String>,
+    ) -> Self {
+        Self {
+            frames,
+            first_frame,
+            ranges: vec![(first_frame, first_frame + frames)],
+            seed,
+            mode: mode.into(),
+            scene: scene.into(),
+            width,
+            height,
+            config: config.into(),
+            noise_mse: None,
+        }
+    }
+
+    /// One range of frames, no gaps.
+    pub fn is_contiguous(&self) -> bool {
+        self.ranges.len() <= 1
+    }
+
+    /// "8 frames: [0, 8)" or "6 frames: [0, 3) [5, 8)".
+    pub fn describe_frames(&self) -> String {
+        let r: Vec<String> = self.ranges.iter().map(|(s, e)| format!("[{s}, {e})")).collect();
+        format!("{} frame{}: {}", self.frames, if self.frames == 1 { "" } else { "s" }, r.join(" "))
+    }
+
+    /// Checks the frame bookkeeping (ranges sorted, disjoint, non-empty, summing to `frames`,
+    /// starting at `first_frame`) and, given an image, its size.
+    pub fn validate(&self, image: Option<&RgbImage>) -> Result<()> {
+        ensure!(self.frames > 0, "no frames");
+        ensure!(!self.ranges.is_empty(), "no frame ranges");
+        let mut sum = 0u64;
+        let mut prev_end = None;
+        for &(s, e) in &self.ranges {
+            ensure!(s < e, "empty or reversed frame range [{s}, {e})");
+            if let Some(p) = prev_end {
+                ensure!(s > p, "frame ranges not sorted and disjoint: {}", self.describe_frames());
+            }
+            prev_end = Some(e);
+            sum += e - s;
+        }
+        ensure!(sum == self.frames, "frame ranges hold {sum} frames, but frames = {}", self.frames);
+        ensure!(
+            self.ranges[0].0 == self.first_frame,
+            "first_frame {} is not the start of the first range {:?}",
+            self.first_frame,
+            self.ranges[0]
+        );
+        if let Some(img) = image {
+            ensure!(
+                (img.width, img.height) == (self.width, self.height),
+                "image is {}x{} but its metadata says {}x{}",
+                img.width,
+                img.height,
+                self.width,
+                self.height
+            );
+            ensure!(img.pixels.len() == img.width as usize * img.height as usize, "pixel count does not match the size");
+        }
+        Ok(())
+    }
+}
+
+/// JSON with every non-ASCII character escaped as \uXXXX: EXR text attributes are bytes (the exr
+/// crate takes Latin-1), so this keeps any scene path intact.
+fn ascii_json<T: Serialize>(v: &T) -> Result<String> {
+    let s = serde_json::to_string(v)?;
+    let mut out = String::with_capacity(s.len());
+    for ch in s.chars() {
+        if ch.is_ascii() {
+            out.push(ch);
+        } else {
+            let mut buf = [0u16; 2];
+            for u in ch.encode_utf16(&mut buf) {
+                out.push_str(&format!("\\u{u:04x}"));
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Writes a reference: float32 RGB EXR (lossless ZIP) with the metadata in header attributes.
+pub fn write_reference(path: &Path, image: &RgbImage, meta: &ReferenceMeta) -> Result<()> {
+    use exr::meta::attribute::{AttributeValue, Text};
+    use exr::prelude::*;
+    meta.validate(Some(image)).with_context(|| format!("writing reference {}: bad metadata", path.display()))?;
+    let json = ascii_json(meta)?;
+    let mut attributes = LayerAttributes { software_name: Some(Text::from("restir-vpl")), ..Default::default() };
+    attributes.other.insert(Text::from(META_ATTRIBUTE), AttributeValue::Text(Text::from(json.as_str())));
+    attributes
+        .other
+        .insert(Text::from(FRAMES_ATTRIBUTE), AttributeValue::Text(Text::from(meta.describe_frames().as_str())));
+    let w = image.width as usize;
+    let layer = Layer::new(
+        (w, image.height as usize),
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+            let p: [f32; 3] = image.pixels[y * w + x];
+            (p[0], p[1], p[2])
+        }),
+    );
+    Image::from_layer(layer).write().to_file(path).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Reads a reference written by [`write_reference`]. A plain EXR (no metadata) is an error.
+pub fn read_reference(path: &Path) -> Result<(RgbImage, ReferenceMeta)> {
+    use exr::meta::attribute::{AttributeValue, Text};
+    use exr::prelude::*;
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| RgbImage {
+            width: resolution.width() as u32,
+            height: resolution.height() as u32,
+            pixels: vec![[0.0; 3]; resolution.width() * resolution.height()],
+        },
+        |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            let w = img.width as usize;
+            img.pixels[pos.y() * w + pos.x()] = [r, g, b];
+        },
+    )
+    .with_context(|| format!("reading {}", path.display()))?;
+    let value = image
+        .layer_data
+        .attributes
+        .other
+        .get(&Text::from(META_ATTRIBUTE))
+        .or_else(|| image.attributes.other.get(&Text::from(META_ATTRIBUTE)));
+    let json = match value {
+        Some(AttributeValue::Text(t)) => t.to_string(),
+        Some(other) => bail!(
+            "{}: header attribute '{META_ATTRIBUTE}' is not text ({other:?}); the file is not a restir-vpl reference",
+            path.display()
+        ),
+        None => bail!(
+            "{} is not a restir-vpl reference: its EXR header has no '{META_ATTRIBUTE}' attribute (frame count, \
+             seed, settings). A plain render (final.exr) cannot be merged; write references with \
+             restir_vpl::reference::write_reference, or merge existing ones with `restir-vpl merge-references`",
+            path.display()
+        ),
+    };
+    let mut meta: ReferenceMeta = serde_json::from_str(&json)
+        .with_context(|| format!("{}: bad '{META_ATTRIBUTE}' header attribute", path.display()))?;
+    if meta.ranges.is_empty() {
+        meta.ranges = vec![(meta.first_frame, meta.first_frame + meta.frames)];
+    }
+    let img = image.layer_data.channel_data.pixels;
+    meta.validate(Some(&img)).with_context(|| format!("{}: inconsistent reference metadata", path.display()))?;
+    Ok((img, meta))
+}
+
+/// Merges partial references into their frame-count-weighted mean (accumulated in f64). See
+/// [`merge_labelled`]; errors name the parts as "part #1", "part #2", ... in the given order.
+pub fn merge(parts: &[(RgbImage, ReferenceMeta)]) -> Result<(RgbImage, ReferenceMeta)> {
+    let labels: Vec<String> = (1..=parts.len()).map(|i| format!("part #{i}")).collect();
+    merge_labelled(parts, &labels)
+}
+
+/// [`merge`] with a label per part (e.g. its file name) for the error messages.
+///
+/// Errors if there are no parts, if sizes, mode, scene, seed or config differ, or if frame ranges
+/// overlap (frames rendered twice are not independent samples). The result has frames = the sum,
+/// first_frame = the minimum and the coalesced union of the ranges. It does not depend on the order
+/// of the parts (they are summed in order of their first frame).
+pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) -> Result<(RgbImage, ReferenceMeta)> {
+    ensure!(!parts.is_empty(), "nothing to merge: no references given");
+    ensure!(labels.len() == parts.len(), "{} labels for {} parts", labels.len(), parts.len());
+    for ((img, meta), label) in parts.iter().zip(labels) {
+        meta.validate(Some(img)).with_context(|| format!("{label}: bad reference"))?;
+    }
+    let (_, m0) = &parts[0];
+    for ((_, m), label) in parts.iter().zip(labels).skip(1) {
+        let mut diffs = Vec::new();
+        if (m.width, m.height) != (m0.width, m0.height) {
+            diffs.push(format!("size {}x{} vs {}x{}", m0.width, m0.height, m.width, m.height));
+        }
+        if m.mode != m0.mode {
+            diffs.push(format!("mode '{}' vs '{}'", m0.mode, m.mode));
+        }
+        if m.scene != m0.scene {
+            diffs.push(format!("scene '{}' vs '{}'", m0.scene, m.scene));
+        }
+        if m.seed != m0.seed {
+            diffs.push(format!("seed {} vs {}", m0.seed, m.seed));
+        }
+        if m.config != m0.config {
+            diffs.push(format!("config '{}' vs '{}'", m0.config, m.config));
+        }
+        if !diffs.is_empty() {
+            bail!("cannot merge {} and {label}: they differ in {}", labels[0], diffs.join("; "));
+        }
+    }
+    // Every range with its part, sorted by start: an overlap shows up between neighbours.
+    let mut ranges: Vec<(u64, u64, usize)> =
+        parts.iter().enumerate().flat_map(|(i, (_, m))| m.ranges.iter().map(move |&(s, e)| (s, e, i))).collect();
+    ranges.sort_unstable();
+    for pair in ranges.windows(2) {
+        let ((s0, e0, i0), (s1, e1, i1)) = (pair[0], pair[1]);
+        if s1 < e0 {
+            bail!(
+                "cannot merge {} and {}: frames [{s0}, {e0}) and [{s1}, {e1}) overlap (frames rendered twice are not \
+                 independent samples; render the parts with different first frames)",
+                labels[i0],
+                labels[i1]
+            );
+        }
+    }
+    let mut union: Vec<(u64, u64)> = Vec::new();
+    for &(s, e, _) in &ranges {
+        match union.last_mut() {
+            Some(last) if last.1 == s => last.1 = e,
+            _ => union.push((s, e)),
+        }
+    }
+    // Sum in order of first frame so the result is bitwise independent of the parts' order.
+    let mut order: Vec<usize> = (0..parts.len()).collect();
+    order.sort_by_key(|&i| parts[i].1.first_frame);
+    let n = parts[0].0.pixels.len();
+    let mut acc = vec![[0f64; 3]; n];
+    let mut frames = 0u64;
+    for &i in &order {
+        let (img, m) = &parts[i];
+        let wgt = m.frames as f64;
+        frames += m.frames;
+        for (a, p) in acc.iter_mut().zip(&img.pixels) {
+            for c in 0..3 {
+                a[c] += wgt * p[c] as f64;
+            }
+        }
+    }
+    let inv = 1.0 / frames as f64;
+    let noise_mse = order.iter().try_fold(0f64, |acc, &i| {
+        let m = &parts[i].1;
+        m.noise_mse.map(|v| acc + (m.frames as f64 * inv).powi(2) * v)
+    });
+    let pixels = acc.iter().map(|a| [(a[0] * inv) as f32, (a[1] * inv) as f32, (a[2] * inv) as f32]).collect();
+    let meta = ReferenceMeta {
+        frames,
+        first_frame: union[0].0,
+        ranges: union,
+        seed: m0.seed,
+        mode: m0.mode.clone(),
+        scene: m0.scene.clone(),
+        width: m0.width,
+        height: m0.height,
+        config: m0.config.clone(),
+        noise_mse,
+    };
+    Ok((RgbImage { width: m0.width, height: m0.height, pixels }, meta))
+}
+
+/// The `restir-vpl merge-references` command: merges `inputs` into `out` and prints the result's
+/// frame count and ranges.
+pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path) -> Result<()> {
+    let mut parts = Vec::with_capacity(inputs.len());
+    for p in inputs {
+        parts.push(read_reference(p)?);
+    }
+    let labels: Vec<String> = inputs.iter().map(|p| p.display().to_string()).collect();
+    let (img, meta) = merge_labelled(&parts, &labels)?;
+    write_reference(out, &img, &meta)?;
+    for (p, (_, m)) in inputs.iter().zip(&parts) {
+        println!("  {}: {}", p.display(), m.describe_frames());
+    }
+    println!(
+        "merged {} reference{} into {}: {}{}",
+        inputs.len(),
+        if inputs.len() == 1 { "" } else { "s" },
+        out.display(),
+        meta.describe_frames(),
+        if meta.is_contiguous() { " (contiguous)" } else { " (not contiguous)" }
+    );
+    Ok(())
+}

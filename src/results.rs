@@ -1,0 +1,696 @@
+//! Run time against error: references (`restir-vpl reference`), error-versus-frames/time curves
+//! (`restir-vpl bench --curves`) and the one-command `docs/results.md` (`restir-vpl results`).
+//!
+//! Protocol of a curve run (one scene, several modes, one or two references):
+//! - All modes share one Vulkan device and are alive at once; their frames interleave (one frame of
+//!   each mode per round) so that drift on a shared machine hits every mode alike.
+//! - Each mode first renders [`WARMUP_FRAMES`] frames (shader compilation on lavapipe, and the
+//!   ReSTIR history), then its accumulation restarts with the history kept
+//!   ([`Renderer::reset_accumulation`]): ReSTIR is measured in its steady state, as a user at a
+//!   still camera sees it.
+//! - At each checkpoint t the accumulated mean is read back and compared with each reference;
+//!   read-back and comparison are outside the timed region. Times are cumulative over the t frames:
+//!   GPU time from timestamps (sum of the pass scopes) and wall time of `render_frame`.
+//! - With `runs > 1` the whole measurement repeats with independent pixel seeds (same VPL set) and
+//!   errors and times are averaged over the runs.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Context as _, Result};
+
+use crate::compare::{compare, CompareOptions};
+use crate::output::{RgbImage, TimingStats};
+use crate::reference::{merge, read_reference, write_reference, ReferenceMeta};
+use crate::renderer::Renderer;
+use crate::report::{self, CurvePoint, FrameTimeRow, Metric};
+use crate::scene::Scene;
+use crate::settings::{Bias, Mode, RenderSettings, RestirSettings};
+use crate::vk::Context;
+
+/// Frames rendered (and discarded) by every mode before its accumulation starts.
+pub const WARMUP_FRAMES: u32 = 2;
+
+/// The checkpoints of the thesis's Table 2.
+pub const DEFAULT_CHECKPOINTS: &[u32] = &[1, 2, 5, 10, 20];
+
+/// FNV-1a 64 of a file's bytes: identifies the scene in reference metadata independently of the
+/// path it was loaded from.
+pub fn file_hash(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    Ok(format!("{h:016x}"))
+}
+
+/// The settings that decide what a reference converges to, as a canonical JSON string: every
+/// field of [`RenderSettings`] except the ones that only affect bookkeeping or output files
+/// (frame count, seed — stored separately —, output paths, exposure, logging, device, validation).
+pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<String> {
+    let mut v = serde_json::to_value(settings)?;
+    let obj = v.as_object_mut().expect("RenderSettings serialises to an object");
+    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls"] {
+        obj.remove(k);
+    }
+    obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));
+    // serde_json's map is ordered (BTreeMap), so the string is canonical.
+    Ok(serde_json::to_string(&v)?)
+}
+
+/// Modes whose partial references are independent samples of one answer (no state carried from
+/// frame to frame), so that split runs merge into exactly the mean of one long run.
+pub fn reference_mode_ok(settings: &RenderSettings) -> Result<()> {
+    match settings.mode {
+        Mode::Pt | Mode::Bruteforce | Mode::Uniform | Mode::Ris => Ok(()),
+        Mode::Restir if !settings.restir.temporal && settings.restir.bias == Bias::Unbiased => Ok(()),
+        Mode::Restir => bail!(
+            "--mode restir: a reference needs frames that are independent of each other; use --mode pt \
+             (ground truth), bruteforce or ris (the VPL answer), or restir with --bias unbiased --temporal off"
+        ),
+    }
+}
+
+/// A rendered (part of a) reference and the estimated mean squared error of its mean image
+/// against its own expectation (mean per-pixel sample variance / frames).
+pub struct ReferencePart {
+    pub image: RgbImage,
+    pub meta: ReferenceMeta,
+    pub noise_mse: Option<f64>,
+    pub gpu_ms: f64,
+    pub wall_ms: f64,
+}
+
+/// Renders frames `[first_frame, first_frame + frames)` of a reference with `settings`.
+pub fn render_reference(
+    ctx: Arc<Context>,
+    scene: &Scene,
+    settings: &RenderSettings,
+    first_frame: u64,
+    frames: u32,
+    mut progress: impl FnMut(u32),
+) -> Result<ReferencePart> {
+    reference_mode_ok(settings)?;
+    if frames == 0 {
+        bail!("--frames 0: a reference needs at least one frame");
+    }
+    let first = u32::try_from(first_frame)
+        .ok()
+        .filter(|f| f.checked_add(frames).is_some())
+        .with_context(|| format!("--first-frame {first_frame}: frame indices must stay below 2^32"))?;
+    let hash = file_hash(&settings.scene)?;
+    let config = reference_config(settings, &hash)?;
+    let mut r = Renderer::new(ctx, scene, settings.clone())?;
+    r.frame_index = first;
+    let start = Instant::now();
+    let mut gpu_ms = 0.0;
+    for f in 0..frames {
+        let s = r.render_frame(false)?;
+        gpu_ms += s.pass_ms.iter().map(|p| p.1).sum::<f64>();
+        progress(f + 1);
+    }
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let pixels = r.read_mean()?;
+    let noise_mse = if frames > 1 {
+        let var = r.read_variance()?;
+        let sum: f64 = var.iter().flat_map(|p| p.iter()).map(|&v| v as f64).sum();
+        Some(sum / (3.0 * var.len() as f64) / frames as f64)
+    } else {
+        None
+    };
+    let scene_name = settings.scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut meta = ReferenceMeta::new(
+        frames as u64,
+        first_frame,
+        settings.seed as u64,
+        settings.mode.name(),
+        scene_name,
+        settings.width,
+        settings.height,
+        config,
+    );
+    meta.noise_mse = noise_mse;
+    let image = RgbImage { width: settings.width, height: settings.height, pixels };
+    Ok(ReferencePart { image, meta, noise_mse, gpu_ms, wall_ms })
+}
+
+/// Makes sure `path` holds a reference of at least `frames` frames for `settings`: reuses it when
+/// it does, renders only the missing frames and merges them when it holds fewer (resuming), and
+/// renders from scratch when it is absent. A file made with other settings is an error (it is
+/// never overwritten silently).
+pub fn ensure_reference(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    settings: &RenderSettings,
+    path: &Path,
+    frames: u32,
+    log: &mut dyn FnMut(String),
+) -> Result<(RgbImage, ReferenceMeta)> {
+    let config = reference_config(settings, &file_hash(&settings.scene)?)?;
+    let existing = if path.exists() {
+        let (image, meta) = read_reference(path)?;
+        if meta.config != config || meta.seed != settings.seed as u64 {
+            bail!(
+                "{} was made with other settings than this run's (delete it to render a new one)",
+                path.display()
+            );
+        }
+        if meta.frames >= frames as u64 {
+            log(format!("{}: reusing ({})", path.display(), meta.describe_frames()));
+            return Ok((image, meta));
+        }
+        Some((image, meta))
+    } else {
+        None
+    };
+    let first = existing.as_ref().map(|(_, m)| m.ranges.iter().map(|r| r.1).max().unwrap_or(0)).unwrap_or(0);
+    let missing = frames - existing.as_ref().map(|(_, m)| m.frames as u32).unwrap_or(0);
+    log(format!(
+        "{}: rendering {missing} {} frames from frame {first} at {}x{}",
+        path.display(),
+        settings.mode.name(),
+        settings.width,
+        settings.height
+    ));
+    let part = render_reference(ctx.clone(), scene, settings, first, missing, |_| {})?;
+    log(format!("  {:.1} s wall, {:.1} s GPU", part.wall_ms * 1e-3, part.gpu_ms * 1e-3));
+    let (image, meta) = match existing {
+        Some(old) => merge(&[old, (part.image, part.meta)])?,
+        None => (part.image, part.meta),
+    };
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    write_reference(path, &image, &meta)?;
+    Ok((image, meta))
+}
+
+/// One sampling configuration measured by a curve run.
+#[derive(Clone, Debug)]
+pub struct CurveMode {
+    /// Label in tables and plots ("uniform", "ris", "restir", "restir-unbiased", ...).
+    pub label: String,
+    pub mode: Mode,
+    pub restir: RestirSettings,
+}
+
+/// The modes of the thesis (uniform, RIS, biased ReSTIR) plus our unbiased ReSTIR, with and
+/// without visibility in the targets.
+pub fn curve_modes(all: bool) -> Vec<CurveMode> {
+    let restir = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), ..Default::default() };
+    let mut v = vec![
+        CurveMode { label: "uniform".into(), mode: Mode::Uniform, restir: RestirSettings::default() },
+        CurveMode { label: "ris".into(), mode: Mode::Ris, restir: RestirSettings::default() },
+        CurveMode { label: "restir".into(), mode: Mode::Restir, restir: restir(Bias::Biased, false) },
+    ];
+    if all {
+        v.push(CurveMode { label: "restir-unbiased".into(), mode: Mode::Restir, restir: restir(Bias::Unbiased, false) });
+        v.push(CurveMode { label: "restir-unbiased-vis".into(), mode: Mode::Restir, restir: restir(Bias::Unbiased, true) });
+    }
+    v
+}
+
+/// Measured error-versus-frames/time curves of one scene and the per-frame cost of each mode.
+pub struct Curves {
+    pub points: Vec<CurvePoint>,
+    pub frame_times: Vec<FrameTimeRow>,
+}
+
+/// Runs every mode in `modes` on `scene` (the remaining settings from `base`, whose spatial radius
+/// should already suit the image size) and records the error against each of `references` at
+/// each of `checkpoints`. See the module docs for the protocol.
+#[allow(clippy::too_many_arguments)]
+pub fn curves(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    scene_label: &str,
+    base: &RenderSettings,
+    modes: &[CurveMode],
+    checkpoints: &[u32],
+    references: &[(String, RgbImage)],
+    runs: u32,
+    compare_opts: &CompareOptions,
+    log: &mut dyn FnMut(String),
+) -> Result<Curves> {
+    let mut checkpoints: Vec<u32> = checkpoints.iter().copied().filter(|&t| t > 0).collect();
+    checkpoints.sort_unstable();
+    checkpoints.dedup();
+    let last = *checkpoints.last().context("no checkpoints (all were 0)")?;
+    for (name, img) in references {
+        if (img.width, img.height) != (base.width, base.height) {
+            bail!(
+                "reference '{name}' is {}x{}, the run renders {}x{}",
+                img.width,
+                img.height,
+                base.width,
+                base.height
+            );
+        }
+    }
+    let mut renderers = Vec::new();
+    for m in modes {
+        let settings = RenderSettings { mode: m.mode, restir: m.restir, frames: last + WARMUP_FRAMES, ..base.clone() };
+        renderers.push(Renderer::new(ctx.clone(), scene, settings).with_context(|| format!("mode {}", m.label))?);
+    }
+    // Sums over runs, keyed by (mode index, reference index, checkpoint index).
+    let mut sums: BTreeMap<(usize, usize, usize), [f64; 5]> = BTreeMap::new();
+    let mut flip_counts: BTreeMap<(usize, usize, usize), u32> = BTreeMap::new();
+    let mut frame_gpu: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
+    let mut frame_wall: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
+    let mut pass_ms: Vec<BTreeMap<String, Vec<f64>>> = vec![BTreeMap::new(); modes.len()];
+    let mut rays: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
+    for run in 0..runs {
+        for r in renderers.iter_mut() {
+            if run > 0 {
+                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run)));
+            }
+            for _ in 0..WARMUP_FRAMES {
+                r.render_frame(false)?;
+            }
+            r.reset_accumulation();
+        }
+        let mut cum = vec![(0.0f64, 0.0f64); modes.len()];
+        let mut next = 0usize;
+        for t in 1..=last {
+            for (i, r) in renderers.iter_mut().enumerate() {
+                let s = r.render_frame(false)?;
+                let gpu: f64 = s.pass_ms.iter().map(|p| p.1).sum();
+                cum[i].0 += gpu;
+                cum[i].1 += s.wall_ms;
+                frame_gpu[i].push(gpu);
+                frame_wall[i].push(s.wall_ms);
+                for (name, ms) in &s.pass_ms {
+                    pass_ms[i].entry(name.to_string()).or_default().push(*ms);
+                }
+                rays[i].push(s.rays as f64 / r.targets.pixels() as f64);
+            }
+            if checkpoints.get(next) == Some(&t) {
+                for (i, r) in renderers.iter().enumerate() {
+                    let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean()? };
+                    for (k, (_, reference)) in references.iter().enumerate() {
+                        let c = compare(&img, reference, compare_opts)?;
+                        let e = sums.entry((i, k, next)).or_insert([0.0; 5]);
+                        e[0] += c.rmse;
+                        e[1] += c.relmse;
+                        e[3] += cum[i].0;
+                        e[4] += cum[i].1;
+                        if let Some(f) = c.flip {
+                            e[2] += f;
+                            *flip_counts.entry((i, k, next)).or_default() += 1;
+                        }
+                    }
+                }
+                next += 1;
+            }
+        }
+        log(format!("  {scene_label}: run {}/{runs} done", run + 1));
+    }
+    let n = runs as f64;
+    let mut points = Vec::new();
+    for ((i, k, c), e) in &sums {
+        let flips = flip_counts.get(&(*i, *k, *c)).copied().unwrap_or(0);
+        points.push(CurvePoint {
+            scene: scene_label.into(),
+            mode: modes[*i].label.clone(),
+            reference: references[*k].0.clone(),
+            frames: checkpoints[*c],
+            gpu_ms: e[3] / n,
+            wall_ms: e[4] / n,
+            rmse: e[0] / n,
+            relmse: e[1] / n,
+            flip: (flips > 0).then(|| e[2] / flips as f64),
+        });
+    }
+    // Order: reference, mode (as given), frames.
+    points.sort_by_key(|p| {
+        (
+            references.iter().position(|r| r.0 == p.reference),
+            modes.iter().position(|m| m.label == p.mode),
+            p.frames,
+        )
+    });
+    let frame_times = modes
+        .iter()
+        .enumerate()
+        .map(|(i, m)| FrameTimeRow {
+            scene: scene_label.into(),
+            mode: m.label.clone(),
+            width: base.width,
+            height: base.height,
+            gpu_ms: TimingStats::of(&frame_gpu[i]).median,
+            wall_ms: TimingStats::of(&frame_wall[i]).median,
+            rays_per_pixel: TimingStats::of(&rays[i]).mean,
+            pass_ms: pass_ms[i].iter().map(|(k, v)| (k.clone(), TimingStats::of(v).median)).collect(),
+        })
+        .collect();
+    Ok(Curves { points, frame_times })
+}
+
+/// One scene of a results run.
+#[derive(Clone, Debug)]
+pub struct SceneSpec {
+    pub path: PathBuf,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl SceneSpec {
+    pub fn label(&self) -> String {
+        self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into())
+    }
+}
+
+/// The thesis's three scenes at its sizes (Cornell box 1280×1280, the others 1280×720), scaled.
+pub fn thesis_scenes(root: &Path, scale: f64) -> Vec<SceneSpec> {
+    let s = |name: &str, w: u32, h: u32| SceneSpec {
+        path: root.join("scenes").join(name),
+        width: ((w as f64 * scale).round() as u32).max(8),
+        height: ((h as f64 * scale).round() as u32).max(8),
+    };
+    vec![
+        s("cornell_box.gltf", 1280, 1280),
+        s("living_room.gltf", 1280, 720),
+        s("open_box_figure.gltf", 1280, 720),
+    ]
+}
+
+/// Everything a results run needs.
+#[derive(Clone, Debug)]
+pub struct ResultsOptions {
+    pub scenes: Vec<SceneSpec>,
+    /// Directory for results.md (or curves.md), curves.csv, plots/ and references/.
+    pub out_dir: PathBuf,
+    /// Markdown file name inside `out_dir`.
+    pub markdown_name: String,
+    pub checkpoints: Vec<u32>,
+    pub runs: u32,
+    /// Frames of the path-traced ground truth and of the converged VPL reference (RIS).
+    pub pt_reference_frames: u32,
+    pub vpl_reference_frames: u32,
+    pub vpls_direct: u32,
+    pub vpls_indirect: u32,
+    /// Measure the unbiased ReSTIR variants too.
+    pub all_modes: bool,
+    pub flip: bool,
+    pub device_index: Option<usize>,
+    pub validate: bool,
+    /// The command line, quoted in the Markdown.
+    pub command: String,
+}
+
+impl ResultsOptions {
+    /// The full run behind docs/results.md, at `scale` × the thesis's image sizes.
+    pub fn full(root: &Path, scale: f64) -> Self {
+        Self {
+            scenes: thesis_scenes(root, scale),
+            out_dir: root.join("docs"),
+            markdown_name: "results.md".into(),
+            checkpoints: DEFAULT_CHECKPOINTS.to_vec(),
+            runs: 3,
+            pt_reference_frames: 4096,
+            vpl_reference_frames: 1024,
+            vpls_direct: 100_000,
+            vpls_indirect: 100_000,
+            all_modes: true,
+            flip: true,
+            device_index: None,
+            validate: false,
+            command: String::new(),
+        }
+    }
+
+    /// A smoke test of the whole pipeline in well under a minute on lavapipe.
+    pub fn quick(root: &Path) -> Self {
+        Self {
+            scenes: thesis_scenes(root, 0.05),
+            checkpoints: vec![1, 2, 5],
+            runs: 1,
+            pt_reference_frames: 16,
+            vpl_reference_frames: 16,
+            vpls_direct: 5_000,
+            vpls_indirect: 5_000,
+            all_modes: false,
+            ..Self::full(root, 0.05)
+        }
+    }
+}
+
+/// What a results run produced.
+pub struct ResultsOutput {
+    pub markdown: PathBuf,
+    pub csv: PathBuf,
+    pub frame_times_csv: PathBuf,
+    pub plots: Vec<PathBuf>,
+    pub points: Vec<CurvePoint>,
+    pub frame_times: Vec<FrameTimeRow>,
+}
+
+struct ReferenceInfo {
+    scene: String,
+    kind: &'static str,
+    meta: ReferenceMeta,
+    path: PathBuf,
+}
+
+/// Renders (or reuses) the references, measures the curves of every scene and writes the Markdown
+/// report, the CSVs and the plots under `opts.out_dir`.
+pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String)) -> Result<ResultsOutput> {
+    if opts.checkpoints.is_empty() || opts.runs == 0 {
+        bail!("need at least one checkpoint and one run");
+    }
+    let plots_dir = opts.out_dir.join("plots");
+    let refs_dir = opts.out_dir.join("references");
+    for d in [&opts.out_dir, &plots_dir, &refs_dir] {
+        std::fs::create_dir_all(d).with_context(|| format!("creating {}", d.display()))?;
+    }
+    let mut all_points = Vec::new();
+    let mut all_rows = Vec::new();
+    let mut ref_infos = Vec::new();
+    let started = Instant::now();
+    for spec in &opts.scenes {
+        let label = spec.label();
+        let scene = Scene::load(&spec.path)?;
+        let base = RenderSettings {
+            scene: spec.path.clone(),
+            width: spec.width,
+            height: spec.height,
+            vpls_direct: opts.vpls_direct,
+            vpls_indirect: opts.vpls_indirect,
+            validate: opts.validate,
+            device_index: opts.device_index,
+            // The thesis's 20 px neighbourhood is meant for 1280 px wide images.
+            restir: RestirSettings {
+                spatial_radius: (20.0 * spec.width as f32 / 1280.0).max(2.0),
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let size = format!("{}x{}", spec.width, spec.height);
+        let pt_settings = RenderSettings { mode: Mode::Pt, ..base.clone() };
+        let pt_path = refs_dir.join(format!("{label}_{size}_pt.exr"));
+        let (pt_img, pt_meta) = ensure_reference(ctx, &scene, &pt_settings, &pt_path, opts.pt_reference_frames, log)?;
+        let vpl_settings = RenderSettings { mode: Mode::Ris, ..base.clone() };
+        let vpl_path = refs_dir.join(format!("{label}_{size}_vpl.exr"));
+        let (vpl_img, vpl_meta) =
+            ensure_reference(ctx, &scene, &vpl_settings, &vpl_path, opts.vpl_reference_frames, log)?;
+        ref_infos.push(ReferenceInfo { scene: label.clone(), kind: "pt", meta: pt_meta, path: pt_path });
+        ref_infos.push(ReferenceInfo { scene: label.clone(), kind: "vpl", meta: vpl_meta, path: vpl_path });
+        log(format!("{label}: measuring curves at {size}"));
+        let compare_opts = CompareOptions { flip: opts.flip, ..Default::default() };
+        let c = curves(
+            ctx,
+            &scene,
+            &label,
+            &base,
+            &curve_modes(opts.all_modes),
+            &opts.checkpoints,
+            &[("pt".into(), pt_img), ("vpl".into(), vpl_img)],
+            opts.runs,
+            &compare_opts,
+            log,
+        )?;
+        all_points.extend(c.points);
+        all_rows.extend(c.frame_times);
+    }
+    let csv = opts.out_dir.join("curves.csv");
+    report::write_curves_csv(&csv, &all_points)?;
+    let frame_times_csv = opts.out_dir.join("frame_times.csv");
+    write_frame_times_csv(&frame_times_csv, &all_rows)?;
+    let mut plots = Vec::new();
+    for spec in &opts.scenes {
+        let label = spec.label();
+        for reference in ["pt", "vpl"] {
+            let f = plots_dir.join(format!("{label}_{reference}_rmse_vs_frames.svg"));
+            report::plot_error_vs_frames(&f, &all_points, &label, reference, Metric::Rmse)?;
+            plots.push(f);
+            let f = plots_dir.join(format!("{label}_{reference}_rmse_vs_time.svg"));
+            report::plot_error_vs_time(&f, &all_points, &label, reference, Metric::Rmse)?;
+            plots.push(f);
+        }
+    }
+    let markdown = opts.out_dir.join(&opts.markdown_name);
+    let text = results_markdown(ctx, opts, &all_points, &all_rows, &ref_infos, started.elapsed().as_secs_f64());
+    std::fs::write(&markdown, text).with_context(|| format!("writing {}", markdown.display()))?;
+    Ok(ResultsOutput { markdown, csv, frame_times_csv, plots, points: all_points, frame_times: all_rows })
+}
+
+fn write_frame_times_csv(path: &Path, rows: &[FrameTimeRow]) -> Result<()> {
+    let passes: std::collections::BTreeSet<&String> = rows.iter().flat_map(|r| r.pass_ms.keys()).collect();
+    let mut s = String::from("scene,mode,width,height,gpu_ms,wall_ms,rays_per_pixel");
+    for p in &passes {
+        s.push_str(&format!(",{p}_ms"));
+    }
+    s.push('\n');
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{},{},{:.4},{:.4},{:.4}",
+            r.scene, r.mode, r.width, r.height, r.gpu_ms, r.wall_ms, r.rays_per_pixel
+        ));
+        for p in &passes {
+            s.push_str(&r.pass_ms.get(*p).map(|v| format!(",{v:.4}")).unwrap_or_else(|| ",".into()));
+        }
+        s.push('\n');
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+/// Final RMSE of each mode at the last checkpoint and the best mode at the common equal-time budget.
+fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let last_t = points.iter().filter(|p| p.scene == scene && p.reference == reference).map(|p| p.frames).max();
+    let Some(last_t) = last_t else { return out };
+    let at_last: Vec<&CurvePoint> =
+        points.iter().filter(|p| p.scene == scene && p.reference == reference && p.frames == last_t).collect();
+    if let Some(best) = at_last.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse)) {
+        out.push(format!(
+            "At equal frame count (t = {last_t}) the lowest RMSE is {} ({}).",
+            report::mode_display_name(&best.mode),
+            report::fmt_sig3(best.rmse)
+        ));
+    }
+    // Equal time: the budget every mode reached (the smallest final wall time).
+    let budget = at_last.iter().map(|p| p.wall_ms).fold(f64::INFINITY, f64::min);
+    if budget.is_finite() {
+        let mut best: Option<(String, f64)> = None;
+        let mut modes: Vec<&str> = at_last.iter().map(|p| p.mode.as_str()).collect();
+        modes.dedup();
+        for m in modes {
+            if let Some(e) = report::error_within_budget(points, scene, reference, m, Metric::Rmse, budget) {
+                let e = e.value;
+                if best.as_ref().is_none_or(|b| e < b.1) {
+                    best = Some((m.to_string(), e));
+                }
+            }
+        }
+        if let Some((m, e)) = best {
+            out.push(format!(
+                "At equal wall time ({:.0} ms, the time the fastest-finishing mode needed for t = {last_t}) the lowest RMSE is {} ({}).",
+                budget,
+                report::mode_display_name(&m),
+                report::fmt_sig3(e)
+            ));
+        }
+    }
+    out
+}
+
+fn results_markdown(
+    ctx: &Arc<Context>,
+    opts: &ResultsOptions,
+    points: &[CurvePoint],
+    rows: &[FrameTimeRow],
+    refs: &[ReferenceInfo],
+    seconds: f64,
+) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "# Run time against error\n");
+    let _ = writeln!(
+        s,
+        "_Generated by `{}` in {:.0} s on **{}** ({}). Do not edit by hand: rerun the command._\n",
+        opts.command,
+        seconds,
+        ctx.report.name,
+        ctx.report.driver
+    );
+    let sizes: Vec<String> =
+        opts.scenes.iter().map(|s| format!("{} {}×{}", s.label(), s.width, s.height)).collect();
+    let _ = writeln!(
+        s,
+        "Scenes and sizes: {}. VPLs: {} direct + {} indirect (photon paths). Checkpoints t = {:?} accumulated frames, \
+         {} independent run(s) averaged. Every mode first renders {WARMUP_FRAMES} warm-up frames (shader compilation, \
+         ReSTIR history) that are not counted; then frames of all modes interleave so that machine drift hits them alike. \
+         Times are cumulative over the t frames: GPU time from timestamps, wall time of the frame submissions \
+         (read-back and error computation excluded).\n",
+        sizes.join(", "),
+        opts.vpls_direct,
+        opts.vpls_indirect,
+        opts.checkpoints,
+        opts.runs
+    );
+    let _ = writeln!(s, "Modes: `uniform` (one uniformly chosen VPL per pixel), `ris` (32 candidates), `restir` (biased \
+        spatiotemporal reuse as in the thesis: M-cap 20, 8 neighbours, radius 20 px at 1280 px width, scaled with the image), \
+        `restir-unbiased` (pairwise MIS, unshadowed targets) and `restir-unbiased-vis` (pairwise MIS, visibility in the targets).\n");
+    let _ = writeln!(s, "## References\n");
+    let _ = writeln!(
+        s,
+        "Two references per scene. **pt**: the path tracer (up to 8 bounces, next-event estimation + MIS) — the ground \
+         truth; errors against it are the total error, including the VPL model's own bias (clamped Yuksel attenuation, \
+         finite VPL set, bounce limit). **vpl**: the converged answer of the same VPL set (RIS, unbiased for it, accumulated \
+         long) — errors against it are the sampling error alone. A reference is itself noisy; its estimated noise RMSE \
+         (√(mean per-pixel variance / frames)) is listed: errors far above it are not masked by it.\n"
+    );
+    let _ = writeln!(s, "| scene | reference | mode | frames | est. noise RMSE | file |");
+    let _ = writeln!(s, "|---|---|---|---:|---:|---|");
+    for r in refs {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} | `{}` |",
+            r.scene,
+            r.kind,
+            r.meta.mode,
+            r.meta.frames,
+            r.meta.noise_mse.map(|m| report::fmt_sig3(m.sqrt())).unwrap_or_else(|| "—".into()),
+            r.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default()
+        );
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "## Frame times (thesis Table 1 shape)\n");
+    let _ = writeln!(s, "Median per frame over all measured frames; `× uniform` is the ratio to the uniform mode measured in the same run.\n");
+    s.push_str(&report::frame_time_table_markdown(rows));
+    let _ = writeln!(s);
+    for spec in &opts.scenes {
+        let label = spec.label();
+        let _ = writeln!(s, "## {label} ({}×{})\n", spec.width, spec.height);
+        for reference in ["pt", "vpl"] {
+            let _ = writeln!(s, "### RMSE against the {} (thesis Table 2 shape)\n", report::reference_label(reference));
+            s.push_str(&report::error_table_markdown(points, &label, reference, Metric::Rmse));
+            let _ = writeln!(s);
+            let budgets = report::suggest_budgets_ms(points, &label, reference);
+            if !budgets.is_empty() {
+                let _ = writeln!(s, "Equal time (wall ms budget; RMSE reached within it):\n");
+                s.push_str(&report::equal_time_table_markdown(points, &label, reference, Metric::Rmse, &budgets));
+                let _ = writeln!(s);
+            }
+            if opts.flip {
+                let _ = writeln!(s, "FLIP (LDR, exposure 0) against the same reference:\n");
+                s.push_str(&report::error_table_markdown(points, &label, reference, Metric::Flip));
+                let _ = writeln!(s);
+            }
+            for o in observations(points, &label, reference) {
+                let _ = writeln!(s, "- {o}");
+            }
+            let _ = writeln!(s);
+            let _ = writeln!(
+                s,
+                "![RMSE vs frames](plots/{label}_{reference}_rmse_vs_frames.svg) ![RMSE vs time](plots/{label}_{reference}_rmse_vs_time.svg)\n"
+            );
+        }
+    }
+    let _ = writeln!(s, "Raw numbers: `curves.csv` (every checkpoint: frames, GPU ms, wall ms, RMSE, relMSE, FLIP) and `frame_times.csv` (per-pass medians).");
+    s
+}

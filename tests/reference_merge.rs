@@ -1,0 +1,167 @@
+//! Partial references with frame counts (`restir_vpl::reference`): metadata round trip, merging,
+//! and the errors that keep non-mergeable parts apart. CPU only.
+
+use std::process::Command;
+
+use restir_vpl::output::{write_exr, RgbImage};
+use restir_vpl::reference::{merge, read_reference, write_reference, ReferenceMeta};
+
+fn image(width: u32, height: u32, seed: u32) -> RgbImage {
+    let pixels = (0..width * height)
+        .map(|i| {
+            let h = (i.wrapping_mul(2654435761).wrapping_add(seed.wrapping_mul(40503))) % 10007;
+            let v = h as f32 / 1000.0;
+            [v, 0.5 * v + seed as f32, (i % 7) as f32 * 0.1 + 1e-3 * seed as f32]
+        })
+        .collect();
+    RgbImage { width, height, pixels }
+}
+
+fn meta(frames: u64, first_frame: u64) -> ReferenceMeta {
+    ReferenceMeta::new(frames, first_frame, 7, "pt", "scenes/cornell_box.gltf", 12, 10, "bounces=8;aa=1")
+}
+
+#[test]
+fn merge_two_parts_from_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (image(12, 10, 1), image(12, 10, 2));
+    let (ma, mb) = (meta(3, 0), meta(5, 3));
+    let (pa, pb) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    write_reference(&pa, &a, &ma).unwrap();
+    write_reference(&pb, &b, &mb).unwrap();
+
+    // Round trip: pixels bit-exact, metadata equal.
+    let (ra, rma) = read_reference(&pa).unwrap();
+    assert_eq!(rma, ma);
+    assert_eq!(rma.ranges, vec![(0, 3)]);
+    assert_eq!((ra.width, ra.height), (12, 10));
+    assert!(ra.pixels.iter().zip(&a.pixels).all(|(x, y)| x.map(f32::to_bits) == y.map(f32::to_bits)));
+    let rb = read_reference(&pb).unwrap();
+
+    let (m, mm) = merge(&[(ra.clone(), rma.clone()), rb.clone()]).unwrap();
+    assert_eq!(mm.frames, 8);
+    assert_eq!(mm.first_frame, 0);
+    assert_eq!(mm.ranges, vec![(0, 8)]);
+    assert!(mm.is_contiguous());
+    assert_eq!((mm.seed, mm.mode.as_str(), mm.config.as_str()), (7, "pt", "bounces=8;aa=1"));
+    for (i, p) in m.pixels.iter().enumerate() {
+        for (c, &v) in p.iter().enumerate() {
+            let want = (3.0 * a.pixels[i][c] as f64 + 5.0 * b.pixels[i][c] as f64) / 8.0;
+            assert!((v as f64 - want).abs() <= 1e-6 * want.abs().max(1.0), "pixel {i} channel {c}: {v} vs {want}");
+        }
+    }
+
+    // Order independent, bit for bit.
+    let (m2, mm2) = merge(&[rb, (ra, rma)]).unwrap();
+    assert_eq!(mm2, mm);
+    assert!(m2.pixels.iter().zip(&m.pixels).all(|(x, y)| x.map(f32::to_bits) == y.map(f32::to_bits)));
+
+    // The merged reference round-trips too, and merges with a later part.
+    let pc = dir.path().join("c.exr");
+    write_reference(&pc, &m, &mm).unwrap();
+    let (rc, rmc) = read_reference(&pc).unwrap();
+    assert_eq!(rmc, mm);
+    let (_, m3) = merge(&[(rc, rmc), (image(12, 10, 3), meta(2, 10))]).unwrap();
+    assert_eq!(m3.frames, 10);
+    assert_eq!(m3.ranges, vec![(0, 8), (10, 12)]);
+    assert!(!m3.is_contiguous());
+    assert_eq!(m3.describe_frames(), "10 frames: [0, 8) [10, 12)");
+}
+
+#[test]
+fn metadata_survives_non_ascii_scene_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("r.exr");
+    let mut m = meta(4, 2);
+    m.scene = "scènes/コーネル.gltf".into();
+    write_reference(&p, &image(12, 10, 0), &m).unwrap();
+    assert_eq!(read_reference(&p).unwrap().1, m);
+}
+
+#[test]
+fn noise_estimate_round_trips_and_merges() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("r.exr");
+    let mut ma = meta(3, 0);
+    ma.noise_mse = Some(0.125);
+    write_reference(&p, &image(12, 10, 0), &ma).unwrap();
+    assert_eq!(read_reference(&p).unwrap().1, ma);
+    let mut mb = meta(5, 3);
+    mb.noise_mse = Some(0.0625);
+    // Variance of the weighted mean: (3/8)^2 * 0.125 + (5/8)^2 * 0.0625.
+    let (_, m) = merge(&[(image(12, 10, 0), ma.clone()), (image(12, 10, 1), mb)]).unwrap();
+    let want = (3.0f64 / 8.0).powi(2) * 0.125 + (5.0f64 / 8.0).powi(2) * 0.0625;
+    assert!((m.noise_mse.unwrap() - want).abs() < 1e-15);
+    // Unknown in one part: unknown.
+    let (_, m) = merge(&[(image(12, 10, 0), ma), (image(12, 10, 1), meta(5, 3))]).unwrap();
+    assert_eq!(m.noise_mse, None);
+}
+
+#[test]
+fn overlapping_ranges_are_refused() {
+    let e = merge(&[(image(12, 10, 1), meta(3, 0)), (image(12, 10, 2), meta(5, 2))]).unwrap_err().to_string();
+    assert!(e.contains("overlap") && e.contains("part #1") && e.contains("part #2"), "{e}");
+    assert!(e.contains("[0, 3)") && e.contains("[2, 7)"), "{e}");
+    // The same part twice.
+    let e = merge(&[(image(12, 10, 1), meta(3, 0)), (image(12, 10, 1), meta(3, 0))]).unwrap_err().to_string();
+    assert!(e.contains("overlap"), "{e}");
+}
+
+#[test]
+fn different_settings_are_refused() {
+    let a = (image(12, 10, 1), meta(3, 0));
+    let mut mb = meta(5, 3);
+    mb.config = "bounces=4;aa=1".into();
+    let e = merge(&[a.clone(), (image(12, 10, 2), mb)]).unwrap_err().to_string();
+    assert!(e.contains("config") && e.contains("part #1") && e.contains("part #2"), "{e}");
+
+    let mut mb = meta(5, 3);
+    mb.seed = 8;
+    mb.mode = "restir".into();
+    let e = merge(&[a.clone(), (image(12, 10, 2), mb)]).unwrap_err().to_string();
+    assert!(e.contains("seed") && e.contains("mode"), "{e}");
+
+    let mut mb = ReferenceMeta::new(5, 3, 7, "pt", "scenes/cornell_box.gltf", 10, 12, "bounces=8;aa=1");
+    mb.scene = "other.gltf".into();
+    let e = merge(&[a, (image(10, 12, 2), mb)]).unwrap_err().to_string();
+    assert!(e.contains("12x10") && e.contains("10x12") && e.contains("scene"), "{e}");
+
+    assert!(merge(&[]).is_err());
+}
+
+#[test]
+fn plain_exr_is_not_a_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("final.exr");
+    let img = image(12, 10, 0);
+    write_exr(&p, 12, 10, &img.pixels).unwrap();
+    let e = format!("{:#}", read_reference(&p).unwrap_err());
+    assert!(e.contains("final.exr") && e.contains("not a restir-vpl reference"), "{e}");
+    let e = format!("{:#}", read_reference(&dir.path().join("missing.exr")).unwrap_err());
+    assert!(e.contains("missing.exr"), "{e}");
+}
+
+#[test]
+fn cli_merge_references() {
+    let dir = tempfile::tempdir().unwrap();
+    let (pa, pb, pc) = (dir.path().join("a.exr"), dir.path().join("b.exr"), dir.path().join("c.exr"));
+    write_reference(&pa, &image(12, 10, 1), &meta(3, 0)).unwrap();
+    write_reference(&pb, &image(12, 10, 2), &meta(5, 3)).unwrap();
+    let bin = env!("CARGO_BIN_EXE_restir-vpl");
+    let o = Command::new(bin)
+        .args(["merge-references", &pb.display().to_string(), &pa.display().to_string(), "--out", &pc.display().to_string()])
+        .output()
+        .unwrap();
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.contains("8 frames: [0, 8)") && out.contains("contiguous"), "{out}");
+    assert_eq!(read_reference(&pc).unwrap().1.frames, 8);
+
+    // Overlap through the CLI names the files.
+    let o = Command::new(bin)
+        .args(["merge-references", &pa.display().to_string(), &pa.display().to_string(), "--out", &pc.display().to_string()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("a.exr") && err.contains("overlap") && !err.contains("panicked"), "{err}");
+}

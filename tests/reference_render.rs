@@ -1,0 +1,103 @@
+//! References rendered on the GPU: split runs merge into exactly one long run, `--resume` extends a
+//! file, and the CLI refuses what would silently mix different settings.
+
+mod common;
+
+use std::process::Command;
+
+use common::*;
+use restir_vpl::reference::{merge, read_reference};
+use restir_vpl::results::render_reference;
+use restir_vpl::settings::Mode;
+use restir_vpl::RenderSettings;
+
+fn settings(mode: Mode) -> RenderSettings {
+    RenderSettings {
+        scene: repo_path("scenes/cornell_box.gltf"),
+        mode,
+        vpls_direct: 1000,
+        vpls_indirect: 1000,
+        ..small(24, 24, 5)
+    }
+}
+
+/// Largest relative difference between two images (relative to max(|b|, 1e-3)).
+fn max_rel_diff(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    a.iter()
+        .zip(b)
+        .flat_map(|(p, q)| (0..3).map(move |c| ((p[c] - q[c]).abs() / q[c].abs().max(1e-3)) as f64))
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn merged_partial_references_equal_one_long_run() {
+    let ctx = context();
+    for mode in [Mode::Pt, Mode::Ris] {
+        let s = settings(mode);
+        let scene = restir_vpl::scene::Scene::load(&s.scene).unwrap();
+        let whole = render_reference(ctx.clone(), &scene, &s, 0, 5, |_| {}).unwrap();
+        let a = render_reference(ctx.clone(), &scene, &s, 0, 2, |_| {}).unwrap();
+        let b = render_reference(ctx.clone(), &scene, &s, 2, 3, |_| {}).unwrap();
+        // The parts are different samples: a part alone is not the whole.
+        assert!(max_rel_diff(&a.image.pixels, &whole.image.pixels) > 1e-2, "{mode:?}: parts are not independent");
+        let (merged, meta) = merge(&[(b.image, b.meta), (a.image, a.meta)]).unwrap();
+        assert_eq!(meta.frames, 5);
+        assert_eq!(meta.ranges, vec![(0, 5)]);
+        // Frame k draws the same random numbers in every run, so the merge is the long run's mean
+        // up to float rounding of the running sums (f32, compensated) and of the weighted mean.
+        let d = max_rel_diff(&merged.pixels, &whole.image.pixels);
+        assert!(d < 1e-4, "{mode:?}: merged 2 + 3 frames differ from 5 frames by {d}");
+        let (nm, nw) = (meta.noise_mse.unwrap(), whole.noise_mse.unwrap());
+        assert!(nm > 0.0 && (nm / nw - 1.0).abs() < 0.5, "noise estimates {nm} vs {nw}");
+    }
+    assert_eq!(ctx.validation_errors(), 0, "first: {:?}", ctx.first_validation_error());
+}
+
+fn cli(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_restir-vpl"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .output()
+        .expect("run restir-vpl")
+}
+
+#[test]
+fn cli_reference_resumes_and_refuses_mismatches() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = dir.path().join("part.exr");
+    let whole = dir.path().join("whole.exr");
+    let p = part.to_str().unwrap();
+    let common = ["--mode", "pt", "--width", "16", "--height", "16"];
+    let run = |extra: &[&str]| {
+        let mut args = vec!["reference"];
+        args.extend_from_slice(&common);
+        args.extend_from_slice(extra);
+        cli(&args)
+    };
+    let o = run(&["--frames", "2", "--out", p]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("2 frames"));
+    // An existing file is never overwritten without --resume.
+    let o = run(&["--frames", "2", "--out", p]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--resume"), "{}", String::from_utf8_lossy(&o.stderr));
+    // Resuming with other settings is refused, naming the file.
+    let o = run(&["--frames", "1", "--max-bounces", "2", "--resume", "--out", p]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("part.exr"));
+    // Resume: 2 + 3 frames equal one 5-frame reference.
+    let o = run(&["--frames", "3", "--resume", "--out", p]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(&["--frames", "5", "--out", whole.to_str().unwrap()]);
+    assert!(o.status.success());
+    let (a, ma) = read_reference(&part).unwrap();
+    let (b, mb) = read_reference(&whole).unwrap();
+    assert_eq!((ma.frames, ma.ranges.clone()), (5, vec![(0, 5)]));
+    assert_eq!(ma.config, mb.config);
+    let d = max_rel_diff(&a.pixels, &b.pixels);
+    assert!(d < 1e-4, "resumed reference differs from one run by {d}");
+    // Temporal ReSTIR frames depend on each other: not a reference mode.
+    let o = cli(&["reference", "--mode", "restir", "--frames", "1", "--out", dir.path().join("x.exr").to_str().unwrap()]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--mode restir"));
+}

@@ -1,0 +1,241 @@
+//! src/report.rs: CSV round trip, Markdown tables and SVG plots on synthetic numbers (no GPU).
+
+use std::collections::BTreeMap;
+
+use restir_vpl::report::*;
+
+fn pt(scene: &str, mode: &str, reference: &str, frames: u32, wall_ms: f64, rmse: f64) -> CurvePoint {
+    CurvePoint {
+        scene: scene.into(),
+        mode: mode.into(),
+        reference: reference.into(),
+        frames,
+        gpu_ms: wall_ms * 0.8,
+        wall_ms,
+        rmse,
+        relmse: rmse * rmse * 2.0,
+        flip: None,
+    }
+}
+
+/// The thesis' Cornell box numbers (Table 2), per-frame wall times 10 / 15 / 20 ms.
+fn thesis() -> Vec<CurvePoint> {
+    let ts = [1, 2, 5, 10, 20];
+    let rows: [(&str, f64, [f64; 5]); 3] = [
+        ("uniform", 10.0, [0.41, 0.35, 0.31, 0.29, 0.28]),
+        ("ris", 15.0, [0.25, 0.19, 0.14, 0.12, 0.10]),
+        ("restir", 20.0, [0.19, 0.15, 0.11, 0.09, 0.08]),
+    ];
+    let mut v = Vec::new();
+    for (mode, ms, errs) in rows {
+        for (t, e) in ts.iter().zip(errs) {
+            v.push(pt("cornell_box", mode, "pt", *t, ms * *t as f64, e));
+        }
+    }
+    v
+}
+
+#[test]
+fn csv_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sub/curves.csv");
+    let mut points = thesis();
+    points[0].flip = Some(0.123456789);
+    points[1].gpu_ms = 1.0 / 3.0;
+    points[2].relmse = 1e-17;
+    points.push(pt("sponza", "restir-unbiased", "vpl", 7, 123.456, 0.5));
+    write_curves_csv(&path, &points).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.starts_with("scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,flip\n"));
+    assert_eq!(text.lines().count(), points.len() + 1);
+    let back = read_curves_csv(&path).unwrap();
+    assert_eq!(back, points);
+}
+
+#[test]
+fn csv_errors_name_the_path() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad.csv");
+    let mut p = thesis();
+    p[0].scene = "a,b".into();
+    let e = write_curves_csv(&path, &p).unwrap_err().to_string();
+    assert!(e.contains("bad.csv"), "{e}");
+
+    std::fs::write(&path, "scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,flip\nx,y,pt,1,2,3,oops,5,\n").unwrap();
+    let e = read_curves_csv(&path).unwrap_err().to_string();
+    assert!(e.contains("bad.csv:2") && e.contains("rmse"), "{e}");
+
+    let e = read_curves_csv(dir.path().join("missing.csv")).unwrap_err().to_string();
+    assert!(e.contains("missing.csv"), "{e}");
+}
+
+#[test]
+fn error_table_matches_thesis() {
+    let md = error_table_markdown(&thesis(), "cornell_box", "pt", Metric::Rmse);
+    println!("{md}");
+    let lines: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
+    assert_eq!(lines[0], "| Sampling technique | t=1 | t=2 | t=5 | t=10 | t=20 |");
+    assert_eq!(lines[2], "| Uniform | 0.410 | 0.350 | 0.310 | 0.290 | 0.280 |");
+    assert_eq!(
+        lines[3],
+        "| RIS | 0.250 (-39.0%) | 0.190 (-45.7%) | 0.140 (-54.8%) | 0.120 (-58.6%) | 0.100 (-64.3%) |"
+    );
+    assert!(lines[4].starts_with("| ReSTIR | 0.190 (-53.7%) |"), "{}", lines[4]);
+    assert_eq!(lines.len(), 5);
+    assert!(md.contains("cornell_box") && md.contains("RMSE") && md.contains("path-traced"));
+
+    // No uniform row: no percentages.
+    let no_u: Vec<CurvePoint> = thesis().into_iter().filter(|p| p.mode != "uniform").collect();
+    let md = error_table_markdown(&no_u, "cornell_box", "pt", Metric::Rmse);
+    assert!(md.contains("| RIS | 0.250 | 0.190 |"), "{md}");
+    assert!(!md.contains('%') || !md.lines().any(|l| l.starts_with("| RIS") && l.contains('%')));
+
+    // FLIP missing everywhere: dashes, no panic.
+    let md = error_table_markdown(&thesis(), "cornell_box", "pt", Metric::Flip);
+    assert!(md.contains("| RIS | — | — |"), "{md}");
+
+    // Unknown scene / empty input: a "no data" note.
+    assert!(error_table_markdown(&[], "cornell_box", "pt", Metric::Rmse).contains("No data"));
+    assert!(error_table_markdown(&thesis(), "cornell_box", "vpl", Metric::Rmse).contains("No data"));
+}
+
+#[test]
+fn sig_digits() {
+    assert_eq!(fmt_sig3(0.41), "0.410");
+    assert_eq!(fmt_sig3(12.345), "12.3");
+    assert_eq!(fmt_sig3(1234.0), "1234");
+    assert_eq!(fmt_sig3(0.0012345), "0.00123");
+    assert_eq!(fmt_sig3(0.00012345), "1.23e-4");
+    assert_eq!(fmt_sig3(0.99996), "1.00");
+    assert_eq!(fmt_sig3(9.9996), "10.0");
+    assert_eq!(fmt_sig3(0.0), "0");
+}
+
+#[test]
+fn equal_time_values() {
+    let p = thesis();
+    // Before the first checkpoint: nothing.
+    assert_eq!(error_within_budget(&p, "cornell_box", "pt", "ris", Metric::Rmse, 10.0), None);
+    // Exactly at a checkpoint: its value. ris t=2 at 30 ms.
+    let v = error_within_budget(&p, "cornell_box", "pt", "ris", Metric::Rmse, 30.0).unwrap();
+    assert!((v.value - 0.19).abs() < 1e-12 && !v.run_ended, "{v:?}");
+    // Log-log between checkpoints: uniform t=1 (10 ms, 0.41) and t=2 (20 ms, 0.35) at sqrt(200) ms
+    // gives the geometric mean.
+    let v = error_within_budget(&p, "cornell_box", "pt", "uniform", Metric::Rmse, 200f64.sqrt()).unwrap();
+    assert!((v.value - (0.41f64 * 0.35).sqrt()).abs() < 1e-12, "{v:?}");
+    // Past the end: last value, flagged.
+    let v = error_within_budget(&p, "cornell_box", "pt", "restir", Metric::Rmse, 1000.0).unwrap();
+    assert!((v.value - 0.08).abs() < 1e-12 && v.run_ended, "{v:?}");
+
+    let md = equal_time_table_markdown(&p, "cornell_box", "pt", Metric::Rmse, &[15.0, 40.0, 100.0, 1000.0]);
+    println!("{md}");
+    let lines: Vec<&str> = md.lines().filter(|l| l.starts_with('|')).collect();
+    assert_eq!(lines[0], "| Sampling technique | 15 ms | 40 ms | 100 ms | 1000 ms |");
+    // uniform: 15 ms between 10 and 20; 40 ms between t=2 (20) and t=5 (50); 100 ms = t=10; 1000 past t=20 (200 ms).
+    let u15 = (0.41f64.ln() + (0.35f64.ln() - 0.41f64.ln()) * (15f64 / 10.0).ln() / 2f64.ln()).exp();
+    let u40 = (0.35f64.ln() + (0.31f64.ln() - 0.35f64.ln()) * 2f64.ln() / 2.5f64.ln()).exp();
+    assert_eq!(lines[2], format!("| Uniform | {} | {} | 0.290 | 0.280* |", fmt_sig3(u15), fmt_sig3(u40)));
+    // ris: t=1 at 15 ms; at 40 ms between t=2 (30 ms) and t=5 (75 ms).
+    assert!(lines[3].starts_with("| RIS | 0.250 ("), "{}", lines[3]);
+    let r40 = (0.19f64.ln() + (0.14f64.ln() - 0.19f64.ln()) * (40f64 / 30.0).ln() / 2.5f64.ln()).exp();
+    assert!(lines[3].contains(&format!("| {} (", fmt_sig3(r40))), "{}", lines[3]);
+    // restir: not yet at 15 ms (first checkpoint at 20 ms); t=10 exactly at 200 ms... 100 ms is t=5.
+    assert!(lines[4].starts_with("| ReSTIR | — | "), "{}", lines[4]);
+    assert!(lines[4].contains("| 0.110 (-62.1%) |"), "{}", lines[4]);
+    assert!(md.contains("* the run ended"));
+
+    assert!(equal_time_table_markdown(&[], "cornell_box", "pt", Metric::Rmse, &[10.0]).contains("No data"));
+    let b = suggest_budgets_ms(&p, "cornell_box", "pt");
+    assert!(!b.is_empty() && b.len() <= 6 && b.windows(2).all(|w| w[0] < w[1]), "{b:?}");
+    assert!(b[0] >= 10.0 && *b.last().unwrap() <= 400.0, "{b:?}");
+}
+
+#[test]
+fn frame_time_table() {
+    let row = |scene: &str, mode: &str, gpu: f64, rays: f64| FrameTimeRow {
+        scene: scene.into(),
+        mode: mode.into(),
+        width: 640,
+        height: 480,
+        gpu_ms: gpu,
+        wall_ms: gpu + 1.0,
+        rays_per_pixel: rays,
+        pass_ms: BTreeMap::from([("gbuffer".to_string(), 0.5), ("shade".to_string(), gpu - 0.5)]),
+    };
+    let rows = vec![
+        row("cornell_box", "uniform", 4.0, 9.0),
+        row("cornell_box", "ris", 6.0, 9.0),
+        row("cornell_box", "restir", 5.0, 10.0),
+        row("sponza", "uniform", 8.0, 9.0),
+    ];
+    let md = frame_time_table_markdown(&rows);
+    println!("{md}");
+    assert!(md.contains("| Scene | Resolution | Uniform GPU ms | Uniform rays/px | RIS GPU ms | RIS rays/px | ReSTIR GPU ms | ReSTIR rays/px |"));
+    assert!(md.contains("| cornell_box | 640×480 | 4.00 | 9.00 | 6.00 (×1.50) | 9.00 | 5.00 (×1.25) | 10.0 |"), "{md}");
+    assert!(md.contains("| sponza | 640×480 | 8.00 | 9.00 | — | — | — | — |"), "{md}");
+    assert!(md.contains("| shade | 3.50 | 5.50 | 4.50 |"), "{md}");
+    assert!(frame_time_table_markdown(&[]).contains("No frame-time data"));
+}
+
+#[test]
+fn plots_write_svg_with_legend() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut p = thesis();
+    p.push(pt("cornell_box", "restir-unbiased", "pt", 1, 25.0, 0.2));
+    p.push(pt("cornell_box", "restir-unbiased", "pt", 10, 250.0, 0.0)); // skipped: not positive
+    for (name, f) in [("frames", plot_error_vs_frames as fn(_, _, _, _, _) -> _), ("time", plot_error_vs_time)] {
+        let path = dir.path().join(format!("plots/cornell_{name}.svg"));
+        f(path.clone(), &p, "cornell_box", "pt", Metric::Rmse).unwrap();
+        let svg = std::fs::read_to_string(&path).unwrap();
+        assert!(svg.starts_with("<svg") || svg.starts_with("<?xml"), "{}", &svg[..100.min(svg.len())]);
+        for label in ["Uniform", "RIS", "ReSTIR", "ReSTIR-unbiased", "cornell_box", "path-traced reference"] {
+            assert!(svg.contains(label), "{name}: no {label:?} in the SVG");
+        }
+        assert!(svg.contains(if name == "frames" { "accumulated frames" } else { "wall time (ms)" }));
+        std::fs::copy(&path, std::env::temp_dir().join(format!("report_test_{name}.svg"))).unwrap();
+    }
+}
+
+#[test]
+fn plots_without_data_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("empty.svg");
+    let e = plot_error_vs_frames(&path, &[], "cornell_box", "pt", Metric::Rmse).unwrap_err().to_string();
+    assert!(e.contains("empty.svg"), "{e}");
+    // FLIP never computed: nothing to plot either.
+    assert!(plot_error_vs_time(&path, &thesis(), "cornell_box", "pt", Metric::Flip).is_err());
+    // Only non-positive values.
+    let zeros = vec![pt("s", "uniform", "vpl", 1, 10.0, 0.0)];
+    assert!(plot_error_vs_frames(&path, &zeros, "s", "vpl", Metric::Rmse).is_err());
+    assert!(!path.exists());
+    // A single point still plots.
+    let one = vec![pt("s", "uniform", "vpl", 1, 10.0, 0.3)];
+    plot_error_vs_frames(&path, &one, "s", "vpl", Metric::Rmse).unwrap();
+    assert!(std::fs::metadata(&path).unwrap().len() > 0);
+}
+
+#[test]
+fn plots_extreme_ranges() {
+    let dir = tempfile::tempdir().unwrap();
+    // Errors over many decades, times over many decades.
+    let mut wide = Vec::new();
+    for (i, t) in [1u32, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000].into_iter().enumerate() {
+        wide.push(pt("w", "uniform", "vpl", t, 0.5 * t as f64, 3.0 / (t as f64).sqrt()));
+        wide.push(pt("w", "ris", "vpl", t, 0.7 * t as f64, 1e-4 * 0.5f64.powi(i as i32)));
+    }
+    // Flat curves: every value the same.
+    let flat: Vec<CurvePoint> = [1u32, 2, 5].iter().map(|&t| pt("f", "restir", "pt", t, 10.0 * t as f64, 0.25)).collect();
+    for (name, pts, scene, reference) in [("wide", &wide, "w", "vpl"), ("flat", &flat, "f", "pt")] {
+        for (kind, time) in [("frames", false), ("time", true)] {
+            let path = dir.path().join(format!("{name}_{kind}.svg"));
+            if time {
+                plot_error_vs_time(&path, pts, scene, reference, Metric::Rmse).unwrap();
+            } else {
+                plot_error_vs_frames(&path, pts, scene, reference, Metric::Rmse).unwrap();
+            }
+            let svg = std::fs::read_to_string(&path).unwrap();
+            assert!(svg.contains("</svg>"));
+            std::fs::copy(&path, std::env::temp_dir().join(format!("report_test_{name}_{kind}.svg"))).unwrap();
+        }
+    }
+}
