@@ -948,7 +948,6 @@ fn dangling_indices_are_errors_not_panics() {
 }
 
 // ---------------------------------------------------------------- thesis scenes
-
 use super::thesis::{
     FIGURE_MIN_TRIANGLES, FIGURE_NAME, FURNITURE_PREFIX, LIGHT_NAME, LIVING_ROOM_FURNITURE_PIECES,
     LIVING_ROOM_MAX, LIVING_ROOM_MIN, LIVING_ROOM_WINDOW_MAX, LIVING_ROOM_WINDOW_MIN, OPEN_BOX_MAX,
@@ -958,21 +957,33 @@ use super::thesis::{
 /// Checks that `scenes/<file>` is exactly `generate()` (rewriting it first with
 /// `UPDATE_SCENES=1`) and that the generator is deterministic; returns the loaded scene.
 fn committed_scene(file: &str, generate: fn() -> String) -> Scene {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(file);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("scenes")
+        .join(file);
     let generated = generate();
     if std::env::var_os("UPDATE_SCENES").is_some() {
         std::fs::write(&path, &generated).unwrap();
     }
     let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!("cannot read {}: {e} (run with UPDATE_SCENES=1)", path.display())
+        panic!(
+            "cannot read {}: {e} (run with UPDATE_SCENES=1)",
+            path.display()
+        )
     });
     assert!(
         committed == generated,
         "{} is stale; regenerate with UPDATE_SCENES=1",
         path.display()
     );
-    assert!(generated == generate(), "{file}: generator is not deterministic");
-    assert!(generated.len() < 4_500_000, "{file}: {} bytes", generated.len());
+    assert!(
+        generated == generate(),
+        "{file}: generator is not deterministic"
+    );
+    assert!(
+        generated.len() < 4_500_000,
+        "{file}: {} bytes",
+        generated.len()
+    );
     Scene::load(&path).unwrap()
 }
 
@@ -1090,7 +1101,10 @@ fn occluders(s: &Scene, a: Vec3, b: Vec3) -> Vec<String> {
     for inst in &s.instances {
         let mesh = &s.meshes[inst.mesh];
         for t in 0..mesh.triangle_count() {
-            let p = mesh.triangle(t).unwrap().map(|v| inst.transform.transform_point3(v));
+            let p = mesh
+                .triangle(t)
+                .unwrap()
+                .map(|v| inst.transform.transform_point3(v));
             if segment_hits(a, b, p).is_some() && !hit.contains(&inst.name) {
                 hit.push(inst.name.clone());
             }
@@ -1104,7 +1118,11 @@ fn assert_unit_normals(s: &Scene) {
     for m in &s.meshes {
         assert_eq!(m.normals.len(), m.positions.len());
         for n in &m.normals {
-            assert!((n.length() - 1.0).abs() < 1e-3, "mesh {}: normal {n}", m.name);
+            assert!(
+                (n.length() - 1.0).abs() < 1e-3,
+                "mesh {}: normal {n}",
+                m.name
+            );
         }
     }
 }
@@ -1128,7 +1146,16 @@ fn open_box_figure_structure() {
     let n = s.meshes[figure.mesh].triangle_count();
     assert!(n >= FIGURE_MIN_TRIANGLES, "figure has {n} triangles");
     assert!(s.triangle_count() < 100_000);
-    for name in ["floor", "back_wall", "left_wall", "right_wall_red", "sphere", "cube", "cylinder", "cone"] {
+    for name in [
+        "floor",
+        "back_wall",
+        "left_wall",
+        "right_wall_red",
+        "sphere",
+        "cube",
+        "cylinder",
+        "cone",
+    ] {
         instance_named(&s, name);
     }
     assert_unit_normals(&s);
@@ -1138,18 +1165,30 @@ fn open_box_figure_structure() {
     let centre = 0.5 * (lo + hi);
     for name in ["floor", "back_wall", "left_wall", "right_wall_red"] {
         for (c, n) in triangle_frames(&s, instance_named(&s, name)) {
-            assert!(n.dot(centre - c) > 0.0, "{name} faces away from the interior");
+            assert!(
+                n.dot(centre - c) > 0.0,
+                "{name} faces away from the interior"
+            );
         }
     }
     let red = instance_named(&s, "right_wall_red");
     let material = &s.materials[s.meshes[red.mesh].triangle_materials[0] as usize];
-    assert!(material.base_color.x > 0.5 && material.base_color.y < 0.15 && material.base_color.z < 0.15);
+    assert!(
+        material.base_color.x > 0.5 && material.base_color.y < 0.15 && material.base_color.z < 0.15
+    );
     let cam = s.camera.as_ref().expect("camera");
-    assert!(project(cam, instance_centroid(&s, red)).x > 0.0, "red wall on screen right");
+    assert!(
+        project(cam, instance_centroid(&s, red)).x > 0.0,
+        "red wall on screen right"
+    );
     // Open at the top and the front: no geometry above the walls or in front of the box.
     for inst in s.instances.iter().filter(|i| i.name != LIGHT_NAME) {
         let (ilo, ihi) = bounds_of(&s, &inst.name);
-        assert!(ihi.y <= hi.y + 1e-4 && ihi.z <= hi.z + 1e-4, "{} sticks out", inst.name);
+        assert!(
+            ihi.y <= hi.y + 1e-4 && ihi.z <= hi.z + 1e-4,
+            "{} sticks out",
+            inst.name
+        );
         assert!(ilo.cmpge(lo - 1e-4).all(), "{} outside the box", inst.name);
     }
 
@@ -1160,12 +1199,27 @@ fn open_box_figure_structure() {
 
     // One area light, entirely outside the view frustum at 16:9, shining into the box.
     let (corners, normal) = single_light_quad(&s);
-    assert!(!polygon_in_frustum(cam, SCENE_ASPECT, &corners), "light visible");
+    assert!(
+        !polygon_in_frustum(cam, SCENE_ASPECT, &corners),
+        "light visible"
+    );
     let lc = corners.iter().sum::<Vec3>() / 4.0;
-    assert!(normal.dot(centre - lc) > 0.5 * (centre - lc).length(), "light not aimed into the box");
-    assert!(occluders(&s, lc, centre).is_empty(), "{:?}", occluders(&s, lc, centre));
-    assert!(corners.iter().all(|c| c.y > hi.y || c.z > hi.z), "light inside the box");
-    let area = (corners[1] - corners[0]).cross(corners[3] - corners[0]).length();
+    assert!(
+        normal.dot(centre - lc) > 0.5 * (centre - lc).length(),
+        "light not aimed into the box"
+    );
+    assert!(
+        occluders(&s, lc, centre).is_empty(),
+        "{:?}",
+        occluders(&s, lc, centre)
+    );
+    assert!(
+        corners.iter().all(|c| c.y > hi.y || c.z > hi.z),
+        "light inside the box"
+    );
+    let area = (corners[1] - corners[0])
+        .cross(corners[3] - corners[0])
+        .length();
     assert!(area > 1.0, "a large light: {area} m^2");
 }
 
@@ -1187,18 +1241,31 @@ fn living_room_structure() {
     assert_eq!(sorted.len(), pieces.len(), "parts of a piece are adjacent");
     assert_eq!(pieces.len(), LIVING_ROOM_FURNITURE_PIECES);
     assert!(pieces.len() >= 20);
-    for piece in ["furniture_couch", "furniture_dining_table", "furniture_coffee_table", "furniture_tv", "furniture_rug"] {
+    for piece in [
+        "furniture_couch",
+        "furniture_dining_table",
+        "furniture_coffee_table",
+        "furniture_tv",
+        "furniture_rug",
+    ] {
         assert!(pieces.contains(&piece), "{piece}");
     }
 
     // The room: everything but the light inside it.
     let (lo, hi) = (Vec3::from(LIVING_ROOM_MIN), Vec3::from(LIVING_ROOM_MAX));
-    let (wlo, whi) = (Vec3::from(LIVING_ROOM_WINDOW_MIN), Vec3::from(LIVING_ROOM_WINDOW_MAX));
+    let (wlo, whi) = (
+        Vec3::from(LIVING_ROOM_WINDOW_MIN),
+        Vec3::from(LIVING_ROOM_WINDOW_MAX),
+    );
     let window = 0.5 * (wlo + whi);
     for inst in s.instances.iter().filter(|i| i.name != LIGHT_NAME) {
         let (ilo, ihi) = bounds_of(&s, &inst.name);
         let slack = Vec3::new(0.25, 1e-3, 1e-3); // the window reveal sticks out in +x
-        assert!(ilo.cmpge(lo - slack).all() && ihi.cmple(hi + slack).all(), "{} outside the room", inst.name);
+        assert!(
+            ilo.cmpge(lo - slack).all() && ihi.cmple(hi + slack).all(),
+            "{} outside the room",
+            inst.name
+        );
     }
     let centre = 0.5 * (lo + hi);
     for (c, n) in triangle_frames(&s, instance_named(&s, "floor")) {
@@ -1209,7 +1276,9 @@ fn living_room_structure() {
     }
     // Walls: the ones on the room's faces point inward.
     for (c, n) in triangle_frames(&s, instance_named(&s, "walls")) {
-        let on_face = [c.x - lo.x, hi.x - c.x, c.z - lo.z, hi.z - c.z].iter().any(|d| d.abs() < 1e-4);
+        let on_face = [c.x - lo.x, hi.x - c.x, c.z - lo.z, hi.z - c.z]
+            .iter()
+            .any(|d| d.abs() < 1e-4);
         if on_face {
             assert!(n.dot(centre - c) > 0.0, "wall triangle at {c} faces out");
         }
@@ -1219,30 +1288,66 @@ fn living_room_structure() {
     // and outside the view frustum at 16:9.
     let (corners, normal) = single_light_quad(&s);
     for c in &corners {
-        assert!(c.x > hi.x + 0.2 || c.y > hi.y, "light corner {c} inside the room or its wall");
+        assert!(
+            c.x > hi.x + 0.2 || c.y > hi.y,
+            "light corner {c} inside the room or its wall"
+        );
     }
     let (llo, lhi) = bounds_of(&s, LIGHT_NAME);
-    assert!(llo.x > hi.x || lhi.x < lo.x || llo.y > hi.y || llo.z > hi.z || lhi.z < lo.z, "light AABB overlaps the room");
+    assert!(
+        llo.x > hi.x || lhi.x < lo.x || llo.y > hi.y || llo.z > hi.z || lhi.z < lo.z,
+        "light AABB overlaps the room"
+    );
     let lc = corners.iter().sum::<Vec3>() / 4.0;
-    assert!(normal.dot(window - lc) > 0.0, "light faces away from the window");
-    let sunlit = Vec3::new(1.5, 0.0, window.z);
-    assert!(occluders(&s, lc, window).is_empty(), "{:?}", occluders(&s, lc, window));
-    assert_eq!(occluders(&s, lc, sunlit + Vec3::Y * 0.01), Vec::<String>::new(), "window light reaches the floor");
+    assert!(
+        normal.dot(window - lc) > 0.0,
+        "light faces away from the window"
+    );
+    // A point in the middle of a pane (the window's centre is behind the frame's cross).
+    let pane = wlo + 0.25 * (whi - wlo);
+    let sunlit = Vec3::new(1.2, 0.0, 0.0);
+    assert!(
+        occluders(&s, lc, pane).is_empty(),
+        "{:?}",
+        occluders(&s, lc, pane)
+    );
+    assert_eq!(
+        occluders(&s, lc, sunlit + Vec3::Y * 0.01),
+        Vec::<String>::new(),
+        "window light reaches the floor"
+    );
     let cam = s.camera.as_ref().expect("camera");
-    assert!(!polygon_in_frustum(cam, SCENE_ASPECT, &corners), "light visible");
+    assert!(
+        !polygon_in_frustum(cam, SCENE_ASPECT, &corners),
+        "light visible"
+    );
     // The camera is inside the room and sees the couch and the dining table.
     let eye = cam.transform.transform_point3(Vec3::ZERO);
     assert!(eye.cmpgt(lo).all() && eye.cmplt(hi).all());
     let ty = (0.5 * cam.yfov).tan();
-    for piece in ["furniture_couch/", "furniture_dining_table/", "furniture_tv/"] {
+    for piece in [
+        "furniture_couch/",
+        "furniture_dining_table/",
+        "furniture_tv/",
+    ] {
         let (plo, phi) = bounds_of(&s, piece);
         let p = project(cam, 0.5 * (plo + phi));
-        assert!(p.x.abs() < ty * SCENE_ASPECT && p.y.abs() < ty && p.z > 0.0, "{piece} out of view: {p}");
+        assert!(
+            p.x.abs() < ty * SCENE_ASPECT && p.y.abs() < ty && p.z > 0.0,
+            "{piece} out of view: {p}"
+        );
     }
-    // Something blocks the light from reaching under the dining table.
-    let under_table = bounds_of(&s, "furniture_dining_table/");
-    let under = Vec3::new(0.5 * (under_table.0.x + under_table.1.x), 0.01, 0.5 * (under_table.0.z + under_table.1.z));
-    assert!(!occluders(&s, lc, under).is_empty());
+    // The floor behind the couch (between its back and the left wall) sees no part of the
+    // light: only bounced light reaches it.
+    let (clo, chi) = bounds_of(&s, "furniture_couch/");
+    let behind = Vec3::new(0.5 * (lo.x + clo.x), 0.01, 0.5 * (clo.z + chi.z));
+    assert!(clo.x - lo.x > 0.1, "a gap behind the couch");
+    for c in corners.iter().chain([&lc]) {
+        assert!(
+            !occluders(&s, *c, behind).is_empty(),
+            "light reaches behind the couch"
+        );
+    }
 }
 
 /// The textured materials (floor, rug, painting) reference valid textures, images and a
@@ -1254,7 +1359,10 @@ fn living_room_textures_are_valid() {
     let doc: Value = serde_json::from_str(&text).unwrap();
     let uri = doc["buffers"][0]["uri"].as_str().unwrap();
     let buffer = base64::decode(uri.split_once("base64,").unwrap().1).unwrap();
-    assert_eq!(buffer.len() as u64, doc["buffers"][0]["byteLength"].as_u64().unwrap());
+    assert_eq!(
+        buffer.len() as u64,
+        doc["buffers"][0]["byteLength"].as_u64().unwrap()
+    );
     let views = doc["bufferViews"].as_array().unwrap();
     for v in views {
         assert_eq!(v["byteOffset"].as_u64().unwrap() % 4, 0);
@@ -1291,7 +1399,8 @@ fn living_room_textures_are_valid() {
             if textured.iter().any(|(mi, _)| *mi == m) {
                 uses += 1;
                 let attrs = &prim["attributes"];
-                let uv = &doc["accessors"][attrs["TEXCOORD_0"].as_u64().expect("TEXCOORD_0") as usize];
+                let uv =
+                    &doc["accessors"][attrs["TEXCOORD_0"].as_u64().expect("TEXCOORD_0") as usize];
                 let pos = &doc["accessors"][attrs["POSITION"].as_u64().unwrap() as usize];
                 assert_eq!(uv["type"], json!("VEC2"));
                 assert_eq!(uv["count"], pos["count"]);
@@ -1332,12 +1441,22 @@ fn builder_textures_and_uvs() {
     let doc: Value = serde_json::from_str(&text).unwrap();
     assert_eq!(doc["textures"].as_array().unwrap().len(), 2);
     assert_eq!(doc["images"].as_array().unwrap().len(), 2);
-    assert_eq!(doc["samplers"].as_array().unwrap().len(), 1, "one shared sampler");
+    assert_eq!(
+        doc["samplers"].as_array().unwrap().len(),
+        1,
+        "one shared sampler"
+    );
     assert_eq!(doc["textures"][1]["source"], json!(1));
-    assert_eq!(doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"], json!({ "index": 1, "texCoord": 0 }));
+    assert_eq!(
+        doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"],
+        json!({ "index": 1, "texCoord": 0 })
+    );
     assert_eq!(doc["materials"][0]["doubleSided"], json!(true));
     assert!(doc["images"][0].get("uri").is_none());
-    assert!(doc["bufferViews"][0].get("target").is_none(), "image views have no target");
+    assert!(
+        doc["bufferViews"][0].get("target").is_none(),
+        "image views have no target"
+    );
     for v in doc["bufferViews"].as_array().unwrap() {
         assert_eq!(v["byteOffset"].as_u64().unwrap() % 4, 0);
     }

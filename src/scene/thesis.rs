@@ -8,8 +8,9 @@
 //!   outside the camera's view, tilted into the box.
 //! * [`living_room_gltf`]: a closed room with a window in its right wall, lit only by one
 //!   large area light outside the window; [`LIVING_ROOM_FURNITURE_PIECES`] furniture
-//!   pieces leave regions (under the tables, in front of the couch) that only bounced light
-//!   reaches. The floor, the rug and a painting carry procedural PNG textures.
+//!   pieces leave regions (behind the couch, under the armchair and the cabinet) that
+//!   only bounced light reaches. The floor, the rug and a painting carry procedural PNG
+//!   textures.
 //!
 //! Both cameras are framed for a 16:9 image ([`SCENE_ASPECT`]); the light quads lie outside
 //! their view frusta. Geometry is computed in `f64` and everything is deterministic (a
@@ -28,7 +29,7 @@ pub const LIGHT_NAME: &str = "light";
 
 /// Name of the figure's mesh and node in the open box scene.
 pub const FIGURE_NAME: &str = "figure";
-/// The figure mesh has at least this many triangles (the generator gives ~69,000).
+/// The figure mesh has at least this many triangles (the generator gives 70,368).
 pub const FIGURE_MIN_TRIANGLES: usize = 50_000;
 /// Emitted radiance of the open box scene's light (linear RGB).
 pub const OPEN_BOX_LIGHT_EMISSION: [f32; 3] = [14.0, 12.6, 10.6];
@@ -46,15 +47,15 @@ pub const FURNITURE_PREFIX: &str = "furniture_";
 /// Number of furniture pieces in the living room.
 pub const LIVING_ROOM_FURNITURE_PIECES: usize = 26;
 /// Emitted radiance of the living room's light, outside the window (linear RGB).
-pub const LIVING_ROOM_LIGHT_EMISSION: [f32; 3] = [40.0, 37.0, 32.0];
+pub const LIVING_ROOM_LIGHT_EMISSION: [f32; 3] = [300.0, 280.0, 245.0];
 /// Interior of the living room (floor, ceiling and the four walls lie on its faces).
 pub const LIVING_ROOM_MIN: [f32; 3] = [-3.0, 0.0, -2.5];
 /// See [`LIVING_ROOM_MIN`].
 pub const LIVING_ROOM_MAX: [f32; 3] = [3.0, 2.7, 2.5];
 /// The window opening in the right wall (x = 3): `[x, y_min, z_min]`..`[x, y_max, z_max]`.
-pub const LIVING_ROOM_WINDOW_MIN: [f32; 3] = [3.0, 0.75, -1.5];
+pub const LIVING_ROOM_WINDOW_MIN: [f32; 3] = [3.0, 0.75, -1.9];
 /// See [`LIVING_ROOM_WINDOW_MIN`].
-pub const LIVING_ROOM_WINDOW_MAX: [f32; 3] = [3.0, 2.15, 0.5];
+pub const LIVING_ROOM_WINDOW_MAX: [f32; 3] = [3.0, 2.15, 0.1];
 /// Depth of the window reveal (the wall's thickness), outward from x = 3.
 const WALL_THICKNESS: f64 = 0.2;
 
@@ -88,7 +89,13 @@ fn value_noise(x: f64, y: f64, period_x: i64, seed: u32) -> f64 {
     let (fx, fy) = (x.floor(), y.floor());
     let (tx, ty) = (x - fx, y - fy);
     let (sx, sy) = (tx * tx * (3.0 - 2.0 * tx), ty * ty * (3.0 - 2.0 * ty));
-    let wrap = |i: i64| if period_x > 0 { i.rem_euclid(period_x) } else { i };
+    let wrap = |i: i64| {
+        if period_x > 0 {
+            i.rem_euclid(period_x)
+        } else {
+            i
+        }
+    };
     let (x0, y0) = (fx as i64, fy as i64);
     let v = |dx: i64, dy: i64| lattice(wrap(x0 + dx), y0 + dy, seed);
     let a = v(0, 0) + (v(1, 0) - v(0, 0)) * sx;
@@ -137,8 +144,7 @@ impl MeshData {
             self.normals.push(n);
             self.uvs.push(t);
         }
-        self.indices
-            .extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
+        self.indices.extend([0, 1, 2, 0, 2, 3].map(|i| base + i));
     }
 
     /// A flat quad turned so that its front face points along `dir`, UVs 0..1.
@@ -169,7 +175,12 @@ impl MeshData {
                     p[v] = if b { max[v] } else { min[v] };
                     p
                 };
-                let mut c = [at(false, false), at(true, false), at(true, true), at(false, true)];
+                let mut c = [
+                    at(false, false),
+                    at(true, false),
+                    at(true, true),
+                    at(false, true),
+                ];
                 let mut dir = DVec3::ZERO;
                 dir[axis] = side;
                 if (c[2] - c[0]).cross(c[3] - c[1]).dot(dir) < 0.0 {
@@ -268,13 +279,7 @@ impl MeshData {
     /// A closed tube swept along `path` (at least 2 points) with parallel-transported
     /// frames; `radius(j, theta)` is the radius at path point `j`; the ends close with
     /// rounded caps of `cap` path points each (radius shrinking to 0 on a quarter circle).
-    fn tube(
-        &mut self,
-        path: &[DVec3],
-        nu: usize,
-        cap: usize,
-        radius: impl Fn(usize, f64) -> f64,
-    ) {
+    fn tube(&mut self, path: &[DVec3], nu: usize, cap: usize, radius: impl Fn(usize, f64) -> f64) {
         let n = path.len();
         let tangent = |j: usize| (path[(j + 1).min(n - 1)] - path[j.saturating_sub(1)]).normalize();
         let mut frames = Vec::with_capacity(n);
@@ -345,11 +350,30 @@ impl MeshData {
 
     /// Adds the mesh (with UVs when `textured`) and returns its glTF index.
     fn emit(&self, b: &mut GltfBuilder, name: &str, material: usize, textured: bool) -> usize {
-        let positions: Vec<[f32; 3]> = self.positions.iter().map(|p| p.as_vec3().to_array()).collect();
-        let normals: Vec<[f32; 3]> = self.normals.iter().map(|n| n.as_vec3().to_array()).collect();
+        let positions: Vec<[f32; 3]> = self
+            .positions
+            .iter()
+            .map(|p| p.as_vec3().to_array())
+            .collect();
+        let normals: Vec<[f32; 3]> = self
+            .normals
+            .iter()
+            .map(|n| n.as_vec3().to_array())
+            .collect();
         if textured {
-            let uvs: Vec<[f32; 2]> = self.uvs.iter().map(|t| [t[0] as f32, t[1] as f32]).collect();
-            b.mesh_with_uvs(name, &positions, Some(&normals), &uvs, &self.indices, material)
+            let uvs: Vec<[f32; 2]> = self
+                .uvs
+                .iter()
+                .map(|t| [t[0] as f32, t[1] as f32])
+                .collect();
+            b.mesh_with_uvs(
+                name,
+                &positions,
+                Some(&normals),
+                &uvs,
+                &self.indices,
+                material,
+            )
         } else {
             b.mesh(name, &positions, Some(&normals), &self.indices, material)
         }
@@ -379,7 +403,12 @@ fn light_quad(center: DVec3, normal: DVec3, size: (f64, f64)) -> [DVec3; 4] {
     let up = n.cross(right);
     let (w, h) = (0.5 * size.0 * right, 0.5 * size.1 * up);
     // right x up = n: (-w-h, +w-h, +w+h, -w+h) is counter-clockwise seen from the front.
-    [center - w - h, center + w - h, center + w + h, center - w + h]
+    [
+        center - w - h,
+        center + w - h,
+        center + w + h,
+        center - w + h,
+    ]
 }
 
 // ---------------------------------------------------------------------------------------
@@ -417,7 +446,7 @@ fn body_displacement(theta: f64, y: f64) -> f64 {
     // Rounded plates, V-shaped furrows at f = 0.
     let plate = (PI * f).sin().max(0.0).powf(0.45);
     let plate_id = ((u + warp).floor() as i64).rem_euclid(PLATES);
-    let furrow_depth = 0.021 * (0.8 + 0.4 * rand01(plate_id, 13));
+    let furrow_depth = 0.027 * (0.8 + 0.4 * rand01(plate_id, 13));
     let mut d = furrow_depth * (plate - 1.0);
     // Horizontal cracks across the plates.
     let cy = y * 7.0 + 0.6 * value_noise(u, y * 3.0, PLATES, 14);
@@ -439,7 +468,8 @@ fn body_displacement(theta: f64, y: f64) -> f64 {
     face += 0.04 * (-(s / 0.017).powi(2) - ((fy - FACE_Y + 0.005) / 0.04).powi(2)).exp();
     let smile = fy - (FACE_Y - 0.085 + 12.0 * s * s);
     face -= 0.014 * gauss(smile, 0.008) * smoothstep(0.085, 0.06, s.abs());
-    let top = smoothstep(BODY_TOP - 0.02, BODY_TOP - 0.1, y) * smoothstep(BODY_BOTTOM + 0.01, BODY_BOTTOM + 0.08, y);
+    let top = smoothstep(BODY_TOP - 0.02, BODY_TOP - 0.1, y)
+        * smoothstep(BODY_BOTTOM + 0.01, BODY_BOTTOM + 0.08, y);
     (d * (1.0 - 0.9 * mask) + face * (0.4 + 0.6 * mask)) * top
 }
 
@@ -447,7 +477,11 @@ fn body_displacement(theta: f64, y: f64) -> f64 {
 /// and base radius `r`, displaced by `d`.
 fn body_point(theta: f64, y: f64, r: f64, d: f64) -> DVec3 {
     let rr = (r + d).max(0.0);
-    DVec3::new(FIG_X + rr * theta.cos(), y, FIG_Z + BODY_DEPTH * rr * theta.sin())
+    DVec3::new(
+        FIG_X + rr * theta.cos(),
+        y,
+        FIG_Z + BODY_DEPTH * rr * theta.sin(),
+    )
 }
 
 /// Builds the figure (one mesh) and its eyes/pupils; returns (figure, eyes, pupils).
@@ -479,7 +513,11 @@ fn figure_meshes() -> (MeshData, MeshData, MeshData) {
     fig.surface(NU, rows.len() - 1, true, Facing::Outward, |i, j| {
         let theta = TAU * i as f64 / NU as f64;
         let (y, r) = rows[j];
-        let d = if r > 0.0 { body_displacement(theta, y) } else { 0.0 };
+        let d = if r > 0.0 {
+            body_displacement(theta, y)
+        } else {
+            0.0
+        };
         body_point(theta, y, r, d)
     });
 
@@ -544,26 +582,43 @@ fn figure_meshes() -> (MeshData, MeshData, MeshData) {
             DQuat::from_rotation_y(-side * 0.2),
             32,
             20,
-            |theta, phi| 0.04 * (theta * 6.0).sin().abs() * phi.cos().powi(4) * smoothstep(0.3, -0.1, phi),
+            |theta, phi| {
+                0.04 * (theta * 6.0).sin().abs() * phi.cos().powi(4) * smoothstep(0.3, -0.1, phi)
+            },
         );
     }
     // Hands: a palm and five curled fingers each.
-    for (hand, dir, seed) in [(hang_hand, DVec3::new(-0.1, -1.0, 0.15), 40u32), (grip_hand, DVec3::new(0.3, -0.2, 1.0), 50)] {
+    for (hand, dir, seed) in [
+        (hang_hand, DVec3::new(-0.1, -1.0, 0.15), 40u32),
+        (grip_hand, DVec3::new(0.3, -0.2, 1.0), 50),
+    ] {
         let dir = dir.normalize();
         let side = dir.cross(DVec3::Y).normalize_or(DVec3::X);
         let up = side.cross(dir).normalize();
         let palm = hand + dir * 0.035;
         let rot = DQuat::from_mat3(&DMat3::from_cols(side, up, side.cross(up)));
-        fig.ellipsoid(palm, DVec3::new(0.042, 0.022, 0.045), rot, 24, 16, |_, _| 0.0);
+        fig.ellipsoid(
+            palm,
+            DVec3::new(0.042, 0.022, 0.045),
+            rot,
+            24,
+            16,
+            |_, _| 0.0,
+        );
         for f in 0..5 {
             let (across, len, base_fwd) = if f == 4 {
                 (-0.04, 0.05, 0.0)
             } else {
-                (-0.027 + 0.018 * f as f64, 0.06 - 0.006 * (f as f64 - 1.5).abs(), 0.03)
+                (
+                    -0.027 + 0.018 * f as f64,
+                    0.06 - 0.006 * (f as f64 - 1.5).abs(),
+                    0.03,
+                )
             };
             let b0 = palm + side * across + dir * base_fwd;
             let curl = 0.6 + 0.3 * rand01(f, seed);
-            let mid = b0 + dir * len * 0.7 - up * len * 0.3 * curl + side * (if f == 4 { -0.015 } else { 0.0 });
+            let mid = b0 + dir * len * 0.7 - up * len * 0.3 * curl
+                + side * (if f == 4 { -0.015 } else { 0.0 });
             let tip = b0 + dir * len * 0.55 - up * len * curl;
             fig.tube(&bezier(b0, mid, tip, 16), 12, 3, |_, _| 0.0105);
         }
@@ -572,7 +627,9 @@ fn figure_meshes() -> (MeshData, MeshData, MeshData) {
     let bat_dir = DVec3::new(0.42, 0.88, 0.2).normalize();
     let bat_start = grip_hand + DVec3::new(0.0, -0.02, 0.05) - bat_dir * 0.12;
     let bat_len = 0.78;
-    let bat: Vec<DVec3> = (0..=80).map(|j| bat_start + bat_dir * bat_len * j as f64 / 80.0).collect();
+    let bat: Vec<DVec3> = (0..=80)
+        .map(|j| bat_start + bat_dir * bat_len * j as f64 / 80.0)
+        .collect();
     fig.tube(&bat, 40, 5, |j, _| {
         let t = j as f64 / 80.0;
         let knob = 0.012 * gauss(t - 0.02, 0.025);
@@ -588,7 +645,14 @@ fn figure_meshes() -> (MeshData, MeshData, MeshData) {
         let outward = DVec3::new(theta.cos(), 0.0, BODY_DEPTH * theta.sin()).normalize();
         let c = body_point(theta, y, BODY_R * 1.05, -0.02);
         eyes.ellipsoid(c, DVec3::splat(0.024), DQuat::IDENTITY, 24, 16, |_, _| 0.0);
-        pupils.ellipsoid(c + outward * 0.02, DVec3::splat(0.0095), DQuat::IDENTITY, 16, 10, |_, _| 0.0);
+        pupils.ellipsoid(
+            c + outward * 0.02,
+            DVec3::splat(0.0095),
+            DQuat::IDENTITY,
+            16,
+            10,
+            |_, _| 0.0,
+        );
     }
     (fig, eyes, pupils)
 }
@@ -597,7 +661,7 @@ fn figure_meshes() -> (MeshData, MeshData, MeshData) {
 /// and a red right wall (+x, on screen right), open at the top and the front; a wooden
 /// figure (one mesh, at least [`FIGURE_MIN_TRIANGLES`] triangles, smooth normals) with
 /// bark furrows, a carved face, limbs, fingers and a bat; a blue sphere, a yellow cube, a
-/// green cylinder and an orange cone; one 1.6 m square light (Le =
+/// green cylinder and an orange cone; one 1.4 m square light (Le =
 /// [`OPEN_BOX_LIGHT_EMISSION`]) above the front-left, outside the camera's view, tilted
 /// into the box; a camera in front of the opening, framed for 16:9.
 pub fn open_box_figure_gltf() -> String {
@@ -621,25 +685,45 @@ pub fn open_box_figure_gltf() -> String {
     for (name, corners, dir, material) in [
         (
             "floor",
-            [v(lo.x, 0.0, lo.z), v(hi.x, 0.0, lo.z), v(hi.x, 0.0, hi.z), v(lo.x, 0.0, hi.z)],
+            [
+                v(lo.x, 0.0, lo.z),
+                v(hi.x, 0.0, lo.z),
+                v(hi.x, 0.0, hi.z),
+                v(lo.x, 0.0, hi.z),
+            ],
             DVec3::Y,
             white,
         ),
         (
             "back_wall",
-            [v(lo.x, 0.0, lo.z), v(hi.x, 0.0, lo.z), v(hi.x, hi.y, lo.z), v(lo.x, hi.y, lo.z)],
+            [
+                v(lo.x, 0.0, lo.z),
+                v(hi.x, 0.0, lo.z),
+                v(hi.x, hi.y, lo.z),
+                v(lo.x, hi.y, lo.z),
+            ],
             DVec3::Z,
             white,
         ),
         (
             "left_wall",
-            [v(lo.x, 0.0, lo.z), v(lo.x, 0.0, hi.z), v(lo.x, hi.y, hi.z), v(lo.x, hi.y, lo.z)],
+            [
+                v(lo.x, 0.0, lo.z),
+                v(lo.x, 0.0, hi.z),
+                v(lo.x, hi.y, hi.z),
+                v(lo.x, hi.y, lo.z),
+            ],
             DVec3::X,
             white,
         ),
         (
             "right_wall_red",
-            [v(hi.x, 0.0, lo.z), v(hi.x, 0.0, hi.z), v(hi.x, hi.y, hi.z), v(hi.x, hi.y, lo.z)],
+            [
+                v(hi.x, 0.0, lo.z),
+                v(hi.x, 0.0, hi.z),
+                v(hi.x, hi.y, hi.z),
+                v(hi.x, hi.y, lo.z),
+            ],
             DVec3::NEG_X,
             red,
         ),
@@ -656,7 +740,14 @@ pub fn open_box_figure_gltf() -> String {
 
     // Basic geometric objects.
     let mut sphere = MeshData::default();
-    sphere.ellipsoid(v(-0.62, 0.2, 0.12), DVec3::splat(0.2), DQuat::IDENTITY, 64, 32, |_, _| 0.0);
+    sphere.ellipsoid(
+        v(-0.62, 0.2, 0.12),
+        DVec3::splat(0.2),
+        DQuat::IDENTITY,
+        64,
+        32,
+        |_, _| 0.0,
+    );
     place(&mut b, "sphere", &sphere, blue);
     let mut cube = MeshData::default();
     cube.cuboid_yaw(v(0.66, 0.16, 0.2), DVec3::splat(0.16), 0.45);
@@ -669,10 +760,13 @@ pub fn open_box_figure_gltf() -> String {
     place(&mut b, "cone", &cone, orange);
 
     // One large area light above the front-left, aimed into the box.
-    let center = v(-2.1, 3.1, 1.7);
-    let aim = v(0.25, 0.3, -0.5);
+    let center = v(-2.3, 2.4, 2.1);
+    let aim = v(0.15, 0.45, -0.5);
     let mut l = MeshData::default();
-    l.quad(light_quad(center, aim - center, (1.6, 1.6)), [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    l.quad(
+        light_quad(center, aim - center, (1.4, 1.4)),
+        [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+    );
     place(&mut b, LIGHT_NAME, &l, light);
 
     b.camera(
@@ -710,7 +804,8 @@ fn wood_planks_texture(size: u32) -> Vec<u8> {
             let tone = 0.8 + 0.4 * rand01(id, 102);
             let base = DVec3::new(0.60, 0.40, 0.24) * tone;
             let u = x as f64 / size as f64;
-            let grain_phase = ry * 9.0 + 1.8 * value_noise(u * 6.0, ry * 2.0 + id as f64 * 3.0, 6, 103);
+            let grain_phase =
+                ry * 9.0 + 1.8 * value_noise(u * 6.0, ry * 2.0 + id as f64 * 3.0, 6, 103);
             let grain = 0.5 + 0.5 * (grain_phase * TAU).sin();
             let mut c = base * (0.86 + 0.14 * grain.powi(3));
             c *= 1.0 + 0.06 * value_noise(u * 40.0, ry * 4.0 + id as f64 * 7.0, 40, 104);
@@ -735,12 +830,19 @@ fn rug_texture(size: u32) -> Vec<u8> {
     );
     for y in 0..size {
         for x in 0..size {
-            let (u, v) = ((x as f64 + 0.5) / size as f64, (y as f64 + 0.5) / size as f64);
+            let (u, v) = (
+                (x as f64 + 0.5) / size as f64,
+                (y as f64 + 0.5) / size as f64,
+            );
             let edge = u.min(v).min(1.0 - u).min(1.0 - v);
             let c = if edge < 0.03 {
                 dark
             } else if edge < 0.1 {
-                if ((u + v) * 40.0).floor() as i64 % 2 == 0 { red } else { red * 0.7 }
+                if ((u + v) * 40.0).floor() as i64 % 2 == 0 {
+                    red
+                } else {
+                    red * 0.7
+                }
             } else {
                 let (a, b) = ((u - 0.5) * 6.0, (v - 0.5) * 6.0);
                 let d = (a.rem_euclid(1.0) - 0.5).abs() + (b.rem_euclid(1.0) - 0.5).abs();
@@ -752,7 +854,9 @@ fn rug_texture(size: u32) -> Vec<u8> {
                     cream
                 }
             };
-            out.extend(srgb8(c * (0.93 + 0.07 * value_noise(u * 64.0, v * 64.0, 0, 201))));
+            out.extend(srgb8(
+                c * (0.93 + 0.07 * value_noise(u * 64.0, v * 64.0, 0, 201)),
+            ));
         }
     }
     out
@@ -765,17 +869,25 @@ fn painting_texture(w: u32, h: u32) -> Vec<u8> {
         for x in 0..w {
             let (u, v) = ((x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64);
             // v = 0 is the top row.
-            let sky = DVec3::new(0.95, 0.55, 0.25).lerp(DVec3::new(0.25, 0.3, 0.6), (1.0 - v / 0.7).clamp(0.0, 1.0));
+            let sky = DVec3::new(0.95, 0.55, 0.25)
+                .lerp(DVec3::new(0.25, 0.3, 0.6), (1.0 - v / 0.7).clamp(0.0, 1.0));
             let mut c = sky;
             if ((u - 0.68).powi(2) + (v - 0.42).powi(2) * 0.6).sqrt() < 0.09 {
                 c = DVec3::new(1.0, 0.9, 0.6);
             }
-            for (k, colour) in [DVec3::new(0.3, 0.35, 0.45), DVec3::new(0.18, 0.32, 0.2), DVec3::new(0.1, 0.2, 0.1)]
-                .into_iter()
-                .enumerate()
+            for (k, colour) in [
+                DVec3::new(0.3, 0.35, 0.45),
+                DVec3::new(0.18, 0.32, 0.2),
+                DVec3::new(0.1, 0.2, 0.1),
+            ]
+            .into_iter()
+            .enumerate()
             {
                 let k = k as f64;
-                let ridge = 0.5 + 0.1 * k + 0.06 * (u * (7.0 + 3.0 * k) + k).sin() + 0.03 * value_noise(u * 12.0, k, 0, 300);
+                let ridge = 0.5
+                    + 0.1 * k
+                    + 0.06 * (u * (7.0 + 3.0 * k) + k).sin()
+                    + 0.03 * value_noise(u * 12.0, k, 0, 300);
                 if v > ridge {
                     c = colour;
                 }
@@ -813,7 +925,13 @@ struct RoomMaterials {
 
 /// Adds a furniture piece: a group node `furniture_<name>` at `pos`, rotated by `yaw`
 /// about +Y, with one child mesh node per part.
-fn furniture(b: &mut GltfBuilder, name: &str, pos: DVec3, yaw: f64, parts: Vec<(&str, MeshData, usize, bool)>) {
+fn furniture(
+    b: &mut GltfBuilder,
+    name: &str,
+    pos: DVec3,
+    yaw: f64,
+    parts: Vec<(&str, MeshData, usize, bool)>,
+) {
     let piece = format!("{FURNITURE_PREFIX}{name}");
     let matrix = Mat4::from_rotation_translation(Quat::from_rotation_y(yaw as f32), pos.as_vec3());
     let group = b.group(&piece, matrix.to_cols_array());
@@ -829,10 +947,16 @@ fn furniture(b: &mut GltfBuilder, name: &str, pos: DVec3, yaw: f64, parts: Vec<(
 fn table(size: DVec3, top_thickness: f64, leg: f64) -> MeshData {
     let mut m = MeshData::default();
     let (hx, hz) = (size.x / 2.0, size.z / 2.0);
-    m.cuboid(DVec3::new(-hx, size.y - top_thickness, -hz), DVec3::new(hx, size.y, hz));
+    m.cuboid(
+        DVec3::new(-hx, size.y - top_thickness, -hz),
+        DVec3::new(hx, size.y, hz),
+    );
     for (sx, sz) in [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)] {
         let c = DVec3::new(sx * (hx - 1.5 * leg), 0.0, sz * (hz - 1.5 * leg));
-        m.cuboid(c - DVec3::new(leg / 2.0, 0.0, leg / 2.0), c + DVec3::new(leg / 2.0, size.y - top_thickness, leg / 2.0));
+        m.cuboid(
+            c - DVec3::new(leg / 2.0, 0.0, leg / 2.0),
+            c + DVec3::new(leg / 2.0, size.y - top_thickness, leg / 2.0),
+        );
     }
     m
 }
@@ -842,7 +966,10 @@ fn chair() -> MeshData {
     let mut m = table(DVec3::new(0.44, 0.46, 0.44), 0.04, 0.04);
     m.cuboid(DVec3::new(-0.22, 0.46, 0.18), DVec3::new(0.22, 0.95, 0.22));
     for x in [-0.1, 0.0, 0.1] {
-        m.cuboid(DVec3::new(x - 0.015, 0.46, 0.185), DVec3::new(x + 0.015, 0.9, 0.215));
+        m.cuboid(
+            DVec3::new(x - 0.015, 0.46, 0.185),
+            DVec3::new(x + 0.015, 0.9, 0.215),
+        );
     }
     m
 }
@@ -857,7 +984,14 @@ fn foliage(base: DVec3, n: usize, length: f64, seed: u32) -> MeshData {
         let half = 0.5 * length * (0.7 + 0.3 * rand01(k as i64, seed + 2));
         let rot = DQuat::from_rotation_y(yaw) * DQuat::from_rotation_x(tilt);
         let centre = base + rot * DVec3::new(0.0, half, 0.0);
-        m.ellipsoid(centre, DVec3::new(0.045, half, 0.012), rot, 12, 10, |_, _| 0.0);
+        m.ellipsoid(
+            centre,
+            DVec3::new(0.045, half, 0.012),
+            rot,
+            12,
+            10,
+            |_, _| 0.0,
+        );
     }
     m
 }
@@ -878,8 +1012,8 @@ fn curtain(x: f64, z0: f64, z1: f64, y0: f64, y1: f64) -> MeshData {
 
 /// The living room as glTF JSON text: a 6 m x 5 m x 2.7 m room (floor, ceiling, four walls
 /// facing inward) with a 2 m x 1.4 m window in the right wall (+x; the wall is built from
-/// four quads around the hole, with a reveal and a cross-shaped frame), one 2.4 m x 2 m
-/// light outside facing the window (Le = [`LIVING_ROOM_LIGHT_EMISSION`]), and
+/// four quads around the hole, with a reveal and a cross-shaped frame), one 2 m x 1.5 m
+/// light 5.5 m outside, facing the window (Le = [`LIVING_ROOM_LIGHT_EMISSION`]), and
 /// [`LIVING_ROOM_FURNITURE_PIECES`] furniture pieces (see [`FURNITURE_PREFIX`]). The floor
 /// (wood planks), the rug and the painting have PNG base colour textures with `TEXCOORD_0`;
 /// everything else is untextured. The camera stands in the front-right corner looking
@@ -916,29 +1050,38 @@ pub fn living_room_gltf() -> String {
         frame: b.material("frame_gilt", [0.6, 0.45, 0.15], [0.0; 3], false),
         picture: b.material("picture", [0.3, 0.45, 0.55], [0.0; 3], false),
     };
-    let light = b.material("light", [0.78, 0.78, 0.78], LIVING_ROOM_LIGHT_EMISSION, false);
+    let light = b.material(
+        "light",
+        [0.78, 0.78, 0.78],
+        LIVING_ROOM_LIGHT_EMISSION,
+        false,
+    );
 
     room_shell(&mut b, &mats, floor_mat);
     room_furniture(&mut b, &mats, rug_mat, painting_mat);
 
-    // The light: outside the window, above it, facing down into the room through it.
+    // The light: 5.5 m outside the window's centre, 34 degrees above it, facing back through
+    // it like a low sun: its (soft-edged) patch crosses the floor toward the couch.
     let (wlo, whi) = (
         DVec3::from(Vec3::from(LIVING_ROOM_WINDOW_MIN)),
         DVec3::from(Vec3::from(LIVING_ROOM_WINDOW_MAX)),
     );
     let window_centre = 0.5 * (wlo + whi);
-    let centre = DVec3::new(5.0, 3.9, window_centre.z);
-    let aim = DVec3::new(1.2, 0.0, window_centre.z);
+    let to_light = DVec3::new(34f64.to_radians().cos(), 34f64.to_radians().sin(), 0.0);
+    let centre = window_centre + 5.5 * to_light;
     let mut l = MeshData::default();
-    l.quad(light_quad(centre, aim - centre, (2.4, 2.0)), [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    l.quad(
+        light_quad(centre, -to_light, (2.0, 1.5)),
+        [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+    );
     place(&mut b, LIGHT_NAME, &l, light);
 
     b.camera(
         "camera",
-        [2.3, 1.6, 2.35],
-        [-1.2, 0.65, -1.0],
+        [2.6, 1.7, 2.35],
+        [-1.0, 0.3, -1.0],
         [0.0, 1.0, 0.0],
-        52f32.to_radians(),
+        55f32.to_radians(),
     );
     b.to_json_string()
 }
@@ -957,21 +1100,58 @@ fn room_shell(b: &mut GltfBuilder, mats: &RoomMaterials, floor_mat: usize) {
 
     // Floor with UVs in metres / 1.6 (one texture repeat per 1.6 m).
     let mut floor = MeshData::default();
-    let corners = [v(lo.x, 0.0, lo.z), v(lo.x, 0.0, hi.z), v(hi.x, 0.0, hi.z), v(hi.x, 0.0, lo.z)];
+    let corners = [
+        v(lo.x, 0.0, lo.z),
+        v(lo.x, 0.0, hi.z),
+        v(hi.x, 0.0, hi.z),
+        v(hi.x, 0.0, lo.z),
+    ];
     floor.quad(corners, corners.map(|p| [p.x / 1.6, p.z / 1.6]));
     assert!(floor.normals[0].y > 0.0);
     let m = floor.emit(b, "floor", floor_mat, true);
     b.node("floor", m, [0.0; 3]);
 
     let mut ceiling = MeshData::default();
-    ceiling.quad_facing([v(lo.x, hi.y, lo.z), v(hi.x, hi.y, lo.z), v(hi.x, hi.y, hi.z), v(lo.x, hi.y, hi.z)], DVec3::NEG_Y);
+    ceiling.quad_facing(
+        [
+            v(lo.x, hi.y, lo.z),
+            v(hi.x, hi.y, lo.z),
+            v(hi.x, hi.y, hi.z),
+            v(lo.x, hi.y, hi.z),
+        ],
+        DVec3::NEG_Y,
+    );
     place(b, "ceiling", &ceiling, mats.ceiling);
 
     let mut walls = MeshData::default();
     // Back (z = lo.z), front (z = hi.z), left (x = lo.x).
-    walls.quad_facing([v(lo.x, 0.0, lo.z), v(hi.x, 0.0, lo.z), v(hi.x, hi.y, lo.z), v(lo.x, hi.y, lo.z)], DVec3::Z);
-    walls.quad_facing([v(lo.x, 0.0, hi.z), v(hi.x, 0.0, hi.z), v(hi.x, hi.y, hi.z), v(lo.x, hi.y, hi.z)], DVec3::NEG_Z);
-    walls.quad_facing([v(lo.x, 0.0, lo.z), v(lo.x, 0.0, hi.z), v(lo.x, hi.y, hi.z), v(lo.x, hi.y, lo.z)], DVec3::X);
+    walls.quad_facing(
+        [
+            v(lo.x, 0.0, lo.z),
+            v(hi.x, 0.0, lo.z),
+            v(hi.x, hi.y, lo.z),
+            v(lo.x, hi.y, lo.z),
+        ],
+        DVec3::Z,
+    );
+    walls.quad_facing(
+        [
+            v(lo.x, 0.0, hi.z),
+            v(hi.x, 0.0, hi.z),
+            v(hi.x, hi.y, hi.z),
+            v(lo.x, hi.y, hi.z),
+        ],
+        DVec3::NEG_Z,
+    );
+    walls.quad_facing(
+        [
+            v(lo.x, 0.0, lo.z),
+            v(lo.x, 0.0, hi.z),
+            v(lo.x, hi.y, hi.z),
+            v(lo.x, hi.y, lo.z),
+        ],
+        DVec3::X,
+    );
     // Right wall (x = hi.x) from four quads around the window.
     let x = hi.x;
     for (y0, y1, z0, z1) in [
@@ -980,14 +1160,49 @@ fn room_shell(b: &mut GltfBuilder, mats: &RoomMaterials, floor_mat: usize) {
         (wlo.y, whi.y, lo.z, wlo.z),
         (wlo.y, whi.y, whi.z, hi.z),
     ] {
-        walls.quad_facing([v(x, y0, z0), v(x, y0, z1), v(x, y1, z1), v(x, y1, z0)], DVec3::NEG_X);
+        walls.quad_facing(
+            [v(x, y0, z0), v(x, y0, z1), v(x, y1, z1), v(x, y1, z0)],
+            DVec3::NEG_X,
+        );
     }
     // The reveal: the window opening's four sides through the wall's thickness.
     let xo = x + WALL_THICKNESS;
-    walls.quad_facing([v(x, wlo.y, wlo.z), v(xo, wlo.y, wlo.z), v(xo, wlo.y, whi.z), v(x, wlo.y, whi.z)], DVec3::Y);
-    walls.quad_facing([v(x, whi.y, wlo.z), v(xo, whi.y, wlo.z), v(xo, whi.y, whi.z), v(x, whi.y, whi.z)], DVec3::NEG_Y);
-    walls.quad_facing([v(x, wlo.y, wlo.z), v(xo, wlo.y, wlo.z), v(xo, whi.y, wlo.z), v(x, whi.y, wlo.z)], DVec3::Z);
-    walls.quad_facing([v(x, wlo.y, whi.z), v(xo, wlo.y, whi.z), v(xo, whi.y, whi.z), v(x, whi.y, whi.z)], DVec3::NEG_Z);
+    walls.quad_facing(
+        [
+            v(x, wlo.y, wlo.z),
+            v(xo, wlo.y, wlo.z),
+            v(xo, wlo.y, whi.z),
+            v(x, wlo.y, whi.z),
+        ],
+        DVec3::Y,
+    );
+    walls.quad_facing(
+        [
+            v(x, whi.y, wlo.z),
+            v(xo, whi.y, wlo.z),
+            v(xo, whi.y, whi.z),
+            v(x, whi.y, whi.z),
+        ],
+        DVec3::NEG_Y,
+    );
+    walls.quad_facing(
+        [
+            v(x, wlo.y, wlo.z),
+            v(xo, wlo.y, wlo.z),
+            v(xo, whi.y, wlo.z),
+            v(x, whi.y, wlo.z),
+        ],
+        DVec3::Z,
+    );
+    walls.quad_facing(
+        [
+            v(x, wlo.y, whi.z),
+            v(xo, wlo.y, whi.z),
+            v(xo, whi.y, whi.z),
+            v(x, whi.y, whi.z),
+        ],
+        DVec3::NEG_Z,
+    );
     place(b, "walls", &walls, mats.wall);
 
     // Window frame: a cross of bars in the middle of the reveal, plus a sill.
@@ -996,7 +1211,10 @@ fn room_shell(b: &mut GltfBuilder, mats: &RoomMaterials, floor_mat: usize) {
     let (zc, yc) = (0.5 * (wlo.z + whi.z), 0.5 * (wlo.y + whi.y) + 0.15);
     frame.cuboid(v(xm - t, wlo.y, zc - t), v(xm + t, whi.y, zc + t));
     frame.cuboid(v(xm - t, yc - t, wlo.z), v(xm + t, yc + t, whi.z));
-    frame.cuboid(v(x - 0.06, wlo.y - 0.03, wlo.z - 0.08), v(x + 0.02, wlo.y, whi.z + 0.08));
+    frame.cuboid(
+        v(x - 0.06, wlo.y - 0.03, wlo.z - 0.08),
+        v(x + 0.02, wlo.y, whi.z + 0.08),
+    );
     place(b, "window_frame", &frame, mats.wood_light);
 
     // Baseboards and a door on the front wall (decor, not furniture).
@@ -1013,7 +1231,7 @@ fn room_furniture(b: &mut GltfBuilder, mats: &RoomMaterials, rug_mat: usize, pai
     let v = DVec3::new;
     let y_rot = |a: f64| a.to_radians();
 
-    // Couch facing -x (toward the TV on the left wall), its back toward the window.
+    // Couch along the left wall facing +x (toward the window), a dark gap behind it.
     let mut frame = MeshData::default();
     frame.cuboid(v(-0.45, 0.1, -1.1), v(0.45, 0.42, 1.1)); // base
     frame.cuboid(v(0.2, 0.1, -1.1), v(0.45, 0.95, 1.1)); // back
@@ -1030,55 +1248,105 @@ fn room_furniture(b: &mut GltfBuilder, mats: &RoomMaterials, rug_mat: usize, pai
     for z in [-0.6, 0.6] {
         cushions.cuboid_yaw(v(0.12, 0.68, z), v(0.08, 0.2, 0.22), 0.0);
     }
-    furniture(b, "couch", v(-0.15, 0.0, 0.4), 0.0, vec![
-        ("frame", frame, mats.fabric_couch, false),
-        ("legs", legs, mats.wood_dark, false),
-        ("cushions", cushions, mats.fabric_cushion, false),
-    ]);
+    furniture(
+        b,
+        "couch",
+        v(-2.33, 0.0, 0.0),
+        PI,
+        vec![
+            ("frame", frame, mats.fabric_couch, false),
+            ("legs", legs, mats.wood_dark, false),
+            ("cushions", cushions, mats.fabric_cushion, false),
+        ],
+    );
 
-    furniture(b, "coffee_table", v(-1.45, 0.0, 0.4), 0.0, vec![(
-        "wood",
-        {
-            let mut m = table(v(0.6, 0.42, 1.1), 0.05, 0.05);
-            m.cuboid(v(-0.25, 0.12, -0.5), v(0.25, 0.14, 0.5)); // lower shelf
-            m
-        },
-        mats.wood_light,
-        false,
-    )]);
+    furniture(
+        b,
+        "coffee_table",
+        v(-1.3, 0.0, 0.0),
+        0.0,
+        vec![(
+            "wood",
+            {
+                let mut m = table(v(0.6, 0.42, 1.1), 0.05, 0.05);
+                m.cuboid(v(-0.25, 0.12, -0.5), v(0.25, 0.14, 0.5)); // lower shelf
+                m
+            },
+            mats.wood_light,
+            false,
+        )],
+    );
 
     // Rug under the coffee table, textured on top.
     let mut rug = MeshData::default();
     let (rx, rz, ry) = (0.95, 1.3, 0.012);
-    rug.quad([v(-rx, ry, -rz), v(-rx, ry, rz), v(rx, ry, rz), v(rx, ry, -rz)], [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]]);
-    rug.cuboid_faces(v(-rx, 0.0, -rz), v(rx, ry, rz), [true, true, false, false, true, true]);
+    rug.quad(
+        [
+            v(-rx, ry, -rz),
+            v(-rx, ry, rz),
+            v(rx, ry, rz),
+            v(rx, ry, -rz),
+        ],
+        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+    );
+    rug.cuboid_faces(
+        v(-rx, 0.0, -rz),
+        v(rx, ry, rz),
+        [true, true, false, false, true, true],
+    );
     let n = rug.uvs.len();
     for uv in &mut rug.uvs[4..n] {
         *uv = [0.0, 0.0]; // sides: the border colour
     }
-    furniture(b, "rug", v(-1.35, 0.0, 0.4), 0.0, vec![("rug", rug, rug_mat, true)]);
+    furniture(
+        b,
+        "rug",
+        v(-1.2, 0.0, 0.0),
+        0.0,
+        vec![("rug", rug, rug_mat, true)],
+    );
 
-    // TV stand and TV against the left wall.
+    // TV stand and TV against the back wall, facing +z.
     let mut stand = MeshData::default();
     stand.cuboid(v(-0.22, 0.05, -0.9), v(0.22, 0.5, 0.9));
     let mut stand_legs = MeshData::default();
     for z in [-0.85, 0.85] {
         stand_legs.cuboid(v(-0.2, 0.0, z - 0.03), v(0.2, 0.05, z + 0.03));
     }
-    furniture(b, "tv_stand", v(-2.76, 0.0, 0.4), 0.0, vec![
-        ("cabinet", stand, mats.wood_dark, false),
-        ("feet", stand_legs, mats.metal, false),
-    ]);
+    furniture(
+        b,
+        "tv_stand",
+        v(-1.55, 0.0, -2.27),
+        -FRAC_PI_2,
+        vec![
+            ("cabinet", stand, mats.wood_dark, false),
+            ("feet", stand_legs, mats.metal, false),
+        ],
+    );
     let mut tv = MeshData::default();
     tv.cuboid(v(-0.03, 0.62, -0.72), v(0.03, 1.38, 0.72));
     tv.cuboid(v(-0.12, 0.5, -0.2), v(0.12, 0.52, 0.2));
     tv.cuboid(v(-0.02, 0.52, -0.04), v(0.02, 0.62, 0.04));
     let mut screen = MeshData::default();
-    screen.quad_facing([v(0.031, 0.65, -0.69), v(0.031, 0.65, 0.69), v(0.031, 1.35, 0.69), v(0.031, 1.35, -0.69)], DVec3::X);
-    furniture(b, "tv", v(-2.76, 0.0, 0.4), 0.0, vec![
-        ("body", tv, mats.black, false),
-        ("screen", screen, mats.screen, false),
-    ]);
+    screen.quad_facing(
+        [
+            v(0.031, 0.65, -0.69),
+            v(0.031, 0.65, 0.69),
+            v(0.031, 1.35, 0.69),
+            v(0.031, 1.35, -0.69),
+        ],
+        DVec3::X,
+    );
+    furniture(
+        b,
+        "tv",
+        v(-1.55, 0.0, -2.27),
+        -FRAC_PI_2,
+        vec![
+            ("body", tv, mats.black, false),
+            ("screen", screen, mats.screen, false),
+        ],
+    );
 
     // Bookshelf against the back wall, books on its shelves (four colours).
     let mut shelf = MeshData::default();
@@ -1088,9 +1356,18 @@ fn room_furniture(b: &mut GltfBuilder, mats: &RoomMaterials, rug_mat: usize, pai
     shelf.cuboid(v(-sw / 2.0, 0.0, 0.0), v(sw / 2.0, sh, 0.015));
     let levels = [0.05, 0.5, 0.95, 1.4, 1.87];
     for y in levels {
-        shelf.cuboid(v(-sw / 2.0 + 0.03, y, 0.015), v(sw / 2.0 - 0.03, y + 0.03, sd));
+        shelf.cuboid(
+            v(-sw / 2.0 + 0.03, y, 0.015),
+            v(sw / 2.0 - 0.03, y + 0.03, sd),
+        );
     }
-    furniture(b, "bookshelf", v(-0.2, 0.0, -2.5), 0.0, vec![("frame", shelf, mats.wood_light, false)]);
+    furniture(
+        b,
+        "bookshelf",
+        v(0.05, 0.0, -2.5),
+        0.0,
+        vec![("frame", shelf, mats.wood_light, false)],
+    );
     let mut books: [MeshData; 4] = Default::default();
     let mut k = 0i64;
     for (level, &y) in levels[..4].iter().enumerate() {
@@ -1102,12 +1379,17 @@ fn room_furniture(b: &mut GltfBuilder, mats: &RoomMaterials, rug_mat: usize, pai
             let d = 0.2 + 0.08 * rand01(k, 402);
             let c = (hash(k as u32 ^ 0x5bd1) % 4) as usize;
             let lean = if rand01(k, 403) < 0.08 { 0.2 } else { 0.0 };
-            books[c].cuboid_yaw(v(x + w / 2.0, 0.0, 0.03 + d / 2.0), v(w / 2.0, h / 2.0, d / 2.0), 0.0);
+            books[c].cuboid_yaw(
+                v(x + w / 2.0, 0.0, 0.03 + d / 2.0),
+                v(w / 2.0, h / 2.0, d / 2.0),
+                0.0,
+            );
             let start = books[c].positions.len() - 24;
             let rot = DQuat::from_rotation_z(lean);
             for i in start..books[c].positions.len() {
                 let p = books[c].positions[i];
-                books[c].positions[i] = rot * (p + v(0.0, h / 2.0, 0.0) - v(x + w / 2.0, 0.0, 0.0)) + v(x + w / 2.0, y + 0.03, 0.0);
+                books[c].positions[i] = rot * (p + v(0.0, h / 2.0, 0.0) - v(x + w / 2.0, 0.0, 0.0))
+                    + v(x + w / 2.0, y + 0.03, 0.0);
                 books[c].normals[i] = rot * books[c].normals[i];
             }
             x += w + 0.003 + if lean > 0.0 { 0.05 } else { 0.0 };
@@ -1115,52 +1397,90 @@ fn room_furniture(b: &mut GltfBuilder, mats: &RoomMaterials, rug_mat: usize, pai
         }
     }
     let [b0, b1, b2, b3] = books;
-    furniture(b, "books", v(-0.2, 0.0, -2.5), 0.0, vec![
-        ("red", b0, mats.book[0], false),
-        ("blue", b1, mats.book[1], false),
-        ("green", b2, mats.book[2], false),
-        ("cream", b3, mats.book[3], false),
-    ]);
+    furniture(
+        b,
+        "books",
+        v(0.05, 0.0, -2.5),
+        0.0,
+        vec![
+            ("red", b0, mats.book[0], false),
+            ("blue", b1, mats.book[1], false),
+            ("green", b2, mats.book[2], false),
+            ("cream", b3, mats.book[3], false),
+        ],
+    );
 
     // Dining table in the window light, four chairs.
     let table_pos = v(1.55, 0.0, -1.55);
-    furniture(b, "dining_table", table_pos, 0.0, vec![(
-        "wood",
-        table(v(1.5, 0.76, 0.9), 0.05, 0.07),
-        mats.wood_light,
-        false,
-    )]);
-    for (k, (dx, dz, yaw)) in [(-0.4, 0.62, 0.0), (0.4, 0.62, 0.0), (-0.4, -0.62, 180.0), (0.4, -0.62, 180.0)]
-        .into_iter()
-        .enumerate()
-    {
-        furniture(b, &format!("chair_{}", k + 1), table_pos + v(dx, 0.0, dz), y_rot(yaw + 8.0 * (k as f64 - 1.5)), vec![(
+    furniture(
+        b,
+        "dining_table",
+        table_pos,
+        0.0,
+        vec![(
             "wood",
-            chair(),
-            mats.wood_dark,
+            table(v(1.5, 0.76, 0.9), 0.05, 0.07),
+            mats.wood_light,
             false,
-        )]);
+        )],
+    );
+    for (k, (dx, dz, yaw)) in [
+        (-0.4, 0.62, 0.0),
+        (0.4, 0.62, 0.0),
+        (-0.4, -0.62, 180.0),
+        (0.4, -0.62, 180.0),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        furniture(
+            b,
+            &format!("chair_{}", k + 1),
+            table_pos + v(dx, 0.0, dz),
+            y_rot(yaw + 8.0 * (k as f64 - 1.5)),
+            vec![("wood", chair(), mats.wood_dark, false)],
+        );
     }
     // Pendant lamp over the dining table (not a light source).
     let mut cord = MeshData::default();
     cord.frustum(v(0.0, 1.95, 0.0), 0.008, 0.008, 0.75, 8);
     let mut shade = MeshData::default();
     shade.frustum(v(0.0, 1.7, 0.0), 0.25, 0.06, 0.25, 48);
-    furniture(b, "pendant_lamp", table_pos, 0.0, vec![
-        ("cord", cord, mats.metal, false),
-        ("shade", shade, mats.cream, false),
-    ]);
+    furniture(
+        b,
+        "pendant_lamp",
+        table_pos,
+        0.0,
+        vec![
+            ("cord", cord, mats.metal, false),
+            ("shade", shade, mats.cream, false),
+        ],
+    );
     // A vase on the table.
     let mut vase = MeshData::default();
     vase.surface(32, 24, true, Facing::Outward, |i, j| {
         let theta = TAU * i as f64 / 32.0;
         let t = j as f64 / 24.0;
-        let r = if j == 0 || j == 24 { 0.0 } else { 0.05 + 0.04 * (PI * t).sin() - 0.025 * smoothstep(0.7, 1.0, t) };
-        v(r * theta.cos(), 0.76 + 0.3 * t.clamp(0.0, 1.0), -r * theta.sin())
+        let r = if j == 0 || j == 24 {
+            0.0
+        } else {
+            0.05 + 0.04 * (PI * t).sin() - 0.025 * smoothstep(0.7, 1.0, t)
+        };
+        v(
+            r * theta.cos(),
+            0.76 + 0.3 * t.clamp(0.0, 1.0),
+            -r * theta.sin(),
+        )
     });
-    furniture(b, "vase", table_pos + v(0.2, 0.0, 0.1), 0.0, vec![("vase", vase, mats.pot, false)]);
+    furniture(
+        b,
+        "vase",
+        table_pos + v(0.2, 0.0, 0.1),
+        0.0,
+        vec![("vase", vase, mats.pot, false)],
+    );
 
-    // Armchair in the back-left, turned toward the coffee table.
+    // Armchair in the front-left, turned toward the coffee table.
     let mut arm = MeshData::default();
     arm.cuboid(v(-0.42, 0.12, -0.4), v(0.42, 0.42, 0.4));
     arm.cuboid(v(-0.42, 0.12, 0.22), v(0.42, 0.95, 0.42));
@@ -1169,7 +1489,13 @@ fn room_furniture(b: &mut GltfBuilder, mats: &RoomMaterials, rug_mat: usize, pai
     for (x, z) in [(-0.36, -0.34), (0.36, -0.34), (0.36, 0.36), (-0.36, 0.36)] {
         arm.cuboid(v(x - 0.03, 0.0, z - 0.03), v(x + 0.03, 0.12, z + 0.03));
     }
-    furniture(b, "armchair", v(-1.75, 0.0, -1.55), y_rot(215.0), vec![("fabric", arm, mats.fabric_chair, false)]);
+    furniture(
+        b,
+        "armchair",
+        v(-1.1, 0.0, 1.65),
+        y_rot(-25.0),
+        vec![("fabric", arm, mats.fabric_chair, false)],
+    );
 
     // Cabinet (sideboard) against the left wall at the back, with handles.
     let mut cab = MeshData::default();
@@ -1181,82 +1507,182 @@ fn room_furniture(b: &mut GltfBuilder, mats: &RoomMaterials, rug_mat: usize, pai
     for z in [-0.05, 0.05] {
         handles.cuboid(v(0.22, 0.55, z - 0.01), v(0.24, 0.7, z + 0.01));
     }
-    furniture(b, "cabinet", v(-2.78, 0.0, -1.75), 0.0, vec![
-        ("body", cab, mats.wood_dark, false),
-        ("handles", handles, mats.metal, false),
-    ]);
+    furniture(
+        b,
+        "cabinet",
+        v(-2.78, 0.0, -1.9),
+        0.0,
+        vec![
+            ("body", cab, mats.wood_dark, false),
+            ("handles", handles, mats.metal, false),
+        ],
+    );
 
-    // Floor lamp behind the couch's corner, side table beside the couch.
+    // Floor lamp in the front-left corner, side table at the couch's end.
     let mut lamp = MeshData::default();
     lamp.frustum(v(0.0, 0.0, 0.0), 0.16, 0.16, 0.03, 32);
     lamp.frustum(v(0.0, 0.03, 0.0), 0.015, 0.015, 1.4, 12);
     let mut lamp_shade = MeshData::default();
     lamp_shade.frustum(v(0.0, 1.35, 0.0), 0.22, 0.15, 0.3, 48);
-    furniture(b, "floor_lamp", v(0.55, 0.0, 1.85), 0.0, vec![
-        ("stand", lamp, mats.metal, false),
-        ("shade", lamp_shade, mats.cream, false),
-    ]);
+    furniture(
+        b,
+        "floor_lamp",
+        v(-2.6, 0.0, 2.1),
+        0.0,
+        vec![
+            ("stand", lamp, mats.metal, false),
+            ("shade", lamp_shade, mats.cream, false),
+        ],
+    );
     let mut side = MeshData::default();
     side.frustum(v(0.0, 0.0, 0.0), 0.2, 0.2, 0.03, 32);
     side.frustum(v(0.0, 0.03, 0.0), 0.03, 0.03, 0.5, 12);
     side.frustum(v(0.0, 0.53, 0.0), 0.25, 0.25, 0.03, 48);
-    furniture(b, "side_table", v(-0.3, 0.0, -1.15), 0.0, vec![("wood", side, mats.wood_light, false)]);
+    furniture(
+        b,
+        "side_table",
+        v(-2.55, 0.0, 1.45),
+        0.0,
+        vec![("wood", side, mats.wood_light, false)],
+    );
 
     // Plants: pots with foliage, one in the sunlit back-right corner, one front-left.
-    for (name, pos, seed, scale) in [("plant_1", v(2.5, 0.0, -2.05), 500u32, 1.0), ("plant_2", v(-2.55, 0.0, 2.05), 510, 0.8)] {
+    for (name, pos, seed, scale) in [
+        ("plant_1", v(2.4, 0.0, -2.1), 500u32, 1.0),
+        ("plant_2", v(-0.85, 0.0, -2.15), 510, 0.8),
+    ] {
         let mut pot = MeshData::default();
-        pot.frustum(v(0.0, 0.0, 0.0), 0.14 * scale, 0.19 * scale, 0.38 * scale, 32);
+        pot.frustum(
+            v(0.0, 0.0, 0.0),
+            0.14 * scale,
+            0.19 * scale,
+            0.38 * scale,
+            32,
+        );
         let leaves = foliage(v(0.0, 0.35 * scale, 0.0), 16, 0.6 * scale, seed);
-        furniture(b, name, pos, 0.0, vec![
-            ("pot", pot, mats.pot, false),
-            ("leaves", leaves, mats.leaves, false),
-        ]);
+        furniture(
+            b,
+            name,
+            pos,
+            0.0,
+            vec![
+                ("pot", pot, mats.pot, false),
+                ("leaves", leaves, mats.leaves, false),
+            ],
+        );
     }
 
-    // Painting (textured) above the couch... on the back wall; a picture frame on the left.
+    // Painting (textured) on the back wall above the dining table; a picture frame above
+    // the couch.
     let mut pframe = MeshData::default();
     pframe.cuboid(v(-0.62, -0.47, 0.0), v(0.62, -0.41, 0.04));
     pframe.cuboid(v(-0.62, 0.41, 0.0), v(0.62, 0.47, 0.04));
     pframe.cuboid(v(-0.62, -0.41, 0.0), v(-0.56, 0.41, 0.04));
     pframe.cuboid(v(0.56, -0.41, 0.0), v(0.62, 0.41, 0.04));
     let mut canvas = MeshData::default();
-    canvas.quad([v(-0.56, 0.41, 0.02), v(-0.56, -0.41, 0.02), v(0.56, -0.41, 0.02), v(0.56, 0.41, 0.02)], [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]]);
-    furniture(b, "painting", v(1.4, 1.65, -2.5), 0.0, vec![
-        ("frame", pframe, mats.frame, false),
-        ("canvas", canvas, painting_mat, true),
-    ]);
+    canvas.quad(
+        [
+            v(-0.56, 0.41, 0.02),
+            v(-0.56, -0.41, 0.02),
+            v(0.56, -0.41, 0.02),
+            v(0.56, 0.41, 0.02),
+        ],
+        [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]],
+    );
+    furniture(
+        b,
+        "painting",
+        v(1.4, 1.65, -2.5),
+        0.0,
+        vec![
+            ("frame", pframe, mats.frame, false),
+            ("canvas", canvas, painting_mat, true),
+        ],
+    );
     let mut small = MeshData::default();
     small.cuboid(v(-0.25, -0.2, 0.0), v(0.25, 0.2, 0.03));
     let mut photo = MeshData::default();
-    photo.quad_facing([v(-0.2, -0.15, 0.031), v(0.2, -0.15, 0.031), v(0.2, 0.15, 0.031), v(-0.2, 0.15, 0.031)], DVec3::Z);
-    furniture(b, "picture_frame", v(-3.0, 1.75, -1.75), y_rot(90.0), vec![
-        ("frame", small, mats.wood_dark, false),
-        ("picture", photo, mats.picture, false),
-    ]);
+    photo.quad_facing(
+        [
+            v(-0.2, -0.15, 0.031),
+            v(0.2, -0.15, 0.031),
+            v(0.2, 0.15, 0.031),
+            v(-0.2, 0.15, 0.031),
+        ],
+        DVec3::Z,
+    );
+    furniture(
+        b,
+        "picture_frame",
+        v(-3.0, 1.55, 0.0),
+        y_rot(90.0),
+        vec![
+            ("frame", small, mats.wood_dark, false),
+            ("picture", photo, mats.picture, false),
+        ],
+    );
 
     // Curtains on both sides of the window.
     let (wlo, whi) = (LIVING_ROOM_WINDOW_MIN, LIVING_ROOM_WINDOW_MAX);
     let (wz0, wz1) = (wlo[2] as f64, whi[2] as f64);
-    furniture(b, "curtain_left", DVec3::ZERO, 0.0, vec![("cloth", curtain(3.0, wz0 - 0.55, wz0 + 0.05, 0.3, 2.45), mats.curtain, false)]);
-    furniture(b, "curtain_right", DVec3::ZERO, 0.0, vec![("cloth", curtain(3.0, wz1 - 0.05, wz1 + 0.55, 0.3, 2.45), mats.curtain, false)]);
+    furniture(
+        b,
+        "curtain_left",
+        DVec3::ZERO,
+        0.0,
+        vec![(
+            "cloth",
+            curtain(3.0, wz0 - 0.5, wz0 + 0.05, 0.3, 2.45),
+            mats.curtain,
+            false,
+        )],
+    );
+    furniture(
+        b,
+        "curtain_right",
+        DVec3::ZERO,
+        0.0,
+        vec![(
+            "cloth",
+            curtain(3.0, wz1 - 0.05, wz1 + 0.55, 0.3, 2.45),
+            mats.curtain,
+            false,
+        )],
+    );
 
-    // Ottoman in front of the armchair, a second small stool by the window.
+    // Ottoman between the couch and the dining area.
     let mut ottoman = MeshData::default();
     ottoman.cuboid(v(-0.25, 0.06, -0.25), v(0.25, 0.4, 0.25));
     for (x, z) in [(-0.2, -0.2), (0.2, -0.2), (0.2, 0.2), (-0.2, 0.2)] {
         ottoman.cuboid(v(x - 0.02, 0.0, z - 0.02), v(x + 0.02, 0.06, z + 0.02));
     }
-    furniture(b, "ottoman", v(-1.25, 0.0, -1.0), y_rot(20.0), vec![("fabric", ottoman, mats.fabric_chair, false)]);
+    furniture(
+        b,
+        "ottoman",
+        v(-0.35, 0.0, -0.9),
+        y_rot(20.0),
+        vec![("fabric", ottoman, mats.fabric_chair, false)],
+    );
 
     // A low shelf with storage boxes under the window.
     let mut low = MeshData::default();
     low.cuboid(v(-0.18, 0.0, -0.6), v(0.18, 0.45, 0.6));
     let mut boxes = MeshData::default();
     for (k, z) in [-0.35, 0.05, 0.4].into_iter().enumerate() {
-        boxes.cuboid_yaw(v(0.0, 0.45 + 0.06 + 0.02 * k as f64, z), v(0.1, 0.06 + 0.02 * k as f64, 0.12), 0.2 * k as f64);
+        boxes.cuboid_yaw(
+            v(0.0, 0.45 + 0.06 + 0.02 * k as f64, z),
+            v(0.1, 0.06 + 0.02 * k as f64, 0.12),
+            0.2 * k as f64,
+        );
     }
-    furniture(b, "low_shelf", v(2.78, 0.0, -0.5), 0.0, vec![
-        ("body", low, mats.wood_light, false),
-        ("boxes", boxes, mats.book[3], false),
-    ]);
+    furniture(
+        b,
+        "low_shelf",
+        v(2.78, 0.0, -0.9),
+        0.0,
+        vec![
+            ("body", low, mats.wood_light, false),
+            ("boxes", boxes, mats.book[3], false),
+        ],
+    );
 }
