@@ -411,7 +411,7 @@ impl ResultsOptions {
             markdown_name: "results.md".into(),
             checkpoints: DEFAULT_CHECKPOINTS.to_vec(),
             runs: 3,
-            pt_reference_frames: 4096,
+            pt_reference_frames: 1024,
             vpl_reference_frames: 1024,
             vpls_direct: 100_000,
             vpls_indirect: 100_000,

@@ -1,0 +1,75 @@
+//! The equal-time benchmark end to end: `bench --curves --quick` on one scene and
+//! `results --quick` on the three scenes write the CSVs, tables and plots they promise.
+
+use std::path::Path;
+use std::process::Command;
+
+use restir_vpl::report::read_curves_csv;
+
+fn cli(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_restir-vpl"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(args)
+        .output()
+        .expect("run restir-vpl")
+}
+
+fn non_empty(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert!(!text.trim().is_empty(), "{} is empty", path.display());
+    text
+}
+
+#[test]
+fn bench_curves_quick_writes_csv_tables_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = cli(&["bench", "--curves", "--quick", "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let points = read_curves_csv(dir.path().join("curves.csv")).unwrap();
+    // 3 modes × 2 references × 3 checkpoints.
+    assert_eq!(points.len(), 18, "{points:?}");
+    for p in &points {
+        assert!(p.rmse.is_finite() && p.rmse > 0.0 && p.relmse.is_finite(), "{p:?}");
+        assert!(p.flip.is_some_and(|f| (0.0..=1.0).contains(&f)), "{p:?}");
+        assert!(p.gpu_ms > 0.0 && p.wall_ms > 0.0, "{p:?}");
+    }
+    // Accumulating 5 uniform frames cuts the sampling error well below one frame's (about 1/√5
+    // when the reference's own noise is small, as here: its estimate is in the Markdown).
+    let uniform = |t: u32| points.iter().find(|p| p.mode == "uniform" && p.reference == "vpl" && p.frames == t).unwrap();
+    assert!(uniform(5).rmse < 0.8 * uniform(1).rmse, "{:?} vs {:?}", uniform(5), uniform(1));
+    // Cumulative times grow with the frames.
+    assert!(uniform(5).wall_ms > uniform(1).wall_ms);
+    let md = non_empty(&dir.path().join("curves.md"));
+    for needle in ["| Sampling technique | t=1 | t=2 | t=5 |", "Uniform", "RIS", "ReSTIR", "Equal time", "rays/px", "est. noise RMSE"] {
+        assert!(md.contains(needle), "curves.md lacks {needle:?}:\n{md}");
+    }
+    non_empty(&dir.path().join("frame_times.csv"));
+    for reference in ["pt", "vpl"] {
+        for kind in ["frames", "time"] {
+            let svg = non_empty(&dir.path().join(format!("plots/cornell_box_{reference}_rmse_vs_{kind}.svg")));
+            assert!(svg.contains("<svg") && svg.contains("Uniform") && svg.contains("ReSTIR"));
+        }
+    }
+    // Both references were written and are reused by a second run (nothing re-rendered).
+    let o = cli(&["bench", "--curves", "--quick", "--out", out]);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("reusing"), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn results_quick_covers_the_three_scenes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = cli(&["results", "--quick", "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = non_empty(&dir.path().join("results.md"));
+    for scene in ["cornell_box", "living_room", "open_box_figure"] {
+        assert!(md.contains(&format!("## {scene}")), "results.md lacks {scene}");
+        for reference in ["pt", "vpl"] {
+            non_empty(&dir.path().join(format!("plots/{scene}_{reference}_rmse_vs_time.svg")));
+        }
+    }
+    let points = read_curves_csv(dir.path().join("curves.csv")).unwrap();
+    assert_eq!(points.len(), 3 * 18);
+}
