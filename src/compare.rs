@@ -112,6 +112,9 @@ pub struct Comparison {
     pub mean_a: f64,
     /// Mean of b over the compared pixels and all channels.
     pub mean_b: f64,
+    /// Share of the summed squared error that the worst 0.1% of the compared pixels (at least one)
+    /// carry: near 0.001 for evenly spread noise, near 1 when a few fireflies make the RMSE.
+    pub worst_share: f64,
     /// mean_a / mean_b, the bias indicator (1 = unbiased on average). Never NaN: when mean_b is 0 it
     /// is 1 if mean_a is 0 too, else ±infinity with the sign of mean_a (written as `null` in JSON).
     /// With no pixel compared both means are 0 and the ratio is 1 (and RMSE, relMSE are 0).
@@ -170,20 +173,32 @@ pub fn compare_with_error_map(
     check_sizes(a, b)?;
     let mut n = 0u64;
     let (mut se, mut rel, mut sum_a, mut sum_b) = (0f64, 0f64, 0f64, 0f64);
+    let mut pixel_se = Vec::with_capacity(a.pixels.len());
     for (pa, pb) in a.pixels.iter().zip(&b.pixels) {
         if !(pa.iter().all(|c| c.is_finite()) && pb.iter().all(|c| c.is_finite())) {
             continue;
         }
         n += 1;
+        let mut px = 0.0;
         for c in 0..3 {
             let (x, y) = (pa[c] as f64, pb[c] as f64);
             let d2 = (x - y) * (x - y);
+            px += d2;
             se += d2;
             rel += d2 / (y * y + 0.01);
             sum_a += x;
             sum_b += y;
         }
+        pixel_se.push(px);
     }
+    let worst_share = if se > 0.0 {
+        let k = pixel_se.len().div_ceil(1000);
+        let split = pixel_se.len() - k;
+        pixel_se.select_nth_unstable_by(split, f64::total_cmp);
+        pixel_se[split..].iter().sum::<f64>() / se
+    } else {
+        0.0
+    };
     let samples = (3 * n) as f64;
     let (rmse, relmse, mean_a, mean_b) = if n == 0 {
         (0.0, 0.0, 0.0, 0.0)
@@ -214,6 +229,7 @@ pub fn compare_with_error_map(
         relmse,
         mean_a,
         mean_b,
+        worst_share,
         mean_ratio,
         flip,
         flip_exposure: opts.exposure,
@@ -299,6 +315,7 @@ pub fn table(c: &Comparison) -> String {
     );
     row("RMSE", format!("{:.6e}", c.rmse));
     row("relMSE", format!("{:.6e}", c.relmse));
+    row("worst 0.1% px", format!("{:.1}% of the squared error", 100.0 * c.worst_share));
     row("mean ratio", format!("{:.6} (test mean {:.6e} / reference mean {:.6e})", c.mean_ratio, c.mean_a, c.mean_b));
     row(
         "FLIP (LDR)",

@@ -40,6 +40,10 @@ pub struct CurvePoint {
     pub wall_ms: f64,
     pub rmse: f64,
     pub relmse: f64,
+    /// mean(image) / mean(reference): the estimator's bias shows here once the noise averages out.
+    pub mean_ratio: f64,
+    /// Share of the squared error in the worst 0.1% of pixels (fireflies when near 1).
+    pub worst_share: f64,
     pub flip: Option<f64>,
 }
 
@@ -193,7 +197,9 @@ const DASH: &str = "—";
 // ---------------------------------------------------------------------------------------------
 // CSV
 
-const CSV_HEADER: [&str; 9] = ["scene", "mode", "reference", "frames", "gpu_ms", "wall_ms", "rmse", "relmse", "flip"];
+const CSV_HEADER: [&str; 11] = [
+    "scene", "mode", "reference", "frames", "gpu_ms", "wall_ms", "rmse", "relmse", "mean_ratio", "worst_share", "flip",
+];
 
 fn csv_field<'a>(path: &Path, what: &str, s: &'a str) -> Result<&'a str> {
     if s.contains([',', '"', '\n', '\r']) {
@@ -202,7 +208,7 @@ fn csv_field<'a>(path: &Path, what: &str, s: &'a str) -> Result<&'a str> {
     Ok(s)
 }
 
-/// Writes `points` as CSV: a header row (`scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,flip`)
+/// Writes `points` as CSV: a header row (`scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip`)
 /// and one row per point; FLIP is empty when `None`. Numbers are written so that they read back
 /// exactly. Text fields must not contain commas, quotes or line breaks (an error otherwise).
 /// Creates the parent directory.
@@ -214,7 +220,7 @@ pub fn write_curves_csv(path: impl AsRef<Path>, points: &[CurvePoint]) -> Result
         let flip = p.flip.map(|f| f.to_string()).unwrap_or_default();
         writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{}",
             csv_field(path, "scene", &p.scene)?,
             csv_field(path, "mode", &p.mode)?,
             csv_field(path, "reference", &p.reference)?,
@@ -223,6 +229,8 @@ pub fn write_curves_csv(path: impl AsRef<Path>, points: &[CurvePoint]) -> Result
             p.wall_ms,
             p.rmse,
             p.relmse,
+            p.mean_ratio,
+            p.worst_share,
             flip
         )
         .unwrap();
@@ -264,7 +272,9 @@ pub fn read_curves_csv(path: impl AsRef<Path>) -> Result<Vec<CurvePoint>> {
             wall_ms: num(5)?,
             rmse: num(6)?,
             relmse: num(7)?,
-            flip: if f[8].is_empty() { None } else { Some(num(8)?) },
+            mean_ratio: num(8)?,
+            worst_share: num(9)?,
+            flip: if f[10].is_empty() { None } else { Some(num(10)?) },
         });
     }
     Ok(out)

@@ -257,7 +257,7 @@ pub fn curves(
         renderers.push(Renderer::new(ctx.clone(), scene, settings).with_context(|| format!("mode {}", m.label))?);
     }
     // Sums over runs, keyed by (mode index, reference index, checkpoint index).
-    let mut sums: BTreeMap<(usize, usize, usize), [f64; 5]> = BTreeMap::new();
+    let mut sums: BTreeMap<(usize, usize, usize), [f64; 7]> = BTreeMap::new();
     let mut flip_counts: BTreeMap<(usize, usize, usize), u32> = BTreeMap::new();
     let mut frame_gpu: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
     let mut frame_wall: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
@@ -293,9 +293,11 @@ pub fn curves(
                     let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean()? };
                     for (k, (_, reference)) in references.iter().enumerate() {
                         let c = compare(&img, reference, compare_opts)?;
-                        let e = sums.entry((i, k, next)).or_insert([0.0; 5]);
+                        let e = sums.entry((i, k, next)).or_insert([0.0; 7]);
                         e[0] += c.rmse;
                         e[1] += c.relmse;
+                        e[5] += c.mean_ratio;
+                        e[6] += c.worst_share;
                         e[3] += cum[i].0;
                         e[4] += cum[i].1;
                         if let Some(f) = c.flip {
@@ -322,6 +324,8 @@ pub fn curves(
             wall_ms: e[4] / n,
             rmse: e[0] / n,
             relmse: e[1] / n,
+            mean_ratio: e[5] / n,
+            worst_share: e[6] / n,
             flip: (flips > 0).then(|| e[2] / flips as f64),
         });
     }
@@ -456,6 +460,18 @@ struct ReferenceInfo {
     path: PathBuf,
 }
 
+/// The converged VPL answer against the path-traced one: the VPL model's own bias, if the
+/// references are converged enough to show it.
+struct ModelBias {
+    scene: String,
+    /// RMSE between the two references.
+    rmse: f64,
+    /// mean(vpl reference) / mean(pt reference).
+    mean_ratio: f64,
+    /// RMSE the two references' noise alone would give: √(noise_pt² + noise_vpl²).
+    noise_rmse: Option<f64>,
+}
+
 /// Renders (or reuses) the references, measures the curves of every scene and writes the Markdown
 /// report, the CSVs and the plots under `opts.out_dir`.
 pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String)) -> Result<ResultsOutput> {
@@ -470,6 +486,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
     let mut all_points = Vec::new();
     let mut all_rows = Vec::new();
     let mut ref_infos = Vec::new();
+    let mut model_bias = Vec::new();
     let started = Instant::now();
     for spec in &opts.scenes {
         let label = spec.label();
@@ -497,6 +514,13 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         let vpl_path = refs_dir.join(format!("{label}_{size}_vpl.exr"));
         let (vpl_img, vpl_meta) =
             ensure_reference(ctx, &scene, &vpl_settings, &vpl_path, opts.vpl_reference_frames, log)?;
+        let agreement = compare(&vpl_img, &pt_img, &CompareOptions { flip: false, ..Default::default() })?;
+        model_bias.push(ModelBias {
+            scene: label.clone(),
+            rmse: agreement.rmse,
+            mean_ratio: agreement.mean_ratio,
+            noise_rmse: pt_meta.noise_mse.zip(vpl_meta.noise_mse).map(|(a, b)| (a + b).sqrt()),
+        });
         ref_infos.push(ReferenceInfo { scene: label.clone(), kind: "pt", meta: pt_meta, path: pt_path });
         ref_infos.push(ReferenceInfo { scene: label.clone(), kind: "vpl", meta: vpl_meta, path: vpl_path });
         log(format!("{label}: measuring curves at {size}"));
@@ -533,7 +557,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         }
     }
     let markdown = opts.out_dir.join(&opts.markdown_name);
-    let text = results_markdown(ctx, opts, &all_points, &all_rows, &ref_infos, started.elapsed().as_secs_f64());
+    let text = results_markdown(ctx, opts, &all_points, &all_rows, &ref_infos, &model_bias, started.elapsed().as_secs_f64());
     std::fs::write(&markdown, text).with_context(|| format!("writing {}", markdown.display()))?;
     Ok(ResultsOutput { markdown, csv, frame_times_csv, plots, points: all_points, frame_times: all_rows })
 }
@@ -556,6 +580,59 @@ fn write_frame_times_csv(path: &Path, rows: &[FrameTimeRow]) -> Result<()> {
         s.push('\n');
     }
     std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+/// The CPU and core count of the machine that ran the study (the device may be a CPU renderer).
+fn host_description() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
+        .unwrap_or_else(|| "unknown CPU".into());
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0);
+    let mem = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        t.lines()
+            .find(|l| l.starts_with("MemTotal:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<f64>().ok())
+            .map(|kb| format!(", {:.0} GiB memory", kb / (1024.0 * 1024.0)))
+    });
+    format!("{cpu}, {threads} hardware threads{}, {}", mem.unwrap_or_default(), std::env::consts::OS)
+}
+
+/// mean ratio per scene × mode at each scene's last checkpoint, against both references.
+fn bias_table_markdown(points: &[CurvePoint], opts: &ResultsOptions) -> String {
+    use std::fmt::Write as _;
+    let mut modes: Vec<&str> = Vec::new();
+    for p in points {
+        if !modes.contains(&p.mode.as_str()) {
+            modes.push(&p.mode);
+        }
+    }
+    let mut s = String::from("| scene | reference |");
+    for m in &modes {
+        let _ = write!(s, " {} |", report::mode_display_name(m));
+    }
+    s.push_str("\n|---|---|");
+    s.push_str(&"---:|".repeat(modes.len()));
+    s.push('\n');
+    for spec in &opts.scenes {
+        let label = spec.label();
+        for reference in ["vpl", "pt"] {
+            let here: Vec<&CurvePoint> = points.iter().filter(|p| p.scene == label && p.reference == reference).collect();
+            let Some(last_t) = here.iter().map(|p| p.frames).max() else { continue };
+            let _ = write!(s, "| {label} (t = {last_t}) | {reference} |");
+            for m in &modes {
+                match here.iter().find(|p| p.mode == *m && p.frames == last_t) {
+                    Some(p) => {
+                        let _ = write!(s, " {:.4} |", p.mean_ratio);
+                    }
+                    None => s.push_str(" — |"),
+                }
+            }
+            s.push('\n');
+        }
+    }
+    s
 }
 
 /// Final RMSE of each mode at the last checkpoint and the best mode at the common equal-time budget.
@@ -595,6 +672,42 @@ fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<Stri
             ));
         }
     }
+    // Accumulating more frames of an unbiased estimator lowers the expected error; a rise says a few
+    // rare, very bright samples (fireflies) dominate the RMSE at these run counts.
+    let mut modes: Vec<&str> = Vec::new();
+    for p in points.iter().filter(|p| p.scene == scene && p.reference == reference) {
+        if !modes.contains(&p.mode.as_str()) {
+            modes.push(&p.mode);
+        }
+    }
+    for m in modes {
+        let mut curve: Vec<&CurvePoint> =
+            points.iter().filter(|p| p.scene == scene && p.reference == reference && p.mode == m).collect();
+        curve.sort_by_key(|p| p.frames);
+        let rises: Vec<String> = curve
+            .windows(2)
+            .filter(|w| w[1].rmse > w[0].rmse * 1.05)
+            .map(|w| {
+                format!(
+                    "t = {} → {}: {} → {}, the worst 0.1% of pixels carrying {:.0}% → {:.0}% of the squared error",
+                    w[0].frames,
+                    w[1].frames,
+                    report::fmt_sig3(w[0].rmse),
+                    report::fmt_sig3(w[1].rmse),
+                    100.0 * w[0].worst_share,
+                    100.0 * w[1].worst_share
+                )
+            })
+            .collect();
+        if !rises.is_empty() {
+            out.push(format!(
+                "{}'s RMSE rises with more frames ({}): a few very bright pixels (fireflies) make its RMSE at this \
+                 number of runs; FLIP and relMSE (`curves.csv`) are less sensitive to them.",
+                report::mode_display_name(m),
+                rises.join("; ")
+            ));
+        }
+    }
     out
 }
 
@@ -604,6 +717,7 @@ fn results_markdown(
     points: &[CurvePoint],
     rows: &[FrameTimeRow],
     refs: &[ReferenceInfo],
+    model_bias: &[ModelBias],
     seconds: f64,
 ) -> String {
     use std::fmt::Write as _;
@@ -617,6 +731,7 @@ fn results_markdown(
         ctx.report.name,
         ctx.report.driver
     );
+    let _ = writeln!(s, "Host: {}.\n", host_description());
     let sizes: Vec<String> =
         opts.scenes.iter().map(|s| format!("{} {}×{}", s.label(), s.width, s.height)).collect();
     let _ = writeln!(
@@ -658,6 +773,40 @@ fn results_markdown(
             r.path.file_name().map(|f| f.to_string_lossy().into_owned()).unwrap_or_default()
         );
     }
+    let _ = writeln!(s);
+    let _ = writeln!(
+        s,
+        "The VPL model's own bias (the converged VPL answer against the path-traced one; it is resolved only where the \
+         RMSE between the references clearly exceeds what their noise alone gives):\n"
+    );
+    let _ = writeln!(s, "| scene | RMSE(vpl, pt) | noise alone | mean(vpl) / mean(pt) | verdict |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---|");
+    for b in model_bias {
+        let verdict = match b.noise_rmse {
+            Some(n) if b.rmse > 2.0 * n => {
+                format!("VPL bias resolved: ≈ {} RMSE", report::fmt_sig3((b.rmse * b.rmse - n * n).max(0.0).sqrt()))
+            }
+            Some(n) => format!("VPL bias below the references' noise (< ~{})", report::fmt_sig3(2.0 * n)),
+            None => "unknown (no noise estimate)".into(),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {:.4} | {verdict} |",
+            b.scene,
+            report::fmt_sig3(b.rmse),
+            b.noise_rmse.map(report::fmt_sig3).unwrap_or_else(|| "—".into()),
+            b.mean_ratio
+        );
+    }
+    let _ = writeln!(s);
+    let _ = writeln!(s, "## Bias at the last checkpoint\n");
+    let _ = writeln!(
+        s,
+        "mean(image) / mean(reference) after the last checkpoint, averaged over the runs. Against the VPL reference an \
+         unbiased mode tends to 1 (up to the noise of a few frames, which heavy-tailed modes have much of); biased ReSTIR \
+         need not.\n"
+    );
+    s.push_str(&bias_table_markdown(points, opts));
     let _ = writeln!(s);
     let _ = writeln!(s, "## Frame times (thesis Table 1 shape)\n");
     let _ = writeln!(s, "Median per frame over all measured frames; `× uniform` is the ratio to the uniform mode measured in the same run.\n");

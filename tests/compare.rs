@@ -106,6 +106,20 @@ fn nan_pixel_reported_and_excluded() {
 }
 
 #[test]
+fn worst_share_tells_fireflies_from_spread_noise() {
+    // 100×100 = 10,000 pixels: the worst 0.1% are 10 pixels.
+    let b = image(100, 100, |_, _| [0.5, 0.5, 0.5]);
+    let spread = image(100, 100, |_, _| [0.6, 0.6, 0.6]);
+    let c = compare(&spread, &b, &no_flip()).unwrap();
+    assert!((c.worst_share - 0.001).abs() < 1e-9, "{}", c.worst_share);
+    // One firefly of +100 among pixels off by 0.01: it carries 1e4 / (1e4 + 9999·1e-4) of the error.
+    let firefly = image(100, 100, |x, y| if (x, y) == (3, 7) { [100.5; 3] } else { [0.51; 3] });
+    let c = compare(&firefly, &b, &no_flip()).unwrap();
+    assert!(c.worst_share > 0.9999, "{}", c.worst_share);
+    assert_eq!(compare(&b, &b, &no_flip()).unwrap().worst_share, 0.0);
+}
+
+#[test]
 fn size_mismatch_names_both_sizes() {
     let e = compare(&scene(8, 6), &scene(6, 8), &CompareOptions::default()).unwrap_err().to_string();
     assert!(e.contains("8x6") && e.contains("6x8"), "{e}");

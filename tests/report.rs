@@ -14,6 +14,8 @@ fn pt(scene: &str, mode: &str, reference: &str, frames: u32, wall_ms: f64, rmse:
         wall_ms,
         rmse,
         relmse: rmse * rmse * 2.0,
+        mean_ratio: 1.0 + rmse / 10.0,
+        worst_share: 0.001 + rmse / 100.0,
         flip: None,
     }
 }
@@ -46,7 +48,7 @@ fn csv_round_trip() {
     points.push(pt("sponza", "restir-unbiased", "vpl", 7, 123.456, 0.5));
     write_curves_csv(&path, &points).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.starts_with("scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,flip\n"));
+    assert!(text.starts_with("scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip\n"));
     assert_eq!(text.lines().count(), points.len() + 1);
     let back = read_curves_csv(&path).unwrap();
     assert_eq!(back, points);
@@ -61,7 +63,7 @@ fn csv_errors_name_the_path() {
     let e = write_curves_csv(&path, &p).unwrap_err().to_string();
     assert!(e.contains("bad.csv"), "{e}");
 
-    std::fs::write(&path, "scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,flip\nx,y,pt,1,2,3,oops,5,\n").unwrap();
+    std::fs::write(&path, "scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip\nx,y,pt,1,2,3,oops,5,1,0.5,\n").unwrap();
     let e = read_curves_csv(&path).unwrap_err().to_string();
     assert!(e.contains("bad.csv:2") && e.contains("rmse"), "{e}");
 
