@@ -5,8 +5,7 @@
 //! [`passes`] (one module per compute pass; the frame order is in [`passes::Passes::record_frame`]),
 //! [`renderer`] (submission), [`headless`] (runs and outputs).
 
-pub mod bench;
-pub mod compare;
+pub mod eval;
 pub mod gpu_types;
 pub mod headless;
 pub mod lights;
@@ -14,10 +13,7 @@ pub mod logger;
 pub mod output;
 pub mod passes;
 pub mod ply;
-pub mod reference;
 pub mod renderer;
-pub mod results;
-pub mod report;
 pub mod scene;
 pub mod scene_gpu;
 pub mod settings;

@@ -392,11 +392,11 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
 
 fn real_main(cli: Cli) -> Result<()> {
     if let Some(Command::Compare { test, reference, exposure, no_flip, ppd, error_image, json }) = &cli.command {
-        let opts = restir_vpl::compare::CompareOptions { flip: !*no_flip, exposure: *exposure, ppd: *ppd };
-        return restir_vpl::compare::run_cli(test, reference, &opts, error_image.as_deref(), json.as_deref());
+        let opts = restir_vpl::eval::compare::CompareOptions { flip: !*no_flip, exposure: *exposure, ppd: *ppd };
+        return restir_vpl::eval::compare::run_cli(test, reference, &opts, error_image.as_deref(), json.as_deref());
     }
     if let Some(Command::MergeReferences { inputs, out }) = &cli.command {
-        return restir_vpl::reference::run_merge_cli(inputs, out);
+        return restir_vpl::eval::reference::run_merge_cli(inputs, out);
     }
     if let Some(Command::Reference { render, out, first_frame, resume }) = &cli.command {
         let settings = settings_from(render, None)?;
@@ -411,9 +411,9 @@ fn real_main(cli: Cli) -> Result<()> {
         }
         let root = std::env::current_dir()?;
         let mut opts = if *quick {
-            restir_vpl::results::ResultsOptions::quick(&root)
+            restir_vpl::eval::results::ResultsOptions::quick(&root)
         } else {
-            restir_vpl::results::ResultsOptions::full(&root, *scale)
+            restir_vpl::eval::results::ResultsOptions::full(&root, *scale)
         };
         opts.out_dir = out.clone();
         opts.runs = runs.unwrap_or(opts.runs);
@@ -433,12 +433,12 @@ fn real_main(cli: Cli) -> Result<()> {
         if *curves {
             let root = std::env::current_dir()?;
             let mut opts = if *quick {
-                restir_vpl::results::ResultsOptions::quick(&root)
+                restir_vpl::eval::results::ResultsOptions::quick(&root)
             } else {
-                restir_vpl::results::ResultsOptions::full(&root, 0.25)
+                restir_vpl::eval::results::ResultsOptions::full(&root, 0.25)
             };
             let default_side = if *quick { 64 } else { 320 };
-            opts.scenes = vec![restir_vpl::results::SceneSpec {
+            opts.scenes = vec![restir_vpl::eval::results::SceneSpec {
                 path: scene.clone(),
                 width: width.unwrap_or(default_side),
                 height: height.unwrap_or(default_side),
@@ -466,8 +466,8 @@ fn real_main(cli: Cli) -> Result<()> {
             } else {
                 vec![(1280, 720), (1280, 1280)]
             };
-            let rows = restir_vpl::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device)?;
-            print!("{}", restir_vpl::bench::modes_markdown(&rows));
+            let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device)?;
+            print!("{}", restir_vpl::eval::bench::modes_markdown(&rows));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
                     .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
@@ -477,11 +477,11 @@ fn real_main(cli: Cli) -> Result<()> {
         if *photons {
             let runs = (*frames).min(5);
             let loaded = restir_vpl::scene::Scene::load(scene)?;
-            let dense = restir_vpl::bench::dense_scene(160, 320)?;
+            let dense = restir_vpl::eval::bench::dense_scene(160, 320)?;
             println!("| scene | triangles | VPLs (direct + indirect) | photon paths | GPU ms (median of {runs}) | M paths/s |");
             println!("|---|---:|---:|---:|---:|---:|");
             for (s, label) in [(&loaded, scene.display().to_string()), (&dense, "generated bumpy sphere in a room".to_string())] {
-                let b = restir_vpl::bench::photons(s, &label, 100_000, 100_000, runs, *device)?;
+                let b = restir_vpl::eval::bench::photons(s, &label, 100_000, 100_000, runs, *device)?;
                 println!(
                     "| {} | {} | {} + {} | {} | {:.1} | {:.2} |",
                     b.scene, b.triangles, b.direct, b.indirect_vpls, b.paths, b.gpu_ms, b.paths_per_second * 1e-6
@@ -489,7 +489,7 @@ fn real_main(cli: Cli) -> Result<()> {
             }
             return Ok(());
         }
-        let report = restir_vpl::bench::core(scene, width.unwrap_or(512), height.unwrap_or(512), *frames, *device)?;
+        let report = restir_vpl::eval::bench::core(scene, width.unwrap_or(512), height.unwrap_or(512), *frames, *device)?;
         print!("{}", report.markdown());
         if let Some(path) = json {
             std::fs::write(path, serde_json::to_string_pretty(&report)?)
@@ -570,8 +570,8 @@ fn real_main(cli: Cli) -> Result<()> {
 }
 
 fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame: u64, resume: bool) -> Result<()> {
-    use restir_vpl::reference::{merge, read_reference, write_reference};
-    use restir_vpl::results::{file_hash, reference_config, render_reference, reference_mode_ok};
+    use restir_vpl::eval::reference::{merge, read_reference, write_reference};
+    use restir_vpl::eval::results::{file_hash, reference_config, render_reference, reference_mode_ok};
     reference_mode_ok(settings)?;
     let existing = if resume {
         if first_frame != 0 {
@@ -623,12 +623,12 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
     Ok(())
 }
 
-fn results_main(opts: &restir_vpl::results::ResultsOptions) -> Result<()> {
+fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> {
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
         validate: opts.validate,
         device_index: opts.device_index,
     })?);
-    let out = restir_vpl::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
+    let out = restir_vpl::eval::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
     println!("{}", out.markdown.display());
     println!("{}", out.csv.display());
     println!("{}", out.frame_times_csv.display());
@@ -647,7 +647,7 @@ fn main() -> ExitCode {
             eprintln!("error: {e:#}");
             if e.downcast_ref::<NoRayQueryDevice>().is_some() {
                 ExitCode::from(2)
-            } else if e.downcast_ref::<restir_vpl::compare::NonFiniteInput>().is_some() {
+            } else if e.downcast_ref::<restir_vpl::eval::compare::NonFiniteInput>().is_some() {
                 ExitCode::from(3)
             } else {
                 ExitCode::FAILURE

@@ -24,6 +24,13 @@ pub struct RgbImage {
 
 /// Reads the first RGB(A) layer of an EXR file as float32, row 0 at the top.
 pub fn read_exr(path: &Path) -> Result<RgbImage> {
+    Ok(read_exr_with_attribute(path, "")?.0)
+}
+
+/// [`read_exr`], plus the header attribute `attribute` (looked up in the layer's header, then the
+/// image's) when the file has it. The one EXR reader of the crate.
+pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage, Option<exr::meta::attribute::AttributeValue>)> {
+    use exr::meta::attribute::Text;
     use exr::prelude::*;
     let image = read_first_rgba_layer_from_file(
         path,
@@ -38,7 +45,13 @@ pub fn read_exr(path: &Path) -> Result<RgbImage> {
         },
     )
     .with_context(|| format!("reading {}", path.display()))?;
-    Ok(image.layer_data.channel_data.pixels)
+    let value = if attribute.is_empty() {
+        None
+    } else {
+        let key = Text::from(attribute);
+        image.layer_data.attributes.other.get(&key).or_else(|| image.attributes.other.get(&key)).cloned()
+    };
+    Ok((image.layer_data.channel_data.pixels, value))
 }
 
 /// Writes an RGBA8 buffer as PNG.

@@ -113,7 +113,7 @@ fn bad_flags() {
 #[test]
 fn scene_without_emitters_renders_black_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();
-    let mut b = restir_vpl::scene::GltfBuilder::new();
+    let mut b = restir_vpl::scene::generate::GltfBuilder::new();
     let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
     let m = b.quad("floor", [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], grey);
     b.node("floor", m, [0.0; 3]);

@@ -1,9 +1,9 @@
-//! Image metrics (`restir_vpl::compare`) and the `restir-vpl compare` command. CPU only.
+//! Image metrics (`restir_vpl::eval::compare`) and the `restir-vpl compare` command. CPU only.
 
 use std::path::Path;
 use std::process::{Command, Output};
 
-use restir_vpl::compare::{compare, error_image, to_srgb8, CompareOptions};
+use restir_vpl::eval::compare::{compare, error_image, to_srgb8, CompareOptions};
 use restir_vpl::output::{write_exr, RgbImage};
 
 fn image(width: u32, height: u32, f: impl Fn(u32, u32) -> [f32; 3]) -> RgbImage {

@@ -10,7 +10,7 @@
 mod common;
 
 use common::*;
-use restir_vpl::scene::furnace_box_gltf;
+use restir_vpl::scene::generate::furnace_box_gltf;
 
 fn furnace(albedo: f32, emission: f32, max_bounces: i32, frames: u32) {
     let scene = load_json(&furnace_box_gltf(albedo, emission, 2.0), "furnace");

@@ -9,7 +9,8 @@ use common::*;
 use glam::Vec3;
 use restir_vpl::gpu_types::{GpuVpl, VPL_DIRECT_AREA, VPL_INDIRECT};
 use restir_vpl::renderer::Renderer;
-use restir_vpl::scene::{closed_box, GltfBuilder, Scene};
+use restir_vpl::scene::generate::{closed_box, GltfBuilder};
+use restir_vpl::scene::Scene;
 use restir_vpl::RenderSettings;
 
 /// Runs only the photon pass (through the renderer) and returns the VPLs and the paths traced.

@@ -10,7 +10,7 @@ mod common;
 use common::*;
 use glam::Vec3;
 use restir_vpl::renderer::CameraSetup;
-use restir_vpl::scene::GltfBuilder;
+use restir_vpl::scene::generate::GltfBuilder;
 use restir_vpl::settings::CameraOverride;
 use restir_vpl::RenderSettings;
 

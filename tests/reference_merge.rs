@@ -1,10 +1,10 @@
-//! Partial references with frame counts (`restir_vpl::reference`): metadata round trip, merging,
+//! Partial references with frame counts (`restir_vpl::eval::reference`): metadata round trip, merging,
 //! and the errors that keep non-mergeable parts apart. CPU only.
 
 use std::process::Command;
 
 use restir_vpl::output::{write_exr, RgbImage};
-use restir_vpl::reference::{merge, read_reference, write_reference, ReferenceMeta};
+use restir_vpl::eval::reference::{merge, read_reference, write_reference, ReferenceMeta};
 
 fn image(width: u32, height: u32, seed: u32) -> RgbImage {
     let pixels = (0..width * height)

@@ -6,8 +6,8 @@ mod common;
 use std::process::Command;
 
 use common::*;
-use restir_vpl::reference::{merge, read_reference};
-use restir_vpl::results::render_reference;
+use restir_vpl::eval::reference::{merge, read_reference};
+use restir_vpl::eval::results::render_reference;
 use restir_vpl::settings::Mode;
 use restir_vpl::RenderSettings;
 

@@ -2,7 +2,7 @@
 
 use std::collections::BTreeMap;
 
-use restir_vpl::report::*;
+use restir_vpl::eval::report::*;
 
 fn pt(scene: &str, mode: &str, reference: &str, frames: u32, wall_ms: f64, rmse: f64) -> CurvePoint {
     CurvePoint {

@@ -4,7 +4,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use restir_vpl::report::read_curves_csv;
+use restir_vpl::eval::report::read_curves_csv;
 
 fn cli(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_restir-vpl"))

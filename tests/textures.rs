@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use restir_vpl::renderer::Renderer;
-use restir_vpl::scene::GltfBuilder;
+use restir_vpl::scene::generate::GltfBuilder;
 use restir_vpl::settings::Mode;
 use restir_vpl::RenderSettings;
 

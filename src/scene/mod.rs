@@ -1,15 +1,12 @@
-//! Scene description: glTF 2.0 loading into flat, renderer-friendly data,
-//! plus a small glTF writer used by tests and by the built-in scene generators
-//! (the Cornell box and a furnace box).
+//! Scene description: glTF 2.0 loading into flat, renderer-friendly data. The scene generators
+//! (the committed scenes, the furnace box and the glTF writer they use) are in [`generate`].
 //!
 //! All positions are in the glTF scene's units (metres for the built-in scenes).
 //! Error messages name the file (or label) and the offending mesh/primitive;
 //! they are single-level `anyhow` errors, so `{}` already shows everything.
 
 mod base64;
-pub mod builder;
-pub mod cornell;
-pub mod thesis;
+pub mod generate;
 mod load;
 
 #[cfg(test)]
@@ -17,10 +14,6 @@ mod tests;
 
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use std::path::PathBuf;
-
-pub use builder::{closed_box, GltfBuilder};
-pub use cornell::{cornell_box_gltf, furnace_box_gltf};
-pub use thesis::{living_room_gltf, open_box_figure_gltf};
 
 /// A loaded scene: meshes (one BLAS each), their instances, materials, camera and lights.
 #[derive(Clone, Debug)]

@@ -1,7 +1,8 @@
 //! CPU-only unit tests for the scene loader, builder and built-in scenes.
 
-use super::cornell::{cornell_camera_yfov, LIGHT_EMISSION};
+use super::generate::cornell::{cornell_camera_yfov, LIGHT_EMISSION};
 use super::*;
+use super::generate::*;
 use glam::{Mat4, Vec3};
 use serde_json::{json, Value};
 use std::path::Path;
@@ -524,7 +525,7 @@ fn mirrored_transform_keeps_front_face() {
     let mut b = GltfBuilder::new();
     let m = b.material("m", [0.5; 3], [1.0; 3], false);
     // A quad in the y = 1 plane facing down (-y).
-    let quad = builder::orient_quad(
+    let quad = generate::orient_quad(
         [
             [0.0, 1.0, 0.0],
             [1.0, 1.0, 0.0],
@@ -948,7 +949,7 @@ fn dangling_indices_are_errors_not_panics() {
 }
 
 // ---------------------------------------------------------------- thesis scenes
-use super::thesis::{
+use super::generate::thesis::{
     FIGURE_MIN_TRIANGLES, FIGURE_NAME, FURNITURE_PREFIX, LIGHT_NAME, LIVING_ROOM_FURNITURE_PIECES,
     LIVING_ROOM_MAX, LIVING_ROOM_MIN, LIVING_ROOM_WINDOW_MAX, LIVING_ROOM_WINDOW_MIN, OPEN_BOX_MAX,
     OPEN_BOX_MIN, SCENE_ASPECT,

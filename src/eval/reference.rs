@@ -162,27 +162,8 @@ pub fn write_reference(path: &Path, image: &RgbImage, meta: &ReferenceMeta) -> R
 
 /// Reads a reference written by [`write_reference`]. A plain EXR (no metadata) is an error.
 pub fn read_reference(path: &Path) -> Result<(RgbImage, ReferenceMeta)> {
-    use exr::meta::attribute::{AttributeValue, Text};
-    use exr::prelude::*;
-    let image = read_first_rgba_layer_from_file(
-        path,
-        |resolution, _| RgbImage {
-            width: resolution.width() as u32,
-            height: resolution.height() as u32,
-            pixels: vec![[0.0; 3]; resolution.width() * resolution.height()],
-        },
-        |img: &mut RgbImage, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
-            let w = img.width as usize;
-            img.pixels[pos.y() * w + pos.x()] = [r, g, b];
-        },
-    )
-    .with_context(|| format!("reading {}", path.display()))?;
-    let value = image
-        .layer_data
-        .attributes
-        .other
-        .get(&Text::from(META_ATTRIBUTE))
-        .or_else(|| image.attributes.other.get(&Text::from(META_ATTRIBUTE)));
+    use exr::meta::attribute::AttributeValue;
+    let (img, value) = crate::output::read_exr_with_attribute(path, META_ATTRIBUTE)?;
     let json = match value {
         Some(AttributeValue::Text(t)) => t.to_string(),
         Some(other) => bail!(
@@ -192,7 +173,7 @@ pub fn read_reference(path: &Path) -> Result<(RgbImage, ReferenceMeta)> {
         None => bail!(
             "{} is not a restir-vpl reference: its EXR header has no '{META_ATTRIBUTE}' attribute (frame count, \
              seed, settings). A plain render (final.exr) cannot be merged; write references with \
-             restir_vpl::reference::write_reference, or merge existing ones with `restir-vpl merge-references`",
+             restir_vpl::eval::reference::write_reference, or merge existing ones with `restir-vpl merge-references`",
             path.display()
         ),
     };
@@ -201,7 +182,6 @@ pub fn read_reference(path: &Path) -> Result<(RgbImage, ReferenceMeta)> {
     if meta.ranges.is_empty() {
         meta.ranges = vec![(meta.first_frame, meta.first_frame + meta.frames)];
     }
-    let img = image.layer_data.channel_data.pixels;
     meta.validate(Some(&img)).with_context(|| format!("{}: inconsistent reference metadata", path.display()))?;
     Ok((img, meta))
 }

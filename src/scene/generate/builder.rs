@@ -6,7 +6,7 @@
 //! a perspective camera and `KHR_lights_punctual` point lights. Output is deterministic:
 //! the same calls give byte-identical text.
 
-use super::base64;
+use crate::scene::base64;
 use glam::{Mat3, Quat, Vec3};
 use serde_json::{json, Map, Value};
 

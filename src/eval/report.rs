@@ -836,3 +836,131 @@ fn render_svg(
     }
     Ok(svg)
 }
+
+/// The machine the measurements ran on, in words (CPU model, threads, memory, OS).
+pub fn host_description() -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
+        .unwrap_or_else(|| "unknown CPU".into());
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0);
+    let mem = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
+        t.lines()
+            .find(|l| l.starts_with("MemTotal:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|kb| kb.parse::<f64>().ok())
+            .map(|kb| format!(", {:.0} GiB memory", kb / (1024.0 * 1024.0)))
+    });
+    format!("{cpu}, {threads} hardware threads{}, {}", mem.unwrap_or_default(), std::env::consts::OS)
+}
+
+/// mean ratio per scene × mode at each scene's last checkpoint, against both references.
+pub fn bias_table_markdown(points: &[CurvePoint], scene_labels: &[String]) -> String {
+    let mut modes: Vec<&str> = Vec::new();
+    for p in points {
+        if !modes.contains(&p.mode.as_str()) {
+            modes.push(&p.mode);
+        }
+    }
+    let mut s = String::from("| scene | reference |");
+    for m in &modes {
+        let _ = write!(s, " {} |", mode_display_name(m));
+    }
+    s.push_str("\n|---|---|");
+    s.push_str(&"---:|".repeat(modes.len()));
+    s.push('\n');
+    for label in scene_labels {
+        let label = label.as_str();
+        for reference in ["vpl", "pt"] {
+            let here: Vec<&CurvePoint> = points.iter().filter(|p| p.scene == label && p.reference == reference).collect();
+            let Some(last_t) = here.iter().map(|p| p.frames).max() else { continue };
+            let _ = write!(s, "| {label} (t = {last_t}) | {reference} |");
+            for m in &modes {
+                match here.iter().find(|p| p.mode == *m && p.frames == last_t) {
+                    Some(p) => {
+                        let _ = write!(s, " {:.4} |", p.mean_ratio);
+                    }
+                    None => s.push_str(" — |"),
+                }
+            }
+            s.push('\n');
+        }
+    }
+    s
+}
+
+/// Final RMSE of each mode at the last checkpoint and the best mode at the common equal-time budget.
+pub fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<String> {
+    let mut out = Vec::new();
+    let last_t = points.iter().filter(|p| p.scene == scene && p.reference == reference).map(|p| p.frames).max();
+    let Some(last_t) = last_t else { return out };
+    let at_last: Vec<&CurvePoint> =
+        points.iter().filter(|p| p.scene == scene && p.reference == reference && p.frames == last_t).collect();
+    if let Some(best) = at_last.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse)) {
+        out.push(format!(
+            "At equal frame count (t = {last_t}) the lowest RMSE is {} ({}).",
+            mode_display_name(&best.mode),
+            fmt_sig3(best.rmse)
+        ));
+    }
+    // Equal time: the budget every mode reached (the smallest final wall time).
+    let budget = at_last.iter().map(|p| p.wall_ms).fold(f64::INFINITY, f64::min);
+    if budget.is_finite() {
+        let mut best: Option<(String, f64)> = None;
+        let mut modes: Vec<&str> = at_last.iter().map(|p| p.mode.as_str()).collect();
+        modes.dedup();
+        for m in modes {
+            if let Some(e) = error_within_budget(points, scene, reference, m, Metric::Rmse, budget) {
+                let e = e.value;
+                if best.as_ref().is_none_or(|b| e < b.1) {
+                    best = Some((m.to_string(), e));
+                }
+            }
+        }
+        if let Some((m, e)) = best {
+            out.push(format!(
+                "At equal wall time ({:.0} ms, the time the fastest-finishing mode needed for t = {last_t}) the lowest RMSE is {} ({}).",
+                budget,
+                mode_display_name(&m),
+                fmt_sig3(e)
+            ));
+        }
+    }
+    // Accumulating more frames of an unbiased estimator lowers the expected error; a rise says a few
+    // rare, very bright samples (fireflies) dominate the RMSE at these run counts.
+    let mut modes: Vec<&str> = Vec::new();
+    for p in points.iter().filter(|p| p.scene == scene && p.reference == reference) {
+        if !modes.contains(&p.mode.as_str()) {
+            modes.push(&p.mode);
+        }
+    }
+    for m in modes {
+        let mut curve: Vec<&CurvePoint> =
+            points.iter().filter(|p| p.scene == scene && p.reference == reference && p.mode == m).collect();
+        curve.sort_by_key(|p| p.frames);
+        let rises: Vec<String> = curve
+            .windows(2)
+            .filter(|w| w[1].rmse > w[0].rmse * 1.05)
+            .map(|w| {
+                format!(
+                    "t = {} → {}: {} → {}, the worst 0.1% of pixels carrying {:.0}% → {:.0}% of the squared error",
+                    w[0].frames,
+                    w[1].frames,
+                    fmt_sig3(w[0].rmse),
+                    fmt_sig3(w[1].rmse),
+                    100.0 * w[0].worst_share,
+                    100.0 * w[1].worst_share
+                )
+            })
+            .collect();
+        if !rises.is_empty() {
+            out.push(format!(
+                "{}'s RMSE rises with more frames ({}): a few very bright pixels (fireflies) make its RMSE at this \
+                 number of runs; FLIP and relMSE (`curves.csv`) are less sensitive to them.",
+                mode_display_name(m),
+                rises.join("; ")
+            ));
+        }
+    }
+    out
+}

@@ -21,11 +21,11 @@ use std::time::Instant;
 
 use anyhow::{bail, Context as _, Result};
 
-use crate::compare::{compare, CompareOptions};
+use crate::eval::compare::{compare, CompareOptions};
 use crate::output::{RgbImage, TimingStats};
-use crate::reference::{merge, read_reference, write_reference, ReferenceMeta};
+use crate::eval::reference::{merge, read_reference, write_reference, ReferenceMeta};
 use crate::renderer::Renderer;
-use crate::report::{self, CurvePoint, FrameTimeRow, Metric};
+use crate::eval::report::{self, CurvePoint, FrameTimeRow, Metric};
 use crate::scene::Scene;
 use crate::settings::{Bias, Mode, RenderSettings, RestirSettings};
 use crate::vk::Context;
@@ -583,134 +583,6 @@ fn write_frame_times_csv(path: &Path, rows: &[FrameTimeRow]) -> Result<()> {
 }
 
 /// The CPU and core count of the machine that ran the study (the device may be a CPU renderer).
-fn host_description() -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| t.lines().find(|l| l.starts_with("model name")).and_then(|l| l.split(':').nth(1)).map(|m| m.trim().to_string()))
-        .unwrap_or_else(|| "unknown CPU".into());
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(0);
-    let mem = std::fs::read_to_string("/proc/meminfo").ok().and_then(|t| {
-        t.lines()
-            .find(|l| l.starts_with("MemTotal:"))
-            .and_then(|l| l.split_whitespace().nth(1))
-            .and_then(|kb| kb.parse::<f64>().ok())
-            .map(|kb| format!(", {:.0} GiB memory", kb / (1024.0 * 1024.0)))
-    });
-    format!("{cpu}, {threads} hardware threads{}, {}", mem.unwrap_or_default(), std::env::consts::OS)
-}
-
-/// mean ratio per scene × mode at each scene's last checkpoint, against both references.
-fn bias_table_markdown(points: &[CurvePoint], opts: &ResultsOptions) -> String {
-    use std::fmt::Write as _;
-    let mut modes: Vec<&str> = Vec::new();
-    for p in points {
-        if !modes.contains(&p.mode.as_str()) {
-            modes.push(&p.mode);
-        }
-    }
-    let mut s = String::from("| scene | reference |");
-    for m in &modes {
-        let _ = write!(s, " {} |", report::mode_display_name(m));
-    }
-    s.push_str("\n|---|---|");
-    s.push_str(&"---:|".repeat(modes.len()));
-    s.push('\n');
-    for spec in &opts.scenes {
-        let label = spec.label();
-        for reference in ["vpl", "pt"] {
-            let here: Vec<&CurvePoint> = points.iter().filter(|p| p.scene == label && p.reference == reference).collect();
-            let Some(last_t) = here.iter().map(|p| p.frames).max() else { continue };
-            let _ = write!(s, "| {label} (t = {last_t}) | {reference} |");
-            for m in &modes {
-                match here.iter().find(|p| p.mode == *m && p.frames == last_t) {
-                    Some(p) => {
-                        let _ = write!(s, " {:.4} |", p.mean_ratio);
-                    }
-                    None => s.push_str(" — |"),
-                }
-            }
-            s.push('\n');
-        }
-    }
-    s
-}
-
-/// Final RMSE of each mode at the last checkpoint and the best mode at the common equal-time budget.
-fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<String> {
-    let mut out = Vec::new();
-    let last_t = points.iter().filter(|p| p.scene == scene && p.reference == reference).map(|p| p.frames).max();
-    let Some(last_t) = last_t else { return out };
-    let at_last: Vec<&CurvePoint> =
-        points.iter().filter(|p| p.scene == scene && p.reference == reference && p.frames == last_t).collect();
-    if let Some(best) = at_last.iter().min_by(|a, b| a.rmse.total_cmp(&b.rmse)) {
-        out.push(format!(
-            "At equal frame count (t = {last_t}) the lowest RMSE is {} ({}).",
-            report::mode_display_name(&best.mode),
-            report::fmt_sig3(best.rmse)
-        ));
-    }
-    // Equal time: the budget every mode reached (the smallest final wall time).
-    let budget = at_last.iter().map(|p| p.wall_ms).fold(f64::INFINITY, f64::min);
-    if budget.is_finite() {
-        let mut best: Option<(String, f64)> = None;
-        let mut modes: Vec<&str> = at_last.iter().map(|p| p.mode.as_str()).collect();
-        modes.dedup();
-        for m in modes {
-            if let Some(e) = report::error_within_budget(points, scene, reference, m, Metric::Rmse, budget) {
-                let e = e.value;
-                if best.as_ref().is_none_or(|b| e < b.1) {
-                    best = Some((m.to_string(), e));
-                }
-            }
-        }
-        if let Some((m, e)) = best {
-            out.push(format!(
-                "At equal wall time ({:.0} ms, the time the fastest-finishing mode needed for t = {last_t}) the lowest RMSE is {} ({}).",
-                budget,
-                report::mode_display_name(&m),
-                report::fmt_sig3(e)
-            ));
-        }
-    }
-    // Accumulating more frames of an unbiased estimator lowers the expected error; a rise says a few
-    // rare, very bright samples (fireflies) dominate the RMSE at these run counts.
-    let mut modes: Vec<&str> = Vec::new();
-    for p in points.iter().filter(|p| p.scene == scene && p.reference == reference) {
-        if !modes.contains(&p.mode.as_str()) {
-            modes.push(&p.mode);
-        }
-    }
-    for m in modes {
-        let mut curve: Vec<&CurvePoint> =
-            points.iter().filter(|p| p.scene == scene && p.reference == reference && p.mode == m).collect();
-        curve.sort_by_key(|p| p.frames);
-        let rises: Vec<String> = curve
-            .windows(2)
-            .filter(|w| w[1].rmse > w[0].rmse * 1.05)
-            .map(|w| {
-                format!(
-                    "t = {} → {}: {} → {}, the worst 0.1% of pixels carrying {:.0}% → {:.0}% of the squared error",
-                    w[0].frames,
-                    w[1].frames,
-                    report::fmt_sig3(w[0].rmse),
-                    report::fmt_sig3(w[1].rmse),
-                    100.0 * w[0].worst_share,
-                    100.0 * w[1].worst_share
-                )
-            })
-            .collect();
-        if !rises.is_empty() {
-            out.push(format!(
-                "{}'s RMSE rises with more frames ({}): a few very bright pixels (fireflies) make its RMSE at this \
-                 number of runs; FLIP and relMSE (`curves.csv`) are less sensitive to them.",
-                report::mode_display_name(m),
-                rises.join("; ")
-            ));
-        }
-    }
-    out
-}
-
 fn results_markdown(
     ctx: &Arc<Context>,
     opts: &ResultsOptions,
@@ -731,7 +603,7 @@ fn results_markdown(
         ctx.report.name,
         ctx.report.driver
     );
-    let _ = writeln!(s, "Host: {}.\n", host_description());
+    let _ = writeln!(s, "Host: {}.\n", report::host_description());
     let sizes: Vec<String> =
         opts.scenes.iter().map(|s| format!("{} {}×{}", s.label(), s.width, s.height)).collect();
     let _ = writeln!(
@@ -806,7 +678,7 @@ fn results_markdown(
          unbiased mode tends to 1 (up to the noise of a few frames, which heavy-tailed modes have much of); biased ReSTIR \
          need not.\n"
     );
-    s.push_str(&bias_table_markdown(points, opts));
+    s.push_str(&report::bias_table_markdown(points, &opts.scenes.iter().map(SceneSpec::label).collect::<Vec<_>>()));
     let _ = writeln!(s);
     let _ = writeln!(s, "## Frame times (thesis Table 1 shape)\n");
     let _ = writeln!(s, "Median per frame over all measured frames; `× uniform` is the ratio to the uniform mode measured in the same run.\n");
@@ -830,7 +702,7 @@ fn results_markdown(
                 s.push_str(&report::error_table_markdown(points, &label, reference, Metric::Flip));
                 let _ = writeln!(s);
             }
-            for o in observations(points, &label, reference) {
+            for o in report::observations(points, &label, reference) {
                 let _ = writeln!(s, "- {o}");
             }
             let _ = writeln!(s);

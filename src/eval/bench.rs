@@ -91,7 +91,7 @@ impl CoreBench {
 /// A room with a ceiling light and a finely tessellated bumpy sphere of `2·rings·segments`
 /// triangles (≥ 100k for the photon benchmark).
 pub fn dense_scene(rings: u32, segments: u32) -> Result<Scene> {
-    use crate::scene::{closed_box, GltfBuilder};
+    use crate::scene::generate::{closed_box, GltfBuilder};
     let mut b = GltfBuilder::new();
     let wall = b.material("wall", [0.7; 3], [0.0; 3], false);
     let red = b.material("red", [0.7, 0.1, 0.1], [0.0; 3], false);
