@@ -159,6 +159,18 @@ impl View {
     }
 }
 
+/// What the photon pass traces: the VPL set's size and seed (plain data; the pass is
+/// `crate::passes::PhotonEmitPass`).
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct PhotonSettings {
+    pub direct: u32,
+    /// Target indirect VPL count (0: no global illumination).
+    pub indirect: u32,
+    pub min_bounces: u32,
+    pub max_bounces: u32,
+    pub seed: u32,
+}
+
 /// A camera given on the command line; replaces the scene's camera.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct CameraOverride {
@@ -272,8 +284,8 @@ impl RenderSettings {
     }
 
     /// The photon pass's settings.
-    pub fn photon_settings(&self) -> crate::passes::PhotonSettings {
-        crate::passes::PhotonSettings {
+    pub fn photon_settings(&self) -> PhotonSettings {
+        PhotonSettings {
             direct: self.vpls_direct,
             indirect: if self.gi { self.vpls_indirect } else { 0 },
             min_bounces: self.photon_min_bounces,

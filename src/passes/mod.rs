@@ -28,7 +28,7 @@ use crate::vk::{Buffer, Context, GpuTimer};
 pub use accumulate::AccumulatePass;
 pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
-pub use photon_emit::{PhotonEmitPass, PhotonSettings, PhotonStats};
+pub use photon_emit::{PhotonEmitPass, PhotonStats};
 pub use restir_initial::RestirInitialPass;
 pub use restir_spatial::RestirSpatialPass;
 pub use restir_temporal::RestirTemporalPass;

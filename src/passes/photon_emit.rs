@@ -17,20 +17,10 @@ use serde::Serialize;
 use crate::gpu_types::GpuVpl;
 use crate::lights::LightSet;
 use crate::shaders;
+use crate::settings::PhotonSettings;
 use crate::vk::buffer::read_back;
 use crate::vk::pipeline::storage;
 use crate::vk::{Binding, Buffer, ComputePipeline, Context, GpuTimer};
-
-/// Photon/VPL settings.
-#[derive(Clone, Copy, Debug, Serialize)]
-pub struct PhotonSettings {
-    pub direct: u32,
-    /// Target indirect VPL count (0: no global illumination).
-    pub indirect: u32,
-    pub min_bounces: u32,
-    pub max_bounces: u32,
-    pub seed: u32,
-}
 
 /// What the photon pass produced.
 #[derive(Clone, Debug, Default, Serialize)]
