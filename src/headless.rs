@@ -8,9 +8,11 @@ use std::time::{Duration, Instant};
 use anyhow::{Context as _, Result};
 use serde::Serialize;
 
+use crate::camera::Camera;
 use crate::output::{write_exr, write_png, TimingStats};
-use crate::renderer::{CameraSetup, Renderer};
+use crate::renderer::Renderer;
 use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
 use crate::settings::RenderSettings;
 use crate::vk::{Context, ContextOptions, DeviceReport};
 
@@ -22,7 +24,7 @@ pub struct Summary {
     pub validation_layer: bool,
     pub validation_errors: u64,
     pub scene: SceneSummary,
-    pub camera: CameraSetup,
+    pub camera: Camera,
     pub frames: u32,
     /// GPU time per pass over all frames where it ran (ms).
     pub pass_ms: BTreeMap<String, TimingStats>,
@@ -69,56 +71,48 @@ pub struct RunOutput {
     pub summary: Summary,
 }
 
-/// Loads the scene, renders `settings.frames` frames and writes the outputs to `settings.out_dir`
-/// (when set).
+/// Loads and uploads the scene, renders `settings.frames` frames and writes the outputs to
+/// `settings.out_dir` (when set).
 pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
     settings.validate()?;
     let start = Instant::now();
     let scene = Scene::load(&settings.scene)?;
     let ctx = Arc::new(Context::new(&ContextOptions { validate: settings.validate, device_index: settings.device_index })?);
-    run_with(ctx, &scene, settings, start)
+    let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures).context("uploading the scene")?);
+    run_with(ctx, scene, settings, start)
 }
 
-/// As [`run`], with a context and scene the caller already has.
-pub fn run_with(ctx: Arc<Context>, scene: &Scene, settings: &RenderSettings, start: Instant) -> Result<RunOutput> {
-    let mut warnings = scene.warnings.clone();
-    if scene.emissive_triangles().is_empty() && scene.point_lights.is_empty() {
-        let w = format!("{}: the scene has no emitters; the image will be black", scene.path.display());
+/// As [`run`], with a context and an uploaded scene the caller already has.
+pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettings, start: Instant) -> Result<RunOutput> {
+    let mut warnings = scene.info.warnings.clone();
+    if !scene.has_emitters() {
+        let w = format!("{}: the scene has no emitters; the image will be black", scene.info.path.display());
         log::warn!("{w}");
         warnings.push(w);
     }
     if let Some(dir) = &settings.out_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
     }
-    let mut renderer = Renderer::new(ctx.clone(), scene, settings.clone())?;
-    if settings.verbose {
-        eprintln!(
-            "device: {}\ncamera: {:?}\nscene: {} triangles, {} instances, {} area lights, built in {:.1} ms",
-            ctx.report,
-            renderer.camera,
-            renderer.scene.triangle_count,
-            renderer.scene.instance_count,
-            renderer.scene.lights.lights.len(),
-            renderer.scene.build_ms
-        );
-    }
+    let mut renderer = Renderer::new(ctx.clone(), scene.clone(), settings.clone())?;
+    let camera = Camera::initial(&scene.info, settings.camera.as_ref());
+    log::info!(
+        "device: {}\ncamera: {camera:?}\nscene: {} triangles, {} instances, {} lights, built in {:.1} ms",
+        ctx.report,
+        scene.triangle_count,
+        scene.instance_count,
+        scene.lights.lights.len(),
+        scene.build_ms
+    );
     let mut outputs = Vec::new();
     if let Some(path) = &settings.dump_vpls {
         let vpls = renderer.read_vpls()?.unwrap_or_default();
         crate::ply::write_vpls(path, &vpls)?;
         outputs.push(path.display().to_string());
     }
-    let mut gpu_frame = Vec::new();
-    let mut wall_frame = Vec::new();
-    let mut rpp = Vec::new();
-    let pixels = (settings.width * settings.height) as f64;
     let progress = Progress::new(settings.progress, settings.frames as u64);
     for f in 0..settings.frames {
         let last = f + 1 == settings.frames;
-        let stats = renderer.render_frame(last && settings.out_dir.is_some())?;
-        gpu_frame.push(stats.pass_ms.iter().map(|p| p.1).sum());
-        wall_frame.push(stats.wall_ms);
-        rpp.push(stats.rays as f64 / pixels);
+        renderer.render_frame(&camera, last && settings.out_dir.is_some())?;
         if let Some(dir) = &settings.out_dir {
             if settings.save_every > 0 && (f + 1) % settings.save_every == 0 {
                 let path = dir.join(format!("accum_{:04}.exr", f + 1));
@@ -147,34 +141,36 @@ pub fn run_with(ctx: Arc<Context>, scene: &Scene, settings: &RenderSettings, sta
         );
         warnings.push(w);
     }
-    if renderer.nonfinite_samples > 0 {
-        warnings.push(format!("{} non-finite samples were replaced by 0", renderer.nonfinite_samples));
+    if renderer.nonfinite_samples() > 0 {
+        warnings.push(format!("{} non-finite samples were replaced by 0", renderer.nonfinite_samples()));
     }
+    let log = renderer.log();
+    let info = &scene.info;
     let summary = Summary {
         settings: settings.clone(),
         device: ctx.report.clone(),
         validation_layer: ctx.validation_enabled,
         validation_errors,
         scene: SceneSummary {
-            path: scene.path.display().to_string(),
-            triangles: renderer.scene.triangle_count,
-            instances: renderer.scene.instance_count,
-            meshes: scene.meshes.len(),
-            materials: scene.materials.len(),
-            area_lights: renderer.scene.lights.lights.len(),
-            light_power: renderer.scene.lights.total_power,
-            upload_and_build_ms: renderer.scene.build_ms,
+            path: info.path.display().to_string(),
+            triangles: scene.triangle_count,
+            instances: scene.instance_count,
+            meshes: info.meshes,
+            materials: info.materials,
+            area_lights: scene.lights.lights.len(),
+            light_power: scene.lights.total_power,
+            upload_and_build_ms: scene.build_ms,
         },
-        camera: renderer.camera,
+        camera,
         frames: settings.frames,
-        pass_ms: renderer.pass_times.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v))).collect(),
-        gpu_ms_per_frame: TimingStats::of(&gpu_frame),
-        wall_ms_per_frame: TimingStats::of(&wall_frame),
-        rays_per_pixel: TimingStats::of(&rpp),
-        rays_per_pixel_by_pass: renderer.rays_per_pixel_by_pass(),
+        pass_ms: log.pass_stats(),
+        gpu_ms_per_frame: log.gpu(),
+        wall_ms_per_frame: log.wall(),
+        rays_per_pixel: log.rays_per_pixel(),
+        rays_per_pixel_by_pass: log.rays_per_pixel_by_pass(),
         vpl: renderer.vpl_summary(),
-        nonfinite_samples: renderer.nonfinite_samples,
-        photons: renderer.photons.as_ref().map(|p| p.1.clone()),
+        nonfinite_samples: renderer.nonfinite_samples(),
+        photons: renderer.photon_stats().cloned(),
         total_seconds: start.elapsed().as_secs_f64(),
         outputs,
         warnings,

@@ -5,6 +5,7 @@
 //! [`passes`] (one module per compute pass; the frame order is in [`passes::Passes::record_frame`]),
 //! [`renderer`] (submission), [`headless`] (runs and outputs).
 
+pub mod camera;
 pub mod eval;
 pub mod gpu_types;
 pub mod headless;

@@ -7,8 +7,10 @@ use anyhow::{bail, Result};
 use clap::Parser;
 use glam::Vec3;
 
+use std::sync::LazyLock;
+
 use restir_vpl::settings::{
-    Attenuation, Bias, CameraOverride, CandidateSource, Mode, RenderSettings, RestirSettings, View,
+    Attenuation, Bias, CameraOverride, CandidateSource, Mode, NamedEnum, RenderSettings, RestirSettings, View,
 };
 use restir_vpl::vk::NoRayQueryDevice;
 
@@ -36,32 +38,32 @@ struct Cli {
 #[derive(Debug, clap::Args)]
 struct RenderArgs {
     /// glTF 2.0 scene (.gltf or .glb).
-    #[arg(long, default_value = "scenes/cornell_box.gltf")]
+    #[arg(long, default_value_os_t = DEFAULTS.scene.clone())]
     scene: PathBuf,
     /// Estimator.
-    #[arg(long, value_enum, default_value = "pt")]
+    #[arg(long, value_parser = named::<Mode>(), default_value_t = DEFAULTS.mode)]
     mode: Mode,
     /// Frames to render and average.
-    #[arg(long, default_value_t = 20)]
+    #[arg(long, default_value_t = DEFAULTS.frames)]
     frames: u32,
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = DEFAULTS.width)]
     width: u32,
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = DEFAULTS.height)]
     height: u32,
     /// Also write accum_NNNN.exr every K frames.
-    #[arg(long, default_value_t = 0, value_name = "K")]
+    #[arg(long, default_value_t = DEFAULTS.save_every, value_name = "K")]
     save_every: u32,
     /// Random seed; the same seed gives the same image.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = DEFAULTS.seed)]
     seed: u32,
     /// Jitter primary rays inside the pixel (box filter) instead of tracing pixel centres.
     #[arg(long)]
     aa: bool,
     /// Path-tracer bounces (-1: unbounded, Russian roulette only).
-    #[arg(long, default_value_t = 8, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = DEFAULTS.max_bounces, allow_negative_numbers = true)]
     max_bounces: i32,
     /// Exposure of the PNG preview in EV.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = DEFAULTS.exposure, allow_negative_numbers = true)]
     exposure: f32,
     /// Camera position "x,y,z" (overrides the scene camera; needs --target).
     #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
@@ -76,74 +78,74 @@ struct RenderArgs {
     #[arg(long)]
     fov: Option<f32>,
     /// Direct VPLs (they replace the area lights).
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = DEFAULTS.vpls_direct)]
     vpls_direct: u32,
     /// Target number of indirect VPLs from photon paths (the paths traced are counted exactly).
-    #[arg(long, default_value_t = 100_000)]
+    #[arg(long, default_value_t = DEFAULTS.vpls_indirect)]
     vpls_indirect: u32,
     /// No global illumination: no indirect VPLs.
     #[arg(long)]
     no_gi: bool,
     /// Photon bounces before Russian roulette starts.
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = DEFAULTS.photon_min_bounces)]
     photon_min_bounces: u32,
     /// Maximum photon bounces (indirect VPLs per path).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = DEFAULTS.photon_max_bounces)]
     photon_max_bounces: u32,
     /// Write the VPLs as a PLY point cloud (opens in MeshLab/Blender).
     #[arg(long, value_name = "FILE.ply")]
     dump_vpls: Option<PathBuf>,
     /// What the image shows: the estimate; the VPLs as spheres (blue direct, red indirect); the
     /// final reservoir's W or M or the kind of VPL it holds; or only direct / only indirect light.
-    #[arg(long, value_enum, default_value = "final")]
+    #[arg(long, value_parser = named::<View>(), default_value_t = DEFAULTS.view)]
     view: View,
     /// Sphere radius of `--view vpls` in scene units (default: 0.25% of the scene's diagonal).
     #[arg(long)]
     vpl_radius: Option<f32>,
     /// RIS candidates per pixel (ris and restir).
-    #[arg(long, default_value_t = 32)]
+    #[arg(long, default_value_t = DEFAULTS.candidates)]
     candidates: u32,
     /// Where RIS candidates come from: uniformly over the VPLs, or in proportion to their power.
-    #[arg(long, value_enum, default_value = "uniform")]
+    #[arg(long, value_parser = named::<CandidateSource>(), default_value_t = DEFAULTS.candidate_source)]
     candidate_source: CandidateSource,
     /// ReSTIR temporal reuse of the previous frame's reservoirs.
-    #[arg(long, value_enum, default_value = "on")]
+    #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.restir.temporal))]
     temporal: Toggle,
     /// Temporal history confidence cap, in multiples of the current frame's.
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = DEFAULTS.restir.mcap)]
     mcap: f32,
     /// ReSTIR spatial neighbours per pass (at most 32).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = DEFAULTS.restir.spatial_neighbours)]
     spatial_neighbours: u32,
     /// Radius of the disc spatial neighbours are drawn from (pixels).
-    #[arg(long, default_value_t = 20.0)]
+    #[arg(long, default_value_t = DEFAULTS.restir.spatial_radius)]
     spatial_radius: f32,
     /// Spatial reuse passes per frame.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = DEFAULTS.restir.spatial_passes)]
     spatial_passes: u32,
     /// Reject spatial neighbours whose shading normals' dot product is below this.
-    #[arg(long, default_value_t = 0.9, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = DEFAULTS.restir.normal_threshold, allow_negative_numbers = true)]
     normal_threshold: f32,
     /// Reject spatial neighbours whose view depth differs by more than this fraction.
-    #[arg(long, default_value_t = 0.1)]
+    #[arg(long, default_value_t = DEFAULTS.restir.depth_threshold)]
     depth_threshold: f32,
     /// ReSTIR reuse: biased (confidence weights, no visibility in the targets) or unbiased
     /// (visibility-aware pairwise MIS; converges to the brute-force sum, more shadow rays).
-    #[arg(long, value_enum, default_value = "biased")]
+    #[arg(long, value_parser = named::<Bias>(), default_value_t = DEFAULTS.restir.bias)]
     bias: Bias,
     /// Shadow-test the initial ReSTIR sample (default: on for unbiased, where it is required; off
     /// for biased).
     #[arg(long, value_enum)]
     initial_visibility: Option<Toggle>,
     /// VPL distance attenuation.
-    #[arg(long, value_enum, default_value = "yuksel")]
+    #[arg(long, value_parser = named::<Attenuation>(), default_value_t = DEFAULTS.attenuation)]
     attenuation: Attenuation,
     /// Yuksel's r in scene units (default: the mean VPL spacing, sqrt(scene area / (pi * VPLs))).
     #[arg(long)]
     yuksel_radius: Option<f32>,
     /// Sample glTF base colour textures (off: base colour factors only; a scene without textures
     /// never compiles the texture path).
-    #[arg(long, value_enum, default_value = "on")]
+    #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.textures))]
     textures: Toggle,
     /// Vulkan device index (see --list-devices).
     #[arg(long)]
@@ -160,7 +162,7 @@ struct RenderArgs {
 enum Command {
     /// Throughput benchmark: primary rays and path tracing (Mrays/s, GPU ms per pass).
     Bench {
-        #[arg(long, default_value = "scenes/cornell_box.gltf")]
+        #[arg(long, default_value_os_t = DEFAULTS.scene.clone())]
         scene: PathBuf,
         /// Image width (default 512; with --modes, both sizes of the issue unless a size is given).
         #[arg(long)]
@@ -302,6 +304,16 @@ enum Command {
     },
 }
 
+/// The library's defaults: the CLI's defaults are read from here, never written twice.
+static DEFAULTS: LazyLock<RenderSettings> = LazyLock::new(RenderSettings::default);
+
+/// Parses a settings enum by its names, listing them with their help in `--help`.
+fn named<T: NamedEnum + Send + Sync>() -> impl clap::builder::TypedValueParser<Value = T> {
+    use clap::builder::TypedValueParser as _;
+    clap::builder::PossibleValuesParser::new(T::ALL.iter().map(|v| clap::builder::PossibleValue::new(v.name()).help(v.help())))
+        .map(|s| T::from_name(&s).expect("clap accepts only the listed names"))
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum Toggle {
     On,
@@ -311,6 +323,22 @@ enum Toggle {
 impl Toggle {
     fn on(self) -> bool {
         self == Toggle::On
+    }
+}
+
+impl From<bool> for Toggle {
+    fn from(on: bool) -> Self {
+        if on {
+            Toggle::On
+        } else {
+            Toggle::Off
+        }
+    }
+}
+
+impl std::fmt::Display for Toggle {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(if self.on() { "on" } else { "off" })
     }
 }
 
@@ -570,57 +598,47 @@ fn real_main(cli: Cli) -> Result<()> {
 }
 
 fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame: u64, resume: bool) -> Result<()> {
-    use restir_vpl::eval::reference::{merge, read_reference, write_reference};
-    use restir_vpl::eval::results::{file_hash, reference_config, render_reference, reference_mode_ok};
+    use restir_vpl::eval::reference::{make_reference, reference_mode_ok, ReferenceTarget};
     reference_mode_ok(settings)?;
-    let existing = if resume {
+    let target = if resume {
         if first_frame != 0 {
             bail!("--resume continues after the last frame in --out; --first-frame cannot be given with it");
         }
-        let (image, meta) = read_reference(out)?;
-        let config = reference_config(settings, &file_hash(&settings.scene)?)?;
-        if meta.config != config || meta.seed != settings.seed as u64 {
-            bail!(
-                "--resume: {} was rendered with other settings (scene, mode, size, seed or sampling flags differ);                  pass the flags it was made with",
-                out.display()
-            );
-        }
-        Some((image, meta))
+        ReferenceTarget::Extend { frames: settings.frames }
     } else {
-        if out.exists() {
-            bail!("--out {}: file exists; pass --resume to extend it, or choose another file", out.display());
-        }
-        None
+        ReferenceTarget::New { first_frame, frames: settings.frames }
     };
-    let first = existing.as_ref().map(|(_, m)| m.ranges.iter().map(|r| r.1).max().unwrap_or(0)).unwrap_or(first_frame);
-    let scene = restir_vpl::scene::Scene::load(&settings.scene)?;
-    let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-        validate: settings.validate,
-        device_index: settings.device_index,
-    })?);
-    let total = settings.frames;
+    let (ctx, scene) = upload(settings)?;
     let mut next_report = 0u32;
     let started = std::time::Instant::now();
-    let part = render_reference(ctx, &scene, settings, first, total, |done| {
+    let made = make_reference(&ctx, &scene, settings, out, target, &mut |done, total| {
         if done >= next_report || done == total {
             eprint!("\r{done}/{total} frames, {:.0} s", started.elapsed().as_secs_f64());
             next_report = done + (total / 20).max(1);
         }
     })?;
     eprintln!();
-    let (gpu_ms, wall_ms) = (part.gpu_ms, part.wall_ms);
-    let (image, meta) = match existing {
-        Some(old) => merge(&[old, (part.image, part.meta)])?,
-        None => (part.image, part.meta),
-    };
-    write_reference(out, &image, &meta)?;
+    let meta = &made.meta;
     println!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
     println!("frames: {}", meta.describe_frames());
     if let Some(mse) = meta.noise_mse {
         println!("estimated noise RMSE of the reference (sqrt(mean variance / frames)): {:.3e}", mse.sqrt());
     }
-    println!("this run: {total} frames in {:.1} s wall, {:.1} s GPU", wall_ms * 1e-3, gpu_ms * 1e-3);
+    if let Some((frames, gpu_ms, wall_ms)) = made.rendered {
+        println!("this run: {frames} frames in {:.1} s wall, {:.1} s GPU", wall_ms * 1e-3, gpu_ms * 1e-3);
+    }
     Ok(())
+}
+
+/// A context for `settings` (validation, device) with the scene loaded and uploaded to it.
+fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::Context>, std::sync::Arc<restir_vpl::scene_gpu::SceneGpu>)> {
+    let scene = restir_vpl::scene::Scene::load(&settings.scene)?;
+    let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+        validate: settings.validate,
+        device_index: settings.device_index,
+    })?);
+    let gpu = restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, settings.textures)?;
+    Ok((ctx, std::sync::Arc::new(gpu)))
 }
 
 fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> {

@@ -1,129 +1,123 @@
-//! The renderer: scene on the GPU, frame targets, passes, and the per-frame submission.
+//! The renderer: one call renders one frame of a shared, already uploaded scene for a given camera.
+//! It owns the frame targets, the passes its settings need, the VPL set (traced once, since the
+//! scene is static) and per-frame-slot resources (command buffer, fence, timestamps, frame
+//! constants), and it keeps the one log of frame times and rays that headless runs, benchmarks,
+//! the error study and the window all read.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
+use std::time::Instant;
 
 use anyhow::{Context as _, Result};
 use ash::vk;
-use glam::{Mat4, Vec3};
+use glam::Vec3;
+use gpu_allocator::MemoryLocation;
 
+use crate::camera::Camera;
 use crate::gpu_types::{
     GpuFrame, GpuVplParams, ATTENUATION_INVERSE_SQUARE, ATTENUATION_YUKSEL, FRAME_AA, KIND_MASK_DIRECT,
     KIND_MASK_INDIRECT, VPL_FLAG_INITIAL_VISIBILITY, VPL_FLAG_SAME_DOMAIN, VPL_FLAG_UNBIASED,
 };
+use crate::output::TimingStats;
 use crate::passes::{
     FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirInitialPass, RestirSpatialPass,
     RestirTemporalPass, Step, VplBruteforcePass, VplFrame, VplInputs, VplShadePass, VplViewPass, RAY_SLOTS,
 };
-use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::settings::{Attenuation, Bias, CandidateSource, Mode, RenderSettings, View};
 use crate::vk::buffer::read_back;
-use crate::vk::{Context, GpuTimer};
-
-/// The camera actually used: position and an orthonormal basis.
-#[derive(Clone, Copy, Debug, serde::Serialize)]
-pub struct CameraSetup {
-    pub position: Vec3,
-    pub forward: Vec3,
-    pub right: Vec3,
-    pub up: Vec3,
-    pub yfov: f32,
-    /// "scene camera 'name'", "command line" or "automatic (no camera in the scene)".
-    pub source: &'static str,
-}
-
-impl CameraSetup {
-    pub fn from_transform(t: Mat4, yfov: f32, source: &'static str) -> Self {
-        let forward = (-t.z_axis.truncate()).normalize();
-        let up0 = t.y_axis.truncate();
-        let right = forward.cross(up0).normalize();
-        let up = right.cross(forward);
-        Self { position: t.w_axis.truncate(), forward, right, up, yfov, source }
-    }
-
-    pub fn look_at(eye: Vec3, target: Vec3, up: Vec3, yfov: f32, source: &'static str) -> Self {
-        let forward = (target - eye).normalize();
-        let right = forward.cross(up).normalize();
-        let up = right.cross(forward);
-        Self { position: eye, forward, right, up, yfov, source }
-    }
-
-    /// The camera for `scene` under `settings`: command line, else the scene's, else one that frames
-    /// the scene's bounds from +z.
-    pub fn choose(scene: &Scene, settings: &RenderSettings) -> Self {
-        if let Some(c) = &settings.camera {
-            return Self::look_at(c.eye, c.target, c.up, c.yfov_degrees.to_radians(), "command line");
-        }
-        if let Some(cam) = &scene.camera {
-            return Self::from_transform(cam.transform, cam.yfov, "scene camera");
-        }
-        let (lo, hi) = scene.world_bounds();
-        let centre = (lo + hi) * 0.5;
-        let radius = ((hi - lo).length() * 0.5).max(1e-3);
-        let yfov = 45f32.to_radians();
-        let distance = radius / (yfov * 0.5).tan() * 1.1;
-        Self::look_at(centre + Vec3::Z * distance, centre, Vec3::Y, yfov, "automatic (no camera in the scene)")
-    }
-}
+use crate::vk::{Buffer, Context, DescriptorSet, GpuTimer};
 
 /// Statistics of one rendered frame.
 #[derive(Clone, Debug, Default)]
 pub struct FrameStats {
-    /// (pass, GPU ms) in recording order.
+    /// (pass, GPU ms) in recording order; a pass dispatched several times (restir_spatial ×n)
+    /// appears once with the sum.
     pub pass_ms: Vec<(&'static str, f64)>,
     /// Rays traced this frame (primary + sampling passes).
     pub rays: u64,
     /// Rays per tracing pass this frame (primary rays under "gbuffer").
     pub rays_by_pass: Vec<(&'static str, u64)>,
+    /// Wall-clock time from the start of recording to the frame's completion.
     pub wall_ms: f64,
 }
 
-pub struct Renderer {
-    pub settings: RenderSettings,
-    pub camera: CameraSetup,
-    pub scene: SceneGpu,
-    pub targets: FrameTargets,
-    passes: Passes,
-    timer: GpuTimer,
-    readback: crate::vk::Buffer,
-    cmd: vk::CommandBuffer,
-    fence: vk::Fence,
-    /// Frames rendered since the accumulation started.
-    pub accumulated: u32,
-    /// Frames rendered in total (RNG frame index).
-    pub frame_index: u32,
-    gbuffer_valid: bool,
-    /// Non-finite samples replaced by zero so far (counted by the accumulate pass).
-    pub nonfinite_samples: u64,
-    /// The VPL set, when the run needs one: traced once before the first frame (static scene).
-    pub photons: Option<(PhotonEmitPass, PhotonStats)>,
-    /// Per-pass GPU times of every frame so far (a pass dispatched several times in a frame, like
-    /// restir_spatial, counts once with the sum).
-    pub pass_times: BTreeMap<&'static str, Vec<f64>>,
-    /// Rays per pass of every frame so far.
+impl FrameStats {
+    /// GPU time of the frame: the sum of its pass scopes.
+    pub fn gpu_ms(&self) -> f64 {
+        self.pass_ms.iter().map(|p| p.1).sum()
+    }
+}
+
+/// The frames rendered since the log was last cleared: what every caller reports from.
+#[derive(Clone, Debug, Default)]
+pub struct FrameLog {
+    pixels: f64,
+    /// GPU ms per frame (sum of its pass scopes).
+    pub gpu_ms: Vec<f64>,
+    pub wall_ms: Vec<f64>,
+    /// Rays per frame.
+    pub rays: Vec<u64>,
+    /// GPU ms per pass, one entry per frame the pass ran in.
+    pub pass_ms: BTreeMap<&'static str, Vec<f64>>,
+    /// Rays per tracing pass, one entry per frame it traced in.
     pub pass_rays: BTreeMap<&'static str, Vec<u64>>,
-    /// The VPL shading setup, in the VPL modes.
-    pub vpl: Option<VplSetup>,
-    /// Reservoir buffer that receives the next frame's initial reservoirs (0 = a, 1 = b).
-    current_reservoirs: usize,
-    /// The other reservoir buffer holds a previous frame's final reservoirs.
-    history_valid: bool,
-    pub ctx: Arc<Context>,
+}
+
+impl FrameLog {
+    fn push(&mut self, s: &FrameStats) {
+        self.gpu_ms.push(s.gpu_ms());
+        self.wall_ms.push(s.wall_ms);
+        self.rays.push(s.rays);
+        for (name, ms) in &s.pass_ms {
+            self.pass_ms.entry(name).or_default().push(*ms);
+        }
+        for (name, n) in &s.rays_by_pass {
+            self.pass_rays.entry(name).or_default().push(*n);
+        }
+    }
+
+    pub fn frames(&self) -> usize {
+        self.gpu_ms.len()
+    }
+
+    pub fn gpu(&self) -> TimingStats {
+        TimingStats::of(&self.gpu_ms)
+    }
+
+    pub fn wall(&self) -> TimingStats {
+        TimingStats::of(&self.wall_ms)
+    }
+
+    /// Rays per pixel per frame.
+    pub fn rays_per_pixel(&self) -> TimingStats {
+        TimingStats::of(&self.rays.iter().map(|&n| n as f64 / self.pixels).collect::<Vec<_>>())
+    }
+
+    /// GPU ms per pass over the frames it ran in.
+    pub fn pass_stats(&self) -> BTreeMap<String, TimingStats> {
+        self.pass_ms.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v))).collect()
+    }
+
+    /// Rays per pixel per frame, by the pass that traced them.
+    pub fn rays_per_pixel_by_pass(&self) -> BTreeMap<String, TimingStats> {
+        self.pass_rays
+            .iter()
+            .map(|(k, v)| (k.to_string(), TimingStats::of(&v.iter().map(|&n| n as f64 / self.pixels).collect::<Vec<_>>())))
+            .collect()
+    }
 }
 
 /// How the VPL modes shade: the VPL set's size and the parameters every VPL pass gets (reported
 /// through [`VplSummary`]).
-pub struct VplSetup {
-    pub vpl_count: u32,
+struct VplSetup {
+    vpl_count: u32,
     /// Yuksel's r actually used (scene units), when the attenuation is Yuksel's.
-    pub yuksel_radius: Option<f32>,
+    yuksel_radius: Option<f32>,
     /// Where the radius came from.
-    pub yuksel_radius_source: Option<&'static str>,
-    /// Σ lum(Φ_i) over the VPLs.
-    pub total_vpl_lum: f64,
-    pub params: GpuVplParams,
-    _alias: crate::vk::Buffer,
+    yuksel_radius_source: Option<&'static str>,
+    params: GpuVplParams,
+    _alias: Buffer,
     reservoirs: Option<Reservoirs>,
 }
 
@@ -145,105 +139,177 @@ pub struct VplSummary {
 /// Largest pixel × VPL product a brute-force frame accepts (~2 h on lavapipe, seconds on a GPU).
 pub const MAX_BRUTEFORCE_PAIRS: u64 = 20_000_000_000;
 
+/// Frames that may be recorded while earlier ones still run on the GPU.
+pub const FRAME_SLOTS: usize = 2;
+
+/// Everything one frame in flight owns: its command buffer and fence, timestamp queries, the
+/// counter read-back, its frame constants and the set 0 variant that points at them.
+struct FrameSlot {
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+    timer: GpuTimer,
+    readback: Buffer,
+    frame_constants: Buffer,
+    /// The frame waiting for this slot's fence: its start time and whether the gbuffer ran.
+    pending: Option<(Instant, bool)>,
+}
+
+/// Accumulation and reuse state carried from frame to frame.
+#[derive(Clone, Copy, Debug, Default)]
+struct FrameState {
+    /// Frames rendered since the accumulation started.
+    accumulated: u32,
+    /// Frames rendered in total (RNG frame index).
+    frame_index: u32,
+    gbuffer_valid: bool,
+    /// Reservoir buffer that receives the next frame's initial reservoirs (0 = a, 1 = b).
+    current_reservoirs: usize,
+    /// The other reservoir buffer holds a previous frame's final reservoirs.
+    history_valid: bool,
+    /// Non-finite samples replaced by zero in this accumulation (counted by the accumulate pass).
+    nonfinite_samples: u64,
+}
+
+pub struct Renderer {
+    settings: RenderSettings,
+    scene: Arc<SceneGpu>,
+    /// Set 0: one variant per frame slot (the scene, plus that slot's frame constants).
+    scene_set: DescriptorSet,
+    /// Draws with the textured shader variants.
+    textured: bool,
+    targets: FrameTargets,
+    passes: Passes,
+    /// The VPL set, when the run needs one: traced once before the first frame (static scene).
+    photons: Option<(PhotonEmitPass, PhotonStats)>,
+    /// The VPL shading setup, in the VPL modes.
+    vpl: Option<VplSetup>,
+    slots: Vec<FrameSlot>,
+    next_slot: usize,
+    /// The camera of the last frame recorded.
+    camera: Option<Camera>,
+    state: FrameState,
+    log: FrameLog,
+    ctx: Arc<Context>,
+}
+
 impl Renderer {
-    pub fn new(ctx: Arc<Context>, scene: &Scene, settings: RenderSettings) -> Result<Self> {
+    /// A renderer of `scene` (uploaded once by the caller and shared) with `settings`: frame
+    /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
+    pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
         settings.validate()?;
-        let camera = CameraSetup::choose(scene, &settings);
-        let scene_gpu = SceneGpu::new(&ctx, scene, settings.textures).context("uploading the scene")?;
+        let textured = scene.textured && settings.textures;
+        let scene_set = DescriptorSet::with_variants(&ctx, "scene", scene.bindings, FRAME_SLOTS as u32)?;
+        scene.write_set(&scene_set)?;
+        let mut slots = Vec::with_capacity(FRAME_SLOTS);
+        for i in 0..FRAME_SLOTS {
+            let frame_constants = Buffer::new(
+                &ctx,
+                &format!("frame{i}.constants"),
+                std::mem::size_of::<GpuFrame>() as u64,
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?;
+            scene_set.write_buffer_in(i, 8, &frame_constants)?;
+            let readback = Buffer::new(
+                &ctx,
+                &format!("frame{i}.counters_readback"),
+                4 * (RAY_SLOTS.len() as u64 + 1),
+                vk::BufferUsageFlags::TRANSFER_DST,
+                MemoryLocation::GpuToCpu,
+            )?;
+            // SAFETY: valid device and pool; both are destroyed in Drop.
+            let (cmd, fence) = unsafe {
+                let cmd = ctx.device.allocate_command_buffers(
+                    &vk::CommandBufferAllocateInfo::default()
+                        .command_pool(ctx.command_pool)
+                        .level(vk::CommandBufferLevel::PRIMARY)
+                        .command_buffer_count(1),
+                )?[0];
+                ctx.set_name(cmd, &format!("frame{i}"));
+                let fence = ctx.device.create_fence(&vk::FenceCreateInfo::default(), None)?;
+                ctx.set_name(fence, &format!("frame{i}"));
+                (cmd, fence)
+            };
+            slots.push(FrameSlot { cmd, fence, timer: GpuTimer::new(&ctx, 32)?, readback, frame_constants, pending: None });
+        }
+        let layout = scene_set.layout;
         let targets = FrameTargets::new(&ctx, settings.width, settings.height).context("allocating frame targets")?;
-        let mut passes = Passes::new(&ctx, scene_gpu.set.layout, scene_gpu.textured, &targets).context("creating passes")?;
-        if settings.verbose {
-            let texture_materials = scene.materials.iter().filter(|m| m.base_color_texture.is_some()).count();
-            if scene_gpu.textured {
-                eprintln!(
-                    "textures: {} ({:.1} MiB of texels, {texture_materials} textured materials): gbuffer, pathtrace and photon_emit use their textured variants",
-                    scene_gpu.texture_count,
-                    scene_gpu.texel_bytes as f64 / (1 << 20) as f64
-                );
-            } else if texture_materials > 0 {
-                eprintln!("textures: off (--textures off): {texture_materials} textured materials use their base colour factor; no texture code compiled in");
-            } else {
-                eprintln!("textures: none in the scene: untextured shader variants, no texture bindings");
-            }
+        let mut passes = Passes::new(&ctx, layout, textured, &targets).context("creating passes")?;
+        let info = &scene.info;
+        if scene.textured && textured {
+            log::info!(
+                "textures: {} ({:.1} MiB of texels, {} textured materials): gbuffer, pathtrace and photon_emit use their textured variants",
+                scene.texture_count,
+                scene.texel_bytes as f64 / (1 << 20) as f64,
+                info.textured_materials
+            );
+        } else if info.textured_materials > 0 {
+            log::info!(
+                "textures: off (--textures off): {} textured materials use their base colour factor; untextured shader variants",
+                info.textured_materials
+            );
+        } else {
+            log::info!("textures: none in the scene: untextured shader variants, no texture bindings");
         }
         let photons = if settings.needs_vpls() {
-            let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, scene_gpu.textured, &scene_gpu.lights, settings.photon_settings())
+            let pass = PhotonEmitPass::new(&ctx, layout, textured, &scene.lights, settings.photon_settings())
                 .context("creating the photon pass")?;
-            let stats = pass.run(scene_gpu.set.set).context("tracing photons")?;
-            if settings.verbose {
-                eprintln!(
-                    "photon_emit: ran once before frame 0 (static scene): {} direct + {} indirect VPLs from {} paths in {:.1} GPU ms",
-                    stats.direct_vpls, stats.indirect_vpls, stats.paths, stats.gpu_ms
-                );
-            }
+            let stats = pass.run(scene_set.set).context("tracing photons")?;
+            log::info!(
+                "photon_emit: ran once before frame 0 (static scene): {} direct + {} indirect VPLs from {} paths in {:.1} GPU ms",
+                stats.direct_vpls,
+                stats.indirect_vpls,
+                stats.paths,
+                stats.gpu_ms
+            );
             Some((pass, stats))
         } else {
-            if settings.verbose {
-                eprintln!("photon_emit: skipped (mode {} uses no VPLs and none are dumped)", settings.mode.name());
-            }
+            log::info!("photon_emit: skipped (mode {} uses no VPLs and none are dumped)", settings.mode.name());
             None
         };
         if settings.view == View::Vpls {
             let (pass, stats) = photons.as_ref().expect("--view vpls builds the VPL set");
-            let (lo, hi) = scene.world_bounds();
-            let radius = settings.vpl_radius.unwrap_or(0.0025 * (hi - lo).length().max(1e-6));
-            passes.vpl_view = Some(VplViewPass::new(
-                &ctx,
-                scene_gpu.set.layout,
-                &targets,
-                &pass.vpls,
-                PhotonEmitPass::vpl_count(stats),
-                radius,
-            )?);
+            passes.vpl_view = Some(Self::vpl_view(&ctx, &settings, &scene, layout, &targets, pass, stats)?);
         }
         let vpl = match (&photons, settings.mode.uses_vpls()) {
             (Some((pass, stats)), true) => {
-                Some(Self::vpl_setup(&ctx, scene, &settings, &scene_gpu, &targets, &mut passes, pass, stats)?)
+                Some(Self::vpl_setup(&ctx, &settings, &scene, layout, &targets, &mut passes, pass, stats)?)
             }
             _ => None,
         };
-        let timer = GpuTimer::new(&ctx, 32)?;
-        let readback = crate::vk::Buffer::new(
-            &ctx,
-            "frame.counters_readback",
-            4 * (RAY_SLOTS.len() as u64 + 1),
-            vk::BufferUsageFlags::TRANSFER_DST,
-            gpu_allocator::MemoryLocation::GpuToCpu,
-        )?;
-        // SAFETY: valid device and pool; destroyed in Drop.
-        let (cmd, fence) = unsafe {
-            let cmd = ctx.device.allocate_command_buffers(
-                &vk::CommandBufferAllocateInfo::default()
-                    .command_pool(ctx.command_pool)
-                    .level(vk::CommandBufferLevel::PRIMARY)
-                    .command_buffer_count(1),
-            )?[0];
-            ctx.set_name(cmd, "frame");
-            let fence = ctx.device.create_fence(&vk::FenceCreateInfo::default(), None)?;
-            (cmd, fence)
-        };
+        let log = FrameLog { pixels: targets.pixels() as f64, ..Default::default() };
         Ok(Self {
             settings,
-            camera,
-            scene: scene_gpu,
+            scene,
+            scene_set,
+            textured,
             targets,
             passes,
-            timer,
-            readback,
-            cmd,
-            fence,
-            accumulated: 0,
-            frame_index: 0,
-            gbuffer_valid: false,
-            nonfinite_samples: 0,
             photons,
-            pass_times: BTreeMap::new(),
-            pass_rays: BTreeMap::new(),
             vpl,
-            current_reservoirs: 0,
-            history_valid: false,
+            slots,
+            next_slot: 0,
+            camera: None,
+            state: FrameState::default(),
+            log,
             ctx,
         })
+    }
+
+    /// The `--view vpls` pass over the photon pass's VPLs (spheres of `--vpl-radius`, default 0.25%
+    /// of the scene's diagonal).
+    fn vpl_view(
+        ctx: &Arc<Context>,
+        settings: &RenderSettings,
+        scene: &SceneGpu,
+        scene_layout: vk::DescriptorSetLayout,
+        targets: &FrameTargets,
+        pass: &PhotonEmitPass,
+        stats: &PhotonStats,
+    ) -> Result<VplViewPass> {
+        let (lo, hi) = scene.info.bounds;
+        let radius = settings.vpl_radius.unwrap_or(0.0025 * (hi - lo).length().max(1e-6));
+        VplViewPass::new(ctx, scene_layout, targets, &pass.vpls, PhotonEmitPass::vpl_count(stats), radius)
     }
 
     /// The VPL modes' shared inputs and passes: alias table over the VPL powers (power source
@@ -251,16 +317,16 @@ impl Renderer {
     #[allow(clippy::too_many_arguments)]
     fn vpl_setup(
         ctx: &Arc<Context>,
-        scene: &Scene,
         settings: &RenderSettings,
         scene_gpu: &SceneGpu,
+        scene_layout: ash::vk::DescriptorSetLayout,
         targets: &FrameTargets,
         passes: &mut Passes,
         photon_pass: &PhotonEmitPass,
         stats: &PhotonStats,
     ) -> Result<VplSetup> {
         let vpl_count = PhotonEmitPass::vpl_count(stats);
-        let layout = scene_gpu.set.layout;
+        let layout = scene_layout;
         let mode = settings.mode;
         if mode == Mode::Bruteforce {
             let pairs = targets.pixels() as u64 * vpl_count as u64;
@@ -291,7 +357,7 @@ impl Renderer {
             Attenuation::Yuksel => match settings.yuksel_radius {
                 Some(r) => (Some(r), Some("--yuksel-radius")),
                 None => {
-                    let area = scene.surface_area();
+                    let area = scene_gpu.info.surface_area;
                     let r = (area / (std::f64::consts::PI * vpl_count.max(1) as f64)).sqrt() as f32;
                     let r = if r > 0.0 && r.is_finite() { r } else { 1e-3 };
                     (Some(r), Some("mean VPL spacing sqrt(scene area / (pi * VPL count))"))
@@ -359,20 +425,17 @@ impl Renderer {
             }
             reservoirs = Some(res);
         }
-        if settings.verbose {
-            eprintln!(
-                "vpl: {vpl_count} VPLs, attenuation {:?}{}, {} candidate(s) from the {} source",
-                settings.attenuation,
-                yuksel_radius.map(|r| format!(" (r = {r:.4})")).unwrap_or_default(),
-                params.candidates,
-                if need_power { "power" } else { "uniform" }
-            );
-        }
+        log::info!(
+            "vpl: {vpl_count} VPLs, attenuation {:?}{}, {} candidate(s) from the {} source",
+            settings.attenuation,
+            yuksel_radius.map(|r| format!(" (r = {r:.4})")).unwrap_or_default(),
+            params.candidates,
+            if need_power { "power" } else { "uniform" }
+        );
         Ok(VplSetup {
             vpl_count,
             yuksel_radius,
             yuksel_radius_source,
-            total_vpl_lum,
             params,
             _alias: alias,
             reservoirs,
@@ -380,8 +443,9 @@ impl Renderer {
     }
 
     /// What the next frame will run. `preview`: also run the tonemap pass.
-    pub fn plan(&self, preview: bool) -> FramePlan {
+    fn plan(&self, preview: bool) -> FramePlan {
         let s = &self.settings;
+        let st = &self.state;
         let mode = s.mode;
         let vpls_view = s.view == View::Vpls;
         // A shading pass runs when its mode wants it, unless --view vpls replaces the shading.
@@ -399,25 +463,25 @@ impl Renderer {
         };
         let r = &s.restir;
         let vpl = match &self.vpl {
-            Some(v) => VplFrame { params: v.params, restir: *r, view: s.view, current: self.current_reservoirs },
+            Some(v) => VplFrame { params: v.params, restir: *r, view: s.view, current: st.current_reservoirs },
             None => VplFrame::default(),
         };
         let gbuffer = if s.aa {
             Step::Run
-        } else if self.gbuffer_valid {
+        } else if st.gbuffer_valid {
             Step::Skip("camera still and no --aa: primary hits traced once")
         } else {
             Step::Run
         };
         FramePlan {
-            keep_previous_gbuffer: self.passes.prev_surfaces.is_some() && self.gbuffer_valid && gbuffer == Step::Run,
+            keep_previous_gbuffer: self.passes.prev_surfaces.is_some() && st.gbuffer_valid && gbuffer == Step::Run,
             gbuffer,
             pathtrace: shading(mode == Mode::Pt, "mode is not pt"),
             vpl_bruteforce: shading(mode == Mode::Bruteforce, "mode is not bruteforce"),
             restir_initial: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             restir_temporal: restir_step(
-                r.temporal && self.history_valid,
-                if r.temporal { "no history before the first frame" } else { "--temporal off" },
+                r.temporal && st.history_valid,
+                if !r.temporal { "--temporal off" } else if st.frame_index == 0 { "no history before the first frame" } else { "no history: the camera moved" },
             ),
             restir_spatial: restir_step(
                 r.spatial_passes > 0 && r.spatial_neighbours > 0,
@@ -430,22 +494,21 @@ impl Renderer {
             },
             accumulate: Step::Run,
             tonemap: if preview { Step::Run } else { Step::Skip("no preview needed this frame") },
-            reset_accumulation: self.accumulated == 0,
+            reset_accumulation: st.accumulated == 0,
             vpl,
         }
     }
 
-    fn frame_constants(&self) -> GpuFrame {
+    fn frame_constants(&self, camera: &Camera) -> GpuFrame {
         let s = &self.settings;
-        let c = &self.camera;
         GpuFrame {
-            camera_position: c.position.to_array(),
-            tan_half_fov: (c.yfov * 0.5).tan(),
-            camera_right: c.right.to_array(),
+            camera_position: camera.position.to_array(),
+            tan_half_fov: (camera.yfov * 0.5).tan(),
+            camera_right: camera.right.to_array(),
             aspect: s.width as f32 / s.height as f32,
-            camera_up: c.up.to_array(),
-            frame_index: self.frame_index,
-            camera_forward: c.forward.to_array(),
+            camera_up: camera.up.to_array(),
+            frame_index: self.state.frame_index,
+            camera_forward: camera.forward.to_array(),
             seed: s.seed,
             width: s.width,
             height: s.height,
@@ -455,116 +518,242 @@ impl Renderer {
             instance_count: self.scene.instance_count as u32,
             total_light_power: self.scene.lights.total_power_lum as f32,
             exposure: 2f32.powf(s.exposure),
-            accumulated_frames: self.accumulated + 1,
+            accumulated_frames: self.state.accumulated + 1,
             ..Default::default()
         }
     }
 
-    /// Renders and accumulates one frame; waits for it to finish.
-    pub fn render_frame(&mut self, preview: bool) -> Result<FrameStats> {
-        let start = std::time::Instant::now();
-        let plan = self.plan(preview);
-        if self.settings.verbose && (self.frame_index == 0 || (preview && self.frame_index + 1 == self.settings.frames)) {
-            eprintln!("frame {} passes:\n{}", self.frame_index, plan.describe());
+    /// Renders one frame seen from `camera` and adds it to the accumulation; waits for it and
+    /// returns its statistics (also kept in [`Renderer::log`]). `preview`: also tonemap it for
+    /// [`Renderer::read_preview`]. A camera other than the last frame's restarts the accumulation
+    /// and traces the G-buffer again.
+    pub fn render_frame(&mut self, camera: &Camera, preview: bool) -> Result<FrameStats> {
+        let slot = self.submit_frame(camera, preview)?;
+        self.complete_frame(slot)
+    }
+
+    /// Records and submits one frame into the next frame slot (first completing the frame that
+    /// slot held, if any); returns the slot.
+    fn submit_frame(&mut self, camera: &Camera, preview: bool) -> Result<usize> {
+        let start = Instant::now();
+        let i = self.next_slot;
+        if self.slots[i].pending.is_some() {
+            self.complete_frame(i)?;
         }
-        self.scene.write_frame(&self.frame_constants())?;
+        if self.camera.is_some_and(|c| !c.same_view(camera)) {
+            // A new view: new primary hits, a new accumulation, and no history to reuse.
+            self.state.gbuffer_valid = false;
+            self.state.history_valid = false;
+            self.state.accumulated = 0;
+        }
+        self.camera = Some(*camera);
+        let plan = self.plan(preview);
+        if self.state.frame_index == 0 {
+            log::info!("frame {} passes:\n{}", self.state.frame_index, plan.describe());
+        }
+        let constants = self.frame_constants(camera);
         let ctx = self.ctx.clone();
         let d = &ctx.device;
-        // SAFETY: the previous submission of `cmd` has completed (we waited on the fence).
+        let slot = &mut self.slots[i];
+        slot.frame_constants.write(0, bytemuck::bytes_of(&constants))?;
+        // SAFETY: the slot's previous submission has completed (its fence was waited on).
         unsafe {
-            d.reset_command_buffer(self.cmd, vk::CommandBufferResetFlags::empty())?;
+            d.reset_command_buffer(slot.cmd, vk::CommandBufferResetFlags::empty())?;
             d.begin_command_buffer(
-                self.cmd,
+                slot.cmd,
                 &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
             )?;
         }
-        self.timer.reset(self.cmd);
-        self.passes.record_frame(&ctx, self.cmd, &mut self.timer, self.scene.set.set, &self.targets, &plan);
+        slot.timer.reset(slot.cmd);
+        // Orders this frame after the previous one's last reads of the shared targets.
+        crate::vk::pipeline::compute_barrier(&ctx, slot.cmd);
+        self.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.targets, &plan);
         let counters_size = 4 * RAY_SLOTS.len() as u64;
-        let regions = [vk::BufferCopy::default().size(counters_size).dst_offset(0)];
-        // SAFETY: buffers alive; the barrier in record_frame orders the copies after the passes.
+        // SAFETY: buffers alive; the barrier after the last pass orders the copies after it.
         unsafe {
-            d.cmd_copy_buffer(self.cmd, self.targets.ray_counter.raw, self.readback.raw, &regions);
             d.cmd_copy_buffer(
-                self.cmd,
+                slot.cmd,
+                self.targets.ray_counter.raw,
+                slot.readback.raw,
+                &[vk::BufferCopy::default().size(counters_size)],
+            );
+            d.cmd_copy_buffer(
+                slot.cmd,
                 self.targets.stats.raw,
-                self.readback.raw,
+                slot.readback.raw,
                 &[vk::BufferCopy::default().size(4).dst_offset(counters_size)],
             );
-            d.end_command_buffer(self.cmd)?;
-            let cmds = [self.cmd];
+            d.end_command_buffer(slot.cmd)?;
+            let cmds = [slot.cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            d.reset_fences(&[self.fence])?;
-            d.queue_submit(ctx.queue, &submit, self.fence).context("vkQueueSubmit (frame)")?;
-            d.wait_for_fences(&[self.fence], true, u64::MAX).context("waiting for the frame (device lost?)")?;
+            d.reset_fences(&[slot.fence])?;
+            d.queue_submit(ctx.queue, &submit, slot.fence).context("vkQueueSubmit (frame)")?;
         }
-        let raw_ms = self.timer.collect()?;
-        // One entry per pass: repeated dispatches of a pass (restir_spatial ×n) are summed.
+        slot.pending = Some((start, plan.gbuffer == Step::Run));
+        let st = &mut self.state;
+        if plan.gbuffer == Step::Run {
+            st.gbuffer_valid = true;
+        }
+        if plan.vpl_shade == Step::Run {
+            // The final reservoirs become the next frame's history; the other buffer is free.
+            st.current_reservoirs = 1 - plan.vpl.final_buffer(plan.spatial_passes());
+            st.history_valid = true;
+        }
+        st.accumulated += 1;
+        st.frame_index += 1;
+        self.next_slot = (i + 1) % FRAME_SLOTS;
+        Ok(i)
+    }
+
+    /// Waits for the frame in slot `i` and logs its statistics.
+    fn complete_frame(&mut self, i: usize) -> Result<FrameStats> {
+        let slot = &mut self.slots[i];
+        let (start, gbuffer_ran) = slot.pending.take().context("no frame is pending in this slot")?;
+        // SAFETY: the fence belongs to this slot's last submission.
+        unsafe { self.ctx.device.wait_for_fences(&[slot.fence], true, u64::MAX) }
+            .context("waiting for the frame (device lost?)")?;
         let mut pass_ms: Vec<(&'static str, f64)> = Vec::new();
-        for (name, ms) in raw_ms {
+        for (name, ms) in slot.timer.collect()? {
             match pass_ms.iter_mut().find(|(n, _)| *n == name) {
                 Some(entry) => entry.1 += ms,
                 None => pass_ms.push((name, ms)),
             }
         }
-        for (name, ms) in &pass_ms {
-            self.pass_times.entry(name).or_default().push(*ms);
-        }
         let n_slots = RAY_SLOTS.len();
-        let counters: Vec<u32> = bytemuck::cast_slice(&self.readback.read(0, 4 * (n_slots + 1))?).to_vec();
-        self.nonfinite_samples = counters[n_slots] as u64;
-        let primary = if plan.gbuffer == Step::Run { self.targets.pixels() as u64 } else { 0 };
+        let counters: Vec<u32> = bytemuck::cast_slice(&slot.readback.read(0, 4 * (n_slots + 1))?).to_vec();
+        self.state.nonfinite_samples = counters[n_slots] as u64;
+        let primary = if gbuffer_ran { self.targets.pixels() as u64 } else { 0 };
         let mut rays_by_pass = vec![("gbuffer", primary)];
         for (slot, name) in RAY_SLOTS.iter().enumerate() {
             if counters[slot] > 0 {
                 rays_by_pass.push((name, counters[slot] as u64));
             }
         }
-        for (name, n) in &rays_by_pass {
-            self.pass_rays.entry(name).or_default().push(*n);
-        }
-        if plan.gbuffer == Step::Run {
-            self.gbuffer_valid = true;
-        }
-        if plan.vpl_shade == Step::Run {
-            // The final reservoirs become the next frame's history; the other buffer is free.
-            self.current_reservoirs = 1 - plan.vpl.final_buffer(plan.spatial_passes());
-            self.history_valid = true;
-        }
-        self.accumulated += 1;
-        self.frame_index += 1;
         let rays = rays_by_pass.iter().map(|r| r.1).sum();
-        Ok(FrameStats { pass_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 })
+        let stats = FrameStats { pass_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 };
+        self.log.push(&stats);
+        Ok(stats)
+    }
+
+    /// Completes every frame still in flight.
+    fn complete_all(&mut self) -> Result<()> {
+        for k in 0..FRAME_SLOTS {
+            let i = (self.next_slot + k) % FRAME_SLOTS;
+            if self.slots[i].pending.is_some() {
+                self.complete_frame(i)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Traces the VPL set again (the photon pass only; `bench --photons` times it) and rebuilds
+    /// what depends on it: the VPL passes, their alias table and radius. The accumulation and the
+    /// ReSTIR history restart. Returns the new photon statistics.
+    pub fn retrace_photons(&mut self) -> Result<PhotonStats> {
+        self.complete_all()?;
+        let Some((pass, stats)) = &mut self.photons else {
+            anyhow::bail!("this run has no VPL set to retrace (mode pt without --dump-vpls or --view vpls)");
+        };
+        *stats = pass.run(self.scene_set.set).context("tracing photons")?;
+        let (pass, stats) = self.photons.as_ref().expect("checked above");
+        if self.passes.vpl_view.is_some() {
+            self.passes.vpl_view = Some(Self::vpl_view(&self.ctx, &self.settings, &self.scene, self.scene_set.layout, &self.targets, pass, stats)?);
+        }
+        if self.vpl.is_some() {
+            self.passes.vpl = Default::default();
+            self.passes.prev_surfaces = None;
+            self.vpl = Some(Self::vpl_setup(
+                &self.ctx,
+                &self.settings,
+                &self.scene,
+                self.scene_set.layout,
+                &self.targets,
+                &mut self.passes,
+                pass,
+                stats,
+            )?);
+        }
+        self.state.history_valid = false;
+        self.state.accumulated = 0;
+        Ok(stats.clone())
     }
 
     /// Starts a new, independent accumulation with pixel seed `seed`: the VPL set, G-buffer and
-    /// pipelines stay; the running mean, the ReSTIR history and the frame counter restart. (The
-    /// photon pass keeps the VPLs it traced with the original seed.)
-    pub fn restart(&mut self, seed: u32) {
+    /// pipelines stay; the running mean, the ReSTIR history, the frame counter and the log restart.
+    /// (The photon pass keeps the VPLs it traced with the original seed.)
+    pub fn restart(&mut self, seed: u32) -> Result<()> {
+        self.complete_all()?;
         self.settings.seed = seed;
-        self.accumulated = 0;
-        self.frame_index = 0;
-        self.history_valid = false;
-        self.pass_times.clear();
-        self.pass_rays.clear();
+        self.state = FrameState { gbuffer_valid: self.state.gbuffer_valid, ..Default::default() };
+        self.log = FrameLog { pixels: self.log.pixels, ..Default::default() };
+        Ok(())
     }
 
     /// Starts a new accumulation but keeps everything else: the frame counter (so random numbers
-    /// continue), the ReSTIR history and the G-buffer. Timing and ray statistics restart too.
-    /// Used after warm-up frames, so that ReSTIR is measured in its steady state.
-    pub fn reset_accumulation(&mut self) {
-        self.accumulated = 0;
-        self.pass_times.clear();
-        self.pass_rays.clear();
+    /// continue), the ReSTIR history and the G-buffer. The log restarts too. Used after warm-up
+    /// frames, so that ReSTIR is measured in its steady state.
+    pub fn reset_accumulation(&mut self) -> Result<()> {
+        self.complete_all()?;
+        self.state.accumulated = 0;
+        self.log = FrameLog { pixels: self.log.pixels, ..Default::default() };
+        Ok(())
     }
 
-    /// Rays per pixel per frame, by the pass that traced them, over the frames so far.
-    pub fn rays_per_pixel_by_pass(&self) -> BTreeMap<String, crate::output::TimingStats> {
-        let pixels = self.targets.pixels() as f64;
-        self.pass_rays
-            .iter()
-            .map(|(k, v)| (k.to_string(), crate::output::TimingStats::of(&v.iter().map(|n| *n as f64 / pixels).collect::<Vec<_>>())))
-            .collect()
+    /// Makes the next frame frame number `index` of the random sequence (frame k uses the same
+    /// random numbers in any run, so that references rendered in parts combine).
+    pub fn set_frame_index(&mut self, index: u32) -> Result<()> {
+        self.complete_all()?;
+        self.state.frame_index = index;
+        Ok(())
+    }
+
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    pub fn scene(&self) -> &SceneGpu {
+        &self.scene
+    }
+
+    /// The camera a run starts from: the settings' `--eye/--target` if given, else the scene's
+    /// (see [`Camera::initial`]).
+    pub fn initial_camera(&self) -> Camera {
+        Camera::initial(&self.scene.info, self.settings.camera.as_ref())
+    }
+
+    /// Whether this renderer draws with the textured shader variants (the scene was uploaded with
+    /// textures and the settings keep them on).
+    pub fn textured(&self) -> bool {
+        self.textured
+    }
+
+    /// The camera of the last frame, if one was rendered.
+    pub fn camera(&self) -> Option<Camera> {
+        self.camera
+    }
+
+    /// Frame times and rays since the log was last cleared.
+    pub fn log(&self) -> &FrameLog {
+        &self.log
+    }
+
+    /// Frames in the current accumulation.
+    pub fn accumulated(&self) -> u32 {
+        self.state.accumulated
+    }
+
+    /// Non-finite samples replaced by 0 in the current accumulation.
+    pub fn nonfinite_samples(&self) -> u64 {
+        self.state.nonfinite_samples
+    }
+
+    pub fn pixels(&self) -> u32 {
+        self.targets.pixels()
+    }
+
+    /// The photon pass's statistics, when the run traced VPLs.
+    pub fn photon_stats(&self) -> Option<&PhotonStats> {
+        self.photons.as_ref().map(|p| &p.1)
     }
 
     /// The VPL setup as summary.json reports it.
@@ -585,7 +774,7 @@ impl Renderer {
         let Some(res) = self.vpl.as_ref().and_then(|v| v.reservoirs.as_ref()) else {
             return Ok(None);
         };
-        let last = 1 - self.current_reservoirs;
+        let last = 1 - self.state.current_reservoirs;
         let bytes = read_back(&self.ctx, res.buffer(last))?;
         let all: &[crate::gpu_types::GpuReservoir] = bytemuck::cast_slice(&bytes);
         Ok(Some(all[..self.targets.pixels() as usize].to_vec()))
@@ -603,9 +792,16 @@ impl Renderer {
         Ok(v[..self.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 
+    /// The last frame's own estimate per pixel (before accumulation), row 0 at the top, RGB.
+    pub fn read_frame_samples(&self) -> Result<Vec<[f32; 3]>> {
+        let bytes = read_back(&self.ctx, &self.targets.samples)?;
+        let v: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
+        Ok(v[..self.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
+    }
+
     /// Per-pixel sample variance of the accumulated frames (unbiased, n − 1), RGB.
     pub fn read_variance(&self) -> Result<Vec<[f32; 3]>> {
-        let n = self.accumulated as f64;
+        let n = self.state.accumulated as f64;
         let sums = read_back(&self.ctx, &self.targets.accum_sum)?;
         let comp = read_back(&self.ctx, &self.targets.accum_compensation)?;
         let sq = read_back(&self.ctx, &self.targets.accum_squares)?;
@@ -635,11 +831,13 @@ impl Renderer {
 
 impl Drop for Renderer {
     fn drop(&mut self) {
-        // SAFETY: wait for idle, then free the frame's command buffer and fence.
+        // SAFETY: wait for idle, then free every slot's command buffer and fence.
         unsafe {
             let _ = self.ctx.device.device_wait_idle();
-            self.ctx.device.destroy_fence(self.fence, None);
-            self.ctx.device.free_command_buffers(self.ctx.command_pool, &[self.cmd]);
+            for slot in &self.slots {
+                self.ctx.device.destroy_fence(slot.fence, None);
+                self.ctx.device.free_command_buffers(self.ctx.command_pool, &[slot.cmd]);
+            }
         }
     }
 }

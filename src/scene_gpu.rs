@@ -1,12 +1,13 @@
-//! The scene on the GPU: geometry, materials, instances, lights, BLAS/TLAS and the frame uniform
-//! buffer, bound as descriptor set 0 (`SCENE_BINDINGS`, mirrored in shaders/common/scene.glsl).
+//! The scene on the GPU: geometry, materials, instances, lights and BLAS/TLAS, uploaded once and
+//! shared (through an `Arc`) by every renderer that draws it. Each renderer binds it as descriptor
+//! set 0 (`SCENE_BINDINGS`, mirrored in shaders/common/scene.glsl) together with its own frame
+//! uniform buffer (binding 8), see [`SceneGpu::write_set`].
 
 use std::sync::Arc;
 
 use anyhow::{Context as _, Result};
 use ash::vk;
 use glam::{Mat3, Mat4};
-use gpu_allocator::MemoryLocation;
 
 use crate::gpu_types::*;
 use crate::lights::LightSet;
@@ -44,9 +45,30 @@ pub const SCENE_BINDINGS_TEXTURED: &[Binding] = &[
     storage(10, "texels"),
 ];
 
+/// What the renderer needs to know of the scene besides its GPU buffers (kept from the [`Scene`]
+/// it was uploaded from, so that renderers need only the [`SceneGpu`]).
+#[derive(Clone, Debug)]
+pub struct SceneInfo {
+    /// The file the scene was loaded from (or its label).
+    pub path: std::path::PathBuf,
+    pub meshes: usize,
+    pub materials: usize,
+    /// Materials with a base-colour texture (whether or not textures were uploaded).
+    pub textured_materials: usize,
+    /// World-space bounds (min, max).
+    pub bounds: (glam::Vec3, glam::Vec3),
+    /// Total surface area of all instanced triangles (scene units²).
+    pub surface_area: f64,
+    /// The glTF camera (world transform, vertical field of view in radians), when there is one.
+    pub camera: Option<(Mat4, f32)>,
+    /// Loader warnings.
+    pub warnings: Vec<String>,
+}
+
 pub struct SceneGpu {
-    pub set: DescriptorSet,
-    pub frame: Buffer,
+    pub info: SceneInfo,
+    /// Set 0's binding table (with or without the texture bindings).
+    pub bindings: &'static [Binding],
     pub lights: LightSet,
     pub triangle_count: usize,
     pub instance_count: usize,
@@ -58,10 +80,11 @@ pub struct SceneGpu {
     pub texel_bytes: usize,
     pub build_ms: f64,
     // Kept alive for the descriptors.
-    _tlas: AccelerationStructure,
+    tlas: AccelerationStructure,
     _tlas_instances: Buffer,
     _blases: Vec<AccelerationStructure>,
-    _buffers: Vec<Buffer>,
+    /// (binding, buffer) of every set-0 buffer but the frame constants.
+    buffers: Vec<(u32, Buffer)>,
 }
 
 fn storage_usage() -> vk::BufferUsageFlags {
@@ -145,24 +168,11 @@ impl SceneGpu {
         let inb = Buffer::with_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), storage_usage())?;
         let lb = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&lights.lights), storage_usage())?;
         let ab = Buffer::with_data(ctx, "scene.light_alias", bytemuck::cast_slice(&lights.alias), storage_usage())?;
-        let frame = Buffer::new(
-            ctx,
-            "scene.frame",
-            std::mem::size_of::<GpuFrame>() as u64,
-            vk::BufferUsageFlags::UNIFORM_BUFFER,
-            MemoryLocation::CpuToGpu,
-        )?;
-
         let blases = accel::build_blases(ctx, &vb, std::mem::size_of::<GpuVertex>() as u64, &ib, &ranges)
             .context("building BLASes")?;
         let (tlas, tlas_instances) = accel::build_tlas(ctx, &blases, &descs).context("building the TLAS")?;
 
-        let set = DescriptorSet::new(ctx, "scene", if textured { SCENE_BINDINGS_TEXTURED } else { SCENE_BINDINGS })?;
-        set.write_accel(0, tlas.raw)?;
-        for (binding, buffer) in [(1, &vb), (2, &ib), (3, &tm), (4, &mb), (5, &inb), (6, &lb), (7, &ab), (8, &frame)] {
-            set.write_buffer(binding, buffer)?;
-        }
-        let mut buffers = vec![vb, ib, tm, mb, inb, lb, ab];
+        let mut buffers = vec![(1, vb), (2, ib), (3, tm), (4, mb), (5, inb), (6, lb), (7, ab)];
         let (mut texture_count, mut texel_bytes) = (0, 0);
         if textured {
             let mut table = Vec::with_capacity(scene.textures.len());
@@ -179,15 +189,23 @@ impl SceneGpu {
             );
             let tb = Buffer::with_data(ctx, "scene.textures", bytemuck::cast_slice(&table), storage_usage())?;
             let xb = Buffer::with_data(ctx, "scene.texels", &texels, storage_usage())?;
-            set.write_buffer(9, &tb)?;
-            set.write_buffer(10, &xb)?;
             texture_count = table.len();
             texel_bytes = texels.len();
-            buffers.extend([tb, xb]);
+            buffers.extend([(9, tb), (10, xb)]);
         }
+        let info = SceneInfo {
+            path: scene.path.clone(),
+            meshes: scene.meshes.len(),
+            materials: scene.materials.len(),
+            textured_materials: scene.materials.iter().filter(|m| m.base_color_texture.is_some()).count(),
+            bounds: scene.world_bounds(),
+            surface_area: scene.surface_area(),
+            camera: scene.camera.as_ref().map(|c| (c.transform, c.yfov)),
+            warnings: scene.warnings.clone(),
+        };
         Ok(Self {
-            set,
-            frame,
+            info,
+            bindings: if textured { SCENE_BINDINGS_TEXTURED } else { SCENE_BINDINGS },
             lights,
             triangle_count: scene.triangle_count(),
             instance_count: scene.instances.len(),
@@ -195,14 +213,26 @@ impl SceneGpu {
             texture_count,
             texel_bytes,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
-            _tlas: tlas,
+            tlas,
             _tlas_instances: tlas_instances,
             _blases: blases,
-            _buffers: buffers,
+            buffers,
         })
     }
 
-    pub fn write_frame(&self, frame: &GpuFrame) -> Result<()> {
-        self.frame.write(0, bytemuck::bytes_of(frame))
+    /// Points every variant of `set` (made from [`SceneGpu::bindings`]) at the scene: TLAS,
+    /// geometry, materials, lights and textures. Binding 8, the frame constants, belongs to the
+    /// renderer and is left to it.
+    pub fn write_set(&self, set: &DescriptorSet) -> Result<()> {
+        set.write_accel(0, self.tlas.raw)?;
+        for (binding, buffer) in &self.buffers {
+            set.write_buffer(*binding, buffer)?;
+        }
+        Ok(())
+    }
+
+    /// Whether the scene has emitters (area or point lights).
+    pub fn has_emitters(&self) -> bool {
+        !self.lights.lights.is_empty()
     }
 }

@@ -3,35 +3,98 @@
 use std::path::PathBuf;
 
 use glam::Vec3;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-/// What each pixel estimates.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Mode {
-    /// Path tracing with next-event estimation and MIS: the ground truth.
-    Pt,
-    /// One VPL per pixel, chosen uniformly; one shadow ray.
-    Uniform,
-    /// Resampled importance sampling over --candidates VPLs; one shadow ray.
-    Ris,
-    /// ReSTIR DI over the VPLs: initial RIS, temporal and spatial reservoir reuse.
-    Restir,
-    /// Every VPL with a shadow ray: the VPL model's exact answer (small images only).
-    Bruteforce,
+/// A settings enum with one name per variant: parsed from and written as that name (CLI, JSON,
+/// the window's overlay), listed with its doc line as help.
+pub trait NamedEnum: Copy + Sized + 'static {
+    /// Every variant, in order.
+    const ALL: &'static [Self];
+    fn name(self) -> &'static str;
+    /// One line for `--help` and the overlay.
+    fn help(self) -> &'static str;
+    fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.iter().copied().find(|v| v.name() == name)
+    }
+    /// The variant after this one, wrapping around (the window cycles through them).
+    fn next(self) -> Self {
+        let i = Self::ALL.iter().position(|v| v.name() == self.name()).unwrap_or(0);
+        Self::ALL[(i + 1) % Self::ALL.len()]
+    }
+}
+
+macro_rules! named_enum {
+    ($(#[$m:meta])* pub enum $name:ident {
+        $( #[doc = $doc:literal] $(#[$vm:meta])* $variant:ident = $text:literal, )*
+    }) => {
+        $(#[$m])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum $name { $( #[doc = $doc] $(#[$vm])* $variant, )* }
+
+        impl NamedEnum for $name {
+            const ALL: &'static [Self] = &[ $( Self::$variant ),* ];
+            fn name(self) -> &'static str {
+                match self { $( Self::$variant => $text ),* }
+            }
+            fn help(self) -> &'static str {
+                match self { $( Self::$variant => $doc.trim() ),* }
+            }
+        }
+
+        impl $name {
+            pub fn name(self) -> &'static str {
+                NamedEnum::name(self)
+            }
+        }
+
+        impl std::fmt::Display for $name {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str(NamedEnum::name(*self))
+            }
+        }
+
+        impl std::str::FromStr for $name {
+            type Err = String;
+            fn from_str(s: &str) -> Result<Self, String> {
+                <Self as NamedEnum>::from_name(s).ok_or_else(|| {
+                    let names: Vec<&str> = Self::ALL.iter().map(|v| NamedEnum::name(*v)).collect();
+                    format!("'{s}' is not one of: {}", names.join(", "))
+                })
+            }
+        }
+
+        impl Serialize for $name {
+            fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+                s.serialize_str(NamedEnum::name(*self))
+            }
+        }
+
+        impl<'de> Deserialize<'de> for $name {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                let s = String::deserialize(d)?;
+                s.parse().map_err(serde::de::Error::custom)
+            }
+        }
+    };
+}
+
+named_enum! {
+    /// What each pixel estimates.
+    pub enum Mode {
+        /// Path tracing with next-event estimation and MIS: the ground truth.
+        Pt = "pt",
+        /// One VPL per pixel, chosen uniformly; one shadow ray.
+        Uniform = "uniform",
+        /// Resampled importance sampling over --candidates VPLs; one shadow ray.
+        Ris = "ris",
+        /// ReSTIR DI over the VPLs: initial RIS, temporal and spatial reservoir reuse.
+        Restir = "restir",
+        /// Every VPL with a shadow ray: the VPL model's exact answer (small images only).
+        Bruteforce = "bruteforce",
+    }
 }
 
 impl Mode {
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Pt => "pt",
-            Mode::Uniform => "uniform",
-            Mode::Ris => "ris",
-            Mode::Restir => "restir",
-            Mode::Bruteforce => "bruteforce",
-        }
-    }
-
     /// Whether the mode shades with the VPL set.
     pub fn uses_vpls(self) -> bool {
         !matches!(self, Mode::Pt)
@@ -43,41 +106,38 @@ impl Mode {
     }
 }
 
-/// Where RIS candidates come from.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum CandidateSource {
-    /// Uniformly over the VPLs (as in the thesis).
-    #[default]
-    Uniform,
-    /// In proportion to lum(Φ) through an alias table.
-    Power,
+named_enum! {
+    /// Where RIS candidates come from.
+    pub enum CandidateSource {
+        /// Uniformly over the VPLs (as in the thesis).
+        Uniform = "uniform",
+        /// In proportion to lum(Φ) through an alias table.
+        Power = "power",
+    }
 }
 
-/// ReSTIR reuse flavour.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Bias {
-    /// Confidence-weighted reuse, targets without visibility: cheap, biased.
-    #[default]
-    Biased,
-    /// Visibility-aware generalised (pairwise) MIS: converges to the brute-force sum.
-    Unbiased,
+named_enum! {
+    /// ReSTIR reuse flavour.
+    pub enum Bias {
+        /// Confidence-weighted reuse, targets without visibility: cheap, biased.
+        Biased = "biased",
+        /// Generalised (pairwise) MIS: converges to the brute-force sum.
+        Unbiased = "unbiased",
+    }
 }
 
-/// VPL distance attenuation.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "kebab-case")]
-pub enum Attenuation {
-    /// Yuksel's non-singular G(d) = 2 / (d² + r² + d·√(d² + r²)).
-    #[default]
-    Yuksel,
-    /// G(d) = 1/d² (singular next to a VPL).
-    InverseSquare,
+named_enum! {
+    /// VPL distance attenuation.
+    pub enum Attenuation {
+        /// Yuksel's non-singular G(d) = 2 / (d² + r² + d·√(d² + r²)).
+        Yuksel = "yuksel",
+        /// G(d) = 1/d² (singular next to a VPL).
+        InverseSquare = "inverse-square",
+    }
 }
 
 /// The ReSTIR settings.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct RestirSettings {
     pub temporal: bool,
     /// Temporal history confidence cap, in multiples of the current frame's.
@@ -118,41 +178,29 @@ impl RestirSettings {
     }
 }
 
-/// What the output image shows.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum View {
-    /// The mode's radiance estimate.
-    #[default]
-    Final,
-    /// Debug: diffuse-shaded scene with every VPL as a sphere (blue direct, red indirect).
-    Vpls,
-    /// Debug: the final reservoir's unbiased contribution weight W (grey).
-    ReservoirW,
-    /// Debug: the final reservoir's confidence M (grey).
-    ReservoirM,
-    /// Debug: the kind of VPL each pixel's reservoir holds (blue direct, cyan point light, red
-    /// indirect, black none).
-    VplKind,
-    /// Only the emitters seen directly and the direct VPLs (direct light).
-    Direct,
-    /// Only the indirect VPLs (global illumination).
-    Indirect,
+named_enum! {
+    /// What the output image shows.
+    #[derive(Default)]
+    pub enum View {
+        /// The mode's radiance estimate.
+        #[default]
+        Final = "final",
+        /// Debug: diffuse-shaded scene with every VPL as a sphere (blue direct, red indirect).
+        Vpls = "vpls",
+        /// Debug: the final reservoir's unbiased contribution weight W (grey).
+        ReservoirW = "reservoir-w",
+        /// Debug: the final reservoir's confidence M (grey).
+        ReservoirM = "reservoir-m",
+        /// Debug: the kind of VPL each pixel's reservoir holds (blue direct, cyan point light, red indirect, black none).
+        VplKind = "vpl-kind",
+        /// Only the emitters seen directly and the direct VPLs (direct light).
+        Direct = "direct",
+        /// Only the indirect VPLs (global illumination).
+        Indirect = "indirect",
+    }
 }
 
 impl View {
-    pub fn name(self) -> &'static str {
-        match self {
-            View::Final => "final",
-            View::Vpls => "vpls",
-            View::ReservoirW => "reservoir-w",
-            View::ReservoirM => "reservoir-m",
-            View::VplKind => "vpl-kind",
-            View::Direct => "direct",
-            View::Indirect => "indirect",
-        }
-    }
-
     /// Whether the view reads the reservoirs.
     pub fn shows_reservoirs(self) -> bool {
         matches!(self, View::ReservoirW | View::ReservoirM | View::VplKind)
@@ -161,7 +209,7 @@ impl View {
 
 /// What the photon pass traces: the VPL set's size and seed (plain data; the pass is
 /// `crate::passes::PhotonEmitPass`).
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct PhotonSettings {
     pub direct: u32,
     /// Target indirect VPL count (0: no global illumination).
@@ -172,7 +220,7 @@ pub struct PhotonSettings {
 }
 
 /// A camera given on the command line; replaces the scene's camera.
-#[derive(Clone, Copy, Debug, Serialize)]
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct CameraOverride {
     pub eye: Vec3,
     pub target: Vec3,
@@ -181,7 +229,7 @@ pub struct CameraOverride {
     pub yfov_degrees: f32,
 }
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RenderSettings {
     pub scene: PathBuf,
     pub mode: Mode,

@@ -17,9 +17,10 @@ use restir_vpl::RenderSettings;
 fn vpls(scene: &Scene, settings: RenderSettings) -> (Vec<GpuVpl>, u64) {
     let ctx = context();
     let settings = RenderSettings { dump_vpls: Some("unused.ply".into()), ..settings };
-    let r = Renderer::new(Arc::clone(&ctx), scene, settings).expect("renderer");
+    let gpu = upload(&ctx, scene, &settings);
+    let r = Renderer::new(Arc::clone(&ctx), gpu, settings).expect("renderer");
     let v = r.read_vpls().expect("read").expect("VPLs present");
-    let paths = r.photons.as_ref().map(|p| p.1.paths).unwrap_or(0);
+    let paths = r.photon_stats().map(|p| p.paths).unwrap_or(0);
     assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
     for x in &v {
         assert!(x.flux.iter().all(|c| c.is_finite() && *c >= 0.0), "bad flux {x:?}");

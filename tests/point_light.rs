@@ -9,7 +9,7 @@ mod common;
 
 use common::*;
 use glam::Vec3;
-use restir_vpl::renderer::CameraSetup;
+use restir_vpl::camera::Camera;
 use restir_vpl::scene::generate::GltfBuilder;
 use restir_vpl::settings::CameraOverride;
 use restir_vpl::RenderSettings;
@@ -32,7 +32,7 @@ fn point_light_over_a_plane_matches_the_closed_form() {
     };
     let settings = RenderSettings { camera: Some(cam), max_bounces: 3, ..small(w, hgt, 2) };
     let out = render(&scene, &settings);
-    let c = CameraSetup::look_at(cam.eye, cam.target, cam.up, cam.yfov_degrees.to_radians(), "test");
+    let c = Camera::look_at(cam.eye, cam.target, cam.up, cam.yfov_degrees.to_radians(), "test");
     let tan = (c.yfov * 0.5).tan();
     let light = Vec3::new(0.0, h, 0.0);
     let mut checked = 0;

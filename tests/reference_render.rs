@@ -6,8 +6,7 @@ mod common;
 use std::process::Command;
 
 use common::*;
-use restir_vpl::eval::reference::{merge, read_reference};
-use restir_vpl::eval::results::render_reference;
+use restir_vpl::eval::reference::{merge, read_reference, render_reference};
 use restir_vpl::settings::Mode;
 use restir_vpl::RenderSettings;
 
@@ -34,10 +33,10 @@ fn merged_partial_references_equal_one_long_run() {
     let ctx = context();
     for mode in [Mode::Pt, Mode::Ris] {
         let s = settings(mode);
-        let scene = restir_vpl::scene::Scene::load(&s.scene).unwrap();
-        let whole = render_reference(ctx.clone(), &scene, &s, 0, 5, |_| {}).unwrap();
-        let a = render_reference(ctx.clone(), &scene, &s, 0, 2, |_| {}).unwrap();
-        let b = render_reference(ctx.clone(), &scene, &s, 2, 3, |_| {}).unwrap();
+        let scene = upload(&ctx, &restir_vpl::scene::Scene::load(&s.scene).unwrap(), &s);
+        let whole = render_reference(ctx.clone(), scene.clone(), &s, 0, 5, |_| {}).unwrap();
+        let a = render_reference(ctx.clone(), scene.clone(), &s, 0, 2, |_| {}).unwrap();
+        let b = render_reference(ctx.clone(), scene.clone(), &s, 2, 3, |_| {}).unwrap();
         // The parts are different samples: a part alone is not the whole.
         assert!(max_rel_diff(&a.image.pixels, &whole.image.pixels) > 1e-2, "{mode:?}: parts are not independent");
         let (merged, meta) = merge(&[(b.image, b.meta), (a.image, a.meta)]).unwrap();

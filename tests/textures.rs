@@ -109,15 +109,21 @@ fn texture_variants_are_used_only_when_needed() {
     let ctx = context();
     let textured = load_json(&wall_scene(1.0), "wall.gltf");
     let cornell = restir_vpl::scene::Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
-    for (scene, textures, want) in [(&textured, true, true), (&textured, false, false), (&cornell, true, false)] {
+    // (scene, textures uploaded, textures in the renderer's settings, textured variants expected):
+    // a scene uploaded with textures and shared by renderers draws without them when asked to.
+    for (scene, upload_textures, textures, want) in
+        [(&textured, true, true, true), (&textured, false, false, false), (&textured, true, false, false), (&cornell, true, true, false)]
+    {
+        let gpu = std::sync::Arc::new(restir_vpl::scene_gpu::SceneGpu::new(&ctx, scene, upload_textures).unwrap());
+        assert_eq!(gpu.texture_count, if upload_textures && scene.textures.len() == 1 { 1 } else { 0 });
         for mode in [Mode::Pt, Mode::Uniform] {
             let settings =
                 RenderSettings { mode, textures, vpls_direct: 500, vpls_indirect: 500, ..small(16, 16, 2) };
-            let mut r = Renderer::new(ctx.clone(), scene, settings).unwrap();
-            assert_eq!(r.scene.textured, want, "mode {mode:?}, textures {textures}");
-            assert_eq!(r.scene.texture_count, if want { 1 } else { 0 });
-            r.render_frame(false).unwrap();
-            r.render_frame(false).unwrap();
+            let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).unwrap();
+            assert_eq!(r.textured(), want, "mode {mode:?}, upload {upload_textures}, textures {textures}");
+            let camera = r.initial_camera();
+            r.render_frame(&camera, false).unwrap();
+            r.render_frame(&camera, false).unwrap();
             assert_all_finite(&r.read_mean().unwrap(), "textured-scene image");
         }
     }

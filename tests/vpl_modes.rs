@@ -16,6 +16,7 @@ use std::sync::Arc;
 
 use restir_vpl::renderer::Renderer;
 use restir_vpl::scene::Scene;
+use restir_vpl::scene_gpu::SceneGpu;
 use restir_vpl::settings::{Attenuation, Bias, CandidateSource, Mode, RenderSettings};
 use restir_vpl::vk::Context;
 
@@ -23,8 +24,10 @@ const W: u32 = 48;
 const H: u32 = 48;
 const BLOCK: u32 = 12;
 
-fn cornell() -> Scene {
-    Scene::load(&common::repo_path("scenes/cornell_box.gltf")).expect("Cornell box loads")
+/// The Cornell box, uploaded once per test and shared by its renderers.
+fn cornell(ctx: &Arc<Context>) -> Arc<SceneGpu> {
+    let scene = Scene::load(&common::repo_path("scenes/cornell_box.gltf")).expect("Cornell box loads");
+    Arc::new(SceneGpu::new(ctx, &scene, true).expect("scene uploads"))
 }
 
 fn settings(mode: Mode, w: u32, h: u32, direct: u32, indirect: u32) -> RenderSettings {
@@ -45,12 +48,13 @@ fn check_validation(ctx: &Context) {
 
 /// Renders `frames` frames; returns (mean, variance) images.
 fn render(renderer: &mut Renderer, frames: u32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
+    let camera = renderer.initial_camera();
     for _ in 0..frames {
-        renderer.render_frame(false).expect("frame renders");
+        renderer.render_frame(&camera, false).expect("frame renders");
     }
     let mean = renderer.read_mean().unwrap();
     common::assert_all_finite(&mean, "mean");
-    assert_eq!(renderer.nonfinite_samples, 0, "non-finite samples");
+    assert_eq!(renderer.nonfinite_samples(), 0, "non-finite samples");
     (mean, renderer.read_variance().unwrap())
 }
 
@@ -79,8 +83,8 @@ fn rmse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     (s / (3 * a.len()) as f64).sqrt()
 }
 
-fn brute_force(ctx: &Arc<Context>, scene: &Scene, s: &RenderSettings) -> Vec<[f32; 3]> {
-    let mut bf = Renderer::new(ctx.clone(), scene, RenderSettings { mode: Mode::Bruteforce, frames: 1, ..s.clone() }).unwrap();
+fn brute_force(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, s: &RenderSettings) -> Vec<[f32; 3]> {
+    let mut bf = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { mode: Mode::Bruteforce, frames: 1, ..s.clone() }).unwrap();
     render(&mut bf, 1).0
 }
 
@@ -88,7 +92,7 @@ fn brute_force(ctx: &Arc<Context>, scene: &Scene, s: &RenderSettings) -> Vec<[f3
 #[test]
 fn uniform_and_ris_converge_to_brute_force() {
     let ctx = common::context();
-    let scene = cornell();
+    let scene = cornell(&ctx);
     let base = settings(Mode::Uniform, W, H, 200, 400);
     let reference = brute_force(&ctx, &scene, &base);
     let bl = blocks(W, H);
@@ -100,7 +104,7 @@ fn uniform_and_ris_converge_to_brute_force() {
     ];
     for (label, mode, source, frames) in cases {
         let s = RenderSettings { mode, candidate_source: source, candidates: 8, ..base.clone() };
-        let mut r = Renderer::new(ctx.clone(), &scene, s).unwrap();
+        let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         let (mean, var) = render(&mut r, frames);
         let mut worst = 0f64;
         let mut all = vec![(0usize..(W * H) as usize).collect::<Vec<_>>()];
@@ -136,7 +140,7 @@ fn uniform_and_ris_converge_to_brute_force() {
 #[test]
 fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     let ctx = common::context();
-    let scene = cornell();
+    let scene = cornell(&ctx);
     let base = settings(Mode::Restir, W, H, 200, 400);
     let reference = brute_force(&ctx, &scene, &base);
     let bl = blocks(W, H);
@@ -148,10 +152,10 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     for (bias, visibility) in [(Bias::Unbiased, true), (Bias::Unbiased, false), (Bias::Biased, false)] {
         let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: Some(visibility), ..Default::default() };
         let s = RenderSettings { restir, candidates: 8, ..base.clone() };
-        let mut r = Renderer::new(ctx.clone(), &scene, s).unwrap();
+        let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         let mut runs: Vec<Vec<f64>> = Vec::new();
         for run in 0..RUNS {
-            r.restart(1000 + run);
+            r.restart(1000 + run).unwrap();
             let (mean, _) = render(&mut r, FRAMES);
             runs.push(block_means(&mean, &all));
         }
@@ -192,13 +196,6 @@ fn rel_mse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
     s / (3 * a.len()) as f64
 }
 
-/// This frame's image (before accumulation).
-fn frame_image(r: &Renderer) -> Vec<[f32; 3]> {
-    let bytes = restir_vpl::vk::buffer::read_back(&r.ctx, &r.targets.samples).unwrap();
-    let v: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-    v[..r.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect()
-}
-
 /// Equal frame count: the error of the frame a user sees (frames 5 to 12, after the temporal
 /// history has filled) must drop from uniform to RIS to ReSTIR. The spatial radius is scaled to the
 /// 64-pixel image (4 px; the default 20 px is meant for 720p). Accumulated errors are printed too:
@@ -207,7 +204,7 @@ fn frame_image(r: &Renderer) -> Vec<[f32; 3]> {
 #[test]
 fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
     let ctx = common::context();
-    let scene = cornell();
+    let scene = cornell(&ctx);
     let (w, h, frames, skip) = (64, 64, 12, 4);
     let base = settings(Mode::Uniform, w, h, 1000, 2000);
     let reference = brute_force(&ctx, &scene, &base);
@@ -221,12 +218,13 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
     ] {
         let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: visibility, spatial_radius: 4.0, ..Default::default() };
         let s = RenderSettings { mode, restir, ..base.clone() };
-        let mut r = Renderer::new(ctx.clone(), &scene, s).unwrap();
+        let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         let mut per_frame = Vec::new();
+        let camera = r.initial_camera();
         for f in 0..frames {
-            r.render_frame(false).unwrap();
+            r.render_frame(&camera, false).unwrap();
             if f >= skip {
-                per_frame.push(rel_mse(&frame_image(&r), &reference));
+                per_frame.push(rel_mse(&r.read_frame_samples().unwrap(), &reference));
             }
         }
         let mean = r.read_mean().unwrap();
@@ -255,7 +253,7 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
 fn no_mode_or_view_writes_nan_with_inverse_square() {
     use restir_vpl::settings::View;
     let ctx = common::context();
-    let scene = cornell();
+    let scene = cornell(&ctx);
     for mode in [Mode::Uniform, Mode::Ris, Mode::Restir, Mode::Bruteforce] {
         for view in [View::Final, View::Direct, View::Indirect, View::ReservoirW, View::ReservoirM, View::VplKind] {
             if mode == Mode::Bruteforce && view.shows_reservoirs() {
@@ -272,7 +270,7 @@ fn no_mode_or_view_writes_nan_with_inverse_square() {
                     restir: restir_vpl::settings::RestirSettings { bias, ..Default::default() },
                     ..settings(mode, 32, 32, 300, 600)
                 };
-                let mut r = Renderer::new(ctx.clone(), &scene, s).unwrap();
+                let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
                 render(&mut r, 3);
             }
         }
@@ -285,11 +283,11 @@ fn no_mode_or_view_writes_nan_with_inverse_square() {
 fn direct_and_indirect_views_add_up() {
     use restir_vpl::settings::View;
     let ctx = common::context();
-    let scene = cornell();
+    let scene = cornell(&ctx);
     let base = settings(Mode::Bruteforce, 32, 32, 300, 600);
     let full = brute_force(&ctx, &scene, &base);
     let part = |view| {
-        let mut r = Renderer::new(ctx.clone(), &scene, RenderSettings { view, frames: 1, ..base.clone() }).unwrap();
+        let mut r = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { view, frames: 1, ..base.clone() }).unwrap();
         render(&mut r, 1).0
     };
     let (d, i) = (part(View::Direct), part(View::Indirect));

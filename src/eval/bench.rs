@@ -5,11 +5,20 @@ use std::sync::Arc;
 use anyhow::Result;
 use serde::Serialize;
 
+use crate::camera::Camera;
 use crate::output::TimingStats;
 use crate::renderer::Renderer;
 use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
 use crate::settings::RenderSettings;
 use crate::vk::{Context, ContextOptions};
+
+/// A context without validation on `device` and `scene` uploaded to it (textures on).
+pub fn upload(scene: &Scene, device: Option<usize>) -> Result<(Arc<Context>, Arc<SceneGpu>)> {
+    let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
+    let gpu = Arc::new(SceneGpu::new(&ctx, scene, true)?);
+    Ok((ctx, gpu))
+}
 
 /// Primary-ray and path-tracing throughput of one scene.
 #[derive(Clone, Debug, Serialize)]
@@ -31,8 +40,7 @@ pub struct CoreBench {
 /// Renders `frames` frames (plus one warm-up) with anti-aliasing on, so that the G-buffer's primary
 /// rays are traced every frame, and reports throughput from the GPU timestamps.
 pub fn core(scene_path: &std::path::Path, width: u32, height: u32, frames: u32, device: Option<usize>) -> Result<CoreBench> {
-    let scene = Scene::load(scene_path)?;
-    let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
+    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
     let settings = RenderSettings {
         scene: scene_path.to_path_buf(),
         width,
@@ -41,29 +49,27 @@ pub fn core(scene_path: &std::path::Path, width: u32, height: u32, frames: u32, 
         aa: true,
         ..Default::default()
     };
-    let mut r = Renderer::new(ctx.clone(), &scene, settings)?; // validates the settings
-    r.render_frame(false)?; // warm-up: shader compilation, first-touch allocations
-    r.pass_times.clear();
-    let pixels = (width * height) as f64;
-    let mut frame_ms = Vec::new();
-    let mut pt_rays = 0.0;
+    let camera = Camera::initial(&scene.info, None);
+    let mut r = Renderer::new(ctx.clone(), scene.clone(), settings)?; // validates the settings
+    r.render_frame(&camera, false)?; // warm-up: shader compilation, first-touch allocations
+    r.reset_accumulation()?;
     for _ in 0..frames {
-        let s = r.render_frame(false)?;
-        frame_ms.push(s.pass_ms.iter().map(|p| p.1).sum());
-        pt_rays += s.rays as f64 - pixels;
+        r.render_frame(&camera, false)?;
     }
-    let median = |name: &str| r.pass_times.get(name).map(|v| TimingStats::of(v)).unwrap_or_default();
-    let gb = median("gbuffer");
-    let pt_total_ms: f64 = r.pass_times.get("pathtrace").map(|v| v.iter().sum()).unwrap_or(0.0);
+    let log = r.log();
+    let pixels = (width * height) as f64;
+    let gb = log.pass_stats().get("gbuffer").copied().unwrap_or_default();
+    let pt_total_ms: f64 = log.pass_ms.get("pathtrace").map(|v| v.iter().sum()).unwrap_or(0.0);
+    let pt_rays: f64 = log.pass_rays.get("pathtrace").map(|v| v.iter().sum::<u64>() as f64).unwrap_or(0.0);
     Ok(CoreBench {
         device: ctx.report.name.clone(),
         scene: scene_path.display().to_string(),
-        triangles: scene.triangle_count(),
+        triangles: scene.triangle_count,
         width,
         height,
         frames,
-        pass_ms: r.pass_times.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v))).collect(),
-        gpu_ms_per_frame: TimingStats::of(&frame_ms),
+        pass_ms: log.pass_stats().into_iter().collect(),
+        gpu_ms_per_frame: log.gpu(),
         primary_mrays_per_s: if gb.median > 0.0 { pixels / (gb.median * 1e3) } else { 0.0 },
         pathtrace_mrays_per_s: if pt_total_ms > 0.0 { pt_rays / (pt_total_ms * 1e3) } else { 0.0 },
         pathtrace_rays_per_pixel: pt_rays / (pixels * frames as f64),
@@ -140,19 +146,22 @@ pub struct PhotonBench {
 
 /// Times the photon pass `runs` times (after a warm-up) on `scene`.
 pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32, device: Option<usize>) -> Result<PhotonBench> {
-    use crate::passes::PhotonEmitPass;
-    use crate::scene_gpu::SceneGpu;
-    let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
-    let settings = RenderSettings { vpls_direct: direct, vpls_indirect: indirect, ..Default::default() };
-    let scene_gpu = SceneGpu::new(&ctx, scene, true)?;
+    let (ctx, gpu) = upload(scene, device)?;
+    // A tiny image: only the photon pass is timed.
+    let settings = RenderSettings {
+        mode: crate::settings::Mode::Uniform,
+        width: 8,
+        height: 8,
+        vpls_direct: direct,
+        vpls_indirect: indirect,
+        ..Default::default()
+    };
+    let mut r = Renderer::new(ctx, gpu, settings)?; // traces once: the warm-up
     let mut times = Vec::new();
     let mut last = None;
-    let pass = PhotonEmitPass::new(&ctx, scene_gpu.set.layout, scene_gpu.textured, &scene_gpu.lights, settings.photon_settings())?;
-    for i in 0..=runs {
-        let stats = pass.run(scene_gpu.set.set)?;
-        if i > 0 {
-            times.push(stats.gpu_ms);
-        }
+    for _ in 0..runs.max(1) {
+        let stats = r.retrace_photons()?;
+        times.push(stats.gpu_ms);
         last = Some(stats);
     }
     let stats = last.expect("at least one run");
@@ -211,8 +220,8 @@ pub fn modes(
     frames: u32,
     device: Option<usize>,
 ) -> Result<Vec<ModeBench>> {
-    let scene = Scene::load(scene_path)?;
-    let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device })?);
+    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
+    let camera = Camera::initial(&scene.info, None);
     let mut out = Vec::new();
     for &(width, height) in sizes {
         // All modes are alive at once and their timed frames interleave (one frame of each mode per
@@ -230,31 +239,30 @@ pub fn modes(
                 vpls_indirect: indirect,
                 ..Default::default()
             };
-            let mut r = Renderer::new(ctx.clone(), &scene, settings)?;
-            r.render_frame(false)?;
-            r.render_frame(false)?;
-            r.pass_times.clear();
-            r.pass_rays.clear();
-            renderers.push((label, r, Vec::new()));
+            let mut r = Renderer::new(ctx.clone(), scene.clone(), settings)?;
+            r.render_frame(&camera, false)?;
+            r.render_frame(&camera, false)?;
+            r.reset_accumulation()?;
+            renderers.push((label, r));
         }
         for _ in 0..frames {
-            for (_, r, frame_ms) in renderers.iter_mut() {
-                let s = r.render_frame(false)?;
-                frame_ms.push(s.pass_ms.iter().map(|p| p.1).sum::<f64>());
+            for (_, r) in renderers.iter_mut() {
+                r.render_frame(&camera, false)?;
             }
         }
         let mut uniform_ms = None;
-        for (label, r, frame_ms) in renderers {
-            let gpu = TimingStats::of(&frame_ms).median;
+        for (label, r) in renderers {
+            let log = r.log();
+            let gpu = log.gpu().median;
             let rays: Vec<(String, f64)> =
-                r.rays_per_pixel_by_pass().into_iter().map(|(k, t)| (k, t.median)).filter(|(_, n)| *n > 0.0).collect();
+                log.rays_per_pixel_by_pass().into_iter().map(|(k, t)| (k, t.median)).filter(|(_, n)| *n > 0.0).collect();
             let uniform = *uniform_ms.get_or_insert(gpu);
             out.push(ModeBench {
                 label: label.to_string(),
                 width,
                 height,
                 frames,
-                pass_ms: r.pass_times.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v).median)).collect(),
+                pass_ms: log.pass_stats().into_iter().map(|(k, t)| (k, t.median)).collect(),
                 gpu_ms_per_frame: gpu,
                 rays_per_pixel_total: rays.iter().map(|r| r.1).sum(),
                 rays_per_pixel: rays,

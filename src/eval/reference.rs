@@ -7,11 +7,18 @@
 //! equals one render over all their frames.
 
 use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
 
 use anyhow::{bail, ensure, Context as _, Result};
 use serde::{Deserialize, Serialize};
 
+use crate::camera::Camera;
 use crate::output::RgbImage;
+use crate::renderer::Renderer;
+use crate::scene_gpu::SceneGpu;
+use crate::settings::{Bias, Mode, RenderSettings};
+use crate::vk::Context;
 
 /// EXR header attribute holding the [`ReferenceMeta`] as JSON.
 pub const META_ATTRIBUTE: &str = "restir_vpl.reference";
@@ -308,4 +315,188 @@ pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path) -> Result<()> {
         if meta.is_contiguous() { " (contiguous)" } else { " (not contiguous)" }
     );
     Ok(())
+}
+
+/// FNV-1a 64 of a file's bytes: identifies the scene in reference metadata independently of the
+/// path it was loaded from.
+pub fn file_hash(path: &Path) -> Result<String> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    Ok(format!("{h:016x}"))
+}
+
+/// The settings that decide what a reference converges to, as a canonical JSON string: every
+/// field of [`RenderSettings`] except the ones that only affect bookkeeping or output files
+/// (frame count, seed — stored separately —, output paths, exposure, logging, device, validation).
+pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<String> {
+    let mut v = serde_json::to_value(settings)?;
+    let obj = v.as_object_mut().expect("RenderSettings serialises to an object");
+    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls"] {
+        obj.remove(k);
+    }
+    obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));
+    // serde_json's map is ordered (BTreeMap), so the string is canonical.
+    Ok(serde_json::to_string(&v)?)
+}
+
+/// Modes whose partial references are independent samples of one answer (no state carried from
+/// frame to frame), so that split runs merge into exactly the mean of one long run.
+pub fn reference_mode_ok(settings: &RenderSettings) -> Result<()> {
+    match settings.mode {
+        Mode::Pt | Mode::Bruteforce | Mode::Uniform | Mode::Ris => Ok(()),
+        Mode::Restir if !settings.restir.temporal && settings.restir.bias == Bias::Unbiased => Ok(()),
+        Mode::Restir => bail!(
+            "--mode restir: a reference needs frames that are independent of each other; use --mode pt \
+             (ground truth), bruteforce or ris (the VPL answer), or restir with --bias unbiased --temporal off"
+        ),
+    }
+}
+
+/// A rendered (part of a) reference and the estimated mean squared error of its mean image
+/// against its own expectation (mean per-pixel sample variance / frames).
+pub struct ReferencePart {
+    pub image: RgbImage,
+    pub meta: ReferenceMeta,
+    pub noise_mse: Option<f64>,
+    pub gpu_ms: f64,
+    pub wall_ms: f64,
+}
+
+/// Renders frames `[first_frame, first_frame + frames)` of a reference with `settings`.
+pub fn render_reference(
+    ctx: Arc<Context>,
+    scene: Arc<SceneGpu>,
+    settings: &RenderSettings,
+    first_frame: u64,
+    frames: u32,
+    mut progress: impl FnMut(u32),
+) -> Result<ReferencePart> {
+    reference_mode_ok(settings)?;
+    if frames == 0 {
+        bail!("--frames 0: a reference needs at least one frame");
+    }
+    let first = u32::try_from(first_frame)
+        .ok()
+        .filter(|f| f.checked_add(frames).is_some())
+        .with_context(|| format!("--first-frame {first_frame}: frame indices must stay below 2^32"))?;
+    let hash = file_hash(&settings.scene)?;
+    let config = reference_config(settings, &hash)?;
+    let camera = Camera::initial(&scene.info, settings.camera.as_ref());
+    let mut r = Renderer::new(ctx, scene, settings.clone())?;
+    r.set_frame_index(first)?;
+    let start = Instant::now();
+    for f in 0..frames {
+        r.render_frame(&camera, false)?;
+        progress(f + 1);
+    }
+    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
+    let gpu_ms = r.log().gpu_ms.iter().sum();
+    let pixels = r.read_mean()?;
+    let noise_mse = if frames > 1 {
+        let var = r.read_variance()?;
+        let sum: f64 = var.iter().flat_map(|p| p.iter()).map(|&v| v as f64).sum();
+        Some(sum / (3.0 * var.len() as f64) / frames as f64)
+    } else {
+        None
+    };
+    let scene_name = settings.scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut meta = ReferenceMeta::new(
+        frames as u64,
+        first_frame,
+        settings.seed as u64,
+        settings.mode.name(),
+        scene_name,
+        settings.width,
+        settings.height,
+        config,
+    );
+    meta.noise_mse = noise_mse;
+    let image = RgbImage { width: settings.width, height: settings.height, pixels };
+    Ok(ReferencePart { image, meta, noise_mse, gpu_ms, wall_ms })
+}
+
+/// How [`make_reference`] treats the file it writes.
+#[derive(Clone, Copy, Debug)]
+pub enum ReferenceTarget {
+    /// A new file of `frames` frames from frame `first_frame`; an existing file is an error (it
+    /// is never overwritten).
+    New { first_frame: u64, frames: u32 },
+    /// `frames` more frames after the file's last one, merged in (`reference --resume`).
+    Extend { frames: u32 },
+    /// At least `frames` frames: the file as it is when it has them, topped up when it has fewer,
+    /// rendered when absent (the results runner's cache).
+    AtLeast { frames: u32 },
+}
+
+/// The reference [`make_reference`] left in the file, and what this call rendered of it.
+pub struct MadeReference {
+    pub image: RgbImage,
+    pub meta: ReferenceMeta,
+    /// (frames, GPU ms, wall ms) rendered by this call; `None` when the file was reused as is.
+    pub rendered: Option<(u32, f64, f64)>,
+}
+
+/// Writes the reference `path` for `settings` as `target` says: renders only the frames that are
+/// missing and merges them with what the file holds. A file made with other settings (scene,
+/// mode, size, seed or sampling flags) is an error naming it. `progress(done, total)` follows the
+/// frames rendered.
+pub fn make_reference(
+    ctx: &Arc<Context>,
+    scene: &Arc<SceneGpu>,
+    settings: &RenderSettings,
+    path: &Path,
+    target: ReferenceTarget,
+    progress: &mut dyn FnMut(u32, u32),
+) -> Result<MadeReference> {
+    reference_mode_ok(settings)?;
+    let config = reference_config(settings, &file_hash(&settings.scene)?)?;
+    let read_matching = || -> Result<(RgbImage, ReferenceMeta)> {
+        let (image, meta) = read_reference(path)?;
+        if meta.config != config || meta.seed != settings.seed as u64 {
+            bail!(
+                "{} was rendered with other settings than this run's (scene, mode, size, seed or sampling flags \
+                 differ); pass the flags it was made with, or choose another file",
+                path.display()
+            );
+        }
+        Ok((image, meta))
+    };
+    let (existing, first, frames) = match target {
+        ReferenceTarget::New { first_frame, frames } => {
+            if path.exists() {
+                bail!("--out {}: file exists; pass --resume to extend it, or choose another file", path.display());
+            }
+            (None, first_frame, frames)
+        }
+        ReferenceTarget::Extend { frames } => {
+            let (image, meta) = read_matching()?;
+            let end = meta.ranges.iter().map(|r| r.1).max().unwrap_or(0);
+            (Some((image, meta)), end, frames)
+        }
+        ReferenceTarget::AtLeast { frames } if path.exists() => {
+            let (image, meta) = read_matching()?;
+            if meta.frames >= frames as u64 {
+                return Ok(MadeReference { image, meta, rendered: None });
+            }
+            let end = meta.ranges.iter().map(|r| r.1).max().unwrap_or(0);
+            let missing = frames - meta.frames as u32;
+            (Some((image, meta)), end, missing)
+        }
+        ReferenceTarget::AtLeast { frames } => (None, 0, frames),
+    };
+    let part = render_reference(ctx.clone(), scene.clone(), settings, first, frames, |done| progress(done, frames))?;
+    let rendered = Some((frames, part.gpu_ms, part.wall_ms));
+    let (image, meta) = match existing {
+        Some(old) => merge(&[old, (part.image, part.meta)])?,
+        None => (part.image, part.meta),
+    };
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    write_reference(path, &image, &meta)?;
+    Ok(MadeReference { image, meta, rendered })
 }

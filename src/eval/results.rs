@@ -23,10 +23,12 @@ use anyhow::{bail, Context as _, Result};
 
 use crate::eval::compare::{compare, CompareOptions};
 use crate::output::{RgbImage, TimingStats};
-use crate::eval::reference::{merge, read_reference, write_reference, ReferenceMeta};
+use crate::camera::Camera;
+use crate::eval::reference::{make_reference, ReferenceMeta, ReferenceTarget};
 use crate::renderer::Renderer;
 use crate::eval::report::{self, CurvePoint, FrameTimeRow, Metric};
 use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
 use crate::settings::{Bias, Mode, RenderSettings, RestirSettings};
 use crate::vk::Context;
 
@@ -36,157 +38,35 @@ pub const WARMUP_FRAMES: u32 = 2;
 /// The checkpoints of the thesis's Table 2.
 pub const DEFAULT_CHECKPOINTS: &[u32] = &[1, 2, 5, 10, 20];
 
-/// FNV-1a 64 of a file's bytes: identifies the scene in reference metadata independently of the
-/// path it was loaded from.
-pub fn file_hash(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(0x0000_0100_0000_01b3);
-    }
-    Ok(format!("{h:016x}"))
-}
-
-/// The settings that decide what a reference converges to, as a canonical JSON string: every
-/// field of [`RenderSettings`] except the ones that only affect bookkeeping or output files
-/// (frame count, seed — stored separately —, output paths, exposure, logging, device, validation).
-pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<String> {
-    let mut v = serde_json::to_value(settings)?;
-    let obj = v.as_object_mut().expect("RenderSettings serialises to an object");
-    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls"] {
-        obj.remove(k);
-    }
-    obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));
-    // serde_json's map is ordered (BTreeMap), so the string is canonical.
-    Ok(serde_json::to_string(&v)?)
-}
-
-/// Modes whose partial references are independent samples of one answer (no state carried from
-/// frame to frame), so that split runs merge into exactly the mean of one long run.
-pub fn reference_mode_ok(settings: &RenderSettings) -> Result<()> {
-    match settings.mode {
-        Mode::Pt | Mode::Bruteforce | Mode::Uniform | Mode::Ris => Ok(()),
-        Mode::Restir if !settings.restir.temporal && settings.restir.bias == Bias::Unbiased => Ok(()),
-        Mode::Restir => bail!(
-            "--mode restir: a reference needs frames that are independent of each other; use --mode pt \
-             (ground truth), bruteforce or ris (the VPL answer), or restir with --bias unbiased --temporal off"
-        ),
-    }
-}
-
-/// A rendered (part of a) reference and the estimated mean squared error of its mean image
-/// against its own expectation (mean per-pixel sample variance / frames).
-pub struct ReferencePart {
-    pub image: RgbImage,
-    pub meta: ReferenceMeta,
-    pub noise_mse: Option<f64>,
-    pub gpu_ms: f64,
-    pub wall_ms: f64,
-}
-
-/// Renders frames `[first_frame, first_frame + frames)` of a reference with `settings`.
-pub fn render_reference(
-    ctx: Arc<Context>,
-    scene: &Scene,
-    settings: &RenderSettings,
-    first_frame: u64,
-    frames: u32,
-    mut progress: impl FnMut(u32),
-) -> Result<ReferencePart> {
-    reference_mode_ok(settings)?;
-    if frames == 0 {
-        bail!("--frames 0: a reference needs at least one frame");
-    }
-    let first = u32::try_from(first_frame)
-        .ok()
-        .filter(|f| f.checked_add(frames).is_some())
-        .with_context(|| format!("--first-frame {first_frame}: frame indices must stay below 2^32"))?;
-    let hash = file_hash(&settings.scene)?;
-    let config = reference_config(settings, &hash)?;
-    let mut r = Renderer::new(ctx, scene, settings.clone())?;
-    r.frame_index = first;
-    let start = Instant::now();
-    let mut gpu_ms = 0.0;
-    for f in 0..frames {
-        let s = r.render_frame(false)?;
-        gpu_ms += s.pass_ms.iter().map(|p| p.1).sum::<f64>();
-        progress(f + 1);
-    }
-    let wall_ms = start.elapsed().as_secs_f64() * 1e3;
-    let pixels = r.read_mean()?;
-    let noise_mse = if frames > 1 {
-        let var = r.read_variance()?;
-        let sum: f64 = var.iter().flat_map(|p| p.iter()).map(|&v| v as f64).sum();
-        Some(sum / (3.0 * var.len() as f64) / frames as f64)
-    } else {
-        None
-    };
-    let scene_name = settings.scene.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let mut meta = ReferenceMeta::new(
-        frames as u64,
-        first_frame,
-        settings.seed as u64,
-        settings.mode.name(),
-        scene_name,
-        settings.width,
-        settings.height,
-        config,
-    );
-    meta.noise_mse = noise_mse;
-    let image = RgbImage { width: settings.width, height: settings.height, pixels };
-    Ok(ReferencePart { image, meta, noise_mse, gpu_ms, wall_ms })
-}
-
-/// Makes sure `path` holds a reference of at least `frames` frames for `settings`: reuses it when
-/// it does, renders only the missing frames and merges them when it holds fewer (resuming), and
-/// renders from scratch when it is absent. A file made with other settings is an error (it is
-/// never overwritten silently).
-pub fn ensure_reference(
+/// The reference `path` with at least `frames` frames (rendered, topped up or reused), logged.
+fn cached_reference(
     ctx: &Arc<Context>,
-    scene: &Scene,
+    scene: &Arc<SceneGpu>,
     settings: &RenderSettings,
     path: &Path,
     frames: u32,
     log: &mut dyn FnMut(String),
 ) -> Result<(RgbImage, ReferenceMeta)> {
-    let config = reference_config(settings, &file_hash(&settings.scene)?)?;
-    let existing = if path.exists() {
-        let (image, meta) = read_reference(path)?;
-        if meta.config != config || meta.seed != settings.seed as u64 {
-            bail!(
-                "{} was made with other settings than this run's (delete it to render a new one)",
-                path.display()
-            );
+    let mut announce = |done: u32, total: u32| {
+        if done == 1 {
+            log(format!("{}: rendering {total} {} frames at {}x{}", path.display(), settings.mode.name(), settings.width, settings.height));
         }
-        if meta.frames >= frames as u64 {
-            log(format!("{}: reusing ({})", path.display(), meta.describe_frames()));
-            return Ok((image, meta));
-        }
-        Some((image, meta))
-    } else {
-        None
     };
-    let first = existing.as_ref().map(|(_, m)| m.ranges.iter().map(|r| r.1).max().unwrap_or(0)).unwrap_or(0);
-    let missing = frames - existing.as_ref().map(|(_, m)| m.frames as u32).unwrap_or(0);
-    log(format!(
-        "{}: rendering {missing} {} frames from frame {first} at {}x{}",
-        path.display(),
-        settings.mode.name(),
-        settings.width,
-        settings.height
-    ));
-    let part = render_reference(ctx.clone(), scene, settings, first, missing, |_| {})?;
-    log(format!("  {:.1} s wall, {:.1} s GPU", part.wall_ms * 1e-3, part.gpu_ms * 1e-3));
-    let (image, meta) = match existing {
-        Some(old) => merge(&[old, (part.image, part.meta)])?,
-        None => (part.image, part.meta),
-    };
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    let made = make_reference(ctx, scene, settings, path, ReferenceTarget::AtLeast { frames }, &mut announce)?;
+    match made.rendered {
+        None => log(format!("{}: reusing ({})", path.display(), made.meta.describe_frames())),
+        Some((n, gpu_ms, wall_ms)) => log(format!(
+            "{}: rendered {n} {} frames at {}x{} ({}), {:.1} s wall, {:.1} s GPU",
+            path.display(),
+            settings.mode.name(),
+            settings.width,
+            settings.height,
+            made.meta.describe_frames(),
+            wall_ms * 1e-3,
+            gpu_ms * 1e-3
+        )),
     }
-    write_reference(path, &image, &meta)?;
-    Ok((image, meta))
+    Ok((made.image, made.meta))
 }
 
 /// One sampling configuration measured by a curve run.
@@ -226,7 +106,7 @@ pub struct Curves {
 #[allow(clippy::too_many_arguments)]
 pub fn curves(
     ctx: &Arc<Context>,
-    scene: &Scene,
+    scene: &Arc<SceneGpu>,
     scene_label: &str,
     base: &RenderSettings,
     modes: &[CurveMode],
@@ -251,10 +131,11 @@ pub fn curves(
             );
         }
     }
+    let camera = Camera::initial(&scene.info, base.camera.as_ref());
     let mut renderers = Vec::new();
     for m in modes {
         let settings = RenderSettings { mode: m.mode, restir: m.restir, frames: last + WARMUP_FRAMES, ..base.clone() };
-        renderers.push(Renderer::new(ctx.clone(), scene, settings).with_context(|| format!("mode {}", m.label))?);
+        renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
     }
     // Sums over runs, keyed by (mode index, reference index, checkpoint index).
     let mut sums: BTreeMap<(usize, usize, usize), [f64; 7]> = BTreeMap::new();
@@ -266,19 +147,19 @@ pub fn curves(
     for run in 0..runs {
         for r in renderers.iter_mut() {
             if run > 0 {
-                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run)));
+                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run)))?;
             }
             for _ in 0..WARMUP_FRAMES {
-                r.render_frame(false)?;
+                r.render_frame(&camera, false)?;
             }
-            r.reset_accumulation();
+            r.reset_accumulation()?;
         }
         let mut cum = vec![(0.0f64, 0.0f64); modes.len()];
         let mut next = 0usize;
         for t in 1..=last {
             for (i, r) in renderers.iter_mut().enumerate() {
-                let s = r.render_frame(false)?;
-                let gpu: f64 = s.pass_ms.iter().map(|p| p.1).sum();
+                let s = r.render_frame(&camera, false)?;
+                let gpu = s.gpu_ms();
                 cum[i].0 += gpu;
                 cum[i].1 += s.wall_ms;
                 frame_gpu[i].push(gpu);
@@ -286,7 +167,7 @@ pub fn curves(
                 for (name, ms) in &s.pass_ms {
                     pass_ms[i].entry(name.to_string()).or_default().push(*ms);
                 }
-                rays[i].push(s.rays as f64 / r.targets.pixels() as f64);
+                rays[i].push(s.rays as f64 / r.pixels() as f64);
             }
             if checkpoints.get(next) == Some(&t) {
                 for (i, r) in renderers.iter().enumerate() {
@@ -490,7 +371,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
     let started = Instant::now();
     for spec in &opts.scenes {
         let label = spec.label();
-        let scene = Scene::load(&spec.path)?;
+        let scene = Arc::new(SceneGpu::new(ctx, &Scene::load(&spec.path)?, true).context("uploading the scene")?);
         let base = RenderSettings {
             scene: spec.path.clone(),
             width: spec.width,
@@ -509,11 +390,11 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         let size = format!("{}x{}", spec.width, spec.height);
         let pt_settings = RenderSettings { mode: Mode::Pt, ..base.clone() };
         let pt_path = refs_dir.join(format!("{label}_{size}_pt.exr"));
-        let (pt_img, pt_meta) = ensure_reference(ctx, &scene, &pt_settings, &pt_path, opts.pt_reference_frames, log)?;
+        let (pt_img, pt_meta) = cached_reference(ctx, &scene, &pt_settings, &pt_path, opts.pt_reference_frames, log)?;
         let vpl_settings = RenderSettings { mode: Mode::Ris, ..base.clone() };
         let vpl_path = refs_dir.join(format!("{label}_{size}_vpl.exr"));
         let (vpl_img, vpl_meta) =
-            ensure_reference(ctx, &scene, &vpl_settings, &vpl_path, opts.vpl_reference_frames, log)?;
+            cached_reference(ctx, &scene, &vpl_settings, &vpl_path, opts.vpl_reference_frames, log)?;
         let agreement = compare(&vpl_img, &pt_img, &CompareOptions { flip: false, ..Default::default() })?;
         model_bias.push(ModelBias {
             scene: label.clone(),

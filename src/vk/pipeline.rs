@@ -156,20 +156,21 @@ impl DescriptorSet {
         Ok(())
     }
 
-    /// Points `binding` at an acceleration structure.
+    /// Points `binding` of every variant at an acceleration structure.
     pub fn write_accel(&self, binding: u32, accel: vk::AccelerationStructureKHR) -> Result<()> {
         self.row(binding, BindingKind::AccelerationStructure)?;
         let structures = [accel];
-        let mut as_info = vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(&structures);
-        // Acceleration structures belong to the scene set, which has one variant.
-        let mut write = vk::WriteDescriptorSet::default()
-            .dst_set(self.set)
-            .dst_binding(binding)
-            .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
-            .push_next(&mut as_info);
-        write.descriptor_count = 1;
-        // SAFETY: as above.
-        unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
+        for set in &self.variants {
+            let mut as_info = vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(&structures);
+            let mut write = vk::WriteDescriptorSet::default()
+                .dst_set(*set)
+                .dst_binding(binding)
+                .descriptor_type(vk::DescriptorType::ACCELERATION_STRUCTURE_KHR)
+                .push_next(&mut as_info);
+            write.descriptor_count = 1;
+            // SAFETY: as above.
+            unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
+        }
         Ok(())
     }
 }

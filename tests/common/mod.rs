@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use restir_vpl::headless::{run_with, RunOutput};
 use restir_vpl::scene::Scene;
+use restir_vpl::scene_gpu::SceneGpu;
 use restir_vpl::vk::context::validation_layer_available;
 use restir_vpl::vk::{Context, ContextOptions};
 use restir_vpl::RenderSettings;
@@ -25,10 +26,16 @@ pub fn context() -> Arc<Context> {
     Arc::new(Context::new(&ContextOptions { validate: validate(), device_index: None }).expect("a ray-query device"))
 }
 
+/// Uploads `scene` to `ctx` (textures as `settings` says).
+pub fn upload(ctx: &Arc<Context>, scene: &Scene, settings: &RenderSettings) -> Arc<SceneGpu> {
+    Arc::new(SceneGpu::new(ctx, scene, settings.textures).expect("scene uploads"))
+}
+
 /// Renders `scene` with `settings`; asserts no validation errors and finite output.
 pub fn render(scene: &Scene, settings: &RenderSettings) -> RunOutput {
     let ctx = context();
-    let out = run_with(ctx.clone(), scene, settings, Instant::now()).expect("render succeeds");
+    let gpu = upload(&ctx, scene, settings);
+    let out = run_with(ctx.clone(), gpu, settings, Instant::now()).expect("render succeeds");
     assert_eq!(
         ctx.validation_errors(),
         0,
