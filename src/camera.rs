@@ -60,3 +60,345 @@ impl Camera {
         self.position == other.position && self.forward == other.forward && self.up == other.up && self.yfov == other.yfov
     }
 }
+
+/// One keyframe of a camera path (`--camera-path FILE.json`), and the format `O` saves the window's
+/// camera in: `{"keyframes": [{"frame": 0, "eye": [x,y,z], "target": [x,y,z], "up": [0,1,0], "fov": 40}]}`
+/// (`fov` vertical, in degrees).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Keyframe {
+    pub frame: u32,
+    pub eye: [f32; 3],
+    pub target: [f32; 3],
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view in degrees.
+    pub fov: f32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+impl Keyframe {
+    /// The keyframe that reproduces `camera`.
+    pub fn of(camera: &Camera, frame: u32) -> Self {
+        Self {
+            frame,
+            eye: camera.position.to_array(),
+            target: (camera.position + camera.forward).to_array(),
+            up: camera.up.to_array(),
+            fov: camera.yfov.to_degrees(),
+        }
+    }
+
+    fn check(&self) -> Result<(), String> {
+        let (eye, target, up) = (Vec3::from(self.eye), Vec3::from(self.target), Vec3::from(self.up));
+        if !(eye.is_finite() && target.is_finite() && up.is_finite() && self.fov.is_finite()) {
+            return Err("has a non-finite number".into());
+        }
+        if !(self.fov > 0.0 && self.fov < 180.0) {
+            return Err(format!("fov {} must be in (0, 180) degrees", self.fov));
+        }
+        let f = target - eye;
+        if f.length_squared() == 0.0 {
+            return Err("eye and target are the same point".into());
+        }
+        if f.normalize().cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30) {
+            return Err("up is parallel to the view direction (or zero)".into());
+        }
+        Ok(())
+    }
+
+    fn camera(&self, source: &'static str) -> Camera {
+        Camera::look_at(self.eye.into(), self.target.into(), self.up.into(), self.fov.to_radians(), source)
+    }
+}
+
+/// A camera path: keyframes at increasing frame numbers; eye, target, up and fov are interpolated
+/// linearly between them; frames before the first keyframe hold the first, frames past the last
+/// hold the last.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraPath {
+    pub keyframes: Vec<Keyframe>,
+}
+
+impl CameraPath {
+    /// Parses and checks a path; errors say which keyframe is wrong and why.
+    pub fn from_json(text: &str) -> Result<Self, String> {
+        let path: CameraPath = serde_json::from_str(text).map_err(|e| e.to_string())?;
+        if path.keyframes.is_empty() {
+            return Err("\"keyframes\" is empty: give at least one".into());
+        }
+        for (i, k) in path.keyframes.iter().enumerate() {
+            k.check().map_err(|e| format!("keyframe {i} (frame {}): {e}", k.frame))?;
+            if i > 0 && k.frame <= path.keyframes[i - 1].frame {
+                return Err(format!(
+                    "keyframe {i}: frame {} does not come after the previous keyframe's frame {}",
+                    k.frame,
+                    path.keyframes[i - 1].frame
+                ));
+            }
+        }
+        Ok(path)
+    }
+
+    /// Reads and checks `file`; errors name the file.
+    pub fn load(file: &std::path::Path) -> anyhow::Result<Self> {
+        let text = std::fs::read_to_string(file).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+        Self::from_json(&text).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))
+    }
+
+    /// A one-keyframe path holding `camera` (what `O` writes to camera.json).
+    pub fn still(camera: &Camera) -> Self {
+        Self { keyframes: vec![Keyframe::of(camera, 0)] }
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a camera path serialises")
+    }
+
+    /// The camera at frame `frame` (fractional frames interpolate too).
+    pub fn at(&self, frame: f32) -> Camera {
+        let k = &self.keyframes;
+        let first = &k[0];
+        let last = &k[k.len() - 1];
+        if frame <= first.frame as f32 {
+            return first.camera("camera path");
+        }
+        if frame >= last.frame as f32 {
+            return last.camera("camera path");
+        }
+        let i = k.iter().rposition(|x| x.frame as f32 <= frame).expect("frame is past the first keyframe");
+        let (a, b) = (&k[i], &k[i + 1]);
+        let t = (frame - a.frame as f32) / (b.frame - a.frame) as f32;
+        let lerp = |x: [f32; 3], y: [f32; 3]| Vec3::from(x).lerp(Vec3::from(y), t);
+        let eye = lerp(a.eye, b.eye);
+        let mut target = lerp(a.target, b.target);
+        if (target - eye).length_squared() == 0.0 {
+            // Eye and target cross: keep looking the way the earlier keyframe looks.
+            target = eye + (Vec3::from(a.target) - Vec3::from(a.eye));
+        }
+        let mut up = lerp(a.up, b.up);
+        let forward = (target - eye).normalize();
+        if forward.cross(up).length_squared() <= 1e-12 {
+            up = Vec3::from(a.up);
+        }
+        Camera::look_at(eye, target, up, (a.fov + (b.fov - a.fov) * t).to_radians(), "camera path")
+    }
+}
+
+/// Movement keys held down (the window maps W/A/S/D, Space, Left Ctrl and Shift onto these).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct MoveKeys {
+    pub forward: bool,
+    pub back: bool,
+    pub left: bool,
+    pub right: bool,
+    pub up: bool,
+    pub down: bool,
+    /// Six times faster.
+    pub fast: bool,
+}
+
+/// A fly-through camera controller: moves along the view direction and sideways at `speed`
+/// (scene units per second; ×6 with `fast`), up and down along the world's up axis, looks around
+/// by yaw and pitch (pitch kept within ±89°). Until it moves, it returns exactly the camera it was
+/// given, so a window that was not touched renders what a headless run renders.
+#[derive(Clone, Debug)]
+pub struct FlyController {
+    position: Vec3,
+    yaw: f32,
+    pitch: f32,
+    yfov: f32,
+    world_up: Vec3,
+    /// Horizontal axes of the yaw: forward = cos(pitch)(cos(yaw) e1 + sin(yaw) e2) + sin(pitch) up.
+    e1: Vec3,
+    e2: Vec3,
+    /// Scene units per second.
+    pub speed: f32,
+    /// Radians of rotation per pixel of mouse motion.
+    pub sensitivity: f32,
+    pub keys: MoveKeys,
+    /// The camera given last (scene camera, a loaded camera.json), returned as is until a move.
+    exact: Option<Camera>,
+    home: Camera,
+}
+
+impl FlyController {
+    /// Starts at `camera` (also what Home returns to); `scene_size` (e.g. the bounds' diagonal)
+    /// sets the initial speed: the scene is crossed in about five seconds.
+    pub fn new(camera: &Camera, scene_size: f32) -> Self {
+        let world_up = if camera.up.dot(Vec3::Y) > 0.5 { Vec3::Y } else { camera.up.normalize() };
+        let e1 = world_up.any_orthonormal_vector();
+        let e2 = world_up.cross(e1);
+        let mut c = Self {
+            position: camera.position,
+            yaw: 0.0,
+            pitch: 0.0,
+            yfov: camera.yfov,
+            world_up,
+            e1,
+            e2,
+            speed: (0.2 * scene_size).max(1e-6),
+            sensitivity: 0.003,
+            keys: MoveKeys::default(),
+            exact: None,
+            home: *camera,
+        };
+        c.set_camera(camera);
+        c
+    }
+
+    /// Jumps to `camera` (returned exactly until the next move).
+    pub fn set_camera(&mut self, camera: &Camera) {
+        let f = camera.forward.normalize();
+        self.position = camera.position;
+        self.pitch = f.dot(self.world_up).clamp(-1.0, 1.0).asin().clamp(-Self::MAX_PITCH, Self::MAX_PITCH);
+        self.yaw = f.dot(self.e2).atan2(f.dot(self.e1));
+        self.yfov = camera.yfov;
+        self.exact = Some(*camera);
+    }
+
+    /// Back to the camera the controller started from.
+    pub fn go_home(&mut self) {
+        let home = self.home;
+        self.set_camera(&home);
+    }
+
+    const MAX_PITCH: f32 = 89.0 * std::f32::consts::PI / 180.0;
+
+    fn forward(&self) -> Vec3 {
+        let (sy, cy) = self.yaw.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        cp * (cy * self.e1 + sy * self.e2) + sp * self.world_up
+    }
+
+    /// The camera now.
+    pub fn camera(&self) -> Camera {
+        if let Some(c) = self.exact {
+            return c;
+        }
+        let f = self.forward();
+        Camera::look_at(self.position, self.position + f, self.world_up, self.yfov, "window")
+    }
+
+    /// Applies the held keys over `dt` seconds; true when the camera moved.
+    pub fn update(&mut self, dt: f32) -> bool {
+        let k = self.keys;
+        let f = self.forward();
+        let right = f.cross(self.world_up).normalize_or_zero();
+        let axis = |a: bool, b: bool| (a as i32 - b as i32) as f32;
+        let dir = axis(k.forward, k.back) * f + axis(k.right, k.left) * right + axis(k.up, k.down) * self.world_up;
+        if dir == Vec3::ZERO || !(dt > 0.0) {
+            return false;
+        }
+        let speed = self.speed * if k.fast { 6.0 } else { 1.0 };
+        self.position += dir.normalize() * speed * dt;
+        self.exact = None;
+        true
+    }
+
+    /// Mouse look by (dx, dy) pixels (right: yaw right; down: pitch down); true when it turned.
+    pub fn look(&mut self, dx: f32, dy: f32) -> bool {
+        if dx == 0.0 && dy == 0.0 {
+            return false;
+        }
+        self.yaw -= dx * self.sensitivity;
+        self.pitch = (self.pitch - dy * self.sensitivity).clamp(-Self::MAX_PITCH, Self::MAX_PITCH);
+        self.exact = None;
+        true
+    }
+
+    /// Scroll: each notch up makes moving 25% faster, each notch down 25% slower.
+    pub fn scroll(&mut self, notches: f32) {
+        self.speed = (self.speed * 1.25f32.powf(notches)).clamp(1e-6, 1e9);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 0.7, "test")
+    }
+
+    #[test]
+    fn path_interpolates_and_holds() {
+        let p = CameraPath::from_json(
+            r#"{"keyframes": [{"frame": 0, "eye": [0,0,5], "target": [0,0,0], "fov": 40},
+                              {"frame": 10, "eye": [10,0,5], "target": [10,0,0], "up": [0,1,0], "fov": 60}]}"#,
+        )
+        .unwrap();
+        let mid = p.at(5.0);
+        assert!((mid.position - Vec3::new(5.0, 0.0, 5.0)).length() < 1e-5);
+        assert!((mid.forward - Vec3::NEG_Z).length() < 1e-5);
+        assert!((mid.yfov.to_degrees() - 50.0).abs() < 1e-3);
+        assert_eq!(p.at(25.0).position, Vec3::new(10.0, 0.0, 5.0));
+        assert_eq!(p.at(0.0).position, Vec3::new(0.0, 0.0, 5.0));
+    }
+
+    #[test]
+    fn bad_paths_are_refused_with_the_reason() {
+        let bad = [
+            (r#"{"keyframes": []}"#, "empty"),
+            (r#"{"keyframes": [{"frame": 0, "eye": [0,0,0], "target": [0,0,0], "fov": 40}]}"#, "same point"),
+            (r#"{"keyframes": [{"frame": 0, "eye": [0,0,1], "target": [0,0,0], "fov": 0}]}"#, "fov"),
+            (r#"{"keyframes": [{"frame": 0, "eye": [0,0,1], "target": [0,0,0], "up": [0,0,1], "fov": 40}]}"#, "parallel"),
+            (
+                r#"{"keyframes": [{"frame": 3, "eye": [0,0,1], "target": [0,0,0], "fov": 40},
+                                  {"frame": 3, "eye": [0,0,2], "target": [0,0,0], "fov": 40}]}"#,
+                "does not come after",
+            ),
+            (r#"{"frames": []}"#, "unknown field"),
+            (r#"{"keyframes": [{"frame": 0, "eye": [0,0], "target": [0,0,0], "fov": 40}]}"#, "invalid length"),
+        ];
+        for (json, want) in bad {
+            let e = CameraPath::from_json(json).unwrap_err();
+            assert!(e.contains(want), "{json}: {e}");
+        }
+    }
+
+    #[test]
+    fn saved_camera_round_trips() {
+        let c = cam();
+        let p = CameraPath::from_json(&CameraPath::still(&c).to_json()).unwrap();
+        let back = p.at(0.0);
+        assert!((back.position - c.position).length() < 1e-6);
+        assert!((back.forward - c.forward).length() < 1e-6);
+        assert!((back.yfov - c.yfov).abs() < 1e-6);
+    }
+
+    #[test]
+    fn controller_returns_the_given_camera_until_it_moves() {
+        let c = cam();
+        let mut f = FlyController::new(&c, 10.0);
+        assert!(f.camera().same_view(&c));
+        assert!(!f.update(0.1), "no key held: no move");
+        f.keys.forward = true;
+        assert!(f.update(0.5));
+        let moved = f.camera();
+        // speed 0.2 × 10 = 2 units/s for 0.5 s along -z.
+        assert!((moved.position - Vec3::new(0.0, 1.0, 4.0)).length() < 1e-4, "{:?}", moved.position);
+        assert!((moved.forward - c.forward).length() < 1e-5);
+        f.keys = MoveKeys { fast: true, right: true, ..Default::default() };
+        f.update(0.5);
+        assert!((f.camera().position - Vec3::new(6.0, 1.0, 4.0)).length() < 1e-3);
+        f.go_home();
+        assert!(f.camera().same_view(&c));
+    }
+
+    #[test]
+    fn controller_looks_and_clamps_pitch() {
+        let mut f = FlyController::new(&cam(), 10.0);
+        // Turning right by a quarter turn: forward goes from -z to +x.
+        f.look(std::f32::consts::FRAC_PI_2 / f.sensitivity, 0.0);
+        assert!((f.camera().forward - Vec3::X).length() < 1e-4, "{:?}", f.camera().forward);
+        f.look(0.0, -1e6);
+        assert!(f.camera().forward.y < 1.0 && f.camera().forward.y > 0.99, "pitch clamped below 90°");
+        f.scroll(1.0);
+        assert!((f.speed - 2.5).abs() < 1e-5);
+    }
+}
