@@ -636,6 +636,7 @@ fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::C
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
         validate: settings.validate,
         device_index: settings.device_index,
+        ..Default::default()
     })?);
     let gpu = restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, settings.textures)?;
     Ok((ctx, std::sync::Arc::new(gpu)))
@@ -645,6 +646,7 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
         validate: opts.validate,
         device_index: opts.device_index,
+        ..Default::default()
     })?);
     let out = restir_vpl::eval::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
     println!("{}", out.markdown.display());

@@ -61,6 +61,23 @@ pub struct ContextOptions {
     pub validate: bool,
     /// Pick this physical device (index as in `--list-devices`).
     pub device_index: Option<usize>,
+    /// Present to this window: the instance gets the platform's surface extensions, the device
+    /// `VK_KHR_swapchain` and a queue family that can present to it.
+    pub window: Option<WindowHandles>,
+}
+
+/// The raw handles of a window to present to (from `raw-window-handle`).
+#[derive(Clone, Copy, Debug)]
+pub struct WindowHandles {
+    pub display: raw_window_handle::RawDisplayHandle,
+    pub window: raw_window_handle::RawWindowHandle,
+}
+
+/// The window's Vulkan surface and the loaders a swapchain needs.
+pub struct Presentation {
+    pub surface_loader: ash::khr::surface::Instance,
+    pub surface: vk::SurfaceKHR,
+    pub swapchain_loader: ash::khr::swapchain::Device,
 }
 
 /// Shared Vulkan state.
@@ -82,6 +99,8 @@ pub struct Context {
     pub validation_enabled: bool,
     validation: Arc<ValidationCounter>,
     pub command_pool: vk::CommandPool,
+    /// The window's surface, when the context was made for one.
+    pub presentation: Option<Presentation>,
 }
 
 /// The acceleration-structure limits the renderer uses.
@@ -223,7 +242,7 @@ fn load_entry() -> Result<ash::Entry> {
     })
 }
 
-fn create_instance(entry: &ash::Entry, validate: bool) -> Result<(ash::Instance, bool, bool)> {
+fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHandles>) -> Result<(ash::Instance, bool, bool)> {
     // SAFETY: plain enumeration calls on a loaded entry.
     let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
     let has_validation =
@@ -243,7 +262,12 @@ fn create_instance(entry: &ash::Entry, validate: bool) -> Result<(ash::Instance,
         .engine_name(&app_name)
         .api_version(vk::API_VERSION_1_2);
     let layer_ptrs: Vec<*const i8> = if use_validation { vec![VALIDATION_LAYER.as_ptr()] } else { vec![] };
-    let ext_ptrs: Vec<*const i8> = if has_debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+    let mut ext_ptrs: Vec<*const i8> = if has_debug_utils { vec![ash::ext::debug_utils::NAME.as_ptr()] } else { vec![] };
+    if let Some(w) = window {
+        let surface_exts = ash_window::enumerate_required_extensions(w.display)
+            .context("this window system has no Vulkan surface extension")?;
+        ext_ptrs.extend_from_slice(surface_exts);
+    }
     let info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_layer_names(&layer_ptrs)
@@ -256,7 +280,7 @@ fn create_instance(entry: &ash::Entry, validate: bool) -> Result<(ash::Instance,
 /// Lists every physical device with what it lacks (for `--list-devices` and error messages).
 pub fn list_devices() -> Result<Vec<DeviceReport>> {
     let entry = load_entry()?;
-    let (instance, _, _) = create_instance(&entry, false)?;
+    let (instance, _, _) = create_instance(&entry, false, None)?;
     // SAFETY: the instance is valid; destroyed below after use.
     let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
     let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd).0).collect();
@@ -268,7 +292,7 @@ pub fn list_devices() -> Result<Vec<DeviceReport>> {
 impl Context {
     pub fn new(opts: &ContextOptions) -> Result<Self> {
         let entry = load_entry()?;
-        let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate)?;
+        let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate, opts.window.as_ref())?;
         let validation = Arc::new(ValidationCounter::default());
         let debug_instance = if has_debug_utils {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
@@ -293,13 +317,33 @@ impl Context {
             None
         };
 
+        let surface = match &opts.window {
+            Some(w) => {
+                // SAFETY: the handles come from a live window that outlives the context (the window
+                // module drops the context before the window).
+                let raw = unsafe { ash_window::create_surface(&entry, &instance, w.display, w.window, None) };
+                match raw {
+                    Ok(raw) => Some((ash::khr::surface::Instance::new(&entry, &instance), raw)),
+                    Err(e) => {
+                        destroy_instance(&instance, &debug_instance);
+                        bail!("cannot create a Vulkan surface for the window: {e}");
+                    }
+                }
+            }
+            None => None,
+        };
         // SAFETY: valid instance.
         let pds = unsafe { instance.enumerate_physical_devices() }.context("vkEnumeratePhysicalDevices failed")?;
         let inspected: Vec<(DeviceReport, u32, vk::PhysicalDevice)> = pds
             .iter()
             .enumerate()
             .map(|(i, pd)| {
-                let (r, rank) = inspect(&instance, i, *pd);
+                let (mut r, rank) = inspect(&instance, i, *pd);
+                if let Some((loader, raw)) = &surface {
+                    if present_family(&instance, loader, *raw, *pd).is_none() {
+                        r.missing.push("a compute queue that presents to the window (VK_KHR_swapchain)".into());
+                    }
+                }
                 (r, rank, *pd)
             })
             .collect();
@@ -307,6 +351,7 @@ impl Context {
         let chosen = match opts.device_index {
             Some(i) => {
                 let Some((r, _, pd)) = inspected.iter().find(|x| x.0.index == i) else {
+                    destroy_surface(&surface);
                     destroy_instance(&instance, &debug_instance);
                     bail!(
                         "--device {i}: there is no device {i}; devices:\n{}",
@@ -314,6 +359,7 @@ impl Context {
                     );
                 };
                 if !r.qualifies() {
+                    destroy_surface(&surface);
                     destroy_instance(&instance, &debug_instance);
                     return Err(NoRayQueryDevice {
                         devices: reports,
@@ -328,6 +374,7 @@ impl Context {
                 match best {
                     Some((r, _, pd)) => (r.clone(), *pd),
                     None => {
+                        destroy_surface(&surface);
                         destroy_instance(&instance, &debug_instance);
                         let hint = reports.iter().any(|r| r.name.contains("H100") || r.name.contains("H200")).then(|| {
                             "note: datacenter GPUs (H100/H200) expose ray-tracing pipelines but not VK_KHR_ray_query".to_string()
@@ -350,15 +397,22 @@ impl Context {
 
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
-        let queue_family = families
-            .iter()
-            .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0)
-            .or_else(|| families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)))
-            .context("the chosen device has no compute queue")? as u32;
+        let queue_family = match &surface {
+            Some((loader, raw)) => present_family(&instance, loader, *raw, physical_device)
+                .context("the chosen device has no compute queue that presents to the window")?,
+            None => families
+                .iter()
+                .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0)
+                .or_else(|| families.iter().position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE)))
+                .context("the chosen device has no compute queue")? as u32,
+        };
 
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
-        let ext_ptrs: Vec<*const i8> = REQUIRED_EXTENSIONS.iter().map(|n| n.as_ptr()).collect();
+        let mut ext_ptrs: Vec<*const i8> = REQUIRED_EXTENSIONS.iter().map(|n| n.as_ptr()).collect();
+        if surface.is_some() {
+            ext_ptrs.push(ash::khr::swapchain::NAME.as_ptr());
+        }
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default()
             .buffer_device_address(true)
             .host_query_reset(true);
@@ -396,6 +450,11 @@ impl Context {
         // SAFETY: valid device.
         let command_pool = unsafe { device.create_command_pool(&pool_info, None) }.context("vkCreateCommandPool")?;
 
+        let presentation = surface.map(|(surface_loader, surface)| Presentation {
+            surface_loader,
+            surface,
+            swapchain_loader: ash::khr::swapchain::Device::new(&instance, &device),
+        });
         log::info!("device: {report}");
         Ok(Self {
             entry,
@@ -414,6 +473,7 @@ impl Context {
             validation_enabled,
             validation,
             command_pool,
+            presentation,
         })
     }
 
@@ -483,6 +543,32 @@ impl Context {
     }
 }
 
+/// The queue family of `pd` that computes and presents to `surface` (with timestamps when one
+/// does), if any.
+fn present_family(
+    instance: &ash::Instance,
+    loader: &ash::khr::surface::Instance,
+    surface: vk::SurfaceKHR,
+    pd: vk::PhysicalDevice,
+) -> Option<u32> {
+    // SAFETY: `pd` belongs to `instance`; the surface was created from it.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
+    let presents = |i: usize| {
+        // SAFETY: as above; i indexes an existing family.
+        unsafe { loader.get_physical_device_surface_support(pd, i as u32, surface) }.unwrap_or(false)
+    };
+    let ok = |i: usize, f: &vk::QueueFamilyProperties| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && presents(i);
+    let with_timestamps = families.iter().enumerate().position(|(i, f)| ok(i, f) && f.timestamp_valid_bits > 0);
+    with_timestamps.or_else(|| families.iter().enumerate().position(|(i, f)| ok(i, f))).map(|i| i as u32)
+}
+
+fn destroy_surface(surface: &Option<(ash::khr::surface::Instance, vk::SurfaceKHR)>) {
+    if let Some((loader, raw)) = surface {
+        // SAFETY: called on error paths before any swapchain exists.
+        unsafe { loader.destroy_surface(*raw, None) };
+    }
+}
+
 fn destroy_instance(
     instance: &ash::Instance,
     debug: &Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
@@ -505,6 +591,9 @@ impl Drop for Context {
             self.device.destroy_command_pool(self.command_pool, None);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
+            if let Some(p) = self.presentation.take() {
+                p.surface_loader.destroy_surface(p.surface, None);
+            }
             if let Some((loader, m)) = self.debug_instance.take() {
                 loader.destroy_debug_utils_messenger(m, None);
             }

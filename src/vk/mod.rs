@@ -8,6 +8,6 @@ pub mod pipeline;
 pub mod timer;
 
 pub use buffer::Buffer;
-pub use context::{Context, ContextOptions, DeviceReport, NoRayQueryDevice};
+pub use context::{WindowHandles, Presentation, Context, ContextOptions, DeviceReport, NoRayQueryDevice};
 pub use pipeline::{Binding, BindingKind, ComputePipeline, DescriptorSet};
 pub use timer::GpuTimer;

@@ -23,7 +23,7 @@ pub fn validate() -> bool {
 }
 
 pub fn context() -> Arc<Context> {
-    Arc::new(Context::new(&ContextOptions { validate: validate(), device_index: None }).expect("a ray-query device"))
+    Arc::new(Context::new(&ContextOptions { validate: validate(), ..Default::default() }).expect("a ray-query device"))
 }
 
 /// Uploads `scene` to `ctx` (textures as `settings` says).
