@@ -5,6 +5,7 @@
 //! the error study and the window all read.
 
 use std::collections::BTreeMap;
+use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -170,25 +171,33 @@ struct FrameState {
     nonfinite_samples: u64,
 }
 
-pub struct Renderer {
-    settings: RenderSettings,
-    scene: Arc<SceneGpu>,
-    /// Set 0: one variant per frame slot (the scene, plus that slot's frame constants).
-    scene_set: DescriptorSet,
+/// The parts of a renderer its settings decide.
+struct Parts {
     /// Draws with the textured shader variants.
     textured: bool,
-    targets: FrameTargets,
+    /// Shared with the next `Parts` when a settings change keeps the size.
+    targets: Rc<FrameTargets>,
     passes: Passes,
     /// The VPL set, when the run needs one: traced once before the first frame (static scene).
     photons: Option<(PhotonEmitPass, PhotonStats)>,
     /// The VPL shading setup, in the VPL modes.
     vpl: Option<VplSetup>,
+}
+
+pub struct Renderer {
+    settings: RenderSettings,
+    scene: Arc<SceneGpu>,
+    /// Set 0: one variant per frame slot (the scene, plus that slot's frame constants).
+    scene_set: DescriptorSet,
+    /// What the settings decide (rebuilt by [`Renderer::apply_settings`]).
+    parts: Parts,
     slots: Vec<FrameSlot>,
     next_slot: usize,
     /// The camera of the last frame recorded.
     camera: Option<Camera>,
     state: FrameState,
     log: FrameLog,
+    last_stats: FrameStats,
     ctx: Arc<Context>,
 }
 
@@ -197,7 +206,6 @@ impl Renderer {
     /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
     pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
         settings.validate()?;
-        let textured = scene.textured && settings.textures;
         let scene_set = DescriptorSet::with_variants(&ctx, "scene", scene.bindings, FRAME_SLOTS as u32)?;
         scene.write_set(&scene_set)?;
         let mut slots = Vec::with_capacity(FRAME_SLOTS);
@@ -232,11 +240,52 @@ impl Renderer {
             };
             slots.push(FrameSlot { cmd, fence, timer: GpuTimer::new(&ctx, 32)?, readback, frame_constants, pending: None });
         }
+        let parts = Self::build(&ctx, &scene, &scene_set, &settings, None)?;
+        let log = FrameLog { pixels: parts.targets.pixels() as f64, ..Default::default() };
+        Ok(Self {
+            settings,
+            scene,
+            scene_set,
+            parts,
+            slots,
+            next_slot: 0,
+            camera: None,
+            state: FrameState::default(),
+            log,
+            last_stats: FrameStats::default(),
+            ctx,
+        })
+    }
+
+    /// Builds what `settings` decide: frame targets, passes, the VPL set and the VPL shading
+    /// setup. From `old`, keeps the targets when the size is unchanged and the VPL set when the
+    /// photon settings, the texture variant and the need for VPLs are unchanged.
+    fn build(
+        ctx: &Arc<Context>,
+        scene: &SceneGpu,
+        scene_set: &DescriptorSet,
+        settings: &RenderSettings,
+        old: Option<(&mut Parts, &RenderSettings)>,
+    ) -> Result<Parts> {
+        let textured = scene.textured && settings.textures;
         let layout = scene_set.layout;
-        let targets = FrameTargets::new(&ctx, settings.width, settings.height).context("allocating frame targets")?;
-        let mut passes = Passes::new(&ctx, layout, textured, &targets).context("creating passes")?;
+        let (old_targets, old_photons) = match old {
+            Some((p, s)) => {
+                let targets = (s.width, s.height) == (settings.width, settings.height);
+                let photons = p.textured == textured
+                    && s.needs_vpls() == settings.needs_vpls()
+                    && s.photon_settings() == settings.photon_settings();
+                (targets.then(|| p.targets.clone()), if photons { p.photons.take() } else { None })
+            }
+            None => (None, None),
+        };
+        let targets = match old_targets {
+            Some(t) => t,
+            None => Rc::new(FrameTargets::new(ctx, settings.width, settings.height).context("allocating frame targets")?),
+        };
+        let mut passes = Passes::new(ctx, layout, textured, &targets).context("creating passes")?;
         let info = &scene.info;
-        if scene.textured && textured {
+        if textured {
             log::info!(
                 "textures: {} ({:.1} MiB of texels, {} textured materials): gbuffer, pathtrace and photon_emit use their textured variants",
                 scene.texture_count,
@@ -245,55 +294,60 @@ impl Renderer {
             );
         } else if info.textured_materials > 0 {
             log::info!(
-                "textures: off (--textures off): {} textured materials use their base colour factor; untextured shader variants",
+                "textures: off: {} textured materials use their base colour factor; untextured shader variants",
                 info.textured_materials
             );
         } else {
             log::info!("textures: none in the scene: untextured shader variants, no texture bindings");
         }
-        let photons = if settings.needs_vpls() {
-            let pass = PhotonEmitPass::new(&ctx, layout, textured, &scene.lights, settings.photon_settings())
-                .context("creating the photon pass")?;
-            let stats = pass.run(scene_set.set).context("tracing photons")?;
-            log::info!(
-                "photon_emit: ran once before frame 0 (static scene): {} direct + {} indirect VPLs from {} paths in {:.1} GPU ms",
-                stats.direct_vpls,
-                stats.indirect_vpls,
-                stats.paths,
-                stats.gpu_ms
-            );
-            Some((pass, stats))
-        } else {
-            log::info!("photon_emit: skipped (mode {} uses no VPLs and none are dumped)", settings.mode.name());
-            None
+        let photons = match old_photons {
+            Some(p) => Some(p),
+            None if settings.needs_vpls() => {
+                let pass = PhotonEmitPass::new(ctx, layout, textured, &scene.lights, settings.photon_settings())
+                    .context("creating the photon pass")?;
+                let stats = pass.run(scene_set.set).context("tracing photons")?;
+                log::info!(
+                    "photon_emit: ran once before frame 0 (static scene): {} direct + {} indirect VPLs from {} paths in {:.1} GPU ms",
+                    stats.direct_vpls,
+                    stats.indirect_vpls,
+                    stats.paths,
+                    stats.gpu_ms
+                );
+                Some((pass, stats))
+            }
+            None => {
+                log::info!("photon_emit: skipped (mode {} uses no VPLs and none are dumped)", settings.mode.name());
+                None
+            }
         };
         if settings.view == View::Vpls {
             let (pass, stats) = photons.as_ref().expect("--view vpls builds the VPL set");
-            passes.vpl_view = Some(Self::vpl_view(&ctx, &settings, &scene, layout, &targets, pass, stats)?);
+            passes.vpl_view = Some(Self::vpl_view(ctx, settings, scene, layout, &targets, pass, stats)?);
         }
         let vpl = match (&photons, settings.mode.uses_vpls()) {
             (Some((pass, stats)), true) => {
-                Some(Self::vpl_setup(&ctx, &settings, &scene, layout, &targets, &mut passes, pass, stats)?)
+                Some(Self::vpl_setup(ctx, settings, scene, layout, &targets, &mut passes, pass, stats)?)
             }
             _ => None,
         };
-        let log = FrameLog { pixels: targets.pixels() as f64, ..Default::default() };
-        Ok(Self {
-            settings,
-            scene,
-            scene_set,
-            textured,
-            targets,
-            passes,
-            photons,
-            vpl,
-            slots,
-            next_slot: 0,
-            camera: None,
-            state: FrameState::default(),
-            log,
-            ctx,
-        })
+        Ok(Parts { textured, targets, passes, photons, vpl })
+    }
+
+    /// Switches to `settings` without re-uploading the scene: rebuilds the passes, the frame
+    /// targets when the size changed and the VPL set when its settings changed (see
+    /// [`Renderer::build`]). The accumulation, the ReSTIR history and the log restart. Waits for the
+    /// device to be idle first (a caller's own work on the renderer's buffers included).
+    pub fn apply_settings(&mut self, settings: RenderSettings) -> Result<()> {
+        settings.validate()?;
+        self.complete_all()?;
+        // SAFETY: waiting for idle before pipelines and buffers in use are replaced.
+        unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;
+        let parts = Self::build(&self.ctx, &self.scene, &self.scene_set, &settings, Some((&mut self.parts, &self.settings)))?;
+        self.parts = parts;
+        self.settings = settings;
+        self.state = FrameState::default();
+        self.log = FrameLog { pixels: self.parts.targets.pixels() as f64, ..Default::default() };
+        Ok(())
     }
 
     /// The `--view vpls` pass over the photon pass's VPLs (spheres of `--vpl-radius`, default 0.25%
@@ -462,7 +516,7 @@ impl Renderer {
             shading(mode == Mode::Restir && enabled, if mode == Mode::Restir { why_not } else { "mode is not restir" })
         };
         let r = &s.restir;
-        let vpl = match &self.vpl {
+        let vpl = match &self.parts.vpl {
             Some(v) => VplFrame { params: v.params, restir: *r, view: s.view, current: st.current_reservoirs },
             None => VplFrame::default(),
         };
@@ -474,7 +528,7 @@ impl Renderer {
             Step::Run
         };
         FramePlan {
-            keep_previous_gbuffer: self.passes.prev_surfaces.is_some() && st.gbuffer_valid && gbuffer == Step::Run,
+            keep_previous_gbuffer: self.parts.passes.prev_surfaces.is_some() && st.gbuffer_valid && gbuffer == Step::Run,
             gbuffer,
             pathtrace: shading(mode == Mode::Pt, "mode is not pt"),
             vpl_bruteforce: shading(mode == Mode::Bruteforce, "mode is not bruteforce"),
@@ -528,18 +582,19 @@ impl Renderer {
     /// [`Renderer::read_preview`]. A camera other than the last frame's restarts the accumulation
     /// and traces the G-buffer again.
     pub fn render_frame(&mut self, camera: &Camera, preview: bool) -> Result<FrameStats> {
-        let slot = self.submit_frame(camera, preview)?;
-        self.complete_frame(slot)
+        self.complete_all()?;
+        self.submit_frame(camera, preview)?;
+        self.complete_all()?;
+        Ok(self.last_stats.clone())
     }
 
-    /// Records and submits one frame into the next frame slot (first completing the frame that
-    /// slot held, if any); returns the slot.
-    fn submit_frame(&mut self, camera: &Camera, preview: bool) -> Result<usize> {
+    /// Records and submits one frame without waiting for it, so that up to [`FRAME_SLOTS`] frames
+    /// are in flight (the window's loop). The slot it uses may still hold an older frame: that one
+    /// is completed first, and its statistics are returned.
+    pub fn submit_frame(&mut self, camera: &Camera, preview: bool) -> Result<Option<FrameStats>> {
         let start = Instant::now();
         let i = self.next_slot;
-        if self.slots[i].pending.is_some() {
-            self.complete_frame(i)?;
-        }
+        let completed = if self.slots[i].pending.is_some() { Some(self.complete_frame(i)?) } else { None };
         if self.camera.is_some_and(|c| !c.same_view(camera)) {
             // A new view: new primary hits, a new accumulation, and no history to reuse.
             self.state.gbuffer_valid = false;
@@ -567,19 +622,19 @@ impl Renderer {
         slot.timer.reset(slot.cmd);
         // Orders this frame after the previous one's last reads of the shared targets.
         crate::vk::pipeline::compute_barrier(&ctx, slot.cmd);
-        self.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.targets, &plan);
+        self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan);
         let counters_size = 4 * RAY_SLOTS.len() as u64;
         // SAFETY: buffers alive; the barrier after the last pass orders the copies after it.
         unsafe {
             d.cmd_copy_buffer(
                 slot.cmd,
-                self.targets.ray_counter.raw,
+                self.parts.targets.ray_counter.raw,
                 slot.readback.raw,
                 &[vk::BufferCopy::default().size(counters_size)],
             );
             d.cmd_copy_buffer(
                 slot.cmd,
-                self.targets.stats.raw,
+                self.parts.targets.stats.raw,
                 slot.readback.raw,
                 &[vk::BufferCopy::default().size(4).dst_offset(counters_size)],
             );
@@ -602,7 +657,7 @@ impl Renderer {
         st.accumulated += 1;
         st.frame_index += 1;
         self.next_slot = (i + 1) % FRAME_SLOTS;
-        Ok(i)
+        Ok(completed)
     }
 
     /// Waits for the frame in slot `i` and logs its statistics.
@@ -622,7 +677,7 @@ impl Renderer {
         let n_slots = RAY_SLOTS.len();
         let counters: Vec<u32> = bytemuck::cast_slice(&slot.readback.read(0, 4 * (n_slots + 1))?).to_vec();
         self.state.nonfinite_samples = counters[n_slots] as u64;
-        let primary = if gbuffer_ran { self.targets.pixels() as u64 } else { 0 };
+        let primary = if gbuffer_ran { self.parts.targets.pixels() as u64 } else { 0 };
         let mut rays_by_pass = vec![("gbuffer", primary)];
         for (slot, name) in RAY_SLOTS.iter().enumerate() {
             if counters[slot] > 0 {
@@ -632,11 +687,17 @@ impl Renderer {
         let rays = rays_by_pass.iter().map(|r| r.1).sum();
         let stats = FrameStats { pass_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 };
         self.log.push(&stats);
+        self.last_stats = stats.clone();
         Ok(stats)
     }
 
-    /// Completes every frame still in flight.
-    fn complete_all(&mut self) -> Result<()> {
+    /// The statistics of the last frame completed.
+    pub fn last_stats(&self) -> &FrameStats {
+        &self.last_stats
+    }
+
+    /// Completes every frame still in flight (their statistics go to the log).
+    pub fn complete_all(&mut self) -> Result<()> {
         for k in 0..FRAME_SLOTS {
             let i = (self.next_slot + k) % FRAME_SLOTS;
             if self.slots[i].pending.is_some() {
@@ -651,24 +712,24 @@ impl Renderer {
     /// ReSTIR history restart. Returns the new photon statistics.
     pub fn retrace_photons(&mut self) -> Result<PhotonStats> {
         self.complete_all()?;
-        let Some((pass, stats)) = &mut self.photons else {
+        let Some((pass, stats)) = &mut self.parts.photons else {
             anyhow::bail!("this run has no VPL set to retrace (mode pt without --dump-vpls or --view vpls)");
         };
         *stats = pass.run(self.scene_set.set).context("tracing photons")?;
-        let (pass, stats) = self.photons.as_ref().expect("checked above");
-        if self.passes.vpl_view.is_some() {
-            self.passes.vpl_view = Some(Self::vpl_view(&self.ctx, &self.settings, &self.scene, self.scene_set.layout, &self.targets, pass, stats)?);
+        let (pass, stats) = self.parts.photons.as_ref().expect("checked above");
+        if self.parts.passes.vpl_view.is_some() {
+            self.parts.passes.vpl_view = Some(Self::vpl_view(&self.ctx, &self.settings, &self.scene, self.scene_set.layout, &self.parts.targets, pass, stats)?);
         }
-        if self.vpl.is_some() {
-            self.passes.vpl = Default::default();
-            self.passes.prev_surfaces = None;
-            self.vpl = Some(Self::vpl_setup(
+        if self.parts.vpl.is_some() {
+            self.parts.passes.vpl = Default::default();
+            self.parts.passes.prev_surfaces = None;
+            self.parts.vpl = Some(Self::vpl_setup(
                 &self.ctx,
                 &self.settings,
                 &self.scene,
                 self.scene_set.layout,
-                &self.targets,
-                &mut self.passes,
+                &self.parts.targets,
+                &mut self.parts.passes,
                 pass,
                 stats,
             )?);
@@ -724,7 +785,7 @@ impl Renderer {
     /// Whether this renderer draws with the textured shader variants (the scene was uploaded with
     /// textures and the settings keep them on).
     pub fn textured(&self) -> bool {
-        self.textured
+        self.parts.textured
     }
 
     /// The camera of the last frame, if one was rendered.
@@ -748,17 +809,17 @@ impl Renderer {
     }
 
     pub fn pixels(&self) -> u32 {
-        self.targets.pixels()
+        self.parts.targets.pixels()
     }
 
     /// The photon pass's statistics, when the run traced VPLs.
     pub fn photon_stats(&self) -> Option<&PhotonStats> {
-        self.photons.as_ref().map(|p| &p.1)
+        self.parts.photons.as_ref().map(|p| &p.1)
     }
 
     /// The VPL setup as summary.json reports it.
     pub fn vpl_summary(&self) -> Option<VplSummary> {
-        self.vpl.as_ref().map(|v| VplSummary {
+        self.parts.vpl.as_ref().map(|v| VplSummary {
             vpl_count: v.vpl_count,
             yuksel_radius: v.yuksel_radius,
             yuksel_radius_source: v.yuksel_radius_source,
@@ -771,43 +832,43 @@ impl Renderer {
 
     /// The final reservoirs of the last frame (VPL modes with reservoirs).
     pub fn read_reservoirs(&self) -> Result<Option<Vec<crate::gpu_types::GpuReservoir>>> {
-        let Some(res) = self.vpl.as_ref().and_then(|v| v.reservoirs.as_ref()) else {
+        let Some(res) = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref()) else {
             return Ok(None);
         };
         let last = 1 - self.state.current_reservoirs;
         let bytes = read_back(&self.ctx, res.buffer(last))?;
         let all: &[crate::gpu_types::GpuReservoir] = bytemuck::cast_slice(&bytes);
-        Ok(Some(all[..self.targets.pixels() as usize].to_vec()))
+        Ok(Some(all[..self.parts.targets.pixels() as usize].to_vec()))
     }
 
     /// The VPL set (direct first, then indirect), when the run has one.
     pub fn read_vpls(&self) -> Result<Option<Vec<crate::gpu_types::GpuVpl>>> {
-        self.photons.as_ref().map(|(pass, stats)| pass.read_vpls(stats)).transpose()
+        self.parts.photons.as_ref().map(|(pass, stats)| pass.read_vpls(stats)).transpose()
     }
 
     /// The running mean, row 0 at the top, RGB.
     pub fn read_mean(&self) -> Result<Vec<[f32; 3]>> {
-        let bytes = read_back(&self.ctx, &self.targets.mean)?;
+        let bytes = read_back(&self.ctx, &self.parts.targets.mean)?;
         let v: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        Ok(v[..self.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
+        Ok(v[..self.parts.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 
     /// The last frame's own estimate per pixel (before accumulation), row 0 at the top, RGB.
     pub fn read_frame_samples(&self) -> Result<Vec<[f32; 3]>> {
-        let bytes = read_back(&self.ctx, &self.targets.samples)?;
+        let bytes = read_back(&self.ctx, &self.parts.targets.samples)?;
         let v: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        Ok(v[..self.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
+        Ok(v[..self.parts.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 
     /// Per-pixel sample variance of the accumulated frames (unbiased, n − 1), RGB.
     pub fn read_variance(&self) -> Result<Vec<[f32; 3]>> {
         let n = self.state.accumulated as f64;
-        let sums = read_back(&self.ctx, &self.targets.accum_sum)?;
-        let comp = read_back(&self.ctx, &self.targets.accum_compensation)?;
-        let sq = read_back(&self.ctx, &self.targets.accum_squares)?;
+        let sums = read_back(&self.ctx, &self.parts.targets.accum_sum)?;
+        let comp = read_back(&self.ctx, &self.parts.targets.accum_compensation)?;
+        let sq = read_back(&self.ctx, &self.parts.targets.accum_squares)?;
         let (s, c, q): (&[[f32; 4]], &[[f32; 4]], &[[f32; 4]]) =
             (bytemuck::cast_slice(&sums), bytemuck::cast_slice(&comp), bytemuck::cast_slice(&sq));
-        Ok((0..self.targets.pixels() as usize)
+        Ok((0..self.parts.targets.pixels() as usize)
             .map(|i| {
                 let mut out = [0f32; 3];
                 for ch in 0..3 {
@@ -821,10 +882,17 @@ impl Renderer {
             .collect())
     }
 
+    /// The buffer the tonemap pass writes the preview to (RGBA8, sRGB-encoded, row 0 at the top,
+    /// `width × height` texels). A caller that copies from it on the same queue after
+    /// [`Renderer::submit_frame`] must put a compute-write → transfer-read barrier first.
+    pub fn preview_buffer(&self) -> &Buffer {
+        &self.parts.targets.preview
+    }
+
     /// The tonemapped preview (RGBA8, sRGB), valid after a frame rendered with `preview = true`.
     pub fn read_preview(&self) -> Result<Vec<u8>> {
-        let mut bytes = read_back(&self.ctx, &self.targets.preview)?;
-        bytes.truncate(self.targets.pixels() as usize * 4);
+        let mut bytes = read_back(&self.ctx, &self.parts.targets.preview)?;
+        bytes.truncate(self.parts.targets.pixels() as usize * 4);
         Ok(bytes)
     }
 }

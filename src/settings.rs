@@ -209,7 +209,7 @@ impl View {
 
 /// What the photon pass traces: the VPL set's size and seed (plain data; the pass is
 /// `crate::passes::PhotonEmitPass`).
-#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct PhotonSettings {
     pub direct: u32,
     /// Target indirect VPL count (0: no global illumination).
