@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context as _, Result};
 use serde::Serialize;
 
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraPath};
 use crate::output::{write_exr, write_png, TimingStats};
 use crate::renderer::Renderer;
 use crate::scene::Scene;
@@ -24,8 +24,13 @@ pub struct Summary {
     pub validation_layer: bool,
     pub validation_errors: u64,
     pub scene: SceneSummary,
+    /// The camera of the last frame.
     pub camera: Camera,
+    /// Frames rendered.
     pub frames: u32,
+    /// Frames in the final image's accumulation (fewer than `frames` when the camera or a setting
+    /// changed during the run).
+    pub accumulated_frames: u32,
     /// GPU time per pass over all frames where it ran (ms).
     pub pass_ms: BTreeMap<String, TimingStats>,
     /// Sum of the pass times of each frame (ms).
@@ -94,7 +99,12 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
     }
     let mut renderer = Renderer::new(ctx.clone(), scene.clone(), settings.clone())?;
-    let camera = Camera::initial(&scene.info, settings.camera.as_ref());
+    let path = settings.camera_path.as_deref().map(CameraPath::load).transpose()?;
+    let camera_at = |f: u32| match &path {
+        Some(p) => p.at(f as f32),
+        None => Camera::initial(&scene.info, settings.camera.as_ref()),
+    };
+    let camera = camera_at(0);
     log::info!(
         "device: {}\ncamera: {camera:?}\nscene: {} triangles, {} instances, {} lights, built in {:.1} ms",
         ctx.report,
@@ -112,7 +122,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     let progress = Progress::new(settings.progress, settings.frames as u64);
     for f in 0..settings.frames {
         let last = f + 1 == settings.frames;
-        renderer.render_frame(&camera, last && settings.out_dir.is_some())?;
+        renderer.render_frame(&camera_at(f), last && settings.out_dir.is_some())?;
         if let Some(dir) = &settings.out_dir {
             if settings.save_every > 0 && (f + 1) % settings.save_every == 0 {
                 let path = dir.join(format!("accum_{:04}.exr", f + 1));
@@ -123,11 +133,30 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         progress.tick();
     }
     progress.finish();
+    let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, outputs, warnings, start)?;
     let mean = renderer.read_mean()?;
     let variance = renderer.read_variance()?;
+    Ok(RunOutput { width: settings.width, height: settings.height, mean, variance, summary })
+}
+
+/// What every run ends with, headless or windowed: final.exr and final.png (when the settings have
+/// an output directory; the last frame must have been rendered with a preview), and the summary,
+/// written as summary.json beside them. `frames`: frames rendered in the run.
+pub fn finish_run(
+    ctx: &Context,
+    scene: &SceneGpu,
+    renderer: &mut Renderer,
+    frames: u32,
+    mut outputs: Vec<String>,
+    mut warnings: Vec<String>,
+    start: Instant,
+) -> Result<Summary> {
+    renderer.complete_all()?;
+    let settings = renderer.settings().clone();
     if let Some(dir) = &settings.out_dir {
+        std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
         let exr = dir.join("final.exr");
-        write_exr(&exr, settings.width, settings.height, &mean)?;
+        write_exr(&exr, settings.width, settings.height, &renderer.read_mean()?)?;
         let png = dir.join("final.png");
         write_png(&png, settings.width, settings.height, &renderer.read_preview()?)?;
         outputs.insert(0, png.display().to_string());
@@ -147,7 +176,6 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     let log = renderer.log();
     let info = &scene.info;
     let summary = Summary {
-        settings: settings.clone(),
         device: ctx.report.clone(),
         validation_layer: ctx.validation_enabled,
         validation_errors,
@@ -161,8 +189,9 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
             light_power: scene.lights.total_power,
             upload_and_build_ms: scene.build_ms,
         },
-        camera,
-        frames: settings.frames,
+        camera: renderer.camera().unwrap_or_else(|| renderer.initial_camera()),
+        frames,
+        accumulated_frames: renderer.accumulated(),
         pass_ms: log.pass_stats(),
         gpu_ms_per_frame: log.gpu(),
         wall_ms_per_frame: log.wall(),
@@ -174,13 +203,14 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         total_seconds: start.elapsed().as_secs_f64(),
         outputs,
         warnings,
+        settings,
     };
-    if let Some(dir) = &settings.out_dir {
+    if let Some(dir) = &summary.settings.out_dir {
         let path: PathBuf = dir.join("summary.json");
         let json = serde_json::to_string_pretty(&summary).context("serialising summary.json")?;
         std::fs::write(&path, json).with_context(|| format!("writing {}", path.display()))?;
     }
-    Ok(RunOutput { width: settings.width, height: settings.height, mean, variance, summary })
+    Ok(summary)
 }
 
 /// A progress bar on stderr that appears only on a terminal and only once a run passes one second.

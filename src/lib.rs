@@ -19,6 +19,7 @@ pub mod scene;
 pub mod scene_gpu;
 pub mod settings;
 pub mod vk;
+pub mod window;
 
 /// SPIR-V of every shader, compiled by build.rs.
 pub mod shaders {

@@ -10,7 +10,8 @@ use glam::Vec3;
 use std::sync::LazyLock;
 
 use restir_vpl::settings::{
-    Attenuation, Bias, CameraOverride, CandidateSource, Mode, NamedEnum, RenderSettings, RestirSettings, View,
+    Attenuation, Bias, CameraOverride, CandidateSource, Mode, NamedEnum, PresentMode, RenderSettings, RestirSettings,
+    View,
 };
 use restir_vpl::vk::NoRayQueryDevice;
 
@@ -32,6 +33,9 @@ struct Cli {
     /// List Vulkan devices and what each lacks, then exit.
     #[arg(long)]
     list_devices: bool,
+    /// How the window's frames wait for the display.
+    #[arg(long, value_parser = named::<PresentMode>(), default_value_t = PresentMode::default())]
+    present_mode: PresentMode,
 }
 
 /// Everything that decides what is rendered (shared by the main command and `reference`).
@@ -43,9 +47,10 @@ struct RenderArgs {
     /// Estimator.
     #[arg(long, value_parser = named::<Mode>(), default_value_t = DEFAULTS.mode)]
     mode: Mode,
-    /// Frames to render and average.
-    #[arg(long, default_value_t = DEFAULTS.frames)]
-    frames: u32,
+    /// Frames to render and average [default: 20]. In a window: close after this many frames and
+    /// write the outputs as a headless run does (without it the window stays until closed).
+    #[arg(long)]
+    frames: Option<u32>,
     #[arg(long, default_value_t = DEFAULTS.width)]
     width: u32,
     #[arg(long, default_value_t = DEFAULTS.height)]
@@ -77,6 +82,14 @@ struct RenderArgs {
     /// Vertical field of view in degrees (with --eye/--target; default 45, or the scene camera's).
     #[arg(long)]
     fov: Option<f32>,
+    /// Camera path: {"keyframes": [{"frame": 0, "eye": [x,y,z], "target": [x,y,z], "up": [0,1,0],
+    /// "fov": 40}, ...]} (fov vertical in degrees; linear interpolation; frames past the last
+    /// keyframe hold it). Frame f of the run is seen from the path's camera at f.
+    #[arg(long, value_name = "FILE.json")]
+    camera_path: Option<PathBuf>,
+    /// Accumulate frames while the camera and settings stay (off: each image is one frame).
+    #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.progressive))]
+    progressive: Toggle,
     /// Direct VPLs (they replace the area lights).
     #[arg(long, default_value_t = DEFAULTS.vpls_direct)]
     vpls_direct: u32,
@@ -379,12 +392,14 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         mode: cli.mode,
         width: cli.width,
         height: cli.height,
-        frames: cli.frames,
+        frames: cli.frames.unwrap_or(DEFAULTS.frames),
         seed: cli.seed,
         aa: cli.aa,
         max_bounces: cli.max_bounces,
         exposure: cli.exposure,
         camera,
+        camera_path: cli.camera_path.clone(),
+        progressive: cli.progressive.on(),
         save_every: cli.save_every,
         out_dir,
         validate,
@@ -537,11 +552,17 @@ fn real_main(cli: Cli) -> Result<()> {
     }
     let settings = settings_from(&cli.render, Some(cli.out.clone()))?;
     settings.validate()?;
-    if !cli.headless {
-        bail!("windowed mode is not available yet: pass --headless to render to files");
-    }
-    let out = restir_vpl::run(&settings)?;
-    let s = &out.summary;
+    let summary = if cli.headless {
+        restir_vpl::run(&settings)?.summary
+    } else {
+        let opts = restir_vpl::window::WindowOptions { present_mode: cli.present_mode, frames: cli.render.frames };
+        match restir_vpl::window::run(settings, opts)? {
+            Some(summary) => summary,
+            None => return Ok(()),
+        }
+    };
+    let s = &summary;
+    let settings = &s.settings;
     println!("device: {}", s.device);
     println!(
         "scene: {} ({} triangles, {} area lights)",

@@ -140,6 +140,20 @@ pub struct VplSummary {
 /// Largest pixel × VPL product a brute-force frame accepts (~2 h on lavapipe, seconds on a GPU).
 pub const MAX_BRUTEFORCE_PAIRS: u64 = 20_000_000_000;
 
+/// Refuses a brute-force frame of more than [`MAX_BRUTEFORCE_PAIRS`] pixel × VPL pairs, naming
+/// the flags that change it.
+fn check_bruteforce_pairs(settings: &RenderSettings, vpls: u64) -> Result<()> {
+    let pairs = settings.width as u64 * settings.height as u64 * vpls;
+    anyhow::ensure!(
+        pairs <= MAX_BRUTEFORCE_PAIRS,
+        "--mode bruteforce: {}×{} pixels × {vpls} VPLs = {pairs} shadow rays per frame, over the limit of \
+         {MAX_BRUTEFORCE_PAIRS}; use a smaller image (--width/--height) or fewer VPLs (--vpls-direct/--vpls-indirect)",
+        settings.width,
+        settings.height
+    );
+    Ok(())
+}
+
 /// Frames that may be recorded while earlier ones still run on the GPU.
 pub const FRAME_SLOTS: usize = 2;
 
@@ -269,16 +283,27 @@ impl Renderer {
     ) -> Result<Parts> {
         let textured = scene.textured && settings.textures;
         let layout = scene_set.layout;
-        let (old_targets, old_photons) = match old {
+        // What can be kept from the old parts: the targets (same size) and the VPL set (same
+        // photon settings, texture variant and need for VPLs). The VPL set is moved over only once
+        // everything else is built, so a failure leaves the old parts whole.
+        let (old_targets, mut old_photons) = match old {
             Some((p, s)) => {
-                let targets = (s.width, s.height) == (settings.width, settings.height);
-                let photons = p.textured == textured
+                let same_size = (s.width, s.height) == (settings.width, settings.height);
+                let same_vpls = p.textured == textured
                     && s.needs_vpls() == settings.needs_vpls()
                     && s.photon_settings() == settings.photon_settings();
-                (targets.then(|| p.targets.clone()), if photons { p.photons.take() } else { None })
+                (same_size.then(|| p.targets.clone()), same_vpls.then_some(&mut p.photons))
             }
             None => (None, None),
         };
+        if settings.mode == Mode::Bruteforce {
+            // Checked before anything is built; the VPL count is the kept set's or the target one.
+            let vpls = match old_photons.as_ref().and_then(|p| p.as_ref()) {
+                Some((_, stats)) => PhotonEmitPass::vpl_count(stats) as u64,
+                None => settings.vpls_direct as u64 + if settings.gi { settings.vpls_indirect as u64 } else { 0 },
+            };
+            check_bruteforce_pairs(settings, vpls)?;
+        }
         let targets = match old_targets {
             Some(t) => t,
             None => Rc::new(FrameTargets::new(ctx, settings.width, settings.height).context("allocating frame targets")?),
@@ -300,8 +325,8 @@ impl Renderer {
         } else {
             log::info!("textures: none in the scene: untextured shader variants, no texture bindings");
         }
-        let photons = match old_photons {
-            Some(p) => Some(p),
+        let new_photons = match &old_photons {
+            Some(_) => None,
             None if settings.needs_vpls() => {
                 let pass = PhotonEmitPass::new(ctx, layout, textured, &scene.lights, settings.photon_settings())
                     .context("creating the photon pass")?;
@@ -320,15 +345,25 @@ impl Renderer {
                 None
             }
         };
-        if settings.view == View::Vpls {
-            let (pass, stats) = photons.as_ref().expect("--view vpls builds the VPL set");
-            passes.vpl_view = Some(Self::vpl_view(ctx, settings, scene, layout, &targets, pass, stats)?);
-        }
-        let vpl = match (&photons, settings.mode.uses_vpls()) {
-            (Some((pass, stats)), true) => {
-                Some(Self::vpl_setup(ctx, settings, scene, layout, &targets, &mut passes, pass, stats)?)
+        let vpl = {
+            let photons = match &old_photons {
+                Some(kept) => kept.as_ref(),
+                None => new_photons.as_ref(),
+            };
+            if settings.view == View::Vpls {
+                let (pass, stats) = photons.expect("--view vpls builds the VPL set");
+                passes.vpl_view = Some(Self::vpl_view(ctx, settings, scene, layout, &targets, pass, stats)?);
             }
-            _ => None,
+            match (photons, settings.mode.uses_vpls()) {
+                (Some((pass, stats)), true) => {
+                    Some(Self::vpl_setup(ctx, settings, scene, layout, &targets, &mut passes, pass, stats)?)
+                }
+                _ => None,
+            }
+        };
+        let photons = match old_photons.as_mut() {
+            Some(kept) => kept.take(),
+            None => new_photons,
         };
         Ok(Parts { textured, targets, passes, photons, vpl })
     }
@@ -383,14 +418,7 @@ impl Renderer {
         let layout = scene_layout;
         let mode = settings.mode;
         if mode == Mode::Bruteforce {
-            let pairs = targets.pixels() as u64 * vpl_count as u64;
-            anyhow::ensure!(
-                pairs <= MAX_BRUTEFORCE_PAIRS,
-                "--mode bruteforce: {}×{} pixels × {vpl_count} VPLs = {pairs} shadow rays per frame, over the limit of \
-                 {MAX_BRUTEFORCE_PAIRS}; use a smaller image (--width/--height) or fewer VPLs (--vpls-direct/--vpls-indirect)",
-                settings.width,
-                settings.height
-            );
+            check_bruteforce_pairs(settings, vpl_count as u64)?;
         }
         let need_power = mode.uses_reservoirs() && settings.candidate_source == CandidateSource::Power && mode != Mode::Uniform;
         let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER;
@@ -599,6 +627,10 @@ impl Renderer {
             // A new view: new primary hits, a new accumulation, and no history to reuse.
             self.state.gbuffer_valid = false;
             self.state.history_valid = false;
+            self.state.accumulated = 0;
+        }
+        if !self.settings.progressive {
+            // Every image is this frame alone.
             self.state.accumulated = 0;
         }
         self.camera = Some(*camera);

@@ -21,6 +21,11 @@ pub trait NamedEnum: Copy + Sized + 'static {
         let i = Self::ALL.iter().position(|v| v.name() == self.name()).unwrap_or(0);
         Self::ALL[(i + 1) % Self::ALL.len()]
     }
+    /// The variant before this one, wrapping around.
+    fn previous(self) -> Self {
+        let i = Self::ALL.iter().position(|v| v.name() == self.name()).unwrap_or(0);
+        Self::ALL[(i + Self::ALL.len() - 1) % Self::ALL.len()]
+    }
 }
 
 macro_rules! named_enum {
@@ -136,6 +141,20 @@ named_enum! {
     }
 }
 
+named_enum! {
+    /// How the window's frames wait for the display (`--present-mode`).
+    #[derive(Default)]
+    pub enum PresentMode {
+        /// Wait for the vertical blank; never tears (every surface offers it).
+        #[default]
+        Fifo = "fifo",
+        /// Replace the image waiting to be shown; no tearing, no waiting.
+        Mailbox = "mailbox",
+        /// Show at once; may tear.
+        Immediate = "immediate",
+    }
+}
+
 /// The ReSTIR settings.
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct RestirSettings {
@@ -244,6 +263,10 @@ pub struct RenderSettings {
     /// Exposure in EV for the PNG preview.
     pub exposure: f32,
     pub camera: Option<CameraOverride>,
+    /// A camera path (`--camera-path`): frame f is seen from its camera at f.
+    pub camera_path: Option<PathBuf>,
+    /// Accumulate frames while nothing changes (off: every image is its own frame alone).
+    pub progressive: bool,
     /// Write `accum_NNNN.exr` every K frames (0: never).
     pub save_every: u32,
     pub out_dir: Option<PathBuf>,
@@ -290,6 +313,8 @@ impl Default for RenderSettings {
             max_bounces: 8,
             exposure: 0.0,
             camera: None,
+            camera_path: None,
+            progressive: true,
             save_every: 0,
             out_dir: None,
             validate: false,
@@ -417,6 +442,9 @@ impl RenderSettings {
             if !(r > 0.0 && r.is_finite()) {
                 bail!("--vpl-radius {r}: must be a positive number (scene units)");
             }
+        }
+        if self.camera.is_some() && self.camera_path.is_some() {
+            bail!("--camera-path and --eye/--target both set the camera: give one of them");
         }
         if let Some(c) = &self.camera {
             if !(c.yfov_degrees > 0.0 && c.yfov_degrees < 180.0) {

@@ -4,10 +4,12 @@
 pub mod accel;
 pub mod buffer;
 pub mod context;
+pub mod image;
 pub mod pipeline;
 pub mod timer;
 
 pub use buffer::Buffer;
+pub use image::Image;
 pub use context::{WindowHandles, Presentation, Context, ContextOptions, DeviceReport, NoRayQueryDevice};
 pub use pipeline::{Binding, BindingKind, ComputePipeline, DescriptorSet};
 pub use timer::GpuTimer;

@@ -1,0 +1,575 @@
+//! The interactive window: winit's event loop drives the same [`Renderer`] a headless run drives,
+//! one frame per redraw, and shows its preview through a swapchain. Keys map to named actions
+//! ([`actions::KEYS`]); the camera follows a [`FlyController`] (or `--camera-path`).
+
+pub mod actions;
+pub mod swapchain;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+use anyhow::{bail, Context as _, Result};
+use ash::vk;
+use raw_window_handle::{HasDisplayHandle, HasWindowHandle};
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
+use winit::keyboard::{KeyCode, PhysicalKey};
+use winit::window::{Window, WindowId};
+
+use crate::camera::{CameraPath, FlyController};
+use crate::headless::{finish_run, Summary};
+use crate::renderer::Renderer;
+use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
+use crate::settings::{Mode, NamedEnum, PresentMode, RenderSettings, View};
+use crate::vk::image::transition;
+use crate::vk::{Context, ContextOptions, Image, WindowHandles};
+
+use actions::Action;
+use swapchain::Swapchain;
+
+/// What the window needs besides the render settings.
+#[derive(Clone, Debug, Default)]
+pub struct WindowOptions {
+    pub present_mode: PresentMode,
+    /// Close after this many frames and write the outputs as a headless run does.
+    pub frames: Option<u32>,
+}
+
+/// No display to open a window on.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot open a window: {0}. No X11 or Wayland display is reachable (is DISPLAY or WAYLAND_DISPLAY set?); pass --headless to render to files instead")]
+pub struct NoDisplay(pub String);
+
+/// Opens a window and renders until it is closed (or `--frames N` frames). Returns the summary
+/// written when the run ended with outputs (`--frames`), if any.
+pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summary>> {
+    settings.validate()?;
+    let start = Instant::now();
+    let scene = Scene::load(&settings.scene)?;
+    let path = settings.camera_path.as_deref().map(CameraPath::load).transpose()?;
+    let event_loop = EventLoop::new().map_err(|e| NoDisplay(e.to_string()))?;
+    event_loop.set_control_flow(ControlFlow::Poll);
+    let mut app = App { settings, opts, scene: Some(scene), path, running: None, error: None, summary: None, start };
+    event_loop.run_app(&mut app).context("the window's event loop failed")?;
+    if let Some(e) = app.error {
+        return Err(e);
+    }
+    Ok(app.summary)
+}
+
+struct App {
+    settings: RenderSettings,
+    opts: WindowOptions,
+    /// The scene until it is uploaded (on the first `resumed`).
+    scene: Option<Scene>,
+    path: Option<CameraPath>,
+    running: Option<Running>,
+    error: Option<anyhow::Error>,
+    summary: Option<Summary>,
+    start: Instant,
+}
+
+/// Everything alive while the window is open. Field order is drop order: GPU objects first, the
+/// context after them, the window last (the surface must go before it).
+struct Running {
+    presenter: Presenter,
+    swapchain: Swapchain,
+    renderer: Renderer,
+    scene: Arc<SceneGpu>,
+    ctx: Arc<Context>,
+    controller: FlyController,
+    /// Frames shown since the window opened.
+    frames: u32,
+    frozen: bool,
+    step: bool,
+    overlay: bool,
+    resize_pending: bool,
+    looking: bool,
+    cursor: Option<(f64, f64)>,
+    last_frame: Instant,
+    last_title: Instant,
+    /// Exponentially smoothed ms per frame (wall) for the title.
+    smoothed_ms: f64,
+    /// Latest status message (errors of refused actions, saved files).
+    message: String,
+    window: Arc<Window>,
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.running.is_some() {
+            return;
+        }
+        match self.open(event_loop) {
+            Ok(r) => self.running = Some(r),
+            Err(e) => {
+                self.error = Some(e);
+                event_loop.exit();
+            }
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        if let Err(e) = self.handle(event_loop, event) {
+            self.error = Some(e);
+            event_loop.exit();
+        }
+    }
+
+    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+        if let Some(r) = &self.running {
+            if !r.frozen || r.step {
+                r.window.request_redraw();
+            }
+        }
+    }
+
+    fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
+        if let Some(r) = &self.running {
+            // SAFETY: waiting for idle before everything is dropped.
+            let _ = unsafe { r.ctx.device.device_wait_idle() };
+        }
+        self.running = None;
+    }
+}
+
+impl App {
+    fn open(&mut self, event_loop: &ActiveEventLoop) -> Result<Running> {
+        let s = &self.settings;
+        let attrs = Window::default_attributes()
+            .with_title("restir-vpl")
+            .with_inner_size(winit::dpi::PhysicalSize::new(s.width, s.height));
+        let window = Arc::new(event_loop.create_window(attrs).context("creating the window")?);
+        let handles = WindowHandles {
+            display: window.display_handle().context("the window's display handle")?.as_raw(),
+            window: window.window_handle().context("the window's handle")?.as_raw(),
+        };
+        let ctx = Arc::new(Context::new(&ContextOptions {
+            validate: s.validate,
+            device_index: s.device_index,
+            window: Some(handles),
+        })?);
+        let scene_cpu = self.scene.take().context("the scene was already uploaded")?;
+        let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures).context("uploading the scene")?);
+        let size = window.inner_size();
+        let swapchain = Swapchain::new(&ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, None)?;
+        // The render size follows the window.
+        self.settings.width = swapchain.extent.width;
+        self.settings.height = swapchain.extent.height;
+        let renderer = Renderer::new(ctx.clone(), scene.clone(), self.settings.clone())?;
+        let presenter = Presenter::new(&ctx, &swapchain)?;
+        let (lo, hi) = scene.info.bounds;
+        let controller = FlyController::new(&renderer.initial_camera(), (hi - lo).length());
+        log::info!("window: {}", ctx.report);
+        Ok(Running {
+            presenter,
+            swapchain,
+            renderer,
+            scene,
+            ctx,
+            controller,
+            frames: 0,
+            frozen: false,
+            step: false,
+            overlay: true,
+            resize_pending: false,
+            looking: false,
+            cursor: None,
+            last_frame: Instant::now(),
+            last_title: Instant::now(),
+            smoothed_ms: 0.0,
+            message: String::new(),
+            window,
+        })
+    }
+
+    fn handle(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
+        let Some(r) = self.running.as_mut() else { return Ok(()) };
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(_) => r.resize_pending = true,
+            WindowEvent::KeyboardInput { event, .. } => {
+                let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
+                let down = event.state == ElementState::Pressed;
+                let k = &mut r.controller.keys;
+                match code {
+                    KeyCode::KeyW => k.forward = down,
+                    KeyCode::KeyS => k.back = down,
+                    KeyCode::KeyA => k.left = down,
+                    KeyCode::KeyD => k.right = down,
+                    KeyCode::Space => k.up = down,
+                    KeyCode::ControlLeft => k.down = down,
+                    KeyCode::ShiftLeft | KeyCode::ShiftRight => k.fast = down,
+                    _ => {
+                        if down && !event.repeat {
+                            if let Some(action) = actions::action_for(code) {
+                                self.act(event_loop, action)?;
+                            }
+                        }
+                    }
+                }
+            }
+            WindowEvent::MouseInput { button: MouseButton::Right, state, .. } => {
+                r.looking = state == ElementState::Pressed;
+            }
+            WindowEvent::CursorMoved { position, .. } => {
+                if let (true, Some((x, y))) = (r.looking, r.cursor) {
+                    r.controller.look((position.x - x) as f32, (position.y - y) as f32);
+                }
+                r.cursor = Some((position.x, position.y));
+            }
+            WindowEvent::MouseWheel { delta, .. } => {
+                let notches = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
+                };
+                r.controller.scroll(notches);
+            }
+            WindowEvent::RedrawRequested => self.frame(event_loop)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// Applies a settings change; a refused one (e.g. brute force over the pair limit) leaves
+    /// everything as it was and says why.
+    fn change(&mut self, what: &str, edit: impl FnOnce(&mut RenderSettings)) -> Result<()> {
+        let r = self.running.as_mut().expect("called while running");
+        let mut s = r.renderer.settings().clone();
+        edit(&mut s);
+        match r.renderer.apply_settings(s.clone()) {
+            Ok(()) => {
+                self.settings = s;
+                r.message = what.to_string();
+                log::info!("{what}");
+            }
+            Err(e) => {
+                r.message = format!("refused: {e:#}");
+                log::warn!("{what}: refused: {e:#}");
+            }
+        }
+        Ok(())
+    }
+
+    fn act(&mut self, event_loop: &ActiveEventLoop, action: Action) -> Result<()> {
+        let r = self.running.as_mut().expect("called while running");
+        match action {
+            Action::SetMode(mode) => self.change(&format!("mode {}", mode.name()), |s| {
+                s.mode = mode;
+                if !mode.uses_reservoirs() && s.view.shows_reservoirs() || mode == Mode::Pt && s.view != View::Vpls {
+                    s.view = View::Final;
+                }
+            })?,
+            Action::ToggleGi => {
+                let gi = !r.renderer.settings().gi;
+                self.change(&format!("global illumination {}", if gi { "on" } else { "off" }), |s| s.gi = gi)?
+            }
+            Action::NextView | Action::PreviousView | Action::FinalView => {
+                let current = r.renderer.settings().clone();
+                let view = match action {
+                    Action::FinalView => View::Final,
+                    _ => next_valid_view(&current, action == Action::NextView),
+                };
+                self.change(&format!("view {}", view.name()), |s| s.view = view)?
+            }
+            Action::MoreCandidates | Action::FewerCandidates => {
+                let c = r.renderer.settings().candidates;
+                let c = if action == Action::MoreCandidates { (c * 2).min(1024) } else { (c / 2).max(1) };
+                self.change(&format!("{c} RIS candidates"), |s| s.candidates = c)?
+            }
+            Action::ToggleProgressive => {
+                let p = !r.renderer.settings().progressive;
+                self.change(&format!("progressive accumulation {}", if p { "on" } else { "off" }), |s| s.progressive = p)?
+            }
+            Action::SpawnLight | Action::RemoveLight => {
+                r.message = "spawning lights is not available yet".into();
+            }
+            Action::SaveImage => {
+                let outputs = Vec::new();
+                let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start)?;
+                r.message = format!("wrote {}", summary.outputs.join(", "));
+                log::info!("{}", r.message);
+            }
+            Action::SaveCamera => {
+                let file = camera_file(&self.settings);
+                std::fs::write(&file, CameraPath::still(&r.controller.camera()).to_json())
+                    .with_context(|| format!("writing {}", file.display()))?;
+                r.message = format!("camera saved to {}", file.display());
+            }
+            Action::LoadCamera => {
+                let file = camera_file(&self.settings);
+                match CameraPath::load(&file) {
+                    Ok(p) => {
+                        r.controller.set_camera(&p.at(0.0));
+                        r.message = format!("camera loaded from {}", file.display());
+                    }
+                    Err(e) => r.message = format!("{e:#}"),
+                }
+            }
+            Action::HomeCamera => r.controller.go_home(),
+            Action::ToggleOverlay => r.overlay = !r.overlay,
+            Action::Freeze => r.frozen = !r.frozen,
+            Action::Step => r.step = r.frozen,
+            Action::Quit => event_loop.exit(),
+        }
+        Ok(())
+    }
+
+    /// Renders and shows one frame.
+    fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
+        let r = self.running.as_mut().expect("called while running");
+        if r.frozen && !r.step {
+            return Ok(());
+        }
+        r.step = false;
+        let now = Instant::now();
+        let dt = (now - r.last_frame).as_secs_f32().min(0.25);
+        r.last_frame = now;
+        if r.resize_pending {
+            let size = r.window.inner_size();
+            if size.width == 0 || size.height == 0 {
+                return Ok(()); // minimised: nothing to show until restored
+            }
+            r.resize_pending = false;
+            // SAFETY: nothing may use the old swapchain or targets while they are replaced.
+            unsafe { r.ctx.device.device_wait_idle() }.context("waiting for the device")?;
+            r.swapchain = Swapchain::new(&r.ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, Some(&r.swapchain))?;
+            r.presenter = Presenter::new(&r.ctx, &r.swapchain)?;
+            let (w, h) = (r.swapchain.extent.width, r.swapchain.extent.height);
+            self.settings.width = w;
+            self.settings.height = h;
+            let mut s = r.renderer.settings().clone();
+            (s.width, s.height) = (w, h);
+            r.renderer.apply_settings(s)?;
+        }
+        let camera = match &self.path {
+            Some(p) => p.at(r.frames as f32),
+            None => {
+                r.controller.update(dt);
+                r.controller.camera()
+            }
+        };
+        match r.presenter.show(&r.ctx, &r.swapchain, &mut r.renderer, &camera)? {
+            Shown::Yes => {}
+            Shown::YesRecreate => r.resize_pending = true,
+            Shown::OutOfDate => {
+                r.resize_pending = true;
+                return Ok(());
+            }
+        }
+        r.frames += 1;
+        let ms = dt as f64 * 1e3;
+        r.smoothed_ms = if r.frames <= 2 { ms } else { 0.9 * r.smoothed_ms + 0.1 * ms };
+        if now.duration_since(r.last_title).as_secs_f64() > 0.25 {
+            r.last_title = now;
+            let s = r.renderer.settings();
+            let gpu: f64 = r.renderer.last_stats().gpu_ms();
+            r.window.set_title(&format!(
+                "restir-vpl — {} · {:.1} ms/frame ({:.0} fps, GPU {:.1} ms) · {} frames accumulated{}{}",
+                s.mode.name(),
+                r.smoothed_ms,
+                1e3 / r.smoothed_ms.max(1e-3),
+                gpu,
+                r.renderer.accumulated(),
+                if s.view != View::Final { format!(" · view {}", s.view.name()) } else { String::new() },
+                if r.message.is_empty() { String::new() } else { format!(" · {}", r.message) },
+            ));
+        }
+        if self.opts.frames == Some(r.frames) {
+            let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, Vec::new(), Vec::new(), self.start)?;
+            self.summary = Some(summary);
+            event_loop.exit();
+        }
+        Ok(())
+    }
+}
+
+/// The next (or previous) `--view` the current mode can show.
+fn next_valid_view(s: &RenderSettings, forward: bool) -> View {
+    let mut v = s.view;
+    for _ in 0..View::ALL.len() {
+        v = if forward { v.next() } else { v.previous() };
+        let candidate = RenderSettings { view: v, ..s.clone() };
+        if candidate.validate().is_ok() {
+            return v;
+        }
+    }
+    s.view
+}
+
+/// Where O and I keep the camera: camera.json in the output directory (or the working directory).
+fn camera_file(s: &RenderSettings) -> PathBuf {
+    s.out_dir.as_deref().unwrap_or(std::path::Path::new(".")).join("camera.json")
+}
+
+/// Whether a frame reached the screen.
+enum Shown {
+    Yes,
+    /// Shown, but the swapchain no longer matches the window well: recreate it.
+    YesRecreate,
+    /// Not shown: the swapchain no longer matches the window; recreate it.
+    OutOfDate,
+}
+
+/// Per frame in flight: the command buffer that copies the preview to the swapchain image, its
+/// fence and the semaphore the image acquisition signals; plus the staging image the preview is
+/// copied into before the blit (the blit converts to the swapchain's format and size).
+struct Presenter {
+    ctx: Arc<Context>,
+    staging: Image,
+    cmds: Vec<vk::CommandBuffer>,
+    fences: Vec<vk::Fence>,
+    acquired: Vec<vk::Semaphore>,
+    next: usize,
+}
+
+const PRESENT_SLOTS: usize = crate::renderer::FRAME_SLOTS;
+
+impl Presenter {
+    fn new(ctx: &Arc<Context>, swapchain: &Swapchain) -> Result<Self> {
+        // The preview bytes are sRGB-encoded: typed as UNORM they blit unchanged into a UNORM
+        // swapchain; typed as sRGB they decode and re-encode into an sRGB one.
+        let srgb = matches!(swapchain.format.format, vk::Format::B8G8R8A8_SRGB | vk::Format::R8G8B8A8_SRGB);
+        let format = if srgb { vk::Format::R8G8B8A8_SRGB } else { vk::Format::R8G8B8A8_UNORM };
+        // SAFETY: valid physical device.
+        let features = unsafe { ctx.instance.get_physical_device_format_properties(ctx.physical_device, format) };
+        if !features.optimal_tiling_features.contains(vk::FormatFeatureFlags::BLIT_SRC) {
+            bail!("this device cannot blit from {format:?}; cannot show the preview");
+        }
+        let staging = Image::new(
+            ctx,
+            "window.preview",
+            swapchain.extent,
+            format,
+            vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC,
+        )?;
+        let mut cmds = Vec::new();
+        let mut fences = Vec::new();
+        let mut acquired = Vec::new();
+        for i in 0..PRESENT_SLOTS {
+            // SAFETY: valid device and pool; all destroyed in Drop after a wait for idle.
+            unsafe {
+                let cmd = ctx.device.allocate_command_buffers(
+                    &vk::CommandBufferAllocateInfo::default()
+                        .command_pool(ctx.command_pool)
+                        .level(vk::CommandBufferLevel::PRIMARY)
+                        .command_buffer_count(1),
+                )?[0];
+                ctx.set_name(cmd, &format!("present{i}"));
+                let fence = ctx.device.create_fence(&vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED), None)?;
+                ctx.set_name(fence, &format!("present{i}"));
+                let sem = ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None)?;
+                ctx.set_name(sem, &format!("present{i}.acquired"));
+                cmds.push(cmd);
+                fences.push(fence);
+                acquired.push(sem);
+            }
+        }
+        Ok(Self { ctx: ctx.clone(), staging, cmds, fences, acquired, next: 0 })
+    }
+
+    /// Acquires a swapchain image, submits the renderer's frame, copies its preview onto the image
+    /// and presents it. The renderer's frame stays in flight.
+    fn show(&mut self, ctx: &Context, swapchain: &Swapchain, renderer: &mut Renderer, camera: &crate::camera::Camera) -> Result<Shown> {
+        let p = ctx.presentation.as_ref().expect("a window context");
+        let f = self.next;
+        let d = &ctx.device;
+        // SAFETY: the fence belongs to this slot's last present submission.
+        unsafe { d.wait_for_fences(&[self.fences[f]], true, u64::MAX) }.context("waiting for a present slot")?;
+        // SAFETY: valid swapchain; the semaphore is unsignalled (its last wait has completed).
+        let acquired = unsafe { p.swapchain_loader.acquire_next_image(swapchain.raw, u64::MAX, self.acquired[f], vk::Fence::null()) };
+        let image_index = match acquired {
+            Ok((i, _suboptimal)) => i,
+            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => return Ok(Shown::OutOfDate),
+            Err(e) => return Err(e).context("vkAcquireNextImageKHR"),
+        };
+        renderer.submit_frame(camera, true)?;
+        let cmd = self.cmds[f];
+        let image = swapchain.images[image_index as usize];
+        let (w, h) = (renderer.settings().width, renderer.settings().height);
+        // SAFETY: the slot's previous submission completed (fence waited); every object used is
+        // alive until this slot's fence is waited on again.
+        unsafe {
+            d.reset_fences(&[self.fences[f]])?;
+            d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())?;
+            d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+            ctx.begin_label(cmd, "present");
+            // The renderer's tonemap wrote the preview with compute shaders earlier on this queue.
+            let barrier = [vk::MemoryBarrier::default()
+                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
+            d.cmd_pipeline_barrier(
+                cmd,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &barrier,
+                &[],
+                &[],
+            );
+            transition(ctx, cmd, self.staging.raw, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+            let copy = [vk::BufferImageCopy::default()
+                .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
+                .image_extent(vk::Extent3D { width: w.min(self.staging.extent.width), height: h.min(self.staging.extent.height), depth: 1 })
+                .buffer_row_length(w)];
+            d.cmd_copy_buffer_to_image(cmd, renderer.preview_buffer().raw, self.staging.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &copy);
+            transition(ctx, cmd, self.staging.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
+            transition(ctx, cmd, image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+            let sub = vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1);
+            let corner = |e: vk::Extent2D| vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 };
+            let blit = [vk::ImageBlit::default()
+                .src_subresource(sub)
+                .src_offsets([vk::Offset3D::default(), corner(self.staging.extent)])
+                .dst_subresource(sub)
+                .dst_offsets([vk::Offset3D::default(), corner(swapchain.extent)])];
+            d.cmd_blit_image(
+                cmd,
+                self.staging.raw,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &blit,
+                vk::Filter::NEAREST,
+            );
+            transition(ctx, cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR);
+            ctx.end_label(cmd);
+            d.end_command_buffer(cmd)?;
+            let waits = [self.acquired[f]];
+            let stages = [vk::PipelineStageFlags::TRANSFER];
+            let signals = [swapchain.render_finished[image_index as usize]];
+            let cmds = [cmd];
+            let submit = [vk::SubmitInfo::default()
+                .wait_semaphores(&waits)
+                .wait_dst_stage_mask(&stages)
+                .command_buffers(&cmds)
+                .signal_semaphores(&signals)];
+            d.queue_submit(ctx.queue, &submit, self.fences[f]).context("vkQueueSubmit (present)")?;
+            let swapchains = [swapchain.raw];
+            let indices = [image_index];
+            let present = vk::PresentInfoKHR::default().wait_semaphores(&signals).swapchains(&swapchains).image_indices(&indices);
+            self.next = (f + 1) % PRESENT_SLOTS;
+            match p.swapchain_loader.queue_present(ctx.queue, &present) {
+                Ok(false) => Ok(Shown::Yes),
+                Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Shown::YesRecreate),
+                Err(e) => Err(e).context("vkQueuePresentKHR"),
+            }
+        }
+    }
+}
+
+impl Drop for Presenter {
+    fn drop(&mut self) {
+        // SAFETY: wait for idle, then free every slot's objects.
+        unsafe {
+            let _ = self.ctx.device.device_wait_idle();
+            for i in 0..self.cmds.len() {
+                self.ctx.device.destroy_fence(self.fences[i], None);
+                self.ctx.device.destroy_semaphore(self.acquired[i], None);
+                self.ctx.device.free_command_buffers(self.ctx.command_pool, &[self.cmds[i]]);
+            }
+        }
+    }
+}

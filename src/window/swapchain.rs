@@ -1,0 +1,147 @@
+//! The window's swapchain: created for the surface's current size, recreated as a unit on resize,
+//! and the blit that puts the renderer's preview on screen.
+
+use std::sync::Arc;
+
+use anyhow::{bail, Context as _, Result};
+use ash::vk;
+
+use crate::settings::PresentMode;
+use crate::vk::Context;
+
+fn vk_present_mode(mode: PresentMode) -> vk::PresentModeKHR {
+    match mode {
+        PresentMode::Fifo => vk::PresentModeKHR::FIFO,
+        PresentMode::Mailbox => vk::PresentModeKHR::MAILBOX,
+        PresentMode::Immediate => vk::PresentModeKHR::IMMEDIATE,
+    }
+}
+
+pub struct Swapchain {
+    ctx: Arc<Context>,
+    pub raw: vk::SwapchainKHR,
+    pub format: vk::SurfaceFormatKHR,
+    pub extent: vk::Extent2D,
+    pub images: Vec<vk::Image>,
+    pub views: Vec<vk::ImageView>,
+    pub present_mode: vk::PresentModeKHR,
+    /// Signalled when presentation is done with image i (one per image, so a semaphore is never
+    /// reused while a present still waits on it).
+    pub render_finished: Vec<vk::Semaphore>,
+}
+
+impl Swapchain {
+    /// A swapchain of `wanted` size (the surface's current extent wins where it is fixed),
+    /// replacing `old` if given.
+    pub fn new(ctx: &Arc<Context>, wanted: vk::Extent2D, mode: PresentMode, old: Option<&Swapchain>) -> Result<Self> {
+        let p = ctx.presentation.as_ref().context("the context was made without a window")?;
+        let pd = ctx.physical_device;
+        // SAFETY: surface and physical device belong to this context's instance.
+        let (caps, formats, modes) = unsafe {
+            (
+                p.surface_loader.get_physical_device_surface_capabilities(pd, p.surface)?,
+                p.surface_loader.get_physical_device_surface_formats(pd, p.surface)?,
+                p.surface_loader.get_physical_device_surface_present_modes(pd, p.surface)?,
+            )
+        };
+        // The preview is already sRGB-encoded: a UNORM target shows it as is (the blit from an
+        // sRGB-typed staging image into an sRGB target is the identity too).
+        let preferred = [vk::Format::B8G8R8A8_UNORM, vk::Format::R8G8B8A8_UNORM, vk::Format::B8G8R8A8_SRGB, vk::Format::R8G8B8A8_SRGB];
+        let format = preferred
+            .iter()
+            .find_map(|f| formats.iter().find(|s| s.format == *f).copied())
+            .or_else(|| formats.first().copied())
+            .context("the surface offers no formats")?;
+        let present_mode = if modes.contains(&vk_present_mode(mode)) {
+            vk_present_mode(mode)
+        } else {
+            log::warn!("--present-mode {}: not offered by this surface; using fifo", mode.name());
+            vk::PresentModeKHR::FIFO
+        };
+        let extent = if caps.current_extent.width != u32::MAX {
+            caps.current_extent
+        } else {
+            vk::Extent2D {
+                width: wanted.width.clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+                height: wanted.height.clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+            }
+        };
+        if extent.width == 0 || extent.height == 0 {
+            bail!("the window has no area (minimised)");
+        }
+        let mut count = caps.min_image_count + 1;
+        if caps.max_image_count > 0 {
+            count = count.min(caps.max_image_count);
+        }
+        if !caps.supported_usage_flags.contains(vk::ImageUsageFlags::TRANSFER_DST) {
+            bail!("the surface's images cannot be transfer destinations; cannot show the preview");
+        }
+        let info = vk::SwapchainCreateInfoKHR::default()
+            .surface(p.surface)
+            .min_image_count(count)
+            .image_format(format.format)
+            .image_color_space(format.color_space)
+            .image_extent(extent)
+            .image_array_layers(1)
+            .image_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::COLOR_ATTACHMENT)
+            .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .pre_transform(caps.current_transform)
+            .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
+            .present_mode(present_mode)
+            .clipped(true)
+            .old_swapchain(old.map(|o| o.raw).unwrap_or_default());
+        // SAFETY: valid device and surface; the old swapchain (if any) is retired by this call.
+        let raw = unsafe { p.swapchain_loader.create_swapchain(&info, None) }.context("vkCreateSwapchainKHR")?;
+        ctx.set_name(raw, "swapchain");
+        // SAFETY: the swapchain was just created.
+        let images = unsafe { p.swapchain_loader.get_swapchain_images(raw) }?;
+        let mut views = Vec::with_capacity(images.len());
+        let mut render_finished = Vec::with_capacity(images.len());
+        for (i, image) in images.iter().enumerate() {
+            ctx.set_name(*image, &format!("swapchain.image{i}"));
+            let view_info = vk::ImageViewCreateInfo::default()
+                .image(*image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(format.format)
+                .subresource_range(color_range());
+            // SAFETY: the image belongs to the swapchain.
+            let view = unsafe { ctx.device.create_image_view(&view_info, None) }?;
+            ctx.set_name(view, &format!("swapchain.view{i}"));
+            views.push(view);
+            // SAFETY: valid device.
+            let sem = unsafe { ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }?;
+            ctx.set_name(sem, &format!("swapchain.render_finished{i}"));
+            render_finished.push(sem);
+        }
+        log::info!(
+            "swapchain: {}x{} {:?} {:?}, {} images, {:?}",
+            extent.width,
+            extent.height,
+            format.format,
+            format.color_space,
+            images.len(),
+            present_mode
+        );
+        Ok(Self { ctx: ctx.clone(), raw, format, extent, images, views, present_mode, render_finished })
+    }
+}
+
+impl Drop for Swapchain {
+    fn drop(&mut self) {
+        let p = self.ctx.presentation.as_ref().expect("a swapchain implies a presentation");
+        // SAFETY: the window waits for the device to be idle before dropping a swapchain.
+        unsafe {
+            for v in &self.views {
+                self.ctx.device.destroy_image_view(*v, None);
+            }
+            for s in &self.render_finished {
+                self.ctx.device.destroy_semaphore(*s, None);
+            }
+            p.swapchain_loader.destroy_swapchain(self.raw, None);
+        }
+    }
+}
+
+pub fn color_range() -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange::default().aspect_mask(vk::ImageAspectFlags::COLOR).level_count(1).layer_count(1)
+}
