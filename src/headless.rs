@@ -59,7 +59,10 @@ pub struct SceneSummary {
     pub instances: usize,
     pub meshes: usize,
     pub materials: usize,
+    /// Lights drawn: area-light triangles and point lights, the added ones included.
     pub area_lights: usize,
+    /// Point lights added in the window (L).
+    pub added_point_lights: usize,
     /// Σ Φ of the area lights, per channel (W).
     pub light_power: [f64; 3],
     pub upload_and_build_ms: f64,
@@ -185,8 +188,9 @@ pub fn finish_run(
             instances: scene.instance_count,
             meshes: info.meshes,
             materials: info.materials,
-            area_lights: scene.lights.lights.len(),
-            light_power: scene.lights.total_power,
+            area_lights: renderer.lights().lights.len(),
+            light_power: renderer.lights().total_power,
+            added_point_lights: renderer.extra_lights().len(),
             upload_and_build_ms: scene.build_ms,
         },
         camera: renderer.camera().unwrap_or_else(|| renderer.initial_camera()),

@@ -23,14 +23,47 @@ pub struct LightSet {
     pub total_power: [f64; 3],
 }
 
-impl LightSet {
+/// A point light: position and radiant intensity I (W/sr per channel; power 4π·I).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointEmitter {
+    pub position: Vec3,
+    pub intensity: Vec3,
+}
+
+/// The emitters of a scene, kept on the host so that light sets can be rebuilt (with lights added
+/// by the window) without the [`Scene`].
+#[derive(Clone, Debug, Default)]
+pub struct Emitters {
+    pub triangles: Vec<crate::scene::EmissiveTriangle>,
+    pub points: Vec<PointEmitter>,
+}
+
+impl Emitters {
     pub fn from_scene(scene: &Scene) -> Self {
-        let tris = scene.emissive_triangles();
         // glTF point-light intensity is in candela; radiometrically we read it as W/sr per channel.
-        let points: Vec<(Vec3, Vec3)> = scene
+        let points = scene
             .point_lights
             .iter()
-            .map(|p| (p.position, p.color * p.intensity))
+            .map(|p| PointEmitter { position: p.position, intensity: p.color * p.intensity })
+            .collect();
+        Self { triangles: scene.emissive_triangles(), points }
+    }
+}
+
+impl LightSet {
+    pub fn from_scene(scene: &Scene) -> Self {
+        Self::new(&Emitters::from_scene(scene), &[])
+    }
+
+    /// The lights of `emitters` plus `extra` point lights (points of zero or non-finite intensity
+    /// are left out).
+    pub fn new(emitters: &Emitters, extra: &[PointEmitter]) -> Self {
+        let tris = &emitters.triangles;
+        let points: Vec<(Vec3, Vec3)> = emitters
+            .points
+            .iter()
+            .chain(extra)
+            .map(|p| (p.position, p.intensity))
             .filter(|(_, i)| i.max_element() > 0.0 && i.is_finite())
             .collect();
         let powers: Vec<(Vec3, f64)> = tris

@@ -24,7 +24,8 @@ use crate::passes::{
     FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirInitialPass, RestirSpatialPass,
     RestirTemporalPass, Step, VplBruteforcePass, VplFrame, VplInputs, VplShadePass, VplViewPass, RAY_SLOTS,
 };
-use crate::scene_gpu::SceneGpu;
+use crate::lights::{LightSet, PointEmitter};
+use crate::scene_gpu::{LightBuffers, SceneGpu};
 use crate::settings::{Attenuation, Bias, CandidateSource, Mode, RenderSettings, View};
 use crate::vk::buffer::read_back;
 use crate::vk::{Buffer, Context, DescriptorSet, GpuTimer};
@@ -203,6 +204,9 @@ pub struct Renderer {
     scene: Arc<SceneGpu>,
     /// Set 0: one variant per frame slot (the scene, plus that slot's frame constants).
     scene_set: DescriptorSet,
+    /// The lights: the scene's plus `extra_lights` (set 0 bindings 6 and 7).
+    lights: LightBuffers,
+    extra_lights: Vec<PointEmitter>,
     /// What the settings decide (rebuilt by [`Renderer::apply_settings`]).
     parts: Parts,
     slots: Vec<FrameSlot>,
@@ -254,12 +258,16 @@ impl Renderer {
             };
             slots.push(FrameSlot { cmd, fence, timer: GpuTimer::new(&ctx, 32)?, readback, frame_constants, pending: None });
         }
-        let parts = Self::build(&ctx, &scene, &scene_set, &settings, None)?;
+        let lights = LightBuffers::new(&ctx, scene.lights.clone())?;
+        lights.write_set(&scene_set)?;
+        let parts = Self::build(&ctx, &scene, &scene_set, &lights.set, &settings, None)?;
         let log = FrameLog { pixels: parts.targets.pixels() as f64, ..Default::default() };
         Ok(Self {
             settings,
             scene,
             scene_set,
+            lights,
+            extra_lights: Vec::new(),
             parts,
             slots,
             next_slot: 0,
@@ -278,8 +286,9 @@ impl Renderer {
         ctx: &Arc<Context>,
         scene: &SceneGpu,
         scene_set: &DescriptorSet,
+        lights: &LightSet,
         settings: &RenderSettings,
-        old: Option<(&mut Parts, &RenderSettings)>,
+        old: Option<(&mut Parts, &RenderSettings, bool)>,
     ) -> Result<Parts> {
         let textured = scene.textured && settings.textures;
         let layout = scene_set.layout;
@@ -287,9 +296,10 @@ impl Renderer {
         // photon settings, texture variant and need for VPLs). The VPL set is moved over only once
         // everything else is built, so a failure leaves the old parts whole.
         let (old_targets, mut old_photons) = match old {
-            Some((p, s)) => {
+            Some((p, s, same_lights)) => {
                 let same_size = (s.width, s.height) == (settings.width, settings.height);
-                let same_vpls = p.textured == textured
+                let same_vpls = same_lights
+                    && p.textured == textured
                     && s.needs_vpls() == settings.needs_vpls()
                     && s.photon_settings() == settings.photon_settings();
                 (same_size.then(|| p.targets.clone()), same_vpls.then_some(&mut p.photons))
@@ -328,7 +338,7 @@ impl Renderer {
         let new_photons = match &old_photons {
             Some(_) => None,
             None if settings.needs_vpls() => {
-                let pass = PhotonEmitPass::new(ctx, layout, textured, &scene.lights, settings.photon_settings())
+                let pass = PhotonEmitPass::new(ctx, layout, textured, lights, settings.photon_settings())
                     .context("creating the photon pass")?;
                 let stats = pass.run(scene_set.set).context("tracing photons")?;
                 log::info!(
@@ -377,7 +387,14 @@ impl Renderer {
         self.complete_all()?;
         // SAFETY: waiting for idle before pipelines and buffers in use are replaced.
         unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;
-        let parts = Self::build(&self.ctx, &self.scene, &self.scene_set, &settings, Some((&mut self.parts, &self.settings)))?;
+        let parts = Self::build(
+            &self.ctx,
+            &self.scene,
+            &self.scene_set,
+            &self.lights.set,
+            &settings,
+            Some((&mut self.parts, &self.settings, true)),
+        )?;
         self.parts = parts;
         self.settings = settings;
         self.state = FrameState::default();
@@ -596,9 +613,9 @@ impl Renderer {
             height: s.height,
             max_bounces: s.max_bounces,
             flags: if s.aa { FRAME_AA } else { 0 },
-            light_count: self.scene.lights.lights.len() as u32,
+            light_count: self.lights.set.lights.len() as u32,
             instance_count: self.scene.instance_count as u32,
-            total_light_power: self.scene.lights.total_power_lum as f32,
+            total_light_power: self.lights.set.total_power_lum as f32,
             exposure: 2f32.powf(s.exposure),
             accumulated_frames: self.state.accumulated + 1,
             ..Default::default()
@@ -737,6 +754,50 @@ impl Renderer {
             }
         }
         Ok(())
+    }
+
+    /// Point lights in addition to the scene's (the window's L key). The lights change, so the VPL
+    /// set is traced again (the photon pass re-runs) and the passes over it are rebuilt; the scene
+    /// is not touched. The accumulation and the ReSTIR history restart.
+    pub fn set_extra_lights(&mut self, extra: Vec<PointEmitter>) -> Result<()> {
+        self.complete_all()?;
+        // SAFETY: waiting for idle before the light buffers in use are replaced.
+        unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;
+        let lights = LightBuffers::new(&self.ctx, LightSet::new(&self.scene.emitters, &extra))?;
+        // The photon pass reads the lights through set 0: point it at the new ones first, and back
+        // at the old ones if the rebuild fails.
+        lights.write_set(&self.scene_set)?;
+        let settings = self.settings.clone();
+        let built = Self::build(
+            &self.ctx,
+            &self.scene,
+            &self.scene_set,
+            &lights.set,
+            &settings,
+            Some((&mut self.parts, &self.settings, false)),
+        );
+        let parts = match built {
+            Ok(p) => p,
+            Err(e) => {
+                self.lights.write_set(&self.scene_set)?;
+                return Err(e);
+            }
+        };
+        self.lights = lights;
+        self.parts = parts;
+        self.extra_lights = extra;
+        self.state = FrameState::default();
+        Ok(())
+    }
+
+    /// The point lights added to the scene's.
+    pub fn extra_lights(&self) -> &[PointEmitter] {
+        &self.extra_lights
+    }
+
+    /// The lights this renderer draws: the scene's and the added ones.
+    pub fn lights(&self) -> &LightSet {
+        &self.lights.set
     }
 
     /// Traces the VPL set again (the photon pass only; `bench --photons` times it) and rebuilds

@@ -69,7 +69,10 @@ pub struct SceneGpu {
     pub info: SceneInfo,
     /// Set 0's binding table (with or without the texture bindings).
     pub bindings: &'static [Binding],
+    /// The scene's own lights (what renderers start with).
     pub lights: LightSet,
+    /// The emitters behind them, to rebuild light sets with added lights.
+    pub emitters: crate::lights::Emitters,
     pub triangle_count: usize,
     pub instance_count: usize,
     /// Base-colour textures are bound (set 0 is [`SCENE_BINDINGS_TEXTURED`]); passes that read
@@ -159,20 +162,19 @@ impl SceneGpu {
             let r = t.transpose().to_cols_array(); // rows of t
             descs.push(InstanceDesc { mesh: inst.mesh, transform: r[..12].try_into().expect("12 of 16") });
         }
-        let lights = LightSet::from_scene(scene);
+        let emitters = crate::lights::Emitters::from_scene(scene);
+        let lights = LightSet::new(&emitters, &[]);
 
         let vb = Buffer::with_data(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), geometry_usage())?;
         let ib = Buffer::with_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), geometry_usage())?;
         let tm = Buffer::with_data(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), storage_usage())?;
         let mb = Buffer::with_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), storage_usage())?;
         let inb = Buffer::with_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), storage_usage())?;
-        let lb = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&lights.lights), storage_usage())?;
-        let ab = Buffer::with_data(ctx, "scene.light_alias", bytemuck::cast_slice(&lights.alias), storage_usage())?;
         let blases = accel::build_blases(ctx, &vb, std::mem::size_of::<GpuVertex>() as u64, &ib, &ranges)
             .context("building BLASes")?;
         let (tlas, tlas_instances) = accel::build_tlas(ctx, &blases, &descs).context("building the TLAS")?;
 
-        let mut buffers = vec![(1, vb), (2, ib), (3, tm), (4, mb), (5, inb), (6, lb), (7, ab)];
+        let mut buffers = vec![(1, vb), (2, ib), (3, tm), (4, mb), (5, inb)];
         let (mut texture_count, mut texel_bytes) = (0, 0);
         if textured {
             let mut table = Vec::with_capacity(scene.textures.len());
@@ -207,6 +209,7 @@ impl SceneGpu {
             info,
             bindings: if textured { SCENE_BINDINGS_TEXTURED } else { SCENE_BINDINGS },
             lights,
+            emitters,
             triangle_count: scene.triangle_count(),
             instance_count: scene.instances.len(),
             textured,
@@ -221,8 +224,8 @@ impl SceneGpu {
     }
 
     /// Points every variant of `set` (made from [`SceneGpu::bindings`]) at the scene: TLAS,
-    /// geometry, materials, lights and textures. Binding 8, the frame constants, belongs to the
-    /// renderer and is left to it.
+    /// geometry, materials and textures. The lights (bindings 6 and 7, see [`LightBuffers`]) and
+    /// the frame constants (binding 8) belong to the renderer, which may add lights.
     pub fn write_set(&self, set: &DescriptorSet) -> Result<()> {
         set.write_accel(0, self.tlas.raw)?;
         for (binding, buffer) in &self.buffers {
@@ -234,5 +237,26 @@ impl SceneGpu {
     /// Whether the scene has emitters (area or point lights).
     pub fn has_emitters(&self) -> bool {
         !self.lights.lights.is_empty()
+    }
+}
+
+/// A light set on the GPU: set 0's `lights` (binding 6) and `light_alias` (binding 7).
+pub struct LightBuffers {
+    pub set: LightSet,
+    lights: Buffer,
+    alias: Buffer,
+}
+
+impl LightBuffers {
+    pub fn new(ctx: &Arc<Context>, set: LightSet) -> Result<Self> {
+        let lights = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&set.lights), storage_usage())?;
+        let alias = Buffer::with_data(ctx, "scene.light_alias", bytemuck::cast_slice(&set.alias), storage_usage())?;
+        Ok(Self { set, lights, alias })
+    }
+
+    /// Points bindings 6 and 7 of every variant of `set` at these lights.
+    pub fn write_set(&self, set: &DescriptorSet) -> Result<()> {
+        set.write_buffer(6, &self.lights)?;
+        set.write_buffer(7, &self.alias)
     }
 }

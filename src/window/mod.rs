@@ -20,6 +20,7 @@ use winit::window::{Window, WindowId};
 
 use crate::camera::{CameraPath, FlyController};
 use crate::headless::{finish_run, Summary};
+use crate::lights::PointEmitter;
 use crate::renderer::Renderer;
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
@@ -285,7 +286,18 @@ impl App {
                 self.change(&format!("progressive accumulation {}", if p { "on" } else { "off" }), |s| s.progressive = p)?
             }
             Action::SpawnLight | Action::RemoveLight => {
-                r.message = "spawning lights is not available yet".into();
+                let mut extra = r.renderer.extra_lights().to_vec();
+                if action == Action::SpawnLight {
+                    extra.push(spawned_light(&r.controller.camera(), &r.scene));
+                } else if extra.pop().is_none() {
+                    r.message = "no spawned light to remove".into();
+                    return Ok(());
+                }
+                let n = extra.len();
+                match r.renderer.set_extra_lights(extra) {
+                    Ok(()) => r.message = format!("{n} spawned light(s); VPLs traced again"),
+                    Err(e) => r.message = format!("refused: {e:#}"),
+                }
             }
             Action::SaveImage => {
                 let outputs = Vec::new();
@@ -385,6 +397,16 @@ impl App {
         }
         Ok(())
     }
+}
+
+/// The point light L spawns: just in front of the camera (2% of the scene's size along the view),
+/// white, with a quarter of the scene's light power (1 W/sr when the scene has none).
+fn spawned_light(camera: &crate::camera::Camera, scene: &SceneGpu) -> PointEmitter {
+    let (lo, hi) = scene.info.bounds;
+    let size = (hi - lo).length().max(1e-6);
+    let power = scene.lights.total_power_lum as f32;
+    let intensity = if power > 0.0 { 0.25 * power / (4.0 * std::f32::consts::PI) } else { 1.0 };
+    PointEmitter { position: camera.position + camera.forward * 0.02 * size, intensity: glam::Vec3::splat(intensity) }
 }
 
 /// The next (or previous) `--view` the current mode can show.
