@@ -5,8 +5,13 @@
 #     Debian 12, only when no such driver is present)
 #   - the Khronos validation layer (vulkan-validationlayers)
 #   - a C/C++ compiler for the glslang crate's build
+# With --test (the test command) also what the tests drive: Xvfb and xdotool for the window tests.
+# The main job does not pull these.
 # Idempotent and quiet when everything is there. Set RESTIR_VPL_SKIP_SETUP=1 to skip it entirely.
 set -euo pipefail
+
+for_tests=0
+[ "${1:-}" = "--test" ] && for_tests=1
 
 [ "${RESTIR_VPL_SKIP_SETUP:-0}" = 1 ] && exit 0
 
@@ -43,6 +48,12 @@ command -v c++ >/dev/null 2>&1 || missing+=(g++)
 command -v pkg-config >/dev/null 2>&1 || missing+=(pkg-config)
 have_pkg libvulkan1 || missing+=(libvulkan1)
 have_pkg vulkan-validationlayers || missing+=(vulkan-validationlayers)
+if [ "$for_tests" = 1 ]; then
+  # The window tests: an X server, a way to press keys, and the libraries winit loads.
+  command -v Xvfb >/dev/null 2>&1 || missing+=(xvfb)
+  command -v xdotool >/dev/null 2>&1 || missing+=(xdotool)
+  for lib in libxkbcommon-x11-0 libxcursor1 libxi6 libx11-xcb1; do have_pkg "$lib" || missing+=("$lib"); done
+fi
 if [ ${#missing[@]} -gt 0 ]; then apt_install "${missing[@]}"; fi
 
 # A driver with ray queries. A vendor driver (NVIDIA/AMD/Intel ICD) is left alone; for Mesa we need

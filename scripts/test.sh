@@ -3,6 +3,6 @@
 # lavapipe under the Khronos validation layer where it is installed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
+bash scripts/setup.sh --test
 # lavapipe runs its own worker threads; two test threads keep the 2-core machine from thrashing.
 exec cargo test --release -- --test-threads="${RESTIR_VPL_TEST_THREADS:-2}" "$@"

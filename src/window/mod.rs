@@ -51,7 +51,7 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     let start = Instant::now();
     let scene = Scene::load(&settings.scene)?;
     let path = settings.camera_path.as_deref().map(CameraPath::load).transpose()?;
-    let event_loop = EventLoop::new().map_err(|e| NoDisplay(e.to_string()))?;
+    let event_loop = EventLoop::new().map_err(|e| NoDisplay(e.to_string().trim_end_matches('.').to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { settings, opts, scene: Some(scene), path, running: None, error: None, summary: None, start };
     event_loop.run_app(&mut app).context("the window's event loop failed")?;

@@ -1,0 +1,203 @@
+//! The windowed mode under Xvfb on lavapipe, driven as a person would with xdotool: it renders what
+//! a headless run renders, keys change the mode and move the camera, a resize recreates the
+//! swapchain and targets, Esc exits 0, and the validation layer stays silent throughout.
+//!
+//! The test command's set-up installs Xvfb and xdotool. Where they are missing these tests fail
+//! under CI (CI=true) and print a loud SKIPPED banner elsewhere, never passing silently.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use restir_vpl::output::read_exr;
+
+/// An Xvfb server on a free display number, killed on drop.
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn have(tool: &str) -> bool {
+    Command::new("sh").args(["-c", &format!("command -v {tool}")]).output().is_ok_and(|o| o.status.success())
+}
+
+/// Starts Xvfb, or explains why it cannot (fails under CI, where set-up must have installed it).
+fn xvfb() -> Option<Xvfb> {
+    let missing: Vec<&str> = ["Xvfb", "xdotool"].into_iter().filter(|t| !have(t)).collect();
+    if !missing.is_empty() {
+        let msg = format!("window tests need {} (bash scripts/test.sh installs them)", missing.join(" and "));
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("{msg}");
+        }
+        eprintln!("\n**********************************************************\n*** SKIPPED: {msg}\n**********************************************************\n");
+        return None;
+    }
+    for n in 90..140 {
+        if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
+            continue;
+        }
+        let display = format!(":{n}");
+        let child = Command::new("Xvfb")
+            .args([display.as_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("start Xvfb");
+        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+        let start = Instant::now();
+        while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        assert!(socket.exists(), "Xvfb {display} did not start");
+        return Some(Xvfb { child, display });
+    }
+    panic!("no free X display number between :90 and :139");
+}
+
+fn restir_vpl(display: Option<&str>, args: &[&str]) -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_restir-vpl"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR")).args(args).env_remove("WAYLAND_DISPLAY");
+    match display {
+        Some(d) => c.env("DISPLAY", d),
+        None => c.env_remove("DISPLAY"),
+    };
+    if common::validate() {
+        c.arg("--validate");
+    }
+    c
+}
+
+fn xdotool(display: &str, args: &[&str]) -> Output {
+    Command::new("xdotool").args(args).env("DISPLAY", display).output().expect("run xdotool")
+}
+
+fn summary(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json written");
+    serde_json::from_str(&text).expect("summary.json parses")
+}
+
+const SCENE_ARGS: [&str; 8] = ["--scene", "scenes/cornell_box.gltf", "--vpls-direct", "4000", "--vpls-indirect", "4000", "--seed", "7"];
+
+#[test]
+fn window_renders_what_headless_renders() {
+    let Some(x) = xvfb() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let (win, head) = (dir.path().join("window"), dir.path().join("headless"));
+    let common_args = ["--mode", "restir", "--width", "96", "--height", "72", "--frames", "30"];
+    let o = restir_vpl(Some(&x.display), &[&SCENE_ARGS[..], &common_args[..], &["--out", win.to_str().unwrap()]].concat())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "windowed run failed: {}", String::from_utf8_lossy(&o.stderr));
+    let o = restir_vpl(None, &[&SCENE_ARGS[..], &common_args[..], &["--headless", "--out", head.to_str().unwrap()]].concat())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "headless run failed: {}", String::from_utf8_lossy(&o.stderr));
+    let (a, b) = (read_exr(&win.join("final.exr")).unwrap(), read_exr(&head.join("final.exr")).unwrap());
+    assert_eq!((a.width, a.height), (96, 72), "the window renders at its own size");
+    // Same camera, mode, seed and frame sequence: the same random numbers, so the same image up to
+    // float rounding (well inside any noise bound).
+    let worst = a.pixels.iter().zip(&b.pixels).flat_map(|(p, q)| (0..3).map(move |c| (p[c] - q[c]).abs())).fold(0f32, f32::max);
+    assert!(worst < 1e-5, "window and headless images differ by up to {worst}");
+    common::assert_all_finite(&a.pixels, "windowed image");
+    let s = summary(&win);
+    assert_eq!(s["validation_errors"], 0, "validation errors in the windowed run: {s}");
+    assert_eq!(s["frames"], 30);
+}
+
+/// Waits until the window's title contains `want` (the title shows mode, ms and frames).
+fn wait_for_title(display: &str, want: &str, timeout: Duration) -> String {
+    let start = Instant::now();
+    let mut last = String::new();
+    while start.elapsed() < timeout {
+        let o = xdotool(display, &["search", "--name", "restir-vpl", "getwindowname"]);
+        last = String::from_utf8_lossy(&o.stdout).trim().to_string();
+        if last.contains(want) {
+            return last;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    panic!("window title never contained '{want}' within {timeout:?}; last: '{last}'");
+}
+
+#[test]
+fn keys_change_mode_move_camera_resize_and_quit() {
+    let Some(x) = xvfb() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let mut child = restir_vpl(
+        Some(&x.display),
+        &[&SCENE_ARGS[..], &["--mode", "uniform", "--width", "128", "--height", "96", "--out", out.to_str().unwrap()]].concat(),
+    )
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    let d = x.display.as_str();
+    wait_for_title(d, "uniform ·", Duration::from_secs(60));
+    let wid = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().unwrap().to_string();
+    xdotool(d, &["windowfocus", "--sync", &wid]);
+    // 3: ReSTIR.
+    xdotool(d, &["key", "3"]);
+    wait_for_title(d, "restir ·", Duration::from_secs(30));
+    // W held: the camera moves forward.
+    xdotool(d, &["keydown", "w"]);
+    std::thread::sleep(Duration::from_millis(800));
+    xdotool(d, &["keyup", "w"]);
+    // Enter writes the outputs as a headless run does.
+    xdotool(d, &["key", "Return"]);
+    wait_for_title(d, "wrote", Duration::from_secs(30));
+    let s = summary(&out);
+    assert_eq!(s["settings"]["mode"], "restir", "{s}");
+    assert_eq!(s["camera"]["source"], "window", "the camera should have left the scene camera: {s}");
+    let z = s["camera"]["position"][2].as_f64().unwrap();
+    assert!(z < 1.3, "W moves the Cornell camera (z ≈ 1.37) forward, toward −z: z = {z}");
+    // A resize recreates the swapchain and the frame targets.
+    xdotool(d, &["windowsize", &wid, "160", "120"]);
+    std::thread::sleep(Duration::from_millis(1500));
+    xdotool(d, &["key", "Return"]);
+    let start = Instant::now();
+    loop {
+        let s = summary(&out);
+        if s["settings"]["width"] == 160 {
+            assert_eq!(s["settings"]["height"], 120);
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "the resize never reached the renderer: {s}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    assert!(read_exr(&out.join("final.exr")).unwrap().pixels.len() == 160 * 120);
+    // Esc: exit 0, with nothing from the validation layer on stderr.
+    xdotool(d, &["key", "Escape"]);
+    let start = Instant::now();
+    let status = loop {
+        if let Some(st) = child.try_wait().unwrap() {
+            break st;
+        }
+        assert!(start.elapsed() < Duration::from_secs(30), "Esc did not close the window");
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(status.success(), "exit status {status}: {err}");
+    assert!(!err.contains("[vulkan") && !err.contains("panicked"), "stderr: {err}");
+    assert_eq!(summary(&out)["validation_errors"], 0);
+}
+
+#[test]
+fn no_display_says_so_and_points_to_headless() {
+    let o = restir_vpl(None, &["--scene", "scenes/cornell_box.gltf"]).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "must fail without a display");
+    assert!(err.contains("--headless") && err.contains("display"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+}
