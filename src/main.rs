@@ -205,17 +205,24 @@ enum Command {
         /// frame_times.csv and plots/*.svg. Default size 320×320 (--width/--height to change).
         #[arg(long)]
         curves: bool,
-        /// With --curves: a smoke test (64×64, 2k + 2k VPLs, 16-frame references, t = 1, 2, 5).
-        #[arg(long, requires = "curves")]
+        /// Instead: the real-time measurement. A camera moves along the path committed beside each
+        /// of the three scenes (scenes/<name>.path.json); every displayed frame of uniform, RIS,
+        /// ReSTIR (biased and unbiased, temporal reuse following the reprojected pixels) and ReSTIR
+        /// without temporal reuse is compared with a path-traced reference of that frame's camera
+        /// (cached in --out/references). Writes --out/motion.md, motion.csv and plots/*_motion_rmse.svg.
+        #[arg(long, conflicts_with_all = ["curves", "modes", "photons"])]
+        motion: bool,
+        /// With --curves or --motion: a smoke test (tiny images, few frames and VPLs).
+        #[arg(long)]
         quick: bool,
-        /// With --curves: output directory.
-        #[arg(long, default_value = "bench-out", requires = "curves")]
+        /// With --curves or --motion: output directory.
+        #[arg(long, default_value = "bench-out")]
         out: PathBuf,
         /// With --curves: checkpoints (accumulated frames), comma separated [default: 1,2,5,10,20].
         #[arg(long, value_delimiter = ',', requires = "curves")]
         checkpoints: Option<Vec<u32>>,
-        /// With --curves: independent runs averaged [default: 3].
-        #[arg(long, requires = "curves")]
+        /// With --curves or --motion: independent runs averaged [default: 3 for --curves, 2 for --motion].
+        #[arg(long)]
         runs: Option<u32>,
     },
     /// Compare a test image A with a reference B: RMSE, relMSE, mean ratio (bias) and LDR-FLIP.
@@ -470,9 +477,38 @@ fn real_main(cli: Cli) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, quick, out, checkpoints, runs }) =
         &cli.command
     {
+        if (*quick || runs.is_some()) && !*curves && !*motion {
+            bail!("--quick and --runs go with --curves or --motion");
+        }
+        if *motion {
+            let root = std::env::current_dir()?;
+            let mut opts = if *quick {
+                restir_vpl::eval::motion::MotionOptions::quick(&root)
+            } else {
+                restir_vpl::eval::motion::MotionOptions::full(&root, 0.25)
+            };
+            opts.out_dir = out.clone();
+            opts.runs = runs.unwrap_or(opts.runs);
+            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+                device_index: *device,
+                ..Default::default()
+            })?);
+            let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            std::fs::create_dir_all(out.join("plots")).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
+            let csv = out.join("motion.csv");
+            restir_vpl::eval::motion::write_csv(&csv, &points)?;
+            let md = out.join("motion.md");
+            std::fs::write(&md, restir_vpl::eval::motion::table_markdown(&points))
+                .map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+            println!("{}\n{}", md.display(), csv.display());
+            for p in restir_vpl::eval::motion::plots(&out.join("plots"), &points)? {
+                println!("{}", p.display());
+            }
+            return Ok(());
+        }
         if *curves {
             let root = std::env::current_dir()?;
             let mut opts = if *quick {

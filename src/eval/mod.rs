@@ -5,6 +5,7 @@
 
 pub mod bench;
 pub mod compare;
+pub mod motion;
 pub mod reference;
 pub mod report;
 pub mod results;

@@ -634,6 +634,8 @@ fn mode_marker(mode: &str) -> u8 {
 enum XAxis {
     Frames,
     WallMs,
+    /// Displayed frames of a moving camera (path frame + 1), not accumulated.
+    Displayed,
 }
 
 /// Log-log SVG plot of `metric` against accumulated frames for one scene and one reference: one
@@ -661,6 +663,12 @@ pub fn plot_error_vs_time(
     metric: Metric,
 ) -> Result<()> {
     plot(path.as_ref(), points, scene, reference, metric, XAxis::WallMs)
+}
+
+/// As [`plot_error_vs_frames`] for a moving camera: each point's `frames` is the displayed frame
+/// (path frame + 1) and its error is that frame's alone.
+pub fn plot_error_vs_displayed_frame(path: impl AsRef<Path>, points: &[CurvePoint], scene: &str, reference: &str, metric: Metric) -> Result<()> {
+    plot(path.as_ref(), points, scene, reference, metric, XAxis::Displayed)
 }
 
 /// Bold (labelled) and light tick values for a log axis over [lo, hi]: 1-2-5 steps when that gives
@@ -706,7 +714,7 @@ fn plot(path: &Path, points: &[CurvePoint], scene: &str, reference: &str, metric
             .filter(|p| &p.mode == m)
             .filter_map(|p| {
                 let xv = match x {
-                    XAxis::Frames => p.frames as f64,
+                    XAxis::Frames | XAxis::Displayed => p.frames as f64,
                     XAxis::WallMs => p.wall_ms,
                 };
                 metric.of(p).map(|y| (xv, y))
@@ -752,6 +760,7 @@ fn render_svg(
     let (x_desc, x_name) = match x {
         XAxis::Frames => ("accumulated frames", "accumulated frames"),
         XAxis::WallMs => ("cumulative wall time (ms)", "wall time"),
+        XAxis::Displayed => ("displayed frame of the moving camera (each frame alone)", "displayed frame"),
     };
     let y_desc = format!("{} vs {}", metric.label(), reference_label(reference));
     let title = format!("{scene}: {} vs {x_name} ({})", metric.label(), reference_label(reference));

@@ -1,0 +1,306 @@
+//! The real-time measurement (`bench --motion`): a camera moving along a path through each scene,
+//! and the error of every displayed frame against a path-traced reference of that frame's camera.
+//! This is the comparison a user of a real-time renderer decides on: each frame is shown once, so
+//! its own error is what counts, at its own cost.
+//!
+//! Protocol (per scene, per run):
+//! - All modes share the device and scene; their frames interleave (one frame of each mode per
+//!   round) so drift on a shared machine hits every mode alike.
+//! - Each mode first renders [`WARMUP_FRAMES`] frames at the path's first camera (a user who was
+//!   looking before moving: ReSTIR's history is full), then the path's frames 0..F−1, one frame
+//!   each, with progressive accumulation off: the displayed image is that frame alone.
+//! - Frame f is compared with the reference of the path's camera at f: the path tracer, rendered
+//!   once per camera and cached like the other references.
+//! - With `runs > 1` the measurement repeats with independent pixel seeds and the errors are
+//!   averaged.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{bail, Context as _, Result};
+
+use crate::camera::{Camera, CameraPath};
+use crate::eval::compare::{compare, CompareOptions};
+use crate::eval::reference::{make_reference, ReferenceTarget};
+use crate::eval::results::SceneSpec;
+use crate::output::RgbImage;
+use crate::renderer::Renderer;
+use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
+use crate::settings::{Bias, CameraOverride, Mode, RenderSettings, RestirSettings};
+use crate::vk::Context;
+
+/// Frames every mode renders at the path's first camera before the path starts.
+pub const WARMUP_FRAMES: u32 = 4;
+
+/// One sampling configuration measured in motion.
+#[derive(Clone, Debug)]
+pub struct MotionMode {
+    pub label: &'static str,
+    pub mode: Mode,
+    pub restir: RestirSettings,
+}
+
+/// Uniform, RIS, ReSTIR biased and unbiased with temporal reuse following the reprojected pixel,
+/// and ReSTIR without temporal reuse (what the thesis's viewer did whenever the camera moved: it
+/// reset every reservoir).
+pub fn motion_modes() -> Vec<MotionMode> {
+    let restir = |bias, temporal| RestirSettings { bias, initial_visibility: Some(false), temporal, ..Default::default() };
+    vec![
+        MotionMode { label: "uniform", mode: Mode::Uniform, restir: RestirSettings::default() },
+        MotionMode { label: "ris", mode: Mode::Ris, restir: RestirSettings::default() },
+        MotionMode { label: "restir", mode: Mode::Restir, restir: restir(Bias::Biased, true) },
+        MotionMode { label: "restir-unbiased", mode: Mode::Restir, restir: restir(Bias::Unbiased, true) },
+        MotionMode { label: "restir-no-temporal", mode: Mode::Restir, restir: restir(Bias::Unbiased, false) },
+    ]
+}
+
+/// One displayed frame of one mode (averaged over runs).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MotionPoint {
+    pub scene: String,
+    pub mode: String,
+    /// Frame of the camera path.
+    pub frame: u32,
+    /// GPU ms of that frame.
+    pub gpu_ms: f64,
+    pub rmse: f64,
+    pub relmse: f64,
+    pub flip: Option<f64>,
+}
+
+/// What `bench --motion` measures.
+#[derive(Clone, Debug)]
+pub struct MotionOptions {
+    /// Scenes, each with its camera path (`scenes/<name>.path.json` beside `scenes/<name>.gltf`).
+    pub scenes: Vec<SceneSpec>,
+    pub vpls_direct: u32,
+    pub vpls_indirect: u32,
+    /// Path frames measured (the path's frames 0..frames−1).
+    pub frames: u32,
+    /// Path-traced frames per reference.
+    pub reference_frames: u32,
+    pub runs: u32,
+    pub flip: bool,
+    pub out_dir: PathBuf,
+    pub validate: bool,
+}
+
+impl MotionOptions {
+    /// The three scenes at `scale` × the thesis's sizes.
+    pub fn full(root: &Path, scale: f64) -> Self {
+        Self {
+            scenes: crate::eval::results::thesis_scenes(root, scale),
+            vpls_direct: 100_000,
+            vpls_indirect: 100_000,
+            frames: 32,
+            reference_frames: 256,
+            runs: 2,
+            flip: true,
+            out_dir: root.join("docs"),
+            validate: false,
+        }
+    }
+
+    /// A smoke test: tiny images, a few frames, few VPLs, one run.
+    pub fn quick(root: &Path) -> Self {
+        let scenes = crate::eval::results::thesis_scenes(root, 0.05);
+        Self {
+            scenes,
+            vpls_direct: 2_000,
+            vpls_indirect: 2_000,
+            frames: 4,
+            reference_frames: 8,
+            runs: 1,
+            flip: false,
+            out_dir: root.join("bench-out"),
+            validate: false,
+        }
+    }
+}
+
+/// The camera path committed beside a scene: `scenes/x.gltf` → `scenes/x.path.json`.
+pub fn path_file(scene: &Path) -> PathBuf {
+    scene.with_extension("path.json")
+}
+
+/// A camera as a command-line camera (what reference settings record).
+fn as_override(c: &Camera) -> CameraOverride {
+    CameraOverride { eye: c.position, target: c.position + c.forward, up: c.up, yfov_degrees: c.yfov.to_degrees() }
+}
+
+/// Measures every mode of [`motion_modes`] along each scene's path; returns the points (one per
+/// scene × mode × frame).
+pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)) -> Result<Vec<MotionPoint>> {
+    if opts.frames == 0 || opts.runs == 0 || opts.reference_frames == 0 {
+        bail!("bench --motion needs at least one frame, one run and one reference frame");
+    }
+    let refs_dir = opts.out_dir.join("references");
+    let modes = motion_modes();
+    let mut points = Vec::new();
+    for spec in &opts.scenes {
+        let label = spec.label();
+        let path_json = path_file(&spec.path);
+        let path = CameraPath::load(&path_json).with_context(|| format!("the camera path of {label}"))?;
+        let scene = Arc::new(SceneGpu::new(ctx, &Scene::load(&spec.path)?, true).context("uploading the scene")?);
+        let base = RenderSettings {
+            scene: spec.path.clone(),
+            width: spec.width,
+            height: spec.height,
+            vpls_direct: opts.vpls_direct,
+            vpls_indirect: opts.vpls_indirect,
+            validate: opts.validate,
+            progressive: false,
+            ..Default::default()
+        };
+        // One path-traced reference per camera of the path.
+        let mut references: Vec<RgbImage> = Vec::new();
+        for f in 0..opts.frames {
+            let camera = path.at(f as f32);
+            let settings = RenderSettings { mode: Mode::Pt, camera: Some(as_override(&camera)), ..base.clone() };
+            let file = refs_dir.join(format!("{label}_{}x{}_motion_f{f:03}_pt.exr", spec.width, spec.height));
+            let made = make_reference(ctx, &scene, &settings, &file, ReferenceTarget::AtLeast { frames: opts.reference_frames }, &mut |_, _| {})?;
+            if let Some((n, _, wall)) = made.rendered {
+                log(format!("{}: {n} pt frames in {:.1} s", file.display(), wall * 1e-3));
+            }
+            references.push(made.image);
+        }
+        log(format!("{label}: measuring {} modes over {} moving frames at {}x{}", modes.len(), opts.frames, spec.width, spec.height));
+        let mut renderers = Vec::new();
+        for m in &modes {
+            let radius = (20.0 * spec.width as f32 / 1280.0).max(2.0);
+            let restir = RestirSettings { spatial_radius: radius, ..m.restir };
+            let settings = RenderSettings { mode: m.mode, restir, ..base.clone() };
+            renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
+        }
+        // Sums over runs per (mode, frame): gpu, rmse, relmse, flip.
+        let mut sums = vec![vec![[0.0f64; 4]; opts.frames as usize]; modes.len()];
+        let compare_opts = CompareOptions { flip: opts.flip, ..Default::default() };
+        for run in 0..opts.runs {
+            for r in renderers.iter_mut() {
+                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run)))?;
+                let start = path.at(0.0);
+                for _ in 0..WARMUP_FRAMES {
+                    r.render_frame(&start, false)?;
+                }
+            }
+            for f in 0..opts.frames {
+                let camera = path.at(f as f32);
+                for (i, r) in renderers.iter_mut().enumerate() {
+                    let stats = r.render_frame(&camera, false)?;
+                    let img = RgbImage { width: spec.width, height: spec.height, pixels: r.read_mean()? };
+                    let c = compare(&img, &references[f as usize], &compare_opts)?;
+                    let e = &mut sums[i][f as usize];
+                    e[0] += stats.gpu_ms();
+                    e[1] += c.rmse;
+                    e[2] += c.relmse;
+                    e[3] += c.flip.unwrap_or(0.0);
+                }
+            }
+            log(format!("  {label}: run {}/{} done", run + 1, opts.runs));
+        }
+        let n = opts.runs as f64;
+        for (i, m) in modes.iter().enumerate() {
+            for f in 0..opts.frames {
+                let e = sums[i][f as usize];
+                points.push(MotionPoint {
+                    scene: label.clone(),
+                    mode: m.label.to_string(),
+                    frame: f,
+                    gpu_ms: e[0] / n,
+                    rmse: e[1] / n,
+                    relmse: e[2] / n,
+                    flip: opts.flip.then(|| e[3] / n),
+                });
+            }
+        }
+    }
+    Ok(points)
+}
+
+/// motion.csv: one row per scene × mode × frame.
+pub fn write_csv(path: &Path, points: &[MotionPoint]) -> Result<()> {
+    let mut s = String::from("scene,mode,frame,gpu_ms,rmse,relmse,flip\n");
+    for p in points {
+        s.push_str(&format!(
+            "{},{},{},{:.4},{:.6e},{:.6e},{}\n",
+            p.scene,
+            p.mode,
+            p.frame,
+            p.gpu_ms,
+            p.rmse,
+            p.relmse,
+            p.flip.map(|f| format!("{f:.6}")).unwrap_or_default()
+        ));
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+/// The per-scene table: mean over the moving frames of each error and of the GPU time, and the
+/// inverse efficiency relMSE × ms (lower is better: the error a mode buys with its time).
+pub fn table_markdown(points: &[MotionPoint]) -> String {
+    let mut scenes: Vec<&str> = Vec::new();
+    for p in points {
+        if !scenes.contains(&p.scene.as_str()) {
+            scenes.push(&p.scene);
+        }
+    }
+    let mut s = String::new();
+    for scene in scenes {
+        s += &format!(
+            "\n**{scene}** (mean over the moving frames)\n\n| mode | GPU ms / frame | RMSE | relMSE | FLIP | relMSE × ms |\n|---|---:|---:|---:|---:|---:|\n"
+        );
+        let mut modes: Vec<&str> = Vec::new();
+        for p in points.iter().filter(|p| p.scene == scene) {
+            if !modes.contains(&p.mode.as_str()) {
+                modes.push(&p.mode);
+            }
+        }
+        for m in modes {
+            let sel: Vec<&MotionPoint> = points.iter().filter(|p| p.scene == scene && p.mode == m).collect();
+            let n = sel.len() as f64;
+            let mean = |f: &dyn Fn(&MotionPoint) -> f64| sel.iter().map(|p| f(p)).sum::<f64>() / n;
+            let (ms, rmse, relmse) = (mean(&|p| p.gpu_ms), mean(&|p| p.rmse), mean(&|p| p.relmse));
+            let flip = if sel.iter().all(|p| p.flip.is_some()) {
+                format!("{:.4}", mean(&|p| p.flip.unwrap_or(0.0)))
+            } else {
+                "—".into()
+            };
+            s += &format!("| {m} | {ms:.1} | {rmse:.4} | {relmse:.4} | {flip} | {:.2} |\n", relmse * ms);
+        }
+    }
+    s
+}
+
+/// One SVG per scene: RMSE of each displayed frame against its own reference.
+pub fn plots(dir: &Path, points: &[MotionPoint]) -> Result<Vec<PathBuf>> {
+    let curve: Vec<crate::eval::report::CurvePoint> = points
+        .iter()
+        .map(|p| crate::eval::report::CurvePoint {
+            scene: p.scene.clone(),
+            mode: p.mode.clone(),
+            reference: "pt".into(),
+            frames: p.frame + 1,
+            gpu_ms: p.gpu_ms,
+            wall_ms: p.gpu_ms,
+            rmse: p.rmse,
+            relmse: p.relmse,
+            mean_ratio: 1.0,
+            worst_share: 0.0,
+            flip: p.flip,
+        })
+        .collect();
+    let mut scenes: Vec<&str> = Vec::new();
+    for p in points {
+        if !scenes.contains(&p.scene.as_str()) {
+            scenes.push(&p.scene);
+        }
+    }
+    let mut out = Vec::new();
+    for scene in scenes {
+        let f = dir.join(format!("{scene}_motion_rmse.svg"));
+        crate::eval::report::plot_error_vs_displayed_frame(&f, &curve, scene, "pt", crate::eval::report::Metric::Rmse)?;
+        out.push(f);
+    }
+    Ok(out)
+}
