@@ -263,8 +263,8 @@ impl PhotonEmitPass {
         self.sort_indirect(&mut vpls[stats.direct_vpls as usize..])?;
         for v in &vpls {
             let target = if v.kind == VPL_INDIRECT { &mut stats.indirect_flux } else { &mut stats.direct_flux };
-            for c in 0..3 {
-                target[c] += v.flux[c] as f64;
+            for (sum, flux) in target.iter_mut().zip(v.flux) {
+                *sum += flux as f64;
             }
         }
         Ok(stats)
