@@ -356,7 +356,7 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
 
 /// Every mismatch of `desc` over all its SPIR-V variants.
 fn all_mismatches(desc: &PassDesc) -> Vec<String> {
-    desc.variants().iter().flat_map(|(variant, spirv)| pass_mismatches(desc, variant, spirv)).collect()
+    desc.spirv_variants().iter().flat_map(|(variant, spirv)| pass_mismatches(desc, variant, spirv)).collect()
 }
 
 #[test]

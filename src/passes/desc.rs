@@ -79,7 +79,7 @@ impl PassDesc {
     }
 
     /// (variant name, SPIR-V) of every compiled variant: `default`, then `textured` where it exists.
-    pub fn variants(&self) -> Vec<(&'static str, &'static [u8])> {
+    pub fn spirv_variants(&self) -> Vec<(&'static str, &'static [u8])> {
         let mut out = vec![("default", self.spirv)];
         out.extend(self.textured.map(|spirv| ("textured", spirv)));
         out
@@ -131,6 +131,7 @@ impl<'a> PipelineBuilder<'a> {
         self.variants(2, |v| [(current, reservoirs.buffer(v))].into_iter().chain(other.map(|b| (b, reservoirs.buffer(1 - v)))))
     }
 
+    /// Creates the pipeline (named after the pass) and writes every buffer into its set 1.
     pub fn build(self) -> Result<ComputePipeline> {
         let d = self.desc;
         let variants = self.per_variant.len().max(1);
