@@ -1,7 +1,8 @@
-//! GPU-visible structs: the single Rust source of truth, mirrored field by field in
+//! GPU-visible structs and constants: the single Rust source of truth, mirrored in
 //! `shaders/common/types.glsl` (std430 / std140-compatible). `tests/layout.rs` compiles that header
 //! into SPIR-V and checks that every member name, offset and the struct sizes agree with these
-//! definitions (through [`GpuStruct::FIELDS`], generated from the Rust fields themselves).
+//! definitions (through [`GpuStruct::FIELDS`], generated from the Rust fields themselves), and that
+//! every `const uint` of the header has its twin of the same name and value in [`GLSL_CONSTANTS`].
 //!
 //! Rules: only 4-byte scalars, `[f32; 3]` followed by a scalar that fills its 16-byte slot, and
 //! `[f32; 16]` matrices; explicit scalar padding fields (`_pad*`) everywhere else.
@@ -256,3 +257,61 @@ gpu_struct! {
         pub flags: u32,
     }
 }
+
+/// `vpl_shade`'s `view` push constant: what the pass writes.
+pub const SHADE_VIEW_FINAL: u32 = 0;
+pub const SHADE_VIEW_RESERVOIR_W: u32 = 1;
+pub const SHADE_VIEW_RESERVOIR_M: u32 = 2;
+pub const SHADE_VIEW_VPL_KIND: u32 = 3;
+
+/// `vpl_view`'s `mode` push constant: clear the sphere buffers (per pixel), splat the nearest
+/// sphere depth (per VPL), record the VPL at that depth (per VPL), draw (per pixel).
+pub const VPL_VIEW_CLEAR: u32 = 0;
+pub const VPL_VIEW_DEPTH: u32 = 1;
+pub const VPL_VIEW_ID: u32 = 2;
+pub const VPL_VIEW_DRAW: u32 = 3;
+
+/// `photon_emit`'s `mode` push constant: direct VPLs, photon paths, flux normalisation.
+pub const PHOTON_EMIT_DIRECT: u32 = 0;
+pub const PHOTON_EMIT_PATHS: u32 = 1;
+pub const PHOTON_EMIT_SCALE: u32 = 2;
+
+/// Most neighbours one `restir_spatial` pass merges (a fixed-size array in the shader).
+pub const MAX_SPATIAL_NEIGHBOURS: u32 = 32;
+
+/// (name, value) of every constant above, listed by name once.
+macro_rules! glsl_constants {
+    ($($name:ident),* $(,)?) => { &[ $( (stringify!($name), $name) ),* ] };
+}
+
+/// Every `const uint` of `shaders/common/types.glsl` but the ray-counter slots (those are
+/// `passes::RAY_SLOT_NAMES`): (GLSL name = Rust name, value).
+pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
+    MATERIAL_DOUBLE_SIDED,
+    LIGHT_POINT,
+    INSTANCE_MIRRORED,
+    FRAME_AA,
+    VPL_DIRECT_AREA,
+    VPL_DIRECT_POINT,
+    VPL_INDIRECT,
+    RESERVOIR_EMPTY,
+    ATTENUATION_INVERSE_SQUARE,
+    ATTENUATION_YUKSEL,
+    KIND_MASK_DIRECT,
+    KIND_MASK_INDIRECT,
+    VPL_FLAG_INITIAL_VISIBILITY,
+    VPL_FLAG_UNBIASED,
+    VPL_FLAG_SAME_DOMAIN,
+    SHADE_VIEW_FINAL,
+    SHADE_VIEW_RESERVOIR_W,
+    SHADE_VIEW_RESERVOIR_M,
+    SHADE_VIEW_VPL_KIND,
+    VPL_VIEW_CLEAR,
+    VPL_VIEW_DEPTH,
+    VPL_VIEW_ID,
+    VPL_VIEW_DRAW,
+    PHOTON_EMIT_DIRECT,
+    PHOTON_EMIT_PATHS,
+    PHOTON_EMIT_SCALE,
+    MAX_SPATIAL_NEIGHBOURS,
+];

@@ -1,25 +1,42 @@
-//! Rust and GLSL agree on every GPU struct: member names, byte offsets and sizes.
+//! Rust and GLSL agree on every fact they share: the GPU structs, each pass's interface, and the
+//! constants of shaders/common/types.glsl.
 //!
-//! `shaders/tests/layout.comp` declares one buffer per struct of `shaders/common/types.glsl`; glslang
-//! assigns std430 (and, for `Frame`, std140) offsets. We read them back from the SPIR-V
-//! (OpMemberName + OpMemberDecorate Offset, OpDecorate ArrayStride of the runtime arrays) and compare
-//! them with `GpuStruct::FIELDS` (generated from the Rust fields by `offset_of!`).
+//! - Structs: `shaders/tests/layout.comp` declares one buffer per struct of
+//!   `shaders/common/types.glsl`; glslang assigns std430 (and, for `Frame`, std140) offsets. We read
+//!   them back from the SPIR-V (OpMemberName + OpMemberDecorate Offset, OpDecorate ArrayStride of
+//!   the runtime arrays) and compare them with `GpuStruct::FIELDS` (generated from the Rust fields
+//!   by `offset_of!`).
+//! - Passes: for every `PassDesc` (`passes::ALL_PASSES`) and every SPIR-V variant of it, the set-1
+//!   bindings, the push-constant block and the local size in the SPIR-V equal the desc's.
+//! - Constants: every `const uint` of the header has a Rust twin of the same name and value
+//!   (`passes::glsl_constants()`), and every Rust one is in the header.
+//!
+//! The pass and constant checks return their mismatches, so the negative tests can feed them
+//! deliberately drifted descs and headers.
 
-use std::collections::HashMap;
+use std::collections::{BTreeMap, HashMap};
 
 use rspirv::dr::{Instruction, Operand};
-use rspirv::spirv::{Decoration, Op};
+use rspirv::spirv::{Decoration, ExecutionMode, Op, StorageClass};
 
 use restir_vpl::gpu_types::*;
+use restir_vpl::passes::desc::{PassDesc, PushLayout};
+use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, VplShadePass};
+use restir_vpl::vk::pipeline::{storage, uniform};
+use restir_vpl::vk::BindingKind;
 
-struct Reflection {
+/// The parts of a SPIR-V module the checks read.
+struct Spirv {
     names: HashMap<u32, String>,
     member_names: HashMap<(u32, u32), String>,
     offsets: HashMap<(u32, u32), u32>,
-    array_strides: HashMap<u32, u32>,
-    runtime_array_elem: HashMap<u32, u32>,
-    struct_members: HashMap<u32, usize>,
-    uniform_block_members: Vec<(u32, u32)>,
+    /// (target, decoration) -> its first literal number (0 for one without, e.g. Block).
+    decorations: HashMap<(u32, Decoration), u32>,
+    /// Types, constants and global variables, in module order.
+    globals: Vec<Instruction>,
+    /// Result id -> index in `globals`.
+    by_id: HashMap<u32, usize>,
+    local_size: Option<[u32; 3]>,
 }
 
 fn lit_u32(op: &Operand) -> u32 {
@@ -30,93 +47,129 @@ fn lit_u32(op: &Operand) -> u32 {
     }
 }
 
-fn reflect() -> Reflection {
-    let module = rspirv::dr::load_bytes(restir_vpl::shaders::TESTS_LAYOUT).expect("layout.comp SPIR-V parses");
-    let mut r = Reflection {
-        names: HashMap::new(),
-        member_names: HashMap::new(),
-        offsets: HashMap::new(),
-        array_strides: HashMap::new(),
-        runtime_array_elem: HashMap::new(),
-        struct_members: HashMap::new(),
-        uniform_block_members: Vec::new(),
-    };
-    for inst in module.debug_names.iter() {
-        match inst.class.opcode {
-            Op::Name => {
-                if let Operand::LiteralString(s) = &inst.operands[1] {
-                    r.names.insert(lit_u32(&inst.operands[0]), s.clone());
+impl Spirv {
+    fn parse(bytes: &[u8]) -> Result<Self, String> {
+        let module = rspirv::dr::load_bytes(bytes).map_err(|e| format!("SPIR-V does not parse: {e}"))?;
+        let mut s = Spirv {
+            names: HashMap::new(),
+            member_names: HashMap::new(),
+            offsets: HashMap::new(),
+            decorations: HashMap::new(),
+            globals: module.types_global_values.clone(),
+            by_id: HashMap::new(),
+            local_size: None,
+        };
+        for inst in &module.debug_names {
+            match (inst.class.opcode, inst.operands.as_slice()) {
+                (Op::Name, [id, Operand::LiteralString(n)]) => {
+                    s.names.insert(lit_u32(id), n.clone());
                 }
-            }
-            Op::MemberName => {
-                if let Operand::LiteralString(s) = &inst.operands[2] {
-                    r.member_names.insert((lit_u32(&inst.operands[0]), lit_u32(&inst.operands[1])), s.clone());
+                (Op::MemberName, [id, m, Operand::LiteralString(n)]) => {
+                    s.member_names.insert((lit_u32(id), lit_u32(m)), n.clone());
                 }
+                _ => {}
             }
-            _ => {}
+        }
+        for inst in &module.annotations {
+            match (inst.class.opcode, inst.operands.as_slice()) {
+                (Op::MemberDecorate, [id, m, Operand::Decoration(Decoration::Offset), off]) => {
+                    s.offsets.insert((lit_u32(id), lit_u32(m)), lit_u32(off));
+                }
+                (Op::Decorate, [id, Operand::Decoration(d), rest @ ..]) => {
+                    let literal = match rest.first() {
+                        Some(Operand::LiteralBit32(v)) => *v,
+                        _ => 0,
+                    };
+                    s.decorations.insert((lit_u32(id), *d), literal);
+                }
+                _ => {}
+            }
+        }
+        for inst in &module.execution_modes {
+            if let [_, Operand::ExecutionMode(ExecutionMode::LocalSize), x, y, z] = inst.operands.as_slice() {
+                s.local_size = Some([lit_u32(x), lit_u32(y), lit_u32(z)]);
+            }
+        }
+        s.by_id = s.globals.iter().enumerate().filter_map(|(i, inst)| Some((inst.result_id?, i))).collect();
+        Ok(s)
+    }
+
+    fn global(&self, id: u32) -> Result<&Instruction, String> {
+        self.by_id.get(&id).map(|&i| &self.globals[i]).ok_or_else(|| format!("no type or constant %{id}"))
+    }
+
+    fn member_count(&self, struct_id: u32) -> u32 {
+        self.global(struct_id).map(|s| s.operands.len() as u32).unwrap_or(0)
+    }
+
+    /// (member names, offsets) of a struct type id.
+    fn layout_of(&self, id: u32) -> Vec<(String, u32)> {
+        (0..self.member_count(id))
+            .map(|m| {
+                let name = self.member_names.get(&(id, m)).cloned().unwrap_or_else(|| format!("#{m}"));
+                let off = *self.offsets.get(&(id, m)).unwrap_or_else(|| panic!("member {name} has no Offset"));
+                (name, off)
+            })
+            .collect()
+    }
+
+    /// Bytes a value of type `id` spans in an explicitly laid-out block (scalars, vectors, arrays
+    /// and structs: what push-constant blocks hold).
+    fn size_of(&self, id: u32) -> Result<u32, String> {
+        let t = self.global(id)?;
+        let ops = &t.operands;
+        match t.class.opcode {
+            Op::TypeInt | Op::TypeFloat => Ok(lit_u32(&ops[0]) / 8),
+            Op::TypeVector => Ok(lit_u32(&ops[1]) * self.size_of(lit_u32(&ops[0]))?),
+            Op::TypeArray => {
+                let length = self.global(lit_u32(&ops[1]))?;
+                let count = length.operands.first().map(lit_u32).ok_or("array length is not a constant")?;
+                let stride = self.decorations.get(&(id, Decoration::ArrayStride)).copied();
+                Ok(count * stride.map_or_else(|| self.size_of(lit_u32(&ops[0])), Ok)?)
+            }
+            Op::TypeStruct => (0..ops.len() as u32).try_fold(0, |end, m| {
+                let offset = self.offsets.get(&(id, m)).ok_or_else(|| format!("member {m} of %{id} has no Offset"))?;
+                Ok(end.max(offset + self.size_of(lit_u32(&ops[m as usize]))?))
+            }),
+            other => Err(format!("no size rule for {other:?}")),
         }
     }
-    for inst in module.annotations.iter() {
-        decode_annotation(inst, &mut r);
-    }
-    for inst in module.types_global_values.iter() {
-        match inst.class.opcode {
-            Op::TypeRuntimeArray => {
-                r.runtime_array_elem.insert(inst.result_id.expect("type id"), lit_u32(&inst.operands[0]));
-            }
-            Op::TypeStruct => {
-                let id = inst.result_id.expect("type id");
-                r.struct_members.insert(id, inst.operands.len());
-                if r.names.get(&id).is_some_and(|n| n == "B7") {
-                    r.uniform_block_members.push((id, lit_u32(&inst.operands[0])));
+
+    /// Global variables: (variable id, storage class, pointee type id).
+    fn variables(&self) -> Vec<(u32, StorageClass, u32)> {
+        self.globals
+            .iter()
+            .filter(|inst| inst.class.opcode == Op::Variable)
+            .filter_map(|var| {
+                let ptr = self.global(var.result_type?).ok()?;
+                match (var.operands.first(), ptr.operands.get(1)) {
+                    (Some(Operand::StorageClass(class)), Some(pointee)) => Some((var.result_id?, *class, lit_u32(pointee))),
+                    _ => None,
                 }
-            }
-            _ => {}
-        }
+            })
+            .collect()
     }
-    r
 }
 
-fn decode_annotation(inst: &Instruction, r: &mut Reflection) {
-    match inst.class.opcode {
-        Op::MemberDecorate => {
-            if inst.operands[2] == Operand::Decoration(Decoration::Offset) {
-                let key = (lit_u32(&inst.operands[0]), lit_u32(&inst.operands[1]));
-                r.offsets.insert(key, lit_u32(&inst.operands[3]));
-            }
-        }
-        Op::Decorate => {
-            if inst.operands[1] == Operand::Decoration(Decoration::ArrayStride) {
-                r.array_strides.insert(lit_u32(&inst.operands[0]), lit_u32(&inst.operands[2]));
-            }
-        }
-        _ => {}
-    }
-}
-
-/// (member names, offsets) of a struct type id.
-fn layout_of(r: &Reflection, id: u32) -> Vec<(String, u32)> {
-    (0..r.struct_members[&id] as u32)
-        .map(|m| {
-            let name = r.member_names.get(&(id, m)).cloned().unwrap_or_else(|| format!("#{m}"));
-            let off = *r.offsets.get(&(id, m)).unwrap_or_else(|| panic!("member {name} has no Offset"));
-            (name, off)
-        })
-        .collect()
+/// The struct layout tests read `shaders/tests/layout.comp`.
+fn layout_module() -> Spirv {
+    Spirv::parse(restir_vpl::shaders::TESTS_LAYOUT).expect("layout.comp SPIR-V parses")
 }
 
 /// The std430 struct named `glsl` used as the element of a runtime array: (layout, array stride).
-fn std430_struct(r: &Reflection, glsl: &str) -> (Vec<(String, u32)>, u32) {
+fn std430_struct(r: &Spirv, glsl: &str) -> (Vec<(String, u32)>, u32) {
     let (arr, elem) = r
-        .runtime_array_elem
+        .globals
         .iter()
-        .find(|(_, e)| r.names.get(e).is_some_and(|n| n == glsl))
+        .filter(|inst| inst.class.opcode == Op::TypeRuntimeArray)
+        .map(|inst| (inst.result_id.expect("type id"), lit_u32(&inst.operands[0])))
+        .find(|(_, elem)| r.names.get(elem).is_some_and(|n| n == glsl))
         .unwrap_or_else(|| panic!("layout.comp has no runtime array of {glsl}"));
-    (layout_of(r, *elem), r.array_strides[arr])
+    (r.layout_of(elem), r.decorations[&(arr, Decoration::ArrayStride)])
 }
 
 fn check<T: GpuStruct>() {
-    let r = reflect();
+    let r = layout_module();
     let (glsl, stride) = std430_struct(&r, T::GLSL_NAME);
     let rust: Vec<(String, u32)> = T::FIELDS.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
     assert_eq!(glsl, rust, "{}: GLSL (left) and Rust (right) members/offsets differ", T::GLSL_NAME);
@@ -162,9 +215,15 @@ fn vpl_layout_matches() {
 fn frame_layout_matches_std430_and_std140() {
     check::<GpuFrame>();
     // The frame constants live in a uniform buffer (std140): same offsets required there too.
-    let r = reflect();
-    let (_, frame_std140) = r.uniform_block_members.first().copied().expect("uniform block B7 found");
-    let glsl = layout_of(&r, frame_std140);
+    let r = layout_module();
+    let frame_std140 = r
+        .globals
+        .iter()
+        .filter(|inst| inst.class.opcode == Op::TypeStruct)
+        .find(|inst| inst.result_id.and_then(|id| r.names.get(&id)).is_some_and(|n| n == "B7"))
+        .map(|block| lit_u32(&block.operands[0]))
+        .expect("uniform block B7 found");
+    let glsl = r.layout_of(frame_std140);
     let rust: Vec<(String, u32)> = GpuFrame::FIELDS.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
     assert_eq!(glsl, rust, "Frame under std140 differs from the Rust layout");
 }
@@ -172,7 +231,7 @@ fn frame_layout_matches_std430_and_std140() {
 /// The check itself can fail: a deliberately different field list is rejected.
 #[test]
 fn a_drifted_layout_is_detected() {
-    let r = reflect();
+    let r = layout_module();
     let (glsl, _) = std430_struct(&r, "Light");
     let mut drifted: Vec<(String, u32)> = GpuLight::FIELDS.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
     drifted.swap(0, 1);
@@ -192,4 +251,281 @@ fn vpl_params_layout_matches() {
 #[test]
 fn texture_layout_matches() {
     check::<GpuTexture>();
+}
+
+// ---- Passes -------------------------------------------------------------------------------------
+
+/// Everything `desc` says that the SPIR-V `spirv` (its variant `variant`) contradicts, one message
+/// per mismatch: set-1 bindings (number, kind, name = the block's first member or the variable's
+/// name), the push-constant block (member names, offsets, size) and the local size.
+fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> {
+    let at = format!("{} ({variant})", desc.name);
+    let m = match Spirv::parse(spirv) {
+        Ok(m) => m,
+        Err(e) => return vec![format!("{at}: {e}")],
+    };
+    let mut out = Vec::new();
+
+    // Set 1: binding -> (kind, name) on both sides.
+    let mut shader: BTreeMap<u32, (Result<BindingKind, String>, String)> = BTreeMap::new();
+    let mut push = Vec::new();
+    for (var, class, pointee) in m.variables() {
+        if class == StorageClass::PushConstant {
+            push.push(pointee);
+            continue;
+        }
+        if m.decorations.get(&(var, Decoration::DescriptorSet)) != Some(&1) {
+            continue;
+        }
+        let Some(&binding) = m.decorations.get(&(var, Decoration::Binding)) else {
+            out.push(format!("{at}: a set-1 variable has no Binding"));
+            continue;
+        };
+        let block_name = m.member_names.get(&(pointee, 0)).cloned();
+        let accel = m.global(pointee).is_ok_and(|t| t.class.opcode == Op::TypeAccelerationStructureKHR);
+        let entry = match class {
+            StorageClass::StorageBuffer => (Ok(BindingKind::StorageBuffer), block_name),
+            StorageClass::Uniform if m.decorations.contains_key(&(pointee, Decoration::BufferBlock)) => {
+                (Ok(BindingKind::StorageBuffer), block_name)
+            }
+            StorageClass::Uniform => (Ok(BindingKind::UniformBuffer), block_name),
+            StorageClass::UniformConstant if accel => (Ok(BindingKind::AccelerationStructure), m.names.get(&var).cloned()),
+            other => (Err(format!("{other:?} variable")), m.names.get(&var).cloned()),
+        };
+        if shader.insert(binding, (entry.0, entry.1.unwrap_or_default())).is_some() {
+            out.push(format!("{at}: the shader declares set 1 binding {binding} twice"));
+        }
+    }
+    let mut table: BTreeMap<u32, (BindingKind, &str)> = BTreeMap::new();
+    for b in desc.bindings {
+        if table.insert(b.binding, (b.kind, b.name)).is_some() {
+            out.push(format!("{at}: the table lists binding {} twice", b.binding));
+        }
+    }
+    for (binding, (kind, name)) in &table {
+        match shader.get(binding) {
+            None => out.push(format!("{at}: binding {binding} ('{name}') is in the table but not in the shader")),
+            Some((Err(what), _)) => out.push(format!("{at}: binding {binding} is a {what} in the shader")),
+            Some((Ok(k), n)) => {
+                if k != kind {
+                    out.push(format!("{at}: binding {binding} ('{name}') is {kind:?} in the table, {k:?} in the shader"));
+                }
+                if n != name {
+                    out.push(format!("{at}: binding {binding} is '{name}' in the table, '{n}' in the shader"));
+                }
+            }
+        }
+    }
+    for (binding, (_, name)) in &shader {
+        if !table.contains_key(binding) {
+            out.push(format!("{at}: binding {binding} ('{name}') is in the shader but not in the table"));
+        }
+    }
+
+    // Push constants: top-level members and the block's size.
+    match (push.as_slice(), desc.push.size) {
+        ([], 0) => {}
+        ([], _) => out.push(format!("{at}: the desc has {} bytes of push constants, the shader none", desc.push.size)),
+        ([_, _, ..], _) => out.push(format!("{at}: the shader has more than one push-constant block")),
+        ([block], size) => {
+            let glsl = m.layout_of(*block);
+            let rust: Vec<(String, u32)> = desc.push.fields.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
+            let show = |f: Option<&(String, u32)>| f.map_or("absent".to_string(), |(n, o)| format!("'{n}' at {o}"));
+            for i in 0..glsl.len().max(rust.len()) {
+                let (g, r) = (glsl.get(i), rust.get(i));
+                if g != r {
+                    out.push(format!("{at}: push member {i} is {} in the shader, {} in Rust", show(g), show(r)));
+                }
+            }
+            match m.size_of(*block) {
+                Ok(bytes) if bytes as usize == size => {}
+                Ok(bytes) => out.push(format!("{at}: the push-constant block is {bytes} bytes in the shader, {size} in Rust")),
+                Err(e) => out.push(format!("{at}: push-constant block size: {e}")),
+            }
+        }
+    }
+
+    // Workgroup size.
+    match m.local_size {
+        Some(size) if size == desc.local_size => {}
+        Some(size) => out.push(format!("{at}: local size is {size:?} in the shader, {:?} in the desc", desc.local_size)),
+        None => out.push(format!("{at}: the shader has no literal LocalSize")),
+    }
+    out
+}
+
+/// Every mismatch of `desc` over all its SPIR-V variants.
+fn all_mismatches(desc: &PassDesc) -> Vec<String> {
+    desc.spirv_variants().iter().flat_map(|(variant, spirv)| pass_mismatches(desc, variant, spirv)).collect()
+}
+
+#[test]
+fn every_pass_desc_matches_its_spirv() {
+    let mismatches: Vec<String> = passes::all_pass_descs().into_iter().flat_map(all_mismatches).collect();
+    assert!(mismatches.is_empty(), "pass descs and SPIR-V differ:\n{}", mismatches.join("\n"));
+}
+
+/// Each `shaders/passes/<name>.comp` has exactly one desc named `<name>`, and vice versa.
+#[test]
+fn every_pass_shader_has_one_desc() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/passes");
+    let mut files: Vec<String> = std::fs::read_dir(&dir)
+        .expect("shaders/passes is readable")
+        .filter_map(|e| {
+            let path = e.expect("directory entry").path();
+            (path.extension()? == "comp").then(|| path.file_stem()?.to_str().map(str::to_string))?
+        })
+        .collect();
+    files.sort();
+    let mut descs: Vec<String> = passes::all_pass_descs().iter().map(|d| d.name.to_string()).collect();
+    descs.sort();
+    assert_eq!(files, descs, "shaders/passes/*.comp (left) vs passes::ALL_PASSES (right)");
+}
+
+/// Asserts that `drifted` is reported with a message containing `needle`.
+fn assert_reported(drifted: &PassDesc, needle: &str) {
+    let mismatches = all_mismatches(drifted);
+    assert!(
+        mismatches.iter().any(|m| m.contains(needle)),
+        "expected a mismatch mentioning {needle:?}, got {mismatches:?}"
+    );
+}
+
+#[test]
+fn a_drifted_binding_table_is_detected() {
+    // Binding number: gbuffer's one buffer declared at 1 instead of 0 (missing on both sides).
+    const MOVED: PassDesc = GbufferPass::DESC.with_bindings(&[storage(1, "surfaces")]);
+    let moved = MOVED;
+    assert_reported(&moved, "binding 1 ('surfaces') is in the table but not in the shader");
+    assert_reported(&moved, "binding 0 ('surfaces') is in the shader but not in the table");
+    // Name.
+    const RENAMED: PassDesc = GbufferPass::DESC.with_bindings(&[storage(0, "surface")]);
+    let renamed = RENAMED;
+    assert_reported(&renamed, "binding 0 is 'surface' in the table, 'surfaces' in the shader");
+    // Kind.
+    const UNIFORM: PassDesc = GbufferPass::DESC.with_bindings(&[uniform(0, "surfaces")]);
+    let uniform = UNIFORM;
+    assert_reported(&uniform, "is UniformBuffer in the table, StorageBuffer in the shader");
+    // A binding on one side only: the table lacks accumulate's last one.
+    let short = PassDesc { bindings: &AccumulatePass::DESC.bindings[..5], ..AccumulatePass::DESC };
+    assert_reported(&short, "binding 5 ('nonfinite_samples') is in the shader but not in the table");
+    // Also checked in the textured variant.
+    assert_reported(&moved, "gbuffer (textured)");
+}
+
+#[test]
+fn a_drifted_push_layout_is_detected() {
+    let d = RestirSpatialPass::DESC;
+    // Offset: `neighbours` follows the 32-byte VplParams.
+    let fields: Vec<(&'static str, usize)> =
+        d.push.fields.iter().map(|&(n, o)| if n == "neighbours" { (n, o + 4) } else { (n, o) }).collect();
+    let shifted = PassDesc { push: PushLayout { fields: fields.leak(), ..d.push }, ..d };
+    assert_reported(&shifted, "push member 1 is 'neighbours' at 32 in the shader, 'neighbours' at 36 in Rust");
+    // Name.
+    let fields: Vec<(&'static str, usize)> =
+        d.push.fields.iter().map(|&(n, o)| if n == "radius" { ("radius_px", o) } else { (n, o) }).collect();
+    let renamed = PassDesc { push: PushLayout { fields: fields.leak(), ..d.push }, ..d };
+    assert_reported(&renamed, "push member 2 is 'radius' at 36 in the shader, 'radius_px' at 36 in Rust");
+    // Size.
+    let bigger = PassDesc { push: PushLayout { size: d.push.size + 4, ..d.push }, ..d };
+    assert_reported(&bigger, &format!("is {} bytes in the shader, {} in Rust", d.push.size, d.push.size + 4));
+    // Push constants on one side only.
+    let none = PassDesc { push: PushLayout::NONE, ..VplShadePass::DESC };
+    assert_reported(&none, "push member 0 is 'params' at 0 in the shader, absent in Rust");
+    let phantom = PassDesc { push: VplShadePass::DESC.push, ..GbufferPass::DESC };
+    assert_reported(&phantom, "push constants, the shader none");
+}
+
+#[test]
+fn a_drifted_local_size_is_detected() {
+    let wide = PassDesc { local_size: [16, 8, 1], ..GbufferPass::DESC };
+    assert_reported(&wide, "local size is [8, 8, 1] in the shader, [16, 8, 1] in the desc");
+    let flat = PassDesc { local_size: [8, 8, 1], ..AccumulatePass::DESC };
+    assert_reported(&flat, "local size is [64, 1, 1] in the shader");
+}
+
+// ---- Constants ----------------------------------------------------------------------------------
+
+/// Every disagreement between the `const uint NAME = Vu;` declarations of `header` and the Rust
+/// constants `rust`: a value that differs, a constant on one side only, a `const` line that does
+/// not parse.
+fn constant_mismatches(header: &str, rust: &[(&str, u32)]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut glsl: BTreeMap<String, u32> = BTreeMap::new();
+    for (i, line) in header.lines().enumerate() {
+        let code = line.split("//").next().unwrap_or_default().trim();
+        if !code.starts_with("const ") {
+            continue;
+        }
+        let parsed = code
+            .strip_prefix("const uint ")
+            .and_then(|rest| rest.strip_suffix(';'))
+            .and_then(|decl| decl.split_once('='))
+            .and_then(|(name, value)| Some((name.trim(), parse_uint(value.trim())?)));
+        match parsed {
+            Some((name, value)) => {
+                if glsl.insert(name.to_string(), value).is_some() {
+                    out.push(format!("{name} is declared twice in GLSL"));
+                }
+            }
+            None => out.push(format!("line {}: not `const uint NAME = <u32>u;`: {code}", i + 1)),
+        }
+    }
+    let mut seen = BTreeMap::new();
+    for &(name, value) in rust {
+        if seen.insert(name, value).is_some() {
+            out.push(format!("{name} is listed twice in Rust"));
+        }
+        match glsl.get(name) {
+            None => out.push(format!("{name} = {value} has no GLSL twin")),
+            Some(&v) if v != value => out.push(format!("{name} is {v} in GLSL, {value} in Rust")),
+            Some(_) => {}
+        }
+    }
+    for (name, value) in &glsl {
+        if !seen.contains_key(name.as_str()) {
+            out.push(format!("{name} = {value} (GLSL) has no Rust twin"));
+        }
+    }
+    out
+}
+
+/// A GLSL `uint` literal: `12u` or `0xFFu`.
+fn parse_uint(literal: &str) -> Option<u32> {
+    let digits = literal.strip_suffix(['u', 'U'])?;
+    match digits.strip_prefix("0x").or_else(|| digits.strip_prefix("0X")) {
+        Some(hex) => u32::from_str_radix(hex, 16).ok(),
+        None => digits.parse().ok(),
+    }
+}
+
+fn types_glsl() -> String {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("shaders/common/types.glsl");
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn glsl_constants_match_rust() {
+    let mismatches = constant_mismatches(&types_glsl(), &passes::glsl_constants());
+    assert!(mismatches.is_empty(), "shaders/common/types.glsl and Rust differ:\n{}", mismatches.join("\n"));
+}
+
+#[test]
+fn a_drifted_constant_is_detected() {
+    let header = types_glsl();
+    let rust = passes::glsl_constants();
+    let changed = header.replace("const uint VPL_FLAG_UNBIASED = 2u;", "const uint VPL_FLAG_UNBIASED = 8u;");
+    assert_ne!(changed, header, "the header declares VPL_FLAG_UNBIASED = 2u");
+    assert_eq!(constant_mismatches(&changed, &rust), vec!["VPL_FLAG_UNBIASED is 8 in GLSL, 2 in Rust".to_string()]);
+    // A ray-counter slot.
+    let changed = header.replace("const uint RAYS_SHADE = 4u;", "const uint RAYS_SHADE = 0x5u;");
+    assert_eq!(constant_mismatches(&changed, &rust), vec!["RAYS_SHADE is 5 in GLSL, 4 in Rust".to_string()]);
+    // One side only.
+    let extra = format!("{header}\nconst uint SHADE_VIEW_EXTRA = 9u;\n");
+    assert_eq!(constant_mismatches(&extra, &rust), vec!["SHADE_VIEW_EXTRA = 9 (GLSL) has no Rust twin".to_string()]);
+    let missing = header.replace("const uint FRAME_AA = 1u;", "");
+    assert_eq!(constant_mismatches(&missing, &rust), vec!["FRAME_AA = 1 has no GLSL twin".to_string()]);
+    // A declaration the check cannot read is an error, not skipped.
+    let float = format!("{header}\nconst float PI = 3.14159;\n");
+    assert!(constant_mismatches(&float, &rust).iter().any(|m| m.contains("const float PI")));
 }

@@ -1,5 +1,7 @@
-// GPU structs, std430. Mirror of src/gpu_types.rs (the source of truth); tests/layout.rs checks
-// that offsets and sizes agree. Binding-free: declarations only.
+// GPU structs, std430, and shared constants. Mirror of src/gpu_types.rs (the source of truth);
+// tests/layout.rs checks that offsets and sizes agree, and every `const uint` here against its Rust
+// twin (`gpu_types::GLSL_CONSTANTS`, the RAYS_* slots from `passes::RAY_SLOT_NAMES`).
+// Binding-free: declarations only.
 #ifndef TYPES_GLSL
 #define TYPES_GLSL
 
@@ -128,6 +130,24 @@ const uint KIND_MASK_INDIRECT = 2u;
 const uint VPL_FLAG_INITIAL_VISIBILITY = 1u;
 const uint VPL_FLAG_UNBIASED = 2u;
 const uint VPL_FLAG_SAME_DOMAIN = 4u;
+
+// Push-constant codes of single passes.
+// vpl_shade `view`: what the pass writes.
+const uint SHADE_VIEW_FINAL = 0u;
+const uint SHADE_VIEW_RESERVOIR_W = 1u;
+const uint SHADE_VIEW_RESERVOIR_M = 2u;
+const uint SHADE_VIEW_VPL_KIND = 3u;
+// vpl_view `mode`: the step of the dispatch.
+const uint VPL_VIEW_CLEAR = 0u;
+const uint VPL_VIEW_DEPTH = 1u;
+const uint VPL_VIEW_ID = 2u;
+const uint VPL_VIEW_DRAW = 3u;
+// photon_emit `mode`: what the dispatch does.
+const uint PHOTON_EMIT_DIRECT = 0u;
+const uint PHOTON_EMIT_PATHS = 1u;
+const uint PHOTON_EMIT_SCALE = 2u;
+// restir_spatial: most neighbours per pass (the settings refuse more).
+const uint MAX_SPATIAL_NEIGHBOURS = 32u;
 
 struct VplParams {
     uint vpl_count;

@@ -1,13 +1,14 @@
 // photon_emit: virtual point lights from the area lights (../shared/notes/method.md). Lights are
 // chosen by inverting their CDF (push constant `light_count` entries), never from the frame constants.
-//   mode 0, direct VPLs: sample i of N_d picks light t by inverting the light CDF at the stratified
-//     u = (i + xi) / N_d, a uniform point on it, and gets flux Phi_t / (N_d P(t)).
-//   mode 1, photon paths: each path starts like a direct sample with flux Phi_t / P(t) in a cosine
-//     direction; at each hit it stores a VPL with flux Phi * albedo (normal toward the incoming
-//     photon) and bounces (cosine) with Phi *= albedo; Russian roulette after min_bounces on the
-//     throughput relative to the start, survival clamp(max channel, 0.05, 0.95). The 1/P of the
-//     path count is applied afterwards by mode 2, once the number of traced paths is known.
-//   mode 2, normalise: multiplies the flux of VPLs base + first .. + count by `scale`.
+//   PHOTON_EMIT_DIRECT, direct VPLs: sample i of N_d picks light t by inverting the light CDF at
+//     the stratified u = (i + xi) / N_d, a uniform point on it, and gets flux Phi_t / (N_d P(t)).
+//   PHOTON_EMIT_PATHS, photon paths: each path starts like a direct sample with flux Phi_t / P(t)
+//     in a cosine direction; at each hit it stores a VPL with flux Phi * albedo (normal toward the
+//     incoming photon) and bounces (cosine) with Phi *= albedo; Russian roulette after min_bounces
+//     on the throughput relative to the start, survival clamp(max channel, 0.05, 0.95). The 1/P of
+//     the path count is applied afterwards by PHOTON_EMIT_SCALE, once the number of traced paths is
+//     known.
+//   PHOTON_EMIT_SCALE, normalise: multiplies the flux of VPLs base + first .. + count by `scale`.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -22,16 +23,16 @@ layout(set = 1, binding = 1, std430) buffer VplCounter { uint indirect_count; };
 layout(set = 1, binding = 2, std430) readonly buffer LightCdf { float light_cdf[]; };
 
 layout(push_constant) uniform Push {
-    uint mode;
+    uint mode;         // PHOTON_EMIT_*
     uint first;        // first sample / path index of this dispatch
     uint count;        // samples / paths / VPLs in this dispatch
-    uint total;        // N_d (mode 0)
+    uint total;        // N_d (PHOTON_EMIT_DIRECT)
     uint base;         // first VPL slot of the region written
-    uint capacity;     // indirect slots available (mode 1)
+    uint capacity;     // indirect slots available (PHOTON_EMIT_PATHS)
     uint min_bounces;
     uint max_bounces;
     uint seed;
-    float scale;       // mode 2
+    float scale;       // PHOTON_EMIT_SCALE
     uint light_count;  // entries of light_cdf
 };
 
@@ -154,9 +155,9 @@ void main() {
     if (k >= count) {
         return;
     }
-    if (mode == 0u) {
+    if (mode == PHOTON_EMIT_DIRECT) {
         direct_vpl(first + k);
-    } else if (mode == 1u) {
+    } else if (mode == PHOTON_EMIT_PATHS) {
         photon_path(first + k);
     } else {
         vpls[base + first + k].flux *= scale;

@@ -32,7 +32,6 @@ layout(push_constant) uniform Push {
 } pc;
 
 const uint SALT_SPATIAL = 0x7370u;
-const uint MAX_NEIGHBOURS = 32u;
 
 // A neighbour of `pixel` from the disc of radius pc.radius (u: two uniforms), accepted when it is
 // inside the image, not the pixel itself, and a surface like `s` (normal and depth thresholds).
@@ -68,7 +67,7 @@ void main() {
     bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
     uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (pc.pass_index << 16));
 
-    uint wanted = min(pc.neighbours, MAX_NEIGHBOURS);
+    uint wanted = min(pc.neighbours, MAX_SPATIAL_NEIGHBOURS);
     bool canonical_valid = reservoir_valid(rc);
     float pc_yc = canonical_valid ? rc.target : 0.0;
     uint rays = 0u;
@@ -103,7 +102,7 @@ void main() {
 
     // Unbiased: pick the neighbours first, since the pairwise weights need their count and total
     // confidence.
-    uint nb[MAX_NEIGHBOURS];
+    uint nb[MAX_SPATIAL_NEIGHBOURS];
     uint k = 0u;
     for (uint j = 0u; j < wanted; ++j) {
         uint qi;

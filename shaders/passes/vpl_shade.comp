@@ -16,14 +16,9 @@ layout(set = 1, binding = 2, std430) readonly buffer ReservoirIn { Reservoir res
 layout(set = 1, binding = 3, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 
-const uint VIEW_FINAL = 0u;
-const uint VIEW_RESERVOIR_W = 1u;
-const uint VIEW_RESERVOIR_M = 2u;
-const uint VIEW_VPL_KIND = 3u;
-
 layout(push_constant) uniform Push {
     VplParams params;
-    uint view;
+    uint view;  // SHADE_VIEW_*
 } pc;
 
 void main() {
@@ -40,15 +35,15 @@ void main() {
     }
     Reservoir r = reservoirs[index];
     bool valid = reservoir_valid(r);
-    if (pc.view == VIEW_RESERVOIR_W) {
+    if (pc.view == SHADE_VIEW_RESERVOIR_W) {
         samples[index] = vec4(vec3(r.ucw), 1.0);
         return;
     }
-    if (pc.view == VIEW_RESERVOIR_M) {
+    if (pc.view == SHADE_VIEW_RESERVOIR_M) {
         samples[index] = vec4(vec3(r.confidence), 1.0);
         return;
     }
-    if (pc.view == VIEW_VPL_KIND) {
+    if (pc.view == SHADE_VIEW_VPL_KIND) {
         vec3 colour = vec3(0.0);
         if (valid) {
             uint kind = vpls[r.vpl].kind;

@@ -2,10 +2,10 @@
 // shading; every VPL is drawn as a small sphere, blue for direct and red for indirect. VPLs are
 // projected to the screen; each tests the exact ray-sphere intersection over its projected footprint
 // against the G-buffer depth (no loop over all VPLs per pixel).
-//   mode 0, per pixel: clear the sphere depth.
-//   mode 1, per VPL: atomicMin of the sphere's hit distance (float bits order like uints for t > 0).
-//   mode 2, per VPL: the VPL whose distance won records its index.
-//   mode 3, per pixel: shade.
+//   VPL_VIEW_CLEAR, per pixel: clear the sphere depth.
+//   VPL_VIEW_DEPTH, per VPL: atomicMin of the sphere's hit distance (float bits order like uints for t > 0).
+//   VPL_VIEW_ID, per VPL: the VPL whose distance won records its index.
+//   VPL_VIEW_DRAW, per pixel: shade.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -20,7 +20,7 @@ layout(set = 1, binding = 3, std430) buffer SphereIdBuffer { uint sphere_id[]; }
 layout(set = 1, binding = 4, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 
 layout(push_constant) uniform Push {
-    uint mode;
+    uint mode;  // VPL_VIEW_*
     uint vpl_count;
     float radius;
     uint max_footprint;  // pixels, half-width
@@ -80,14 +80,14 @@ void splat(uint v, bool record) {
 void main() {
     uint k = gl_GlobalInvocationID.x;
     uint pixels = frame.width * frame.height;
-    if (mode == 0u) {
+    if (mode == VPL_VIEW_CLEAR) {
         if (k < pixels) {
             sphere_t[k] = NO_HIT;
             sphere_id[k] = 0xFFFFFFFFu;
         }
-    } else if (mode == 1u || mode == 2u) {
+    } else if (mode == VPL_VIEW_DEPTH || mode == VPL_VIEW_ID) {
         if (k < vpl_count) {
-            splat(k, mode == 2u);
+            splat(k, mode == VPL_VIEW_ID);
         }
     } else if (k < pixels) {
         uvec2 p = uvec2(k % frame.width, k / frame.width);

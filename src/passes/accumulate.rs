@@ -8,41 +8,39 @@ use ash::vk;
 
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context};
 
+use super::desc::{push_constants, PassDesc};
 use super::FrameTargets;
 
-pub struct AccumulatePass {
-    pipeline: ComputePipeline,
+push_constants! {
+    struct Push {
+        /// 1: this is the first frame of a new accumulation.
+        reset: u32,
+    }
 }
+
+pub struct AccumulatePass { pipeline: ComputePipeline }
 
 impl AccumulatePass {
     pub const NAME: &'static str = "accumulate";
-    pub const BINDINGS: &'static [Binding] = &[
-        storage(0, "samples"),
-        storage(1, "sums"),
-        storage(2, "compensation"),
-        storage(3, "squares"),
-        storage(4, "means"),
-        storage(5, "stats"),
-    ];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_ACCUMULATE, [64, 1, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[
+            storage(0, "samples"), storage(1, "sums"), storage(2, "compensation"),
+            storage(3, "squares"), storage(4, "means"), storage(5, "nonfinite_samples"),
+        ]);
 
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets) -> Result<Self> {
-        let pipeline =
-            ComputePipeline::new(ctx, Self::NAME, shaders::PASSES_ACCUMULATE, scene_layout, Self::BINDINGS, 4, [64, 1, 1])?;
-        let s = &pipeline.set1;
-        s.write_buffer(0, &targets.samples)?;
-        s.write_buffer(1, &targets.accum_sum)?;
-        s.write_buffer(2, &targets.accum_compensation)?;
-        s.write_buffer(3, &targets.accum_squares)?;
-        s.write_buffer(4, &targets.mean)?;
-        s.write_buffer(5, &targets.stats)?;
-        Ok(Self { pipeline })
+        let t = targets;
+        let buffers =
+            [(0, &t.samples), (1, &t.accum_sum), (2, &t.accum_compensation), (3, &t.accum_squares), (4, &t.mean), (5, &t.stats)];
+        Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).buffers(&buffers).build()? })
     }
 
     /// `reset`: this is the first frame of a new accumulation.
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, pixels: u32, reset: bool) {
-        let push = u32::from(reset).to_le_bytes();
-        self.pipeline.dispatch_1d(cmd, scene_set, &push, pixels);
+        let push = Push { reset: u32::from(reset) };
+        self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), pixels);
     }
 }

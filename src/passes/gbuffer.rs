@@ -7,28 +7,22 @@ use ash::vk;
 
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context};
 
+use super::desc::PassDesc;
 use super::FrameTargets;
 
-pub struct GbufferPass {
-    pipeline: ComputePipeline,
-}
+pub struct GbufferPass { pipeline: ComputePipeline }
 
 impl GbufferPass {
     pub const NAME: &'static str = "gbuffer";
-    pub const BINDINGS: &'static [Binding] = &[storage(0, "surfaces")];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_GBUFFER, [8, 8, 1])
+        .with_textured(shaders::PASSES_GBUFFER_TEXTURED)
+        .with_bindings(&[storage(0, "surfaces")]);
 
     /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
-    pub fn new(
-        ctx: &Arc<Context>,
-        scene_layout: vk::DescriptorSetLayout,
-        textured: bool,
-        targets: &FrameTargets,
-    ) -> Result<Self> {
-        let spirv = if textured { shaders::PASSES_GBUFFER_TEXTURED } else { shaders::PASSES_GBUFFER };
-        let pipeline = ComputePipeline::new(ctx, Self::NAME, spirv, scene_layout, Self::BINDINGS, 0, [8, 8, 1])?;
-        pipeline.set1.write_buffer(0, &targets.surfaces)?;
+    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, textured: bool, targets: &FrameTargets) -> Result<Self> {
+        let pipeline = Self::DESC.pipeline(ctx, scene_layout).textured(textured).buffers(&[(0, &targets.surfaces)]).build()?;
         Ok(Self { pipeline })
     }
 

@@ -1,8 +1,11 @@
 //! The frame, pass by pass. Each pass is `src/passes/<name>.rs` + `shaders/passes/<name>.comp`, owns
 //! its pipeline and set-1 bindings, and is recorded inside a debug label and GPU timestamp scope of
-//! the same name. [`Passes::record_frame`] is the whole frame on one screen.
+//! the same name. What the two files must agree on is the pass's [`PassDesc`] (`<Name>Pass::DESC`),
+//! checked against the SPIR-V by tests/layout.rs. [`Passes::record_frame`] is the whole frame on
+//! one screen.
 
 pub mod accumulate;
+pub mod desc;
 pub mod gbuffer;
 pub mod pathtrace;
 pub mod photon_emit;
@@ -20,12 +23,13 @@ use anyhow::Result;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use crate::gpu_types::{GpuReservoir, GpuSurface, GpuVplParams};
+use crate::gpu_types::{GpuReservoir, GpuSurface, GpuVplParams, GLSL_CONSTANTS};
 use crate::settings::{RestirSettings, View};
 use crate::vk::pipeline::compute_barrier;
 use crate::vk::{Buffer, Context, GpuTimer};
 
 pub use accumulate::AccumulatePass;
+pub use desc::PassDesc;
 pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
 pub use photon_emit::{PhotonEmitPass, PhotonStats};
@@ -37,16 +41,54 @@ pub use vpl_bruteforce::VplBruteforcePass;
 pub use vpl_shade::VplShadePass;
 pub use vpl_view::VplViewPass;
 
-/// Slots of `FrameTargets::ray_counter` (mirrors `RAYS_*` in shaders/common/types.glsl): the pass
-/// that traced them.
-pub const RAY_SLOTS: [&str; 6] = [
-    PathtracePass::NAME,
-    RestirInitialPass::NAME,
-    RestirTemporalPass::NAME,
-    RestirSpatialPass::NAME,
-    VplShadePass::NAME,
-    VplBruteforcePass::NAME,
+/// Every pass, for the checks of each desc against its SPIR-V (tests/layout.rs).
+pub const ALL_PASSES: &[&PassDesc] = &[
+    &GbufferPass::DESC,
+    &PathtracePass::DESC,
+    &PhotonEmitPass::DESC,
+    &VplBruteforcePass::DESC,
+    &RestirInitialPass::DESC,
+    &RestirTemporalPass::DESC,
+    &RestirSpatialPass::DESC,
+    &VplShadePass::DESC,
+    &VplViewPass::DESC,
+    &AccumulatePass::DESC,
+    &TonemapPass::DESC,
 ];
+
+/// [`ALL_PASSES`] as a list.
+pub fn all_pass_descs() -> Vec<&'static PassDesc> {
+    ALL_PASSES.to_vec()
+}
+
+/// Slots of `FrameTargets::ray_counter`: (the pass that traced them, the slot's `RAYS_*` constant
+/// in shaders/common/types.glsl, whose value is the index here).
+pub const RAY_SLOT_NAMES: [(&str, &str); 6] = [
+    (PathtracePass::NAME, "RAYS_PATHTRACE"),
+    (RestirInitialPass::NAME, "RAYS_INITIAL"),
+    (RestirTemporalPass::NAME, "RAYS_TEMPORAL"),
+    (RestirSpatialPass::NAME, "RAYS_SPATIAL"),
+    (VplShadePass::NAME, "RAYS_SHADE"),
+    (VplBruteforcePass::NAME, "RAYS_BRUTEFORCE"),
+];
+
+/// The pass of each slot of `FrameTargets::ray_counter` (from [`RAY_SLOT_NAMES`]).
+pub const RAY_SLOTS: [&str; RAY_SLOT_NAMES.len()] = {
+    let mut out = [""; RAY_SLOT_NAMES.len()];
+    let mut i = 0;
+    while i < out.len() {
+        out[i] = RAY_SLOT_NAMES[i].0;
+        i += 1;
+    }
+    out
+};
+
+/// Every `const uint` shaders/common/types.glsl must declare: [`GLSL_CONSTANTS`] and the ray-counter
+/// slots.
+pub fn glsl_constants() -> Vec<(&'static str, u32)> {
+    let slots = RAY_SLOT_NAMES.iter().enumerate().map(|(i, (_, glsl))| (*glsl, i as u32));
+    GLSL_CONSTANTS.iter().copied().chain(slots).collect()
+}
 
 /// Per-pixel buffers shared between passes.
 pub struct FrameTargets {

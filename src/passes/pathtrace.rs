@@ -8,32 +8,23 @@ use ash::vk;
 
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context};
 
+use super::desc::PassDesc;
 use super::FrameTargets;
 
-pub struct PathtracePass {
-    pipeline: ComputePipeline,
-}
+pub struct PathtracePass { pipeline: ComputePipeline }
 
 impl PathtracePass {
     pub const NAME: &'static str = "pathtrace";
-    pub const BINDINGS: &'static [Binding] =
-        &[storage(0, "surfaces"), storage(1, "samples"), storage(2, "ray_count")];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_PATHTRACE, [8, 8, 1])
+        .with_textured(shaders::PASSES_PATHTRACE_TEXTURED)
+        .with_bindings(&[storage(0, "surfaces"), storage(1, "samples"), storage(2, "ray_count")]);
 
     /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
-    pub fn new(
-        ctx: &Arc<Context>,
-        scene_layout: vk::DescriptorSetLayout,
-        textured: bool,
-        targets: &FrameTargets,
-    ) -> Result<Self> {
-        let spirv = if textured { shaders::PASSES_PATHTRACE_TEXTURED } else { shaders::PASSES_PATHTRACE };
-        let pipeline = ComputePipeline::new(ctx, Self::NAME, spirv, scene_layout, Self::BINDINGS, 0, [8, 8, 1])?;
-        pipeline.set1.write_buffer(0, &targets.surfaces)?;
-        pipeline.set1.write_buffer(1, &targets.samples)?;
-        pipeline.set1.write_buffer(2, &targets.ray_counter)?;
-        Ok(Self { pipeline })
+    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, textured: bool, targets: &FrameTargets) -> Result<Self> {
+        let buffers = [(0, &targets.surfaces), (1, &targets.samples), (2, &targets.ray_counter)];
+        Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).textured(textured).buffers(&buffers).build()? })
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, width: u32, height: u32) {

@@ -14,13 +14,15 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 use serde::Serialize;
 
-use crate::gpu_types::GpuVpl;
+use crate::gpu_types::{GpuVpl, PHOTON_EMIT_DIRECT, PHOTON_EMIT_PATHS, PHOTON_EMIT_SCALE, VPL_INDIRECT};
 use crate::lights::LightSet;
 use crate::shaders;
 use crate::settings::PhotonSettings;
 use crate::vk::buffer::read_back;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, Buffer, ComputePipeline, Context, GpuTimer};
+use crate::vk::{Buffer, ComputePipeline, Context, GpuTimer};
+
+use super::desc::{push_constants, PassDesc};
 
 /// What the photon pass produced.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -39,20 +41,28 @@ pub struct PhotonStats {
     pub paths_per_second: f64,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    mode: u32,
-    first: u32,
-    count: u32,
-    total: u32,
-    base: u32,
-    capacity: u32,
-    min_bounces: u32,
-    max_bounces: u32,
-    seed: u32,
-    scale: f32,
-    light_count: u32,
+push_constants! {
+    struct Push {
+        /// `PHOTON_EMIT_*`: what this dispatch does.
+        mode: u32,
+        /// First sample / path index of this dispatch.
+        first: u32,
+        /// Samples / paths / VPLs in this dispatch.
+        count: u32,
+        /// N_d (`PHOTON_EMIT_DIRECT`).
+        total: u32,
+        /// First VPL slot of the region written.
+        base: u32,
+        /// Indirect slots available (`PHOTON_EMIT_PATHS`).
+        capacity: u32,
+        min_bounces: u32,
+        max_bounces: u32,
+        seed: u32,
+        /// Flux scale (`PHOTON_EMIT_SCALE`).
+        scale: f32,
+        /// Entries of `light_cdf`.
+        light_count: u32,
+    }
 }
 
 /// Largest single dispatch in items (keeps one submission short on slow devices).
@@ -71,7 +81,10 @@ pub struct PhotonEmitPass {
 
 impl PhotonEmitPass {
     pub const NAME: &'static str = "photon_emit";
-    pub const BINDINGS: &'static [Binding] = &[storage(0, "vpls"), storage(1, "indirect_count"), storage(2, "light_cdf")];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_PHOTON_EMIT, [64, 1, 1])
+        .with_textured(shaders::PASSES_PHOTON_EMIT_TEXTURED)
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[storage(0, "vpls"), storage(1, "indirect_count"), storage(2, "light_cdf")]);
 
     /// Room for indirect VPLs beyond the target: the last batch may overshoot by at most this.
     fn slack(s: &PhotonSettings) -> u32 {
@@ -120,15 +133,6 @@ impl PhotonEmitPass {
         ensure!(settings.max_bounces >= 1, "--photon-max-bounces must be at least 1");
         let capacity = settings.indirect + Self::slack(&settings);
         let total = settings.direct as u64 + capacity as u64;
-        let pipeline = ComputePipeline::new(
-            ctx,
-            Self::NAME,
-            if textured { shaders::PASSES_PHOTON_EMIT_TEXTURED } else { shaders::PASSES_PHOTON_EMIT },
-            scene_layout,
-            Self::BINDINGS,
-            std::mem::size_of::<Push>() as u32,
-            [64, 1, 1],
-        )?;
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
         let vpls = Buffer::new(ctx, "photon_emit.vpls", total * std::mem::size_of::<GpuVpl>() as u64, usage, MemoryLocation::GpuOnly)?;
         let counter = Buffer::new(ctx, "photon_emit.indirect_count", 16, usage, MemoryLocation::GpuOnly)?;
@@ -145,9 +149,11 @@ impl PhotonEmitPass {
             *last = f32::MAX; // every u < 1 lands on a light despite rounding
         }
         let cdf_buf = Buffer::with_data(ctx, "photon_emit.light_cdf", bytemuck::cast_slice(&cdf), vk::BufferUsageFlags::STORAGE_BUFFER)?;
-        pipeline.set1.write_buffer(0, &vpls)?;
-        pipeline.set1.write_buffer(1, &counter)?;
-        pipeline.set1.write_buffer(2, &cdf_buf)?;
+        let pipeline = Self::DESC
+            .pipeline(ctx, scene_layout)
+            .textured(textured)
+            .buffers(&[(0, &vpls), (1, &counter), (2, &cdf_buf)])
+            .build()?;
         let light_count = lights.lights.len() as u32;
         Ok(Self { pipeline, vpls, counter, _cdf: cdf_buf, settings, capacity, light_count, ctx: ctx.clone() })
     }
@@ -214,7 +220,7 @@ impl PhotonEmitPass {
         let mut gpu_ms = 0.0;
         // Direct VPLs.
         if s.direct > 0 {
-            self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, self.push(0), 0, s.direct))?;
+            self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, self.push(PHOTON_EMIT_DIRECT), 0, s.direct))?;
             stats.direct_vpls = s.direct;
         }
         // Photon paths, in batches sized from the VPLs per path seen so far.
@@ -230,7 +236,7 @@ impl PhotonEmitPass {
                 if batch == 0 {
                     break;
                 }
-                let push = Push { base: s.direct, ..self.push(1) };
+                let push = Push { base: s.direct, ..self.push(PHOTON_EMIT_PATHS) };
                 self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, push, paths as u32, batch))?;
                 paths += batch as u64;
                 stats.batches += 1;
@@ -244,7 +250,7 @@ impl PhotonEmitPass {
                 );
             }
             if count > 0 {
-                let push = Push { base: s.direct, scale: (1.0 / paths as f64) as f32, ..self.push(2) };
+                let push = Push { base: s.direct, scale: (1.0 / paths as f64) as f32, ..self.push(PHOTON_EMIT_SCALE) };
                 self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, push, 0, count))?;
             }
             stats.indirect_vpls = count;
@@ -256,9 +262,9 @@ impl PhotonEmitPass {
         let mut vpls = self.read_vpls(&stats)?;
         self.sort_indirect(&mut vpls[stats.direct_vpls as usize..])?;
         for v in &vpls {
-            let target = if v.kind == crate::gpu_types::VPL_INDIRECT { &mut stats.indirect_flux } else { &mut stats.direct_flux };
-            for c in 0..3 {
-                target[c] += v.flux[c] as f64;
+            let target = if v.kind == VPL_INDIRECT { &mut stats.indirect_flux } else { &mut stats.direct_flux };
+            for (sum, flux) in target.iter_mut().zip(v.flux) {
+                *sum += flux as f64;
             }
         }
         Ok(stats)

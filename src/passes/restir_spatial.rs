@@ -11,31 +11,31 @@ use crate::gpu_types::GpuVplParams;
 use crate::settings::RestirSettings;
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context};
 
+use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, Reservoirs, VplInputs};
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    params: GpuVplParams,
-    neighbours: u32,
-    radius: f32,
-    normal_threshold: f32,
-    depth_threshold: f32,
-    pass_index: u32,
+push_constants! {
+    struct Push {
+        params: GpuVplParams,
+        neighbours: u32,
+        radius: f32,
+        normal_threshold: f32,
+        depth_threshold: f32,
+        pass_index: u32,
+    }
 }
 
-pub struct RestirSpatialPass {
-    pipeline: ComputePipeline,
-}
+/// Set-1 variant v reads `reservoirs.buffer(v)` and writes the other one.
+pub struct RestirSpatialPass { pipeline: ComputePipeline }
 
 impl RestirSpatialPass {
     pub const NAME: &'static str = "restir_spatial";
-    pub const BINDINGS: &'static [Binding] =
-        &[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "src"), storage(3, "dst"), storage(4, "ray_count")];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_SPATIAL, [8, 8, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "src"), storage(3, "dst"), storage(4, "ray_count")]);
 
-    /// Variant v reads `reservoirs.buffer(v)` and writes the other one.
     pub fn new(
         ctx: &Arc<Context>,
         scene_layout: vk::DescriptorSetLayout,
@@ -43,24 +43,11 @@ impl RestirSpatialPass {
         vpls: &VplInputs,
         reservoirs: &Reservoirs,
     ) -> Result<Self> {
-        let pipeline = ComputePipeline::with_variants(
-            ctx,
-            Self::NAME,
-            shaders::PASSES_RESTIR_SPATIAL,
-            scene_layout,
-            Self::BINDINGS,
-            std::mem::size_of::<Push>() as u32,
-            [8, 8, 1],
-            2,
-        )?;
-        let s = &pipeline.set1;
-        s.write_buffer(0, &targets.surfaces)?;
-        s.write_buffer(1, vpls.vpls)?;
-        s.write_buffer(4, &targets.ray_counter)?;
-        for v in 0..2 {
-            s.write_buffer_in(v, 2, reservoirs.buffer(v))?;
-            s.write_buffer_in(v, 3, reservoirs.buffer(1 - v))?;
-        }
+        let pipeline = Self::DESC
+            .pipeline(ctx, scene_layout)
+            .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (4, &targets.ray_counter)])
+            .ping_pong(reservoirs, 2, Some(3))
+            .build()?;
         Ok(Self { pipeline })
     }
 

@@ -9,34 +9,31 @@ use ash::vk;
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, Buffer, ComputePipeline, Context};
+use crate::vk::{Buffer, ComputePipeline, Context};
 
+use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, Reservoirs, VplInputs};
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    params: GpuVplParams,
-    mcap: f32,
+push_constants! {
+    struct Push {
+        params: GpuVplParams,
+        mcap: f32,
+    }
 }
 
-pub struct RestirTemporalPass {
-    pipeline: ComputePipeline,
-}
+/// Set-1 variant v: current = `reservoirs.buffer(v)`, history = the other one.
+pub struct RestirTemporalPass { pipeline: ComputePipeline }
 
 impl RestirTemporalPass {
     pub const NAME: &'static str = "restir_temporal";
-    pub const BINDINGS: &'static [Binding] = &[
-        storage(0, "surfaces"),
-        storage(1, "prev_surfaces"),
-        storage(2, "vpls"),
-        storage(3, "reservoirs"),
-        storage(4, "history"),
-        storage(5, "ray_count"),
-    ];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_TEMPORAL, [8, 8, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[
+            storage(0, "surfaces"), storage(1, "prev_surfaces"), storage(2, "vpls"),
+            storage(3, "reservoirs"), storage(4, "history"), storage(5, "ray_count"),
+        ]);
 
-    /// Variant v: current = `reservoirs.buffer(v)`, history = the other one. `prev_surfaces`: last
-    /// frame's G-buffer (the current one when the pixels do not move).
+    /// `prev_surfaces`: last frame's G-buffer (the current one when the pixels do not move).
     pub fn new(
         ctx: &Arc<Context>,
         scene_layout: vk::DescriptorSetLayout,
@@ -45,25 +42,11 @@ impl RestirTemporalPass {
         vpls: &VplInputs,
         reservoirs: &Reservoirs,
     ) -> Result<Self> {
-        let pipeline = ComputePipeline::with_variants(
-            ctx,
-            Self::NAME,
-            shaders::PASSES_RESTIR_TEMPORAL,
-            scene_layout,
-            Self::BINDINGS,
-            std::mem::size_of::<Push>() as u32,
-            [8, 8, 1],
-            2,
-        )?;
-        let s = &pipeline.set1;
-        s.write_buffer(0, &targets.surfaces)?;
-        s.write_buffer(1, prev_surfaces)?;
-        s.write_buffer(2, vpls.vpls)?;
-        s.write_buffer(5, &targets.ray_counter)?;
-        for v in 0..2 {
-            s.write_buffer_in(v, 3, reservoirs.buffer(v))?;
-            s.write_buffer_in(v, 4, reservoirs.buffer(1 - v))?;
-        }
+        let pipeline = Self::DESC
+            .pipeline(ctx, scene_layout)
+            .buffers(&[(0, &targets.surfaces), (1, prev_surfaces), (2, vpls.vpls), (5, &targets.ray_counter)])
+            .ping_pong(reservoirs, 3, Some(4))
+            .build()?;
         Ok(Self { pipeline })
     }
 

@@ -7,23 +7,20 @@ use ash::vk;
 
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context};
 
+use super::desc::PassDesc;
 use super::FrameTargets;
 
-pub struct TonemapPass {
-    pipeline: ComputePipeline,
-}
+pub struct TonemapPass { pipeline: ComputePipeline }
 
 impl TonemapPass {
     pub const NAME: &'static str = "tonemap";
-    pub const BINDINGS: &'static [Binding] = &[storage(0, "means"), storage(1, "preview")];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_TONEMAP, [64, 1, 1])
+        .with_bindings(&[storage(0, "means"), storage(1, "preview")]);
 
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets) -> Result<Self> {
-        let pipeline =
-            ComputePipeline::new(ctx, Self::NAME, shaders::PASSES_TONEMAP, scene_layout, Self::BINDINGS, 0, [64, 1, 1])?;
-        pipeline.set1.write_buffer(0, &targets.mean)?;
-        pipeline.set1.write_buffer(1, &targets.preview)?;
+        let pipeline = Self::DESC.pipeline(ctx, scene_layout).buffers(&[(0, &targets.mean), (1, &targets.preview)]).build()?;
         Ok(Self { pipeline })
     }
 

@@ -9,16 +9,18 @@ use ash::vk;
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
 use crate::vk::pipeline::{compute_barrier, storage};
-use crate::vk::{Binding, ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context};
 
+use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, VplInputs};
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    params: GpuVplParams,
-    first: u32,
-    count: u32,
+push_constants! {
+    struct Push {
+        params: GpuVplParams,
+        /// The VPLs `first .. first + count` of this dispatch.
+        first: u32,
+        count: u32,
+    }
 }
 
 /// Pixel × VPL pairs per dispatch.
@@ -31,25 +33,13 @@ pub struct VplBruteforcePass {
 
 impl VplBruteforcePass {
     pub const NAME: &'static str = "vpl_bruteforce";
-    pub const BINDINGS: &'static [Binding] =
-        &[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_BRUTEFORCE, [8, 8, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);
 
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets, vpls: &VplInputs) -> Result<Self> {
-        let pipeline = ComputePipeline::new(
-            ctx,
-            Self::NAME,
-            shaders::PASSES_VPL_BRUTEFORCE,
-            scene_layout,
-            Self::BINDINGS,
-            std::mem::size_of::<Push>() as u32,
-            [8, 8, 1],
-        )?;
-        let s = &pipeline.set1;
-        s.write_buffer(0, &targets.surfaces)?;
-        s.write_buffer(1, vpls.vpls)?;
-        s.write_buffer(2, &targets.samples)?;
-        s.write_buffer(3, &targets.ray_counter)?;
-        Ok(Self { pipeline, ctx: ctx.clone() })
+        let buffers = [(0, &targets.surfaces), (1, vpls.vpls), (2, &targets.samples), (3, &targets.ray_counter)];
+        Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).buffers(&buffers).build()?, ctx: ctx.clone() })
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, w: u32, h: u32) {

@@ -6,36 +6,35 @@ use std::sync::Arc;
 use anyhow::Result;
 use ash::vk;
 
-use crate::gpu_types::GpuVplParams;
+use crate::gpu_types::{GpuVplParams, SHADE_VIEW_FINAL, SHADE_VIEW_RESERVOIR_M, SHADE_VIEW_RESERVOIR_W, SHADE_VIEW_VPL_KIND};
 use crate::settings::View;
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Binding, ComputePipeline, Context};
+use crate::vk::{ComputePipeline, Context};
 
+use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, Reservoirs, VplInputs};
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    params: GpuVplParams,
-    view: u32,
+push_constants! {
+    struct Push {
+        params: GpuVplParams,
+        /// `SHADE_VIEW_*`.
+        view: u32,
+    }
 }
 
-pub struct VplShadePass {
-    pipeline: ComputePipeline,
-}
+/// Set-1 variant v shades from the final reservoirs in `reservoirs.buffer(v)`.
+pub struct VplShadePass { pipeline: ComputePipeline }
 
 impl VplShadePass {
     pub const NAME: &'static str = "vpl_shade";
-    pub const BINDINGS: &'static [Binding] = &[
-        storage(0, "surfaces"),
-        storage(1, "vpls"),
-        storage(2, "reservoirs"),
-        storage(3, "samples"),
-        storage(4, "ray_count"),
-    ];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_SHADE, [8, 8, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[
+            storage(0, "surfaces"), storage(1, "vpls"), storage(2, "reservoirs"),
+            storage(3, "samples"), storage(4, "ray_count"),
+        ]);
 
-    /// Variant v reads `reservoirs.buffer(v)`.
     pub fn new(
         ctx: &Arc<Context>,
         scene_layout: vk::DescriptorSetLayout,
@@ -43,34 +42,21 @@ impl VplShadePass {
         vpls: &VplInputs,
         reservoirs: &Reservoirs,
     ) -> Result<Self> {
-        let pipeline = ComputePipeline::with_variants(
-            ctx,
-            Self::NAME,
-            shaders::PASSES_VPL_SHADE,
-            scene_layout,
-            Self::BINDINGS,
-            std::mem::size_of::<Push>() as u32,
-            [8, 8, 1],
-            2,
-        )?;
-        let s = &pipeline.set1;
-        s.write_buffer(0, &targets.surfaces)?;
-        s.write_buffer(1, vpls.vpls)?;
-        s.write_buffer(3, &targets.samples)?;
-        s.write_buffer(4, &targets.ray_counter)?;
-        for v in 0..2 {
-            s.write_buffer_in(v, 2, reservoirs.buffer(v))?;
-        }
+        let pipeline = Self::DESC
+            .pipeline(ctx, scene_layout)
+            .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (3, &targets.samples), (4, &targets.ray_counter)])
+            .ping_pong(reservoirs, 2, None)
+            .build()?;
         Ok(Self { pipeline })
     }
 
-    /// The shader's view code.
+    /// The shader's `SHADE_VIEW_*` code of a view (the views it does not draw itself are final).
     fn view_code(view: View) -> u32 {
         match view {
-            View::ReservoirW => 1,
-            View::ReservoirM => 2,
-            View::VplKind => 3,
-            _ => 0,
+            View::ReservoirW => SHADE_VIEW_RESERVOIR_W,
+            View::ReservoirM => SHADE_VIEW_RESERVOIR_M,
+            View::VplKind => SHADE_VIEW_VPL_KIND,
+            _ => SHADE_VIEW_FINAL,
         }
     }
 

@@ -7,19 +7,23 @@ use anyhow::Result;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+use crate::gpu_types::{VPL_VIEW_CLEAR, VPL_VIEW_DEPTH, VPL_VIEW_DRAW, VPL_VIEW_ID};
 use crate::shaders;
 use crate::vk::pipeline::{compute_barrier, storage};
-use crate::vk::{Binding, Buffer, ComputePipeline, Context};
+use crate::vk::{Buffer, ComputePipeline, Context};
 
+use super::desc::{push_constants, PassDesc};
 use super::FrameTargets;
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    mode: u32,
-    vpl_count: u32,
-    radius: f32,
-    max_footprint: u32,
+push_constants! {
+    struct Push {
+        /// `VPL_VIEW_*`: the step of this dispatch.
+        mode: u32,
+        vpl_count: u32,
+        radius: f32,
+        /// Largest splat half-width (pixels).
+        max_footprint: u32,
+    }
 }
 
 pub struct VplViewPass {
@@ -33,13 +37,12 @@ pub struct VplViewPass {
 
 impl VplViewPass {
     pub const NAME: &'static str = "vpl_view";
-    pub const BINDINGS: &'static [Binding] = &[
-        storage(0, "surfaces"),
-        storage(1, "vpls"),
-        storage(2, "sphere_t"),
-        storage(3, "sphere_id"),
-        storage(4, "samples"),
-    ];
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_VIEW, [64, 1, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[
+            storage(0, "surfaces"), storage(1, "vpls"), storage(2, "sphere_t"),
+            storage(3, "sphere_id"), storage(4, "samples"),
+        ]);
 
     /// `radius`: sphere radius in scene units.
     pub fn new(
@@ -50,36 +53,26 @@ impl VplViewPass {
         vpl_count: u32,
         radius: f32,
     ) -> Result<Self> {
-        let pipeline = ComputePipeline::new(
-            ctx,
-            Self::NAME,
-            shaders::PASSES_VPL_VIEW,
-            scene_layout,
-            Self::BINDINGS,
-            std::mem::size_of::<Push>() as u32,
-            [64, 1, 1],
-        )?;
         let n = targets.pixels() as u64 * 4;
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let sphere_t = Buffer::new(ctx, "vpl_view.sphere_t", n, usage, MemoryLocation::GpuOnly)?;
         let sphere_id = Buffer::new(ctx, "vpl_view.sphere_id", n, usage, MemoryLocation::GpuOnly)?;
-        let s = &pipeline.set1;
-        s.write_buffer(0, &targets.surfaces)?;
-        s.write_buffer(1, vpls)?;
-        s.write_buffer(2, &sphere_t)?;
-        s.write_buffer(3, &sphere_id)?;
-        s.write_buffer(4, &targets.samples)?;
+        let pipeline = Self::DESC
+            .pipeline(ctx, scene_layout)
+            .buffers(&[(0, &targets.surfaces), (1, vpls), (2, &sphere_t), (3, &sphere_id), (4, &targets.samples)])
+            .build()?;
         Ok(Self { pipeline, _sphere_t: sphere_t, _sphere_id: sphere_id, vpl_count, radius, ctx: ctx.clone() })
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, pixels: u32) {
-        for mode in 0..4u32 {
-            let push = Push { mode, vpl_count: self.vpl_count, radius: self.radius, max_footprint: 48 };
-            let items = if mode == 1 || mode == 2 { self.vpl_count } else { pixels };
-            self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), items);
-            if mode < 3 {
+        // Clear per pixel, splat the nearest sphere depth then its VPL id per VPL, draw per pixel.
+        let steps = [(VPL_VIEW_CLEAR, pixels), (VPL_VIEW_DEPTH, self.vpl_count), (VPL_VIEW_ID, self.vpl_count), (VPL_VIEW_DRAW, pixels)];
+        for (i, (mode, items)) in steps.into_iter().enumerate() {
+            if i > 0 {
                 compute_barrier(&self.ctx, cmd);
             }
+            let push = Push { mode, vpl_count: self.vpl_count, radius: self.radius, max_footprint: 48 };
+            self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), items);
         }
     }
 }

@@ -1,6 +1,7 @@
 //! Compute pipelines with explicit bindings: set 0 is the scene (declared once, see
-//! `crate::scene_gpu`), set 1 holds a pass's own resources, described by a binding table that the
-//! pass declares next to its `new`. Writing a resource checks it against that table.
+//! `crate::scene_gpu`), set 1 holds a pass's own resources, described by a binding table (a pass
+//! declares it in its `PassDesc`, see `crate::passes::desc`). Writing a resource checks it against
+//! that table.
 
 use std::io::Cursor;
 use std::sync::Arc;
@@ -284,8 +285,7 @@ impl ComputePipeline {
 
     /// Dispatches one invocation per pixel of a `width`×`height` image.
     pub fn dispatch_2d(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], width: u32, height: u32) {
-        let groups = [width.div_ceil(self.local_size[0]), height.div_ceil(self.local_size[1]), 1];
-        self.dispatch(cmd, scene_set, push, groups);
+        self.dispatch_2d_variant(cmd, 0, scene_set, push, width, height);
     }
 
     /// [`ComputePipeline::dispatch_2d`] with set-1 variant `variant`.

@@ -1,0 +1,171 @@
+//! Each pass's interface to its shader, declared once: a [`PassDesc`] names the SPIR-V, the set-1
+//! binding table, the push-constant layout (generated from the Rust `Push` struct by
+//! [`push_constants!`]) and the workgroup size. `tests/layout.rs` checks every desc against the
+//! SPIR-V of every variant; [`PipelineBuilder`] turns a desc into a [`ComputePipeline`] with its
+//! buffers bound.
+
+use std::sync::Arc;
+
+use anyhow::{ensure, Context as _, Result};
+use ash::vk;
+
+use crate::vk::{Binding, Buffer, ComputePipeline, Context};
+
+use super::Reservoirs;
+
+/// A push-constant block: its size and (member name, byte offset) of every top-level member.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PushLayout {
+    pub size: usize,
+    pub fields: &'static [(&'static str, usize)],
+}
+
+impl PushLayout {
+    /// A pass without push constants.
+    pub const NONE: PushLayout = PushLayout { size: 0, fields: &[] };
+}
+
+/// Declares a pass's push-constant struct (`#[repr(C)]`, `Pod`) and its [`PushLayout`] as the
+/// associated const `LAYOUT`, generated from the fields by `offset_of!`.
+macro_rules! push_constants {
+    ($(#[$m:meta])* struct $name:ident { $( $(#[$fm:meta])* $f:ident : $t:ty ),* $(,)? }) => {
+        $(#[$m])*
+        #[repr(C)]
+        #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+        struct $name { $( $(#[$fm])* $f: $t ),* }
+        impl $name {
+            const LAYOUT: $crate::passes::desc::PushLayout = $crate::passes::desc::PushLayout {
+                size: std::mem::size_of::<$name>(),
+                fields: &[ $( (stringify!($f), std::mem::offset_of!($name, $f)) ),* ],
+            };
+        }
+    };
+}
+pub(crate) use push_constants;
+
+/// Everything a pass's Rust side and its shader must agree on.
+#[derive(Clone, Copy)]
+pub struct PassDesc {
+    /// The pass's name: pipeline and set debug names, label and timer scope, summary keys.
+    pub name: &'static str,
+    /// SPIR-V of `shaders/passes/<name>.comp`.
+    pub spirv: &'static [u8],
+    /// SPIR-V of its `textured` variant (reads base-colour textures from set 0), where one exists.
+    pub textured: Option<&'static [u8]>,
+    /// Set 1, as the shader declares it.
+    pub bindings: &'static [Binding],
+    pub push: PushLayout,
+    /// The shader's `local_size_x/y/z`.
+    pub local_size: [u32; 3],
+}
+
+impl PassDesc {
+    /// A pass without set-1 bindings, push constants or a textured variant; the `with_*` methods
+    /// add them.
+    pub const fn new(name: &'static str, spirv: &'static [u8], local_size: [u32; 3]) -> Self {
+        Self { name, spirv, textured: None, bindings: &[], push: PushLayout::NONE, local_size }
+    }
+
+    pub const fn with_textured(self, spirv: &'static [u8]) -> Self {
+        Self { textured: Some(spirv), ..self }
+    }
+
+    pub const fn with_bindings(self, bindings: &'static [Binding]) -> Self {
+        Self { bindings, ..self }
+    }
+
+    pub const fn with_push(self, push: PushLayout) -> Self {
+        Self { push, ..self }
+    }
+
+    /// (variant name, SPIR-V) of every compiled variant: `default`, then `textured` where it exists.
+    pub fn spirv_variants(&self) -> Vec<(&'static str, &'static [u8])> {
+        let mut out = vec![("default", self.spirv)];
+        out.extend(self.textured.map(|spirv| ("textured", spirv)));
+        out
+    }
+
+    /// Starts building the pass's pipeline on `scene_layout` (set 0).
+    pub fn pipeline<'a>(&'a self, ctx: &'a Arc<Context>, scene_layout: vk::DescriptorSetLayout) -> PipelineBuilder<'a> {
+        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, shared: Vec::new(), per_variant: Vec::new() }
+    }
+}
+
+/// A pass's pipeline in the making: which SPIR-V variant, and the buffer behind every binding of
+/// every set-1 variant. [`PipelineBuilder::build`] refuses a binding left unbound or bound twice.
+pub struct PipelineBuilder<'a> {
+    desc: &'a PassDesc,
+    ctx: &'a Arc<Context>,
+    scene_layout: vk::DescriptorSetLayout,
+    textured: bool,
+    shared: Vec<(u32, &'a Buffer)>,
+    /// Empty: one set-1 variant.
+    per_variant: Vec<Vec<(u32, &'a Buffer)>>,
+}
+
+impl<'a> PipelineBuilder<'a> {
+    /// Use the `textured` SPIR-V when `textured` (the scene set has textures bound).
+    pub fn textured(mut self, textured: bool) -> Self {
+        self.textured = textured;
+        self
+    }
+
+    /// (binding, buffer) pairs bound in every set-1 variant.
+    pub fn buffers(mut self, buffers: &[(u32, &'a Buffer)]) -> Self {
+        self.shared.extend_from_slice(buffers);
+        self
+    }
+
+    /// `count` set-1 variants (same layout); `variant(v)` lists the buffers particular to variant v.
+    pub fn variants<I>(mut self, count: usize, variant: impl Fn(usize) -> I) -> Self
+    where
+        I: IntoIterator<Item = (u32, &'a Buffer)>,
+    {
+        self.per_variant = (0..count).map(|v| variant(v).into_iter().collect()).collect();
+        self
+    }
+
+    /// Two set-1 variants over the reservoir buffers: in variant v, binding `current` is
+    /// `reservoirs.buffer(v)` and binding `other` (if any) is the other buffer.
+    pub fn ping_pong(self, reservoirs: &'a Reservoirs, current: u32, other: Option<u32>) -> Self {
+        self.variants(2, |v| [(current, reservoirs.buffer(v))].into_iter().chain(other.map(|b| (b, reservoirs.buffer(1 - v)))))
+    }
+
+    /// Creates the pipeline (named after the pass) and writes every buffer into its set 1.
+    pub fn build(self) -> Result<ComputePipeline> {
+        let d = self.desc;
+        let variants = self.per_variant.len().max(1);
+        for v in 0..variants {
+            let own = self.per_variant.get(v).map(Vec::as_slice).unwrap_or_default();
+            for row in d.bindings {
+                let times = self.shared.iter().chain(own).filter(|(b, _)| *b == row.binding).count();
+                ensure!(times == 1, "pass '{}': binding {} ('{}') of variant {v} is bound {times} times", d.name, row.binding, row.name);
+            }
+        }
+        let spirv = if self.textured {
+            d.textured.with_context(|| format!("pass '{}' has no textured variant", d.name))?
+        } else {
+            d.spirv
+        };
+        let push_size = u32::try_from(d.push.size).context("push-constant size")?;
+        let pipeline = ComputePipeline::with_variants(
+            self.ctx,
+            d.name,
+            spirv,
+            self.scene_layout,
+            d.bindings,
+            push_size,
+            d.local_size,
+            variants as u32,
+        )?;
+        for &(binding, buffer) in &self.shared {
+            pipeline.set1.write_buffer(binding, buffer)?;
+        }
+        for (v, own) in self.per_variant.iter().enumerate() {
+            for &(binding, buffer) in own {
+                pipeline.set1.write_buffer_in(v, binding, buffer)?;
+            }
+        }
+        Ok(pipeline)
+    }
+}
