@@ -243,19 +243,8 @@ impl Renderer {
                 vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             )?;
-            // SAFETY: valid device and pool; both are destroyed in Drop.
-            let (cmd, fence) = unsafe {
-                let cmd = ctx.device.allocate_command_buffers(
-                    &vk::CommandBufferAllocateInfo::default()
-                        .command_pool(ctx.command_pool)
-                        .level(vk::CommandBufferLevel::PRIMARY)
-                        .command_buffer_count(1),
-                )?[0];
-                ctx.set_name(cmd, &format!("frame{i}"));
-                let fence = ctx.device.create_fence(&vk::FenceCreateInfo::default(), None)?;
-                ctx.set_name(fence, &format!("frame{i}"));
-                (cmd, fence)
-            };
+            // Destroyed in Drop.
+            let (cmd, fence) = ctx.command_buffer_and_fence(&format!("frame{i}"), false)?;
             slots.push(FrameSlot { cmd, fence, timer: GpuTimer::new(&ctx, 32)?, readback, frame_constants, pending: None });
         }
         let lights = LightBuffers::new(&ctx, scene.lights.clone())?;

@@ -409,8 +409,12 @@ impl RenderSettings {
         if !(r.mcap >= 0.0 && r.mcap.is_finite()) {
             bail!("--mcap {}: must be a finite number >= 0", r.mcap);
         }
-        if r.spatial_neighbours > 32 {
-            bail!("--spatial-neighbours {}: at most 32", r.spatial_neighbours);
+        if r.spatial_neighbours > crate::gpu_types::MAX_SPATIAL_NEIGHBOURS {
+            bail!(
+                "--spatial-neighbours {}: at most {}",
+                r.spatial_neighbours,
+                crate::gpu_types::MAX_SPATIAL_NEIGHBOURS
+            );
         }
         if !(r.spatial_radius >= 1.0 && r.spatial_radius.is_finite()) {
             bail!("--spatial-radius {}: must be at least 1 pixel", r.spatial_radius);

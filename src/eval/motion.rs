@@ -25,8 +25,6 @@ use crate::eval::reference::{make_reference, ReferenceTarget};
 use crate::eval::results::SceneSpec;
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
-use crate::scene::Scene;
-use crate::scene_gpu::SceneGpu;
 use crate::settings::{Bias, CameraOverride, Mode, RenderSettings, RestirSettings};
 use crate::vk::Context;
 
@@ -142,16 +140,10 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
         let label = spec.label();
         let path_json = path_file(&spec.path);
         let path = CameraPath::load(&path_json).with_context(|| format!("the camera path of {label}"))?;
-        let scene = Arc::new(SceneGpu::new(ctx, &Scene::load(&spec.path)?, true).context("uploading the scene")?);
+        let scene = spec.upload(ctx)?;
         let base = RenderSettings {
-            scene: spec.path.clone(),
-            width: spec.width,
-            height: spec.height,
-            vpls_direct: opts.vpls_direct,
-            vpls_indirect: opts.vpls_indirect,
-            validate: opts.validate,
             progressive: false,
-            ..Default::default()
+            ..spec.base_settings((opts.vpls_direct, opts.vpls_indirect), opts.validate, None)
         };
         // One path-traced reference per camera of the path.
         let mut references: Vec<RgbImage> = Vec::new();
@@ -168,8 +160,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
         log(format!("{label}: measuring {} modes over {} moving frames at {}x{}", modes.len(), opts.frames, spec.width, spec.height));
         let mut renderers = Vec::new();
         for m in &modes {
-            let radius = (20.0 * spec.width as f32 / 1280.0).max(2.0);
-            let restir = RestirSettings { spatial_radius: radius, ..m.restir };
+            let restir = RestirSettings { spatial_radius: spec.spatial_radius(), ..m.restir };
             let settings = RenderSettings { mode: m.mode, restir, ..base.clone() };
             renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
         }

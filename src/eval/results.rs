@@ -247,6 +247,33 @@ impl SceneSpec {
     pub fn label(&self) -> String {
         self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into())
     }
+
+    /// Loads and uploads the scene once; every mode and reference of a study renders from it.
+    pub fn upload(&self, ctx: &Arc<Context>) -> Result<Arc<SceneGpu>> {
+        let scene = Scene::load(&self.path)?;
+        Ok(Arc::new(SceneGpu::new(ctx, &scene, true).context("uploading the scene")?))
+    }
+
+    /// The thesis's 20 px spatial radius is meant for 1280 px wide images: scaled to this width.
+    pub fn spatial_radius(&self) -> f32 {
+        (20.0 * self.width as f32 / 1280.0).max(2.0)
+    }
+
+    /// The settings every mode of a study starts from: this scene at this size, the study's VPL
+    /// counts, the scaled spatial radius.
+    pub fn base_settings(&self, vpls: (u32, u32), validate: bool, device_index: Option<usize>) -> RenderSettings {
+        RenderSettings {
+            scene: self.path.clone(),
+            width: self.width,
+            height: self.height,
+            vpls_direct: vpls.0,
+            vpls_indirect: vpls.1,
+            validate,
+            device_index,
+            restir: RestirSettings { spatial_radius: self.spatial_radius(), ..Default::default() },
+            ..Default::default()
+        }
+    }
 }
 
 /// The thesis's three scenes at its sizes (Cornell box 1280×1280, the others 1280×720), scaled.
@@ -371,22 +398,8 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
     let started = Instant::now();
     for spec in &opts.scenes {
         let label = spec.label();
-        let scene = Arc::new(SceneGpu::new(ctx, &Scene::load(&spec.path)?, true).context("uploading the scene")?);
-        let base = RenderSettings {
-            scene: spec.path.clone(),
-            width: spec.width,
-            height: spec.height,
-            vpls_direct: opts.vpls_direct,
-            vpls_indirect: opts.vpls_indirect,
-            validate: opts.validate,
-            device_index: opts.device_index,
-            // The thesis's 20 px neighbourhood is meant for 1280 px wide images.
-            restir: RestirSettings {
-                spatial_radius: (20.0 * spec.width as f32 / 1280.0).max(2.0),
-                ..Default::default()
-            },
-            ..Default::default()
-        };
+        let scene = spec.upload(ctx)?;
+        let base = spec.base_settings((opts.vpls_direct, opts.vpls_indirect), opts.validate, opts.device_index);
         let size = format!("{}x{}", spec.width, spec.height);
         let pt_settings = RenderSettings { mode: Mode::Pt, ..base.clone() };
         let pt_path = refs_dir.join(format!("{label}_{size}_pt.exr"));

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use anyhow::{Context as _, Result};
 use ash::vk;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::vulkan::Allocation;
 use gpu_allocator::MemoryLocation;
 
 use super::Context;
@@ -36,18 +36,7 @@ impl Buffer {
         let raw = unsafe { device.create_buffer(&info, None) }.with_context(|| format!("vkCreateBuffer '{name}'"))?;
         // SAFETY: raw was just created.
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
-        let allocation = ctx
-            .allocator
-            .lock()
-            .map_err(|_| anyhow::anyhow!("allocator mutex poisoned"))?
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location,
-                linear: true,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .with_context(|| format!("allocating {size} bytes for buffer '{name}'"))?;
+        let allocation = ctx.allocate(name, requirements, location, true)?;
         // SAFETY: memory comes from the allocator for this buffer's requirements.
         unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
             .with_context(|| format!("binding memory of '{name}'"))?;
@@ -128,9 +117,7 @@ impl Drop for Buffer {
         // SAFETY: the owner guarantees no pending GPU work uses this buffer (frames are fenced).
         unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
         if let Some(a) = self.allocation.take() {
-            if let Ok(mut alloc) = self.ctx.allocator.lock() {
-                let _ = alloc.free(a);
-            }
+            self.ctx.free(a);
         }
     }
 }

@@ -9,7 +9,8 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::{bail, Context as _, Result};
 use ash::vk;
-use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme, Allocator, AllocatorCreateDesc};
+use gpu_allocator::MemoryLocation;
 
 const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
@@ -487,6 +488,35 @@ impl Context {
         self.validation.first_error.lock().ok().and_then(|g| g.clone())
     }
 
+    /// Allocates memory for a buffer or image under `name` (the name gpu-allocator reports; callers
+    /// give the Vulkan object the same one with [`Self::set_name`]).
+    pub fn allocate(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        location: MemoryLocation,
+        linear: bool,
+    ) -> Result<Allocation> {
+        self.allocator
+            .lock()
+            .map_err(|_| anyhow::anyhow!("allocator mutex poisoned"))?
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            })
+            .with_context(|| format!("allocating {} bytes for '{name}'", requirements.size))
+    }
+
+    /// Returns an allocation made by [`Self::allocate`] (after its object is destroyed).
+    pub fn free(&self, allocation: Allocation) {
+        if let Ok(mut alloc) = self.allocator.lock() {
+            let _ = alloc.free(allocation);
+        }
+    }
+
     /// Names a Vulkan object for debuggers (RenderDoc, Nsight) through VK_EXT_debug_utils.
     pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
         if let Some(du) = &self.debug_utils {
@@ -514,29 +544,50 @@ impl Context {
         }
     }
 
-    /// Records commands into a one-time command buffer, submits it and waits.
-    pub fn one_shot(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+    /// A primary command buffer from the shared pool and a fence, both named `name` (a frame slot,
+    /// a present slot). The caller frees and destroys them.
+    pub fn command_buffer_and_fence(&self, name: &str, signaled: bool) -> Result<(vk::CommandBuffer, vk::Fence)> {
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(self.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        // SAFETY: valid pool; the buffer is freed before returning.
+        let flags = if signaled { vk::FenceCreateFlags::SIGNALED } else { vk::FenceCreateFlags::empty() };
+        // SAFETY: valid device and pool.
         unsafe {
-            let cmd = self.device.allocate_command_buffers(&alloc).context("allocate command buffer")?[0];
-            self.device.begin_command_buffer(
-                cmd,
-                &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )?;
-            record(cmd);
-            self.device.end_command_buffer(cmd)?;
-            let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
-            let fence = self.device.create_fence(&vk::FenceCreateInfo::default(), None)?;
-            let r = self.device.queue_submit(self.queue, &submit, fence).and_then(|_| {
-                self.device.wait_for_fences(&[fence], true, u64::MAX)
-            });
+            let cmd = self.device.allocate_command_buffers(&alloc).with_context(|| format!("allocating command buffer '{name}'"))?[0];
+            self.set_name(cmd, name);
+            let fence = match self.device.create_fence(&vk::FenceCreateInfo::default().flags(flags), None) {
+                Ok(f) => f,
+                Err(e) => {
+                    self.device.free_command_buffers(self.command_pool, &[cmd]);
+                    return Err(e).with_context(|| format!("creating fence '{name}'"));
+                }
+            };
+            self.set_name(fence, name);
+            Ok((cmd, fence))
+        }
+    }
+
+    /// Records commands into a one-time command buffer, submits it and waits.
+    pub fn one_shot(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        let (cmd, fence) = self.command_buffer_and_fence("one_shot", false)?;
+        // SAFETY: valid pool; the buffer and fence are freed before returning.
+        unsafe {
+            let r = self
+                .device
+                .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
+                .and_then(|_| {
+                    record(cmd);
+                    self.device.end_command_buffer(cmd)
+                })
+                .and_then(|_| {
+                    let cmds = [cmd];
+                    let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
+                    self.device.queue_submit(self.queue, &submit, fence)
+                })
+                .and_then(|_| self.device.wait_for_fences(&[fence], true, u64::MAX));
             self.device.destroy_fence(fence, None);
-            self.device.free_command_buffers(self.command_pool, &cmds);
+            self.device.free_command_buffers(self.command_pool, &[cmd]);
             r.context("one-shot submission failed (device lost?)")?;
         }
         Ok(())

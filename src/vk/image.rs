@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use anyhow::{Context as _, Result};
 use ash::vk;
-use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::vulkan::Allocation;
 use gpu_allocator::MemoryLocation;
 
 use super::Context;
@@ -38,18 +38,7 @@ impl Image {
         let raw = unsafe { device.create_image(&info, None) }.with_context(|| format!("vkCreateImage '{name}'"))?;
         // SAFETY: raw was just created.
         let requirements = unsafe { device.get_image_memory_requirements(raw) };
-        let allocation = ctx
-            .allocator
-            .lock()
-            .map_err(|_| anyhow::anyhow!("allocator mutex poisoned"))?
-            .allocate(&AllocationCreateDesc {
-                name,
-                requirements,
-                location: MemoryLocation::GpuOnly,
-                linear: false,
-                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-            })
-            .with_context(|| format!("allocating image '{name}'"))?;
+        let allocation = ctx.allocate(name, requirements, MemoryLocation::GpuOnly, false)?;
         // SAFETY: memory comes from the allocator for this image's requirements.
         unsafe { device.bind_image_memory(raw, allocation.memory(), allocation.offset()) }
             .with_context(|| format!("binding memory of '{name}'"))?;
@@ -63,9 +52,7 @@ impl Drop for Image {
         // SAFETY: the owner guarantees no pending GPU work uses this image.
         unsafe { self.ctx.device.destroy_image(self.raw, None) };
         if let Some(a) = self.allocation.take() {
-            if let Ok(mut alloc) = self.ctx.allocator.lock() {
-                let _ = alloc.free(a);
-            }
+            self.ctx.free(a);
         }
     }
 }

@@ -472,23 +472,14 @@ impl Presenter {
         let mut fences = Vec::new();
         let mut acquired = Vec::new();
         for i in 0..PRESENT_SLOTS {
-            // SAFETY: valid device and pool; all destroyed in Drop after a wait for idle.
-            unsafe {
-                let cmd = ctx.device.allocate_command_buffers(
-                    &vk::CommandBufferAllocateInfo::default()
-                        .command_pool(ctx.command_pool)
-                        .level(vk::CommandBufferLevel::PRIMARY)
-                        .command_buffer_count(1),
-                )?[0];
-                ctx.set_name(cmd, &format!("present{i}"));
-                let fence = ctx.device.create_fence(&vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED), None)?;
-                ctx.set_name(fence, &format!("present{i}"));
-                let sem = ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None)?;
-                ctx.set_name(sem, &format!("present{i}.acquired"));
-                cmds.push(cmd);
-                fences.push(fence);
-                acquired.push(sem);
-            }
+            // All destroyed in Drop after a wait for idle.
+            let (cmd, fence) = ctx.command_buffer_and_fence(&format!("present{i}"), true)?;
+            // SAFETY: valid device.
+            let sem = unsafe { ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None)? };
+            ctx.set_name(sem, &format!("present{i}.acquired"));
+            cmds.push(cmd);
+            fences.push(fence);
+            acquired.push(sem);
         }
         Ok(Self { ctx: ctx.clone(), staging, cmds, fences, acquired, next: 0 })
     }
