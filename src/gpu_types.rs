@@ -147,7 +147,7 @@ gpu_struct! {
 
 gpu_struct! {
     /// Frame constants (uniform buffer, set 0).
-    pub struct GpuFrame as "Frame" (112) {
+    pub struct GpuFrame as "Frame" (176) {
     pub camera_position: [f32; 3],
     /// tan(yfov / 2).
     pub tan_half_fov: f32,
@@ -172,9 +172,21 @@ gpu_struct! {
     pub exposure: f32,
     /// Frames accumulated so far including this one.
     pub accumulated_frames: u32,
+    /// The G-buffer is a ping-pong of two halves in one buffer: this frame's surfaces start at
+    /// element `surface_offset`, the previous frame's at `prev_surface_offset` (the same half when
+    /// the G-buffer was not traced again this frame).
+    pub surface_offset: u32,
+    pub prev_surface_offset: u32,
     pub _pad0: u32,
+    /// The previous frame's camera (for reprojection); equal to this frame's when it did not move.
+    pub prev_camera_position: [f32; 3],
+    pub prev_tan_half_fov: f32,
+    pub prev_camera_right: [f32; 3],
     pub _pad1: u32,
+    pub prev_camera_up: [f32; 3],
     pub _pad2: u32,
+    pub prev_camera_forward: [f32; 3],
+    pub _pad3: u32,
 }
 }
 
@@ -263,6 +275,7 @@ pub const SHADE_VIEW_FINAL: u32 = 0;
 pub const SHADE_VIEW_RESERVOIR_W: u32 = 1;
 pub const SHADE_VIEW_RESERVOIR_M: u32 = 2;
 pub const SHADE_VIEW_VPL_KIND: u32 = 3;
+pub const SHADE_VIEW_MOTION: u32 = 4;
 
 /// `vpl_view`'s `mode` push constant: clear the sphere buffers (per pixel), splat the nearest
 /// sphere depth (per VPL), record the VPL at that depth (per VPL), draw (per pixel).
@@ -306,6 +319,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     SHADE_VIEW_RESERVOIR_W,
     SHADE_VIEW_RESERVOIR_M,
     SHADE_VIEW_VPL_KIND,
+    SHADE_VIEW_MOTION,
     VPL_VIEW_CLEAR,
     VPL_VIEW_DEPTH,
     VPL_VIEW_ID,

@@ -488,7 +488,7 @@ fn real_main(cli: Cli) -> Result<()> {
             let mut opts = if *quick {
                 restir_vpl::eval::motion::MotionOptions::quick(&root)
             } else {
-                restir_vpl::eval::motion::MotionOptions::full(&root, 0.25)
+                restir_vpl::eval::motion::MotionOptions::full(&root, 0.2)
             };
             opts.out_dir = out.clone();
             opts.runs = runs.unwrap_or(opts.runs);

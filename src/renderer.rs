@@ -178,6 +178,8 @@ struct FrameState {
     /// Frames rendered in total (RNG frame index).
     frame_index: u32,
     gbuffer_valid: bool,
+    /// Which half of the G-buffer ping-pong holds the current surfaces (0 or 1).
+    surface_half: u32,
     /// Reservoir buffer that receives the next frame's initial reservoirs (0 = a, 1 = b).
     current_reservoirs: usize,
     /// The other reservoir buffer holds a previous frame's final reservoirs.
@@ -461,9 +463,6 @@ impl Renderer {
         if unbiased {
             flags |= VPL_FLAG_UNBIASED;
         }
-        if !settings.aa {
-            flags |= VPL_FLAG_SAME_DOMAIN;
-        }
         let kind_mask = match settings.view {
             View::Direct => KIND_MASK_DIRECT,
             View::Indirect => KIND_MASK_INDIRECT,
@@ -492,20 +491,7 @@ impl Renderer {
             passes.vpl.shade = Some(VplShadePass::new(ctx, layout, targets, &inputs, &res)?);
             if mode == Mode::Restir {
                 if r.temporal {
-                    let prev = if unbiased && settings.aa {
-                        let buf = crate::vk::Buffer::new(
-                            ctx,
-                            "restir_temporal.prev_surfaces",
-                            targets.surfaces.size,
-                            ash::vk::BufferUsageFlags::STORAGE_BUFFER | ash::vk::BufferUsageFlags::TRANSFER_DST,
-                            gpu_allocator::MemoryLocation::GpuOnly,
-                        )?;
-                        passes.prev_surfaces = Some(buf);
-                        passes.prev_surfaces.as_ref().expect("just set")
-                    } else {
-                        &targets.surfaces
-                    };
-                    passes.vpl.temporal = Some(RestirTemporalPass::new(ctx, layout, targets, prev, &inputs, &res)?);
+                    passes.vpl.temporal = Some(RestirTemporalPass::new(ctx, layout, targets, &inputs, &res)?);
                 }
                 if r.spatial_passes > 0 && r.spatial_neighbours > 0 {
                     passes.vpl.spatial = Some(RestirSpatialPass::new(ctx, layout, targets, &inputs, &res)?);
@@ -550,10 +536,6 @@ impl Renderer {
             shading(mode == Mode::Restir && enabled, if mode == Mode::Restir { why_not } else { "mode is not restir" })
         };
         let r = &s.restir;
-        let vpl = match &self.parts.vpl {
-            Some(v) => VplFrame { params: v.params, restir: *r, view: s.view, current: st.current_reservoirs },
-            None => VplFrame::default(),
-        };
         let gbuffer = if s.aa {
             Step::Run
         } else if st.gbuffer_valid {
@@ -561,15 +543,26 @@ impl Renderer {
         } else {
             Step::Run
         };
+        let vpl = match &self.parts.vpl {
+            Some(v) => {
+                let mut params = v.params;
+                if gbuffer != Step::Run {
+                    // The previous frame's surfaces are this frame's: reuse needs no reprojection
+                    // and its MIS weights reduce to confidence weights.
+                    params.flags |= VPL_FLAG_SAME_DOMAIN;
+                }
+                VplFrame { params, restir: *r, view: s.view, current: st.current_reservoirs }
+            }
+            None => VplFrame::default(),
+        };
         FramePlan {
-            keep_previous_gbuffer: self.parts.passes.prev_surfaces.is_some() && st.gbuffer_valid && gbuffer == Step::Run,
             gbuffer,
             pathtrace: shading(mode == Mode::Pt, "mode is not pt"),
             vpl_bruteforce: shading(mode == Mode::Bruteforce, "mode is not bruteforce"),
             restir_initial: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             restir_temporal: restir_step(
                 r.temporal && st.history_valid,
-                if !r.temporal { "--temporal off" } else if st.frame_index == 0 { "no history before the first frame" } else { "no history: the camera moved" },
+                if !r.temporal { "--temporal off" } else if st.frame_index == 0 { "no history before the first frame" } else { "no history: settings or lights changed" },
             ),
             restir_spatial: restir_step(
                 r.spatial_passes > 0 && r.spatial_neighbours > 0,
@@ -587,8 +580,11 @@ impl Renderer {
         }
     }
 
-    fn frame_constants(&self, camera: &Camera) -> GpuFrame {
+    /// `prev`: the previous frame's camera; `halves`: (this frame's, the previous frame's) half of
+    /// the G-buffer ping-pong.
+    fn frame_constants(&self, camera: &Camera, prev: &Camera, halves: (u32, u32)) -> GpuFrame {
         let s = &self.settings;
+        let pixels = self.parts.targets.pixels() as u32;
         GpuFrame {
             camera_position: camera.position.to_array(),
             tan_half_fov: (camera.yfov * 0.5).tan(),
@@ -607,6 +603,13 @@ impl Renderer {
             total_light_power: self.lights.set.total_power_lum as f32,
             exposure: 2f32.powf(s.exposure),
             accumulated_frames: self.state.accumulated + 1,
+            surface_offset: halves.0 * pixels,
+            prev_surface_offset: halves.1 * pixels,
+            prev_camera_position: prev.position.to_array(),
+            prev_tan_half_fov: (prev.yfov * 0.5).tan(),
+            prev_camera_right: prev.right.to_array(),
+            prev_camera_up: prev.up.to_array(),
+            prev_camera_forward: prev.forward.to_array(),
             ..Default::default()
         }
     }
@@ -629,10 +632,11 @@ impl Renderer {
         let start = Instant::now();
         let i = self.next_slot;
         let completed = if self.slots[i].pending.is_some() { Some(self.complete_frame(i)?) } else { None };
-        if self.camera.is_some_and(|c| !c.same_view(camera)) {
-            // A new view: new primary hits, a new accumulation, and no history to reuse.
+        let prev_camera = self.camera.unwrap_or(*camera);
+        if !prev_camera.same_view(camera) {
+            // A new view: new primary hits and a new accumulation; the ReSTIR history is kept and
+            // reprojected.
             self.state.gbuffer_valid = false;
-            self.state.history_valid = false;
             self.state.accumulated = 0;
         }
         if !self.settings.progressive {
@@ -644,7 +648,10 @@ impl Renderer {
         if self.state.frame_index == 0 {
             log::info!("frame {} passes:\n{}", self.state.frame_index, plan.describe());
         }
-        let constants = self.frame_constants(camera);
+        // A traced G-buffer goes to the other half: the previous frame's surfaces stay readable.
+        let half = self.state.surface_half;
+        let halves = if plan.gbuffer == Step::Run { (1 - half, half) } else { (half, half) };
+        let constants = self.frame_constants(camera, &prev_camera, halves);
         let ctx = self.ctx.clone();
         let d = &ctx.device;
         let slot = &mut self.slots[i];
@@ -687,6 +694,7 @@ impl Renderer {
         if plan.gbuffer == Step::Run {
             st.gbuffer_valid = true;
         }
+        st.surface_half = halves.0;
         if plan.vpl_shade == Step::Run {
             // The final reservoirs become the next frame's history; the other buffer is free.
             st.current_reservoirs = 1 - plan.vpl.final_buffer(plan.spatial_passes());
@@ -804,7 +812,6 @@ impl Renderer {
         }
         if self.parts.vpl.is_some() {
             self.parts.passes.vpl = Default::default();
-            self.parts.passes.prev_surfaces = None;
             self.parts.vpl = Some(Self::vpl_setup(
                 &self.ctx,
                 &self.settings,
@@ -827,7 +834,11 @@ impl Renderer {
     pub fn restart(&mut self, seed: u32) -> Result<()> {
         self.complete_all()?;
         self.settings.seed = seed;
-        self.state = FrameState { gbuffer_valid: self.state.gbuffer_valid, ..Default::default() };
+        self.state = FrameState {
+            gbuffer_valid: self.state.gbuffer_valid,
+            surface_half: self.state.surface_half,
+            ..Default::default()
+        };
         self.log = FrameLog { pixels: self.log.pixels, ..Default::default() };
         Ok(())
     }

@@ -212,6 +212,8 @@ named_enum! {
         ReservoirM = "reservoir-m",
         /// Debug: the kind of VPL each pixel's reservoir holds (blue direct, cyan point light, red indirect, black none).
         VplKind = "vpl-kind",
+        /// Debug (read the EXR): temporal reprojection. R, G: where the pixel's surface point was in the previous frame minus the pixel centre, in pixels; B: distance from that point to the previous surface found there, relative to depth (0 on a match), or -1 where history is rejected (off screen, disoccluded).
+        Motion = "motion",
         /// Only the emitters seen directly and the direct VPLs (direct light).
         Direct = "direct",
         /// Only the indirect VPLs (global illumination).
@@ -222,7 +224,7 @@ named_enum! {
 impl View {
     /// Whether the view reads the reservoirs.
     pub fn shows_reservoirs(self) -> bool {
-        matches!(self, View::ReservoirW | View::ReservoirM | View::VplKind)
+        matches!(self, View::ReservoirW | View::ReservoirM | View::VplKind | View::Motion)
     }
 }
 

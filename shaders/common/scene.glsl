@@ -8,6 +8,7 @@
 
 #include "types.glsl"
 #include "../lib/sampling.glsl"
+#include "../lib/camera.glsl"
 #ifdef SCENE_TEXTURES
 #include "../lib/texture.glsl"
 #endif
@@ -43,9 +44,24 @@ struct Hit {
 
 // Primary camera ray through image position `pixel` (in pixels, row 0 at the top).
 vec3 camera_ray_direction(vec2 pixel) {
-    vec2 ndc = vec2(2.0 * pixel.x / float(frame.width) - 1.0, 1.0 - 2.0 * pixel.y / float(frame.height));
-    vec2 s = ndc * frame.tan_half_fov * vec2(frame.aspect, 1.0);
-    return normalize(frame.camera_forward + s.x * frame.camera_right + s.y * frame.camera_up);
+    return pinhole_direction(frame.camera_right, frame.camera_up, frame.camera_forward, frame.tan_half_fov, frame.aspect,
+                             pixel, vec2(frame.width, frame.height));
+}
+
+// Where world point x appeared in the previous frame: image point (xy, pixels) and view depth (z)
+// of the previous camera.
+vec3 project_to_previous_frame(vec3 x) {
+    return pinhole_project(frame.prev_camera_position, frame.prev_camera_right, frame.prev_camera_up,
+                           frame.prev_camera_forward, frame.prev_tan_half_fov, frame.aspect, x,
+                           vec2(frame.width, frame.height));
+}
+
+// The G-buffer's two halves: element of pixel `index` in this frame's and the previous frame's.
+uint surface_slot(uint index) {
+    return frame.surface_offset + index;
+}
+uint prev_surface_slot(uint index) {
+    return frame.prev_surface_offset + index;
 }
 
 // Reconstructs the hit on triangle `prim` of instance `inst` at barycentrics `bary` (of v1, v2).

@@ -87,9 +87,17 @@ struct Frame {
     float total_light_power;
     float exposure;
     uint accumulated_frames;
+    uint surface_offset;
+    uint prev_surface_offset;
     uint _pad0;
+    vec3 prev_camera_position;
+    float prev_tan_half_fov;
+    vec3 prev_camera_right;
     uint _pad1;
+    vec3 prev_camera_up;
     uint _pad2;
+    vec3 prev_camera_forward;
+    uint _pad3;
 };
 
 const uint VPL_DIRECT_AREA = 0u;
@@ -137,6 +145,7 @@ const uint SHADE_VIEW_FINAL = 0u;
 const uint SHADE_VIEW_RESERVOIR_W = 1u;
 const uint SHADE_VIEW_RESERVOIR_M = 2u;
 const uint SHADE_VIEW_VPL_KIND = 3u;
+const uint SHADE_VIEW_MOTION = 4u;
 // vpl_view `mode`: the step of the dispatch.
 const uint VPL_VIEW_CLEAR = 0u;
 const uint VPL_VIEW_DEPTH = 1u;

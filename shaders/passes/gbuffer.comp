@@ -54,5 +54,5 @@ void main() {
         s.emission = emits ? m.emission : vec3(0.0);
         s.view_depth = t * dot(dir, frame.camera_forward);
     }
-    surfaces[index] = s;
+    surfaces[surface_slot(index)] = s;
 }

@@ -32,7 +32,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[index];
+    Surface s = surfaces[surface_slot(index)];
     if (s.hit_t < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;

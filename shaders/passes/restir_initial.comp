@@ -32,7 +32,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[index];
+    Surface s = surfaces[surface_slot(index)];
     VplParams p = pc.params;
     if (s.hit_t < 0.0 || p.vpl_count == 0u || p.candidates == 0u) {
         reservoirs_out[index] = reservoir_empty(1.0);

@@ -43,9 +43,9 @@ bool pick_neighbour(uvec2 pixel, Surface s, vec2 u, out uint qi) {
         return false;
     }
     qi = uint(q.y) * frame.width + uint(q.x);
-    Surface sq = surfaces[qi];
-    return sq.hit_t >= 0.0 && dot(sq.shading_normal, s.shading_normal) >= pc.normal_threshold
-        && abs(sq.view_depth - s.view_depth) <= pc.depth_threshold * s.view_depth;
+    Surface sq = surfaces[surface_slot(qi)];
+    return sq.hit_t >= 0.0
+        && same_surface(s.shading_normal, s.view_depth, sq.shading_normal, sq.view_depth, pc.normal_threshold, pc.depth_threshold);
 }
 
 void main() {
@@ -54,7 +54,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[index];
+    Surface s = surfaces[surface_slot(index)];
     Reservoir rc = src[index];
     if (s.hit_t < 0.0) {
         dst[index] = rc;
@@ -134,7 +134,7 @@ void main() {
         uint qi = nb[j];
         Reservoir rn = src[qi];
         float mn = rn.confidence;
-        Surface sq = surfaces[qi];
+        Surface sq = surfaces[surface_slot(qi)];
         // The canonical sample as the neighbour would have produced it.
         float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, visible_targets, rays) : 0.0;
         canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);

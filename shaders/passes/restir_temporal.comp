@@ -1,12 +1,16 @@
 // restir_temporal: merges this frame's initial reservoir (canonical) with the previous frame's
-// final reservoir of the same pixel (the camera is static, so reprojection is the identity).
-// The history's confidence is capped at mcap times the canonical's. Targets are evaluated at this
-// frame's pixel.
+// final reservoir at the reprojected pixel: where this pixel's surface point appeared in the
+// previous camera (identity for a still camera). History is rejected when that point was off
+// screen, behind the previous camera, or covered by another surface there (normal and depth tests,
+// as in spatial reuse): a disocclusion. The history's confidence is capped at mcap times the
+// canonical's. Targets are evaluated at this frame's pixel.
 //  - biased: confidence weights M_k / sum M, targets without visibility;
-//  - unbiased: the generalised balance heuristic over the two techniques (Lin et al. 2022), with
-//    targets that include visibility when the initial samples were shadow-tested. When the pixel is the same surface point as last frame (no
-//    jitter) both techniques have the same target, so the heuristic reduces to confidence
-//    weights and the history's sample is known visible (its target there was positive).
+//  - unbiased: the generalised balance heuristic over the two techniques (Lin et al. 2022): the
+//    history's technique is evaluated on the previous frame's surface at the reprojected pixel,
+//    with targets that include visibility when the initial samples were shadow-tested. When the
+//    G-buffer was not traced again this frame (still camera, no jitter) both techniques have the
+//    same target, so the heuristic reduces to confidence weights and the history's sample is known
+//    visible (its target there was positive).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -16,16 +20,18 @@
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
+// Both halves of the G-buffer ping-pong: surface_slot() and prev_surface_slot() pick them.
 layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
-layout(set = 1, binding = 1, std430) readonly buffer PrevSurfaceBuffer { Surface prev_surfaces[]; };
-layout(set = 1, binding = 2, std430) readonly buffer VplBuffer { Vpl vpls[]; };
-layout(set = 1, binding = 3, std430) buffer ReservoirCurrent { Reservoir reservoirs[]; };
-layout(set = 1, binding = 4, std430) readonly buffer ReservoirHistory { Reservoir history[]; };
-layout(set = 1, binding = 5, std430) buffer RayCounter { uint ray_count[]; };
+layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 2, std430) buffer ReservoirCurrent { Reservoir reservoirs[]; };
+layout(set = 1, binding = 3, std430) readonly buffer ReservoirHistory { Reservoir history[]; };
+layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 
 layout(push_constant) uniform Push {
     VplParams params;
     float mcap;
+    float normal_threshold;
+    float depth_threshold;
 } pc;
 
 const uint SALT_TEMPORAL = 0x746du;
@@ -36,20 +42,36 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[index];
+    Surface s = surfaces[surface_slot(index)];
     if (s.hit_t < 0.0) {
         return;
     }
     VplParams p = pc.params;
+    bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
+
+    // The reprojected pixel and its previous surface.
+    uint prev_index = index;
+    if (!same_domain) {
+        vec3 q = project_to_previous_frame(s.position);
+        ivec2 pq = ivec2(floor(q.xy));
+        if (q.z <= 0.0 || pq.x < 0 || pq.y < 0 || pq.x >= int(frame.width) || pq.y >= int(frame.height)) {
+            return;  // off screen or behind the previous camera: no history
+        }
+        prev_index = uint(pq.y) * frame.width + uint(pq.x);
+        Surface sp = surfaces[prev_surface_slot(prev_index)];
+        if (sp.hit_t < 0.0
+            || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, pc.normal_threshold, pc.depth_threshold)) {
+            return;  // disoccluded: another surface (or none) was there
+        }
+    }
     Reservoir rc = reservoirs[index];
-    Reservoir rh = history[index];
+    Reservoir rh = history[prev_index];
     float mc = rc.confidence;
     float mh = min(rh.confidence, pc.mcap * mc);
     if (!(mh > 0.0)) {
         return;
     }
     bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
-    bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
     bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
     uint rays = 0u;
 
@@ -64,7 +86,7 @@ void main() {
     float m_c = mc / (mc + mh);
     float m_h = mh / (mc + mh);
     if (unbiased && !same_domain) {
-        Surface sp = prev_surfaces[index];
+        Surface sp = surfaces[prev_surface_slot(prev_index)];
         float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpls[rc.vpl], p, visible_targets, rays) : 0.0;
         float ph_yh = reservoir_valid(rh) ? rh.target : 0.0;
         float dc = mc * pc_yc + mh * ph_yc;

@@ -19,7 +19,25 @@ layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 layout(push_constant) uniform Push {
     VplParams params;
     uint view;  // SHADE_VIEW_*
+    float normal_threshold;  // restir_temporal's history tests, for the motion view
+    float depth_threshold;
 } pc;
+
+// The motion view: the reprojection restir_temporal makes (same projection, same tests).
+vec3 motion_view(uvec2 pixel, Surface s) {
+    vec3 q = project_to_previous_frame(s.position);
+    vec2 motion = q.xy - (vec2(pixel) + 0.5);
+    ivec2 pq = ivec2(floor(q.xy));
+    if (q.z <= 0.0 || pq.x < 0 || pq.y < 0 || pq.x >= int(frame.width) || pq.y >= int(frame.height)) {
+        return vec3(motion, -1.0);
+    }
+    Surface sp = surfaces[prev_surface_slot(uint(pq.y) * frame.width + uint(pq.x))];
+    if (sp.hit_t < 0.0
+        || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, pc.normal_threshold, pc.depth_threshold)) {
+        return vec3(motion, -1.0);
+    }
+    return vec3(motion, length(sp.position - s.position) / max(s.view_depth, 1e-30));
+}
 
 void main() {
     uvec2 pixel = gl_GlobalInvocationID.xy;
@@ -27,7 +45,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[index];
+    Surface s = surfaces[surface_slot(index)];
     VplParams p = pc.params;
     if (s.hit_t < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
@@ -41,6 +59,10 @@ void main() {
     }
     if (pc.view == SHADE_VIEW_RESERVOIR_M) {
         samples[index] = vec4(vec3(r.confidence), 1.0);
+        return;
+    }
+    if (pc.view == SHADE_VIEW_MOTION) {
+        samples[index] = vec4(motion_view(pixel, s), 1.0);
         return;
     }
     if (pc.view == SHADE_VIEW_VPL_KIND) {

@@ -64,7 +64,7 @@ void splat(uint v, bool record) {
             uint i = uint(p.y) * frame.width + uint(p.x);
             vec3 dir = camera_ray_direction(vec2(p) + 0.5);
             float t = ray_sphere(frame.camera_position, dir, c, radius);
-            float surface_t = surfaces[i].hit_t;
+            float surface_t = surfaces[surface_slot(i)].hit_t;
             if (t <= 0.0 || (surface_t >= 0.0 && t >= surface_t)) {
                 continue;
             }
@@ -92,7 +92,7 @@ void main() {
     } else if (k < pixels) {
         uvec2 p = uvec2(k % frame.width, k / frame.width);
         vec3 dir = camera_ray_direction(vec2(p) + 0.5);
-        Surface s = surfaces[k];
+        Surface s = surfaces[surface_slot(k)];
         vec3 colour = vec3(0.0);
         if (s.hit_t >= 0.0) {
             colour = s.albedo * (0.15 + 0.85 * abs(dot(s.shading_normal, dir))) + min(s.emission, vec3(1.0));

@@ -94,7 +94,8 @@ pub fn glsl_constants() -> Vec<(&'static str, u32)> {
 pub struct FrameTargets {
     pub width: u32,
     pub height: u32,
-    /// `GpuSurface` per pixel (gbuffer output).
+    /// `GpuSurface` per pixel (gbuffer output), twice: a ping-pong of this frame's and the previous
+    /// frame's G-buffer (`GpuFrame::surface_offset`, `prev_surface_offset`), for reprojection.
     pub surfaces: Buffer,
     /// This frame's radiance estimate per pixel (vec4).
     pub samples: Buffer,
@@ -121,7 +122,7 @@ impl FrameTargets {
         Ok(Self {
             width,
             height,
-            surfaces: make("gbuffer.surfaces", n * std::mem::size_of::<GpuSurface>() as u64)?,
+            surfaces: make("gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64)?,
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,
             accum_compensation: make("accumulate.compensation", n * 16)?,
@@ -184,8 +185,6 @@ pub enum Step {
 /// The frame's pass list, decided before recording (printed with `--verbose`).
 #[derive(Clone, Debug)]
 pub struct FramePlan {
-    /// Copy last frame's G-buffer aside before the new one (unbiased temporal reuse with jitter).
-    pub keep_previous_gbuffer: bool,
     pub gbuffer: Step,
     pub pathtrace: Step,
     pub vpl_bruteforce: Step,
@@ -281,8 +280,6 @@ pub struct Passes {
     pub vpl_view: Option<VplViewPass>,
     /// Only in the VPL modes.
     pub vpl: VplPasses,
-    /// Last frame's G-buffer (only for unbiased temporal reuse with jittered pixels).
-    pub prev_surfaces: Option<Buffer>,
 }
 
 impl Passes {
@@ -300,7 +297,6 @@ impl Passes {
             tonemap: TonemapPass::new(ctx, scene_layout, targets)?,
             vpl_view: None,
             vpl: VplPasses::default(),
-            prev_surfaces: None,
         })
     }
 
@@ -324,12 +320,6 @@ impl Passes {
         }
         compute_barrier(ctx, cmd);
 
-        if let (true, Some(prev)) = (plan.keep_previous_gbuffer, &self.prev_surfaces) {
-            let region = [vk::BufferCopy::default().size(targets.surfaces.size.min(prev.size))];
-            // SAFETY: both buffers are alive; the barrier orders the copy before the gbuffer pass.
-            unsafe { ctx.device.cmd_copy_buffer(cmd, targets.surfaces.raw, prev.raw, &region) };
-            compute_barrier(ctx, cmd);
-        }
         scoped(ctx, cmd, timer, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
         scoped(ctx, cmd, timer, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
 
@@ -346,7 +336,7 @@ impl Passes {
         }
         if let Some(pass) = &self.vpl.temporal {
             scoped(ctx, cmd, timer, &plan.restir_temporal, RestirTemporalPass::NAME, |cmd| {
-                pass.record(cmd, scene_set, p, v.restir.mcap, v.current, w, h)
+                pass.record(cmd, scene_set, p, &v.restir, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.spatial {
@@ -359,7 +349,7 @@ impl Passes {
         if let Some(pass) = &self.vpl.shade {
             let reservoir = v.final_buffer(plan.spatial_passes());
             scoped(ctx, cmd, timer, &plan.vpl_shade, VplShadePass::NAME, |cmd| {
-                pass.record(cmd, scene_set, p, v.view, reservoir, w, h)
+                pass.record(cmd, scene_set, p, v.view, &v.restir, reservoir, w, h)
             });
         }
         if let Some(view) = &self.vpl_view {

@@ -9,7 +9,8 @@ use ash::vk;
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{Buffer, ComputePipeline, Context};
+use crate::settings::RestirSettings;
+use crate::vk::{ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, Reservoirs, VplInputs};
@@ -18,6 +19,8 @@ push_constants! {
     struct Push {
         params: GpuVplParams,
         mcap: f32,
+        normal_threshold: f32,
+        depth_threshold: f32,
     }
 }
 
@@ -29,23 +32,23 @@ impl RestirTemporalPass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_TEMPORAL, [8, 8, 1])
         .with_push(Push::LAYOUT)
         .with_bindings(&[
-            storage(0, "surfaces"), storage(1, "prev_surfaces"), storage(2, "vpls"),
-            storage(3, "reservoirs"), storage(4, "history"), storage(5, "ray_count"),
+            storage(0, "surfaces"), storage(1, "vpls"), storage(2, "reservoirs"), storage(3, "history"),
+            storage(4, "ray_count"),
         ]);
 
-    /// `prev_surfaces`: last frame's G-buffer (the current one when the pixels do not move).
+    /// `targets.surfaces` holds both halves of the G-buffer ping-pong (this frame's and the
+    /// previous frame's, picked by the frame constants).
     pub fn new(
         ctx: &Arc<Context>,
         scene_layout: vk::DescriptorSetLayout,
         targets: &FrameTargets,
-        prev_surfaces: &Buffer,
         vpls: &VplInputs,
         reservoirs: &Reservoirs,
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
-            .buffers(&[(0, &targets.surfaces), (1, prev_surfaces), (2, vpls.vpls), (5, &targets.ray_counter)])
-            .ping_pong(reservoirs, 3, Some(4))
+            .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (4, &targets.ray_counter)])
+            .ping_pong(reservoirs, 2, Some(3))
             .build()?;
         Ok(Self { pipeline })
     }
@@ -56,12 +59,17 @@ impl RestirTemporalPass {
         cmd: vk::CommandBuffer,
         scene_set: vk::DescriptorSet,
         params: &GpuVplParams,
-        mcap: f32,
+        restir: &RestirSettings,
         current: usize,
         w: u32,
         h: u32,
     ) {
-        let push = Push { params: *params, mcap };
+        let push = Push {
+            params: *params,
+            mcap: restir.mcap,
+            normal_threshold: restir.normal_threshold,
+            depth_threshold: restir.depth_threshold,
+        };
         self.pipeline.dispatch_2d_variant(cmd, current, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }

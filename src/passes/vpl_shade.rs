@@ -6,8 +6,8 @@ use std::sync::Arc;
 use anyhow::Result;
 use ash::vk;
 
-use crate::gpu_types::{GpuVplParams, SHADE_VIEW_FINAL, SHADE_VIEW_RESERVOIR_M, SHADE_VIEW_RESERVOIR_W, SHADE_VIEW_VPL_KIND};
-use crate::settings::View;
+use crate::gpu_types::{GpuVplParams, SHADE_VIEW_FINAL, SHADE_VIEW_RESERVOIR_M, SHADE_VIEW_RESERVOIR_W, SHADE_VIEW_MOTION, SHADE_VIEW_VPL_KIND};
+use crate::settings::{RestirSettings, View};
 use crate::shaders;
 use crate::vk::pipeline::storage;
 use crate::vk::{ComputePipeline, Context};
@@ -20,6 +20,9 @@ push_constants! {
         params: GpuVplParams,
         /// `SHADE_VIEW_*`.
         view: u32,
+        /// The temporal pass's history tests, for the motion view.
+        normal_threshold: f32,
+        depth_threshold: f32,
     }
 }
 
@@ -56,6 +59,7 @@ impl VplShadePass {
             View::ReservoirW => SHADE_VIEW_RESERVOIR_W,
             View::ReservoirM => SHADE_VIEW_RESERVOIR_M,
             View::VplKind => SHADE_VIEW_VPL_KIND,
+            View::Motion => SHADE_VIEW_MOTION,
             _ => SHADE_VIEW_FINAL,
         }
     }
@@ -67,11 +71,17 @@ impl VplShadePass {
         scene_set: vk::DescriptorSet,
         params: &GpuVplParams,
         view: View,
+        restir: &RestirSettings,
         reservoir: usize,
         w: u32,
         h: u32,
     ) {
-        let push = Push { params: *params, view: Self::view_code(view) };
+        let push = Push {
+            params: *params,
+            view: Self::view_code(view),
+            normal_threshold: restir.normal_threshold,
+            depth_threshold: restir.depth_threshold,
+        };
         self.pipeline.dispatch_2d_variant(cmd, reservoir, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }
