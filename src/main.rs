@@ -36,6 +36,10 @@ struct Cli {
     /// How the window's frames wait for the display.
     #[arg(long, value_parser = named::<PresentMode>(), default_value_t = PresentMode::default())]
     present_mode: PresentMode,
+    /// Window only: a reference EXR of the same camera and size (`reference` writes one); shown on
+    /// the right of a split screen, with the live RMSE and FLIP of the image against it.
+    #[arg(long, value_name = "REF.exr")]
+    reference: Option<PathBuf>,
 }
 
 /// Everything that decides what is rendered (shared by the main command and `reference`).
@@ -588,10 +592,17 @@ fn real_main(cli: Cli) -> Result<()> {
     }
     let settings = settings_from(&cli.render, Some(cli.out.clone()))?;
     settings.validate()?;
+    if cli.headless && cli.reference.is_some() {
+        bail!("--reference shows a split screen in the window; headless runs compare with `restir-vpl compare`");
+    }
     let summary = if cli.headless {
         restir_vpl::run(&settings)?.summary
     } else {
-        let opts = restir_vpl::window::WindowOptions { present_mode: cli.present_mode, frames: cli.render.frames };
+        let opts = restir_vpl::window::WindowOptions {
+            present_mode: cli.present_mode,
+            frames: cli.render.frames,
+            reference: cli.reference.clone(),
+        };
         match restir_vpl::window::run(settings, opts)? {
             Some(summary) => summary,
             None => return Ok(()),

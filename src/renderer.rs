@@ -584,7 +584,7 @@ impl Renderer {
     /// the G-buffer ping-pong.
     fn frame_constants(&self, camera: &Camera, prev: &Camera, halves: (u32, u32)) -> GpuFrame {
         let s = &self.settings;
-        let pixels = self.parts.targets.pixels() as u32;
+        let pixels = self.parts.targets.pixels();
         GpuFrame {
             camera_position: camera.position.to_array(),
             tan_half_fov: (camera.yfov * 0.5).tan(),

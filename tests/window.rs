@@ -230,3 +230,42 @@ fn no_display_says_so_and_points_to_headless() {
     assert!(!err.contains("panicked"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
 }
+
+#[test]
+fn overlay_with_a_reference_split_screen_along_a_camera_path() {
+    let Some(x) = xvfb() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let reference = dir.path().join("ref.exr");
+    let size = ["--width", "96", "--height", "72"];
+    let o = restir_vpl(None, &[&["reference"][..], &SCENE_ARGS[..], &size[..], &["--mode", "pt", "--frames", "4", "--out", reference.to_str().unwrap()]].concat())
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "reference failed: {}", String::from_utf8_lossy(&o.stderr));
+    // The overlay (on by default) draws the panel and the reference's half; the camera moves along
+    // the Cornell path, so temporal reuse reprojects in the window too.
+    let out = dir.path().join("out");
+    let o = restir_vpl(
+        Some(&x.display),
+        &[
+            &SCENE_ARGS[..],
+            &size[..],
+            &["--mode", "restir", "--frames", "20", "--camera-path", "scenes/cornell_box.path.json"],
+            &["--reference", reference.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        ]
+        .concat(),
+    )
+    .output()
+    .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "windowed run failed: {err}");
+    assert!(!err.to_lowercase().contains("validation"), "validation messages: {err}");
+    let s = summary(&out);
+    assert_eq!(s["validation_errors"], 0, "{s}");
+    assert_eq!(s["frames"], 20);
+    assert_eq!(s["camera"]["source"], "camera path", "{s}");
+    common::assert_all_finite(&read_exr(&out.join("final.exr")).unwrap().pixels, "windowed image");
+    // Headless runs have no split screen to show: a clear error.
+    let o = restir_vpl(None, &[&SCENE_ARGS[..], &["--headless", "--reference", reference.to_str().unwrap()]].concat()).output().unwrap();
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--reference"), "{}", String::from_utf8_lossy(&o.stderr));
+}

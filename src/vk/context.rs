@@ -89,7 +89,9 @@ pub struct Context {
     pub device: ash::Device,
     pub queue: vk::Queue,
     pub queue_family: u32,
-    pub allocator: ManuallyDrop<Mutex<Allocator>>,
+    /// Shared with the window's overlay renderer (egui-ash-renderer), which must be dropped first:
+    /// the context frees the allocator before it destroys the device.
+    pub allocator: ManuallyDrop<Arc<Mutex<Allocator>>>,
     pub accel: ash::khr::acceleration_structure::Device,
     pub debug_utils: Option<ash::ext::debug_utils::Device>,
     debug_instance: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
@@ -464,7 +466,7 @@ impl Context {
             device,
             queue,
             queue_family,
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
+            allocator: ManuallyDrop::new(Arc::new(Mutex::new(allocator))),
             accel,
             debug_utils,
             debug_instance,

@@ -3,6 +3,7 @@
 //! ([`actions::KEYS`]); the camera follows a [`FlyController`] (or `--camera-path`).
 
 pub mod actions;
+pub mod overlay;
 pub mod swapchain;
 
 use std::path::PathBuf;
@@ -29,6 +30,7 @@ use crate::vk::image::transition;
 use crate::vk::{Context, ContextOptions, Image, WindowHandles};
 
 use actions::Action;
+use overlay::{Overlay, WindowInfo};
 use swapchain::Swapchain;
 
 /// What the window needs besides the render settings.
@@ -37,6 +39,8 @@ pub struct WindowOptions {
     pub present_mode: PresentMode,
     /// Close after this many frames and write the outputs as a headless run does.
     pub frames: Option<u32>,
+    /// A reference EXR for the overlay's split screen and live error.
+    pub reference: Option<PathBuf>,
 }
 
 /// No display to open a window on.
@@ -50,10 +54,11 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     settings.validate()?;
     let start = Instant::now();
     let scene = Scene::load(&settings.scene)?;
+    let reference = opts.reference.as_deref().map(overlay::Reference::load).transpose()?;
     let path = settings.camera_path.as_deref().map(CameraPath::load).transpose()?;
     let event_loop = EventLoop::new().map_err(|e| NoDisplay(e.to_string().trim_end_matches('.').to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
-    let mut app = App { settings, opts, scene: Some(scene), path, running: None, error: None, summary: None, start };
+    let mut app = App { settings, opts, scene: Some(scene), reference, path, running: None, error: None, summary: None, start };
     event_loop.run_app(&mut app).context("the window's event loop failed")?;
     if let Some(e) = app.error {
         return Err(e);
@@ -66,6 +71,8 @@ struct App {
     opts: WindowOptions,
     /// The scene until it is uploaded (on the first `resumed`).
     scene: Option<Scene>,
+    /// The --reference image until the overlay takes it.
+    reference: Option<overlay::Reference>,
     path: Option<CameraPath>,
     running: Option<Running>,
     error: Option<anyhow::Error>,
@@ -76,6 +83,7 @@ struct App {
 /// Everything alive while the window is open. Field order is drop order: GPU objects first, the
 /// context after them, the window last (the surface must go before it).
 struct Running {
+    ui: Overlay,
     presenter: Presenter,
     swapchain: Swapchain,
     renderer: Renderer,
@@ -162,10 +170,12 @@ impl App {
         self.settings.height = swapchain.extent.height;
         let renderer = Renderer::new(ctx.clone(), scene.clone(), self.settings.clone())?;
         let presenter = Presenter::new(&ctx, &swapchain)?;
+        let ui = Overlay::new(&ctx, &window, &swapchain, PRESENT_SLOTS, self.reference.take())?;
         let (lo, hi) = scene.info.bounds;
         let controller = FlyController::new(&renderer.initial_camera(), (hi - lo).length());
         log::info!("window: {}", ctx.report);
         Ok(Running {
+            ui,
             presenter,
             swapchain,
             renderer,
@@ -189,6 +199,14 @@ impl App {
 
     fn handle(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
         let Some(r) = self.running.as_mut() else { return Ok(()) };
+        if r.overlay && !matches!(event, WindowEvent::RedrawRequested) {
+            // The panel takes the pointer over it, and the keys while one of its widgets has focus.
+            let consumed = r.ui.on_window_event(&r.window, &event);
+            let keyboard = matches!(event, WindowEvent::KeyboardInput { .. });
+            if consumed && (!keyboard || r.ui.wants_keyboard()) && !matches!(event, WindowEvent::Resized(_) | WindowEvent::CloseRequested) {
+                return Ok(());
+            }
+        }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             WindowEvent::Resized(_) => r.resize_pending = true,
@@ -350,6 +368,7 @@ impl App {
             unsafe { r.ctx.device.device_wait_idle() }.context("waiting for the device")?;
             r.swapchain = Swapchain::new(&r.ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, Some(&r.swapchain))?;
             r.presenter = Presenter::new(&r.ctx, &r.swapchain)?;
+            r.ui.set_swapchain(&r.swapchain)?;
             let (w, h) = (r.swapchain.extent.width, r.swapchain.extent.height);
             self.settings.width = w;
             self.settings.height = h;
@@ -364,7 +383,15 @@ impl App {
                 r.controller.camera()
             }
         };
-        match r.presenter.show(&r.ctx, &r.swapchain, &mut r.renderer, &camera)? {
+        let draw_ui = r.overlay || r.ui.has_reference();
+        let edit = if draw_ui {
+            let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen };
+            r.ui.prepare(&r.window, &r.renderer, &info, r.overlay)?
+        } else {
+            None
+        };
+        let ui = if draw_ui { Some(&mut r.ui) } else { None };
+        match r.presenter.show(&r.ctx, &r.swapchain, &mut r.renderer, &camera, ui)? {
             Shown::Yes => {}
             Shown::YesRecreate => r.resize_pending = true,
             Shown::OutOfDate => {
@@ -390,6 +417,10 @@ impl App {
                 if r.message.is_empty() { String::new() } else { format!(" · {}", r.message) },
             ));
         }
+        if let Some(e) = edit {
+            self.change(&e.what, |s| *s = e.settings)?;
+        }
+        let r = self.running.as_mut().expect("called while running");
         if self.opts.frames == Some(r.frames) {
             let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, Vec::new(), Vec::new(), self.start)?;
             self.summary = Some(summary);
@@ -486,7 +517,15 @@ impl Presenter {
 
     /// Acquires a swapchain image, submits the renderer's frame, copies its preview onto the image
     /// and presents it. The renderer's frame stays in flight.
-    fn show(&mut self, ctx: &Context, swapchain: &Swapchain, renderer: &mut Renderer, camera: &crate::camera::Camera) -> Result<Shown> {
+    /// `overlay`: drawn over the image after the blit.
+    fn show(
+        &mut self,
+        ctx: &Context,
+        swapchain: &Swapchain,
+        renderer: &mut Renderer,
+        camera: &crate::camera::Camera,
+        overlay: Option<&mut Overlay>,
+    ) -> Result<Shown> {
         let p = ctx.presentation.as_ref().expect("a window context");
         let f = self.next;
         let d = &ctx.device;
@@ -547,7 +586,11 @@ impl Presenter {
                 &blit,
                 vk::Filter::NEAREST,
             );
-            transition(ctx, cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR);
+            match overlay {
+                // Its render pass ends in the present layout.
+                Some(o) => o.record(cmd, image_index as usize)?,
+                None => transition(ctx, cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR),
+            }
             ctx.end_label(cmd);
             d.end_command_buffer(cmd)?;
             let waits = [self.acquired[f]];
