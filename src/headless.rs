@@ -48,8 +48,22 @@ pub struct Summary {
     /// The photon pass (run once before frame 0), when the run needed VPLs.
     pub photons: Option<crate::passes::PhotonStats>,
     pub total_seconds: f64,
+    /// Windowed runs: the frames as the display showed them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub displayed: Option<DisplayedFrames>,
     pub outputs: Vec<String>,
     pub warnings: Vec<String>,
+}
+
+/// How fast a window showed its frames: presents per second of wall time, the whole loop included
+/// (camera, overlay, blit, present wait), against the renderer's own GPU and wall times above.
+#[derive(Clone, Debug, Serialize)]
+pub struct DisplayedFrames {
+    pub present_mode: String,
+    /// Frames timed (the first two, warm-up, are not).
+    pub frames: u32,
+    pub ms_per_frame: f64,
+    pub fps: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -136,7 +150,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         progress.tick();
     }
     progress.finish();
-    let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, outputs, warnings, start)?;
+    let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, outputs, warnings, start, None)?;
     let mean = renderer.read_mean()?;
     let variance = renderer.read_variance()?;
     Ok(RunOutput { width: settings.width, height: settings.height, mean, variance, summary })
@@ -153,6 +167,7 @@ pub fn finish_run(
     mut outputs: Vec<String>,
     mut warnings: Vec<String>,
     start: Instant,
+    displayed: Option<DisplayedFrames>,
 ) -> Result<Summary> {
     renderer.complete_all()?;
     let settings = renderer.settings().clone();
@@ -205,6 +220,7 @@ pub fn finish_run(
         nonfinite_samples: renderer.nonfinite_samples(),
         photons: renderer.photon_stats().cloned(),
         total_seconds: start.elapsed().as_secs_f64(),
+        displayed,
         outputs,
         warnings,
         settings,

@@ -501,14 +501,12 @@ fn real_main(cli: Cli) -> Result<()> {
                 ..Default::default()
             })?);
             let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
-            std::fs::create_dir_all(out.join("plots")).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
-            let csv = out.join("motion.csv");
-            restir_vpl::eval::motion::write_csv(&csv, &points)?;
+            let files = restir_vpl::eval::motion::write_outputs(out, &points)?;
             let md = out.join("motion.md");
-            std::fs::write(&md, restir_vpl::eval::motion::table_markdown(&points))
-                .map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
-            println!("{}\n{}", md.display(), csv.display());
-            for p in restir_vpl::eval::motion::plots(&out.join("plots"), &points)? {
+            let text = format!("# Moving camera: error of every displayed frame\n\n{}", restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots));
+            std::fs::write(&md, text).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+            println!("{}\n{}", md.display(), files.csv.display());
+            for p in &files.plots {
                 println!("{}", p.display());
             }
             return Ok(());

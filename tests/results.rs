@@ -72,4 +72,13 @@ fn results_quick_covers_the_three_scenes() {
     }
     let points = read_curves_csv(dir.path().join("curves.csv")).unwrap();
     assert_eq!(points.len(), 3 * 18);
+    // The moving-camera section: a headline per scene, the table, a plot per scene, the CSV
+    // (3 scenes × 5 modes × 4 quick frames, plus the header).
+    assert!(md.contains("## Moving camera"), "results.md lacks the motion section:\n{md}");
+    assert!(md.contains("restir-no-temporal") && md.contains("of the per-frame RMSE"), "{md}");
+    for scene in ["cornell_box", "living_room", "open_box_figure"] {
+        non_empty(&dir.path().join(format!("plots/{scene}_motion_rmse.svg")));
+    }
+    let csv = non_empty(&dir.path().join("motion.csv"));
+    assert_eq!(csv.lines().count(), 1 + 3 * 5 * 4, "{csv}");
 }

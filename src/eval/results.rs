@@ -312,6 +312,9 @@ pub struct ResultsOptions {
     pub validate: bool,
     /// The command line, quoted in the Markdown.
     pub command: String,
+    /// The moving-camera measurement (`bench --motion`) added as a section; its references go to
+    /// `out_dir/references` with the others.
+    pub motion: Option<crate::eval::motion::MotionOptions>,
 }
 
 impl ResultsOptions {
@@ -332,6 +335,8 @@ impl ResultsOptions {
             device_index: None,
             validate: false,
             command: String::new(),
+            // Smaller than the curves' images: one path-traced reference per moving frame.
+            motion: Some(crate::eval::motion::MotionOptions::full(root, scale * 0.8)),
         }
     }
 
@@ -346,6 +351,7 @@ impl ResultsOptions {
             vpls_direct: 5_000,
             vpls_indirect: 5_000,
             all_modes: false,
+            motion: Some(crate::eval::motion::MotionOptions::quick(root)),
             ..Self::full(root, 0.05)
         }
     }
@@ -450,8 +456,27 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
             plots.push(f);
         }
     }
+    let mut motion_section = None;
+    if let Some(m) = &opts.motion {
+        let m = crate::eval::motion::MotionOptions {
+            out_dir: opts.out_dir.clone(),
+            validate: opts.validate,
+            flip: opts.flip,
+            ..m.clone()
+        };
+        log("moving camera: per displayed frame".into());
+        let points = crate::eval::motion::run(ctx, &m, log)?;
+        let files = crate::eval::motion::write_outputs(&opts.out_dir, &points)?;
+        motion_section = Some(crate::eval::motion::section_markdown(&m, &points, &files.plots));
+        plots.extend(files.plots);
+    }
     let markdown = opts.out_dir.join(&opts.markdown_name);
-    let text = results_markdown(ctx, opts, &all_points, &all_rows, &ref_infos, &model_bias, started.elapsed().as_secs_f64());
+    let mut text = results_markdown(ctx, opts, &all_points, &all_rows, &ref_infos, &model_bias, started.elapsed().as_secs_f64());
+    if let Some(section) = motion_section {
+        text.push_str("\n## Moving camera: the error of every displayed frame (`bench --motion`)\n\n");
+        text.push_str(&section);
+        text.push_str("\nRaw numbers: `motion.csv` (scene, mode, path frame, GPU ms, RMSE, relMSE, FLIP).\n");
+    }
     std::fs::write(&markdown, text).with_context(|| format!("writing {}", markdown.display()))?;
     Ok(ResultsOutput { markdown, csv, frame_times_csv, plots, points: all_points, frame_times: all_rows })
 }

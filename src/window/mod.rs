@@ -92,6 +92,9 @@ struct Running {
     controller: FlyController,
     /// Frames shown since the window opened.
     frames: u32,
+    /// When the third frame was shown (after warm-up), and the last one.
+    timed_from: Option<Instant>,
+    last_shown: Option<Instant>,
     frozen: bool,
     step: bool,
     overlay: bool,
@@ -183,6 +186,8 @@ impl App {
             ctx,
             controller,
             frames: 0,
+            timed_from: None,
+            last_shown: None,
             frozen: false,
             step: false,
             overlay: true,
@@ -319,7 +324,8 @@ impl App {
             }
             Action::SaveImage => {
                 let outputs = Vec::new();
-                let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start)?;
+                let displayed = r.displayed(self.opts.present_mode);
+                let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start, displayed)?;
                 r.message = format!("wrote {}", summary.outputs.join(", "));
                 log::info!("{}", r.message);
             }
@@ -400,6 +406,11 @@ impl App {
             }
         }
         r.frames += 1;
+        let shown = Instant::now();
+        if r.frames == 3 {
+            r.timed_from = Some(shown);
+        }
+        r.last_shown = Some(shown);
         let ms = dt as f64 * 1e3;
         r.smoothed_ms = if r.frames <= 2 { ms } else { 0.9 * r.smoothed_ms + 0.1 * ms };
         if now.duration_since(r.last_title).as_secs_f64() > 0.25 {
@@ -422,11 +433,22 @@ impl App {
         }
         let r = self.running.as_mut().expect("called while running");
         if self.opts.frames == Some(r.frames) {
-            let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, Vec::new(), Vec::new(), self.start)?;
+            let displayed = r.displayed(self.opts.present_mode);
+            let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, Vec::new(), Vec::new(), self.start, displayed)?;
             self.summary = Some(summary);
             event_loop.exit();
         }
         Ok(())
+    }
+}
+
+impl Running {
+    /// Frames per second as shown, from the third frame on (None before two are timed).
+    fn displayed(&self, mode: PresentMode) -> Option<crate::headless::DisplayedFrames> {
+        let (from, last) = (self.timed_from?, self.last_shown?);
+        let frames = self.frames.checked_sub(3).filter(|&n| n > 0)?;
+        let ms = (last - from).as_secs_f64() * 1e3 / frames as f64;
+        Some(crate::headless::DisplayedFrames { present_mode: mode.name().to_string(), frames, ms_per_frame: ms, fps: 1e3 / ms })
     }
 }
 
