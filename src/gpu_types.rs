@@ -177,7 +177,9 @@ gpu_struct! {
     /// the G-buffer was not traced again this frame).
     pub surface_offset: u32,
     pub prev_surface_offset: u32,
-    pub _pad0: u32,
+    /// The scene's coordinate scale (largest |coordinate| of its bounds): ray-origin offsets are
+    /// relative to it, so a scene renders the same at any scale.
+    pub scene_scale: f32,
     /// The previous frame's camera (for reprojection); equal to this frame's when it did not move.
     pub prev_camera_position: [f32; 3],
     pub prev_tan_half_fov: f32,

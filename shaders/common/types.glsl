@@ -89,7 +89,7 @@ struct Frame {
     uint accumulated_frames;
     uint surface_offset;
     uint prev_surface_offset;
-    uint _pad0;
+    float scene_scale;
     vec3 prev_camera_position;
     float prev_tan_half_fov;
     vec3 prev_camera_right;

@@ -11,7 +11,7 @@
 // Shadow ray from the surface (offset along its geometric normal) to the VPL (already offset off
 // its own surface by the photon pass).
 bool vpl_visible(Surface s, Vpl v) {
-    return segment_visible(offset_ray(s.position, s.geometric_normal), v.position);
+    return segment_visible(offset_ray(s.position, s.geometric_normal, frame.scene_scale), v.position);
 }
 
 vec3 surface_vpl_contribution(Surface s, Vpl v, VplParams p) {

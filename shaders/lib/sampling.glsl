@@ -74,10 +74,13 @@ uint alias_resolve(uint slot, float keep, uint alias_index, float u_rest) {
 }
 
 // Ray-origin offset against self-intersection (Waechter & Binder, Ray Tracing Gems, ch. 6):
-// moves p along n by a few ulps (far from the origin) or by a small absolute amount (near it).
-vec3 offset_ray(vec3 p, vec3 n) {
-    const float origin = 1.0 / 32.0;
-    const float float_scale = 1.0 / 65536.0;
+// moves p along n by a few ulps (far from the origin) or, near the origin where ulps vanish, by a
+// small amount. Their "near" and "small" (1/32 and 1/65536) are for scenes of unit size: here they
+// are relative to `scene_scale` (the largest |coordinate| of the scene), so a scene scaled by any
+// factor gets the same offsets relative to its size and renders the same image.
+vec3 offset_ray(vec3 p, vec3 n, float scene_scale) {
+    float origin = scene_scale * (1.0 / 32.0);
+    float float_scale = scene_scale * (1.0 / 65536.0);
     const float int_scale = 256.0;
     ivec3 of_i = ivec3(int_scale * n);
     vec3 p_i = vec3(

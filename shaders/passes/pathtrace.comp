@@ -68,7 +68,7 @@ void main() {
                 float cos_x = dot(ns, wi);
                 if (cos_x > 0.0 && dot(ng, wi) > 0.0 && d2 > 0.0) {
                     rays += 1u;
-                    if (segment_visible(offset_ray(x, ng), l.p0)) {
+                    if (segment_visible(offset_ray(x, ng, frame.scene_scale), l.p0)) {
                         radiance += throughput * lambert_brdf(albedo) * l.emission * (cos_x / (d2 * l.pdf));
                     }
                 }
@@ -92,7 +92,7 @@ void main() {
                 float w = power_heuristic(pdf_light, lambert_pdf(cos_x));
                 vec3 nl_toward_x = cos_l_signed > 0.0 ? nl : -nl;
                 rays += 1u;
-                if (segment_visible(offset_ray(x, ng), offset_ray(y, nl_toward_x))) {
+                if (segment_visible(offset_ray(x, ng, frame.scene_scale), offset_ray(y, nl_toward_x, frame.scene_scale))) {
                     radiance += throughput * lambert_brdf(albedo) * l.emission * (cos_x * w / pdf_light);
                 }
             }
@@ -110,7 +110,7 @@ void main() {
         Hit hit;
         float t;
         rays += 1u;
-        if (!trace_closest(offset_ray(x, ng), wi, 1e30, hit, t)) {
+        if (!trace_closest(offset_ray(x, ng, frame.scene_scale), wi, 1e30, hit, t)) {
             break;
         }
         Material m = materials[hit.material];

@@ -34,6 +34,7 @@ layout(push_constant) uniform Push {
     uint seed;
     float scale;       // PHOTON_EMIT_SCALE
     uint light_count;  // entries of light_cdf
+    float scene_scale; // ray-origin offsets are relative to it (offset_ray)
 };
 
 const uint SALT_DIRECT = 0x64697265u;
@@ -93,7 +94,7 @@ void direct_vpl(uint i) {
     LightSample s = sample_light_point(t, rng);
     bool point = (lights[t].flags & LIGHT_POINT) != 0u;
     Vpl v;
-    v.position = point ? s.position : offset_ray(s.position, s.normal);
+    v.position = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
     v.kind = point ? VPL_DIRECT_POINT : VPL_DIRECT_AREA;
     v.normal = s.normal;
     v.path = i;
@@ -109,7 +110,7 @@ void photon_path(uint p) {
     vec3 phi0 = s.power_over_pdf;
     vec3 phi = phi0;
     bool point = (lights[t].flags & LIGHT_POINT) != 0u;
-    vec3 origin = point ? s.position : offset_ray(s.position, s.normal);
+    vec3 origin = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
     vec3 dir = point ? s.normal : sample_cosine_hemisphere(s.normal, rand2(rng));
     for (uint k = 1u; k <= max_bounces; ++k) {
         Hit hit;
@@ -124,7 +125,7 @@ void photon_path(uint p) {
         uint slot = atomicAdd(indirect_count, 1u);
         if (slot < capacity) {
             Vpl v;
-            v.position = offset_ray(hit.position, hit.geometric_normal);
+            v.position = offset_ray(hit.position, hit.geometric_normal, scene_scale);
             v.kind = VPL_INDIRECT;
             v.normal = hit.geometric_normal;  // faces the incoming photon
             v.path = p;
@@ -146,7 +147,7 @@ void photon_path(uint p) {
         if (dot(dir, hit.geometric_normal) <= 0.0) {
             break;
         }
-        origin = offset_ray(hit.position, hit.geometric_normal);
+        origin = offset_ray(hit.position, hit.geometric_normal, scene_scale);
     }
 }
 

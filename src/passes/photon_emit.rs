@@ -62,6 +62,8 @@ push_constants! {
         scale: f32,
         /// Entries of `light_cdf`.
         light_count: u32,
+        /// The scene's coordinate scale (ray-origin offsets are relative to it).
+        scene_scale: f32,
     }
 }
 
@@ -76,6 +78,7 @@ pub struct PhotonEmitPass {
     settings: PhotonSettings,
     capacity: u32,
     light_count: u32,
+    scene_scale: f32,
     ctx: Arc<Context>,
 }
 
@@ -128,6 +131,7 @@ impl PhotonEmitPass {
         textured: bool,
         lights: &LightSet,
         settings: PhotonSettings,
+        scene_scale: f32,
     ) -> Result<Self> {
         Self::check_memory(ctx, &settings)?;
         ensure!(settings.max_bounces >= 1, "--photon-max-bounces must be at least 1");
@@ -155,7 +159,7 @@ impl PhotonEmitPass {
             .buffers(&[(0, &vpls), (1, &counter), (2, &cdf_buf)])
             .build()?;
         let light_count = lights.lights.len() as u32;
-        Ok(Self { pipeline, vpls, counter, _cdf: cdf_buf, settings, capacity, light_count, ctx: ctx.clone() })
+        Ok(Self { pipeline, vpls, counter, _cdf: cdf_buf, settings, capacity, light_count, scene_scale, ctx: ctx.clone() })
     }
 
     fn push(&self, mode: u32) -> Push {
@@ -171,6 +175,7 @@ impl PhotonEmitPass {
             seed: self.settings.seed,
             scale: 1.0,
             light_count: self.light_count,
+            scene_scale: self.scene_scale,
         }
     }
 
