@@ -146,12 +146,12 @@ struct RenderArgs {
     /// Reject spatial neighbours whose view depth differs by more than this fraction.
     #[arg(long, default_value_t = DEFAULTS.restir.depth_threshold)]
     depth_threshold: f32,
-    /// ReSTIR reuse: biased (confidence weights, no visibility in the targets) or unbiased
-    /// (visibility-aware pairwise MIS; converges to the brute-force sum, more shadow rays).
+    /// ReSTIR reuse: unbiased (pairwise MIS; converges to the brute-force sum) or biased
+    /// (confidence weights as in the thesis: a few percent dark, fireflies).
     #[arg(long, value_parser = named::<Bias>(), default_value_t = DEFAULTS.restir.bias)]
     bias: Bias,
-    /// Shadow-test the initial ReSTIR sample (default: on for unbiased, where it is required; off
-    /// for biased).
+    /// Shadow-test the initial ReSTIR sample, so that the targets include visibility (default off:
+    /// unbiased either way; on costs two shadow rays per spatial neighbour).
     #[arg(long, value_enum)]
     initial_visibility: Option<Toggle>,
     /// VPL distance attenuation.

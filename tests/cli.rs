@@ -188,8 +188,8 @@ fn restir_summary_reports_rays_per_pass() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
     let o = run(&[
-        "--headless", "--mode", "restir", "--bias", "unbiased", "--width", "24", "--height", "24", "--frames", "3",
-        "--vpls-direct", "100", "--vpls-indirect", "200", "--out", out, "--verbose",
+        "--headless", "--mode", "restir", "--bias", "unbiased", "--initial-visibility", "on", "--width", "24", "--height", "24",
+        "--frames", "3", "--vpls-direct", "100", "--vpls-indirect", "200", "--out", out, "--verbose",
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
@@ -206,4 +206,21 @@ fn restir_summary_reports_rays_per_pass() {
     assert!(by_pass.get("vpl_shade").is_none(), "{by_pass}");
     assert_eq!(summary["vpl"]["unbiased_reuse"], true);
     assert!(summary["vpl"]["yuksel_radius"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn restir_defaults_to_unbiased_reuse_with_unshadowed_targets() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = run(&[
+        "--headless", "--mode", "restir", "--width", "24", "--height", "24", "--frames", "2", "--vpls-direct", "100",
+        "--vpls-indirect", "200", "--out", out,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["vpl"]["unbiased_reuse"], true, "{summary}");
+    assert_eq!(summary["vpl"]["initial_visibility"], false, "{summary}");
+    // No visibility in the targets: the one shadow ray per pixel is vpl_shade's.
+    let by_pass = &summary["rays_per_pixel_by_pass"];
+    assert!(by_pass.get("restir_spatial").is_none() && by_pass["vpl_shade"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
 }
