@@ -224,3 +224,37 @@ fn restir_defaults_to_unbiased_reuse_with_unshadowed_targets() {
     let by_pass = &summary["rays_per_pixel_by_pass"];
     assert!(by_pass.get("restir_spatial").is_none() && by_pass["vpl_shade"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
 }
+
+#[test]
+fn pipeline_cache_is_saved_checked_and_a_foreign_file_ignored() {
+    let cache = tempfile::tempdir().unwrap();
+    let out = tempfile::tempdir().unwrap();
+    let args = [
+        "--headless", "--mode", "uniform", "--width", "16", "--height", "16", "--frames", "1", "--vpls-direct", "100",
+        "--vpls-indirect", "100", "--verbose", "--out", out.path().to_str().unwrap(),
+    ];
+    let go = || bin().args(args).env("RESTIR_VPL_CACHE_DIR", cache.path()).output().expect("binary runs");
+    let o = go();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let files: Vec<_> = std::fs::read_dir(cache.path()).unwrap().map(|e| e.unwrap().path()).collect();
+    assert_eq!(files.len(), 1, "one cache file per device and build: {files:?}");
+    let file = &files[0];
+    let data = std::fs::read(file).unwrap();
+    // VkPipelineCacheHeaderVersionOne: length 32 and version 1 first.
+    assert!(data.len() >= 32 && data[0..4] == 32u32.to_le_bytes() && data[4..8] == 1u32.to_le_bytes(), "{:?}", &data[..data.len().min(32)]);
+    let o = go();
+    assert!(stderr(&o).contains(&format!("({} bytes loaded)", data.len())), "{}", stderr(&o));
+    // A file from another device (wrong vendor in the header) is ignored with a warning and replaced.
+    let mut foreign = data.clone();
+    foreign[8..12].copy_from_slice(&0xdeadu32.to_le_bytes());
+    std::fs::write(file, &foreign).unwrap();
+    let o = go();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("written by another device or driver"), "{}", stderr(&o));
+    assert_eq!(std::fs::read(file).unwrap()[8..12], data[8..12], "the foreign file was not replaced");
+    // RESTIR_VPL_PIPELINE_CACHE=off: nothing read or written.
+    let off = tempfile::tempdir().unwrap();
+    let o = bin().args(args).env("RESTIR_VPL_CACHE_DIR", off.path()).env("RESTIR_VPL_PIPELINE_CACHE", "off").output().unwrap();
+    assert!(o.status.success());
+    assert_eq!(std::fs::read_dir(off.path()).unwrap().count(), 0);
+}

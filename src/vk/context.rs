@@ -102,6 +102,11 @@ pub struct Context {
     pub validation_enabled: bool,
     validation: Arc<ValidationCounter>,
     pub command_pool: vk::CommandPool,
+    /// Every pipeline is created through it; loaded from and saved to `pipeline_cache_file`.
+    pub pipeline_cache: vk::PipelineCache,
+    pub pipeline_cache_file: Option<std::path::PathBuf>,
+    /// Bytes loaded from the file at start (0: none or not usable).
+    pub pipeline_cache_loaded: usize,
     /// The window's surface, when the context was made for one.
     pub presentation: Option<Presentation>,
 }
@@ -453,6 +458,29 @@ impl Context {
         // SAFETY: valid device.
         let command_pool = unsafe { device.create_command_pool(&pool_info, None) }.context("vkCreateCommandPool")?;
 
+        let pipeline_cache_file = super::pipeline_cache::cache_path(&properties);
+        let initial = match &pipeline_cache_file {
+            Some(path) => match super::pipeline_cache::load(path, &properties) {
+                Ok(data) => data.unwrap_or_default(),
+                Err(why) => {
+                    log::warn!("pipeline cache {}: {why}; starting an empty one", path.display());
+                    Vec::new()
+                }
+            },
+            None => Vec::new(),
+        };
+        // SAFETY: valid device; the initial data's header was checked against this device.
+        let pipeline_cache = unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default().initial_data(&initial), None) }
+            .or_else(|e| {
+                log::warn!("pipeline cache: the driver refused the saved data ({e}); starting an empty one");
+                // SAFETY: as above, without initial data.
+                unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
+            })
+            .context("vkCreatePipelineCache")?;
+        if let Some(path) = &pipeline_cache_file {
+            log::info!("pipeline cache: {} ({} bytes loaded)", path.display(), initial.len());
+        }
+
         let presentation = surface.map(|(surface_loader, surface)| Presentation {
             surface_loader,
             surface,
@@ -467,6 +495,9 @@ impl Context {
             queue,
             queue_family,
             allocator: ManuallyDrop::new(Arc::new(Mutex::new(allocator))),
+            pipeline_cache,
+            pipeline_cache_loaded: initial.len(),
+            pipeline_cache_file,
             accel,
             debug_utils,
             debug_instance,
@@ -643,6 +674,18 @@ impl Drop for Context {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(self.command_pool, None);
             ManuallyDrop::drop(&mut self.allocator);
+            if let Some(path) = &self.pipeline_cache_file {
+                match self.device.get_pipeline_cache_data(self.pipeline_cache) {
+                    Ok(data) if !data.is_empty() => {
+                        if let Err(e) = super::pipeline_cache::save(path, &data) {
+                            log::warn!("pipeline cache: cannot write {}: {e}", path.display());
+                        }
+                    }
+                    Ok(_) => {}
+                    Err(e) => log::warn!("pipeline cache: reading it back failed: {e}"),
+                }
+            }
+            self.device.destroy_pipeline_cache(self.pipeline_cache, None);
             self.device.destroy_device(None);
             if let Some(p) = self.presentation.take() {
                 p.surface_loader.destroy_surface(p.surface, None);

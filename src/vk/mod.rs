@@ -6,6 +6,7 @@ pub mod buffer;
 pub mod context;
 pub mod image;
 pub mod pipeline;
+pub mod pipeline_cache;
 pub mod timer;
 
 pub use buffer::Buffer;

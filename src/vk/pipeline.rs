@@ -247,7 +247,7 @@ impl ComputePipeline {
                 .module(module)
                 .name(c"main");
             let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-            let result = device.create_compute_pipelines(vk::PipelineCache::null(), &info, None);
+            let result = device.create_compute_pipelines(ctx.pipeline_cache, &info, None);
             device.destroy_shader_module(module, None);
             let pipeline = result.map_err(|(_, e)| anyhow::anyhow!("compute pipeline '{name}': {e}"))?[0];
             ctx.set_name(pipeline, name);
