@@ -1,0 +1,267 @@
+//! Numerical stress suite: scenes from a seeded generator built to break a renderer — degenerate and
+//! sliver triangles, zero-area emitters, coplanar overlapping faces, a light touching a wall, a
+//! light inside a closed box, a point light on the shaded surface (a VPL at distance zero),
+//! radiance from 1e-6 to 1e6, scales from 1e-4 to 1e5, a camera inside geometry, NaN vertex data —
+//! each rendered in every mode × every view it allows, under the validation layer. Every run must
+//! produce finite values only (no non-finite sample from any pass: the accumulate pass counts
+//! them), no validation message, and a photon pass whose direct flux equals the light power; the
+//! furnace cases, which have a closed form, must also be right. Plus a long accumulation of a
+//! constant-radiance case that keeps the mean at float precision.
+
+mod common;
+
+use std::sync::Arc;
+
+use common::*;
+use glam::Vec3;
+use restir_vpl::camera::Camera;
+use restir_vpl::renderer::Renderer;
+use restir_vpl::scene::generate::{closed_box, furnace_box_gltf, GltfBuilder};
+use restir_vpl::scene::Scene;
+use restir_vpl::settings::{Bias, Mode, NamedEnum, RestirSettings, View};
+use restir_vpl::RenderSettings;
+
+/// xorshift64*: the generator's seeded random numbers.
+struct Rng(u64);
+
+impl Rng {
+    fn f(&mut self) -> f32 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        ((self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 40) as f32) / (1u64 << 24) as f32
+    }
+    fn v(&mut self, lo: f32, hi: f32) -> [f32; 3] {
+        [lo + (hi - lo) * self.f(), lo + (hi - lo) * self.f(), lo + (hi - lo) * self.f()]
+    }
+}
+
+/// A stress case: a scene and where to look from (scene units).
+struct Case {
+    name: String,
+    json: String,
+    eye: [f32; 3],
+    target: [f32; 3],
+}
+
+/// An open-fronted room of size `s` (floor, ceiling, back and side walls) with a ceiling light of
+/// radiance `le`, plus whatever `extra` adds. The camera looks in through the open front.
+fn room(name: &str, s: f32, le: f32, extra: impl FnOnce(&mut GltfBuilder, f32)) -> Case {
+    let mut b = GltfBuilder::new();
+    let white = b.material("white", [0.7; 3], [0.0; 3], false);
+    let light = b.material("light", [0.0; 3], [le; 3], false);
+    let (o, w) = (0.0f32, s);
+    let walls = [
+        [[o, o, o], [w, o, o], [w, o, -w], [o, o, -w]],  // floor
+        [[o, w, o], [o, w, -w], [w, w, -w], [w, w, o]],  // ceiling
+        [[o, o, -w], [w, o, -w], [w, w, -w], [o, w, -w]], // back
+        [[o, o, o], [o, o, -w], [o, w, -w], [o, w, o]],  // left
+        [[w, o, o], [w, w, o], [w, w, -w], [w, o, -w]],  // right
+    ];
+    let dirs = [[0.0, 1.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]];
+    let quads: Vec<_> = walls.iter().zip(dirs).map(|(q, d)| restir_vpl::scene::generate::orient_quad(*q, d)).collect();
+    let m = b.quads("room", &quads, white);
+    b.node("room", m, [0.0; 3]);
+    let l = 0.2 * s;
+    let lq = restir_vpl::scene::generate::orient_quad(
+        [[0.5 * s - l, 0.999 * s, -0.5 * s - l], [0.5 * s + l, 0.999 * s, -0.5 * s - l], [0.5 * s + l, 0.999 * s, -0.5 * s + l], [0.5 * s - l, 0.999 * s, -0.5 * s + l]],
+        [0.0, -1.0, 0.0],
+    );
+    let m = b.quad("light", lq, light);
+    b.node("light", m, [0.0; 3]);
+    extra(&mut b, s);
+    Case { name: name.into(), json: b.to_json_string(), eye: [0.5 * s, 0.5 * s, 1.2 * s], target: [0.5 * s, 0.45 * s, -0.5 * s] }
+}
+
+fn cases() -> Vec<Case> {
+    let mut rng = Rng(0x5eed_1234_abcd_0001);
+    let mut out = Vec::new();
+    // Degenerate (repeated vertex, collinear) and sliver triangles floating in the room.
+    out.push(room("slivers and degenerate triangles", 1.0, 5.0, |b, s| {
+        let grey = b.material("grey", [0.5; 3], [0.0; 3], true);
+        let mut pos = Vec::new();
+        let mut idx = Vec::new();
+        for k in 0..60u32 {
+            let a = rng.v(0.1 * s, 0.9 * s);
+            let a = [a[0], a[1], -a[2]];
+            let (bv, cv) = match k % 3 {
+                0 => (a, rng.v(0.1 * s, 0.9 * s)),                                  // two equal vertices
+                1 => ([a[0] + 0.1, a[1], a[2]], [a[0] + 0.2, a[1], a[2]]),           // collinear
+                _ => ([a[0] + 0.3 * s, a[1] + 1e-6 * s, a[2]], [a[0] + 0.6 * s, a[1], a[2] + 1e-7 * s]), // sliver
+            };
+            let cv = if k % 3 == 0 { [cv[0], cv[1], -cv[2]] } else { cv };
+            pos.extend([a, bv, cv]);
+            idx.extend([3 * k, 3 * k + 1, 3 * k + 2]);
+        }
+        let m = b.mesh("slivers", &pos, None, &idx, grey);
+        b.node("slivers", m, [0.0; 3]);
+    }));
+    // A zero-area emitter beside the real light, and coplanar overlapping faces of two colours.
+    out.push(room("zero-area emitter and coplanar faces", 1.0, 5.0, |b, s| {
+        let hot = b.material("hot", [0.0; 3], [1e3; 3], true);
+        let p = [0.3 * s, 0.9 * s, -0.3 * s];
+        let m = b.mesh("zero_area_light", &[p, p, [p[0] + 0.1 * s, p[1], p[2]]], None, &[0, 1, 2], hot);
+        b.node("zero_area_light", m, [0.0; 3]);
+        let red = b.material("red", [0.8, 0.1, 0.1], [0.0; 3], false);
+        let blue = b.material("blue", [0.1, 0.1, 0.8], [0.0; 3], false);
+        let q = restir_vpl::scene::generate::orient_quad([[0.2 * s, 0.0, -0.2 * s], [0.8 * s, 0.0, -0.2 * s], [0.8 * s, 0.0, -0.8 * s], [0.2 * s, 0.0, -0.8 * s]], [0.0, 1.0, 0.0]);
+        for (name, mat) in [("overlap_red", red), ("overlap_blue", blue)] {
+            let m = b.quad(name, q, mat);
+            b.node(name, m, [0.0; 3]);
+        }
+    }));
+    // A light lying on the back wall (touching it) and a point light exactly on the floor: a VPL
+    // at distance zero from the surfaces it lights.
+    out.push(room("light touching a wall, point light on the floor", 1.0, 2.0, |b, s| {
+        let wall_light = b.material("wall_light", [0.0; 3], [3.0; 3], false);
+        let q = restir_vpl::scene::generate::orient_quad([[0.1 * s, 0.1 * s, -s], [0.4 * s, 0.1 * s, -s], [0.4 * s, 0.4 * s, -s], [0.1 * s, 0.4 * s, -s]], [0.0, 0.0, 1.0]);
+        let m = b.quad("wall_light", q, wall_light);
+        b.node("wall_light", m, [0.0; 3]);
+        b.point_light("floor_bulb", [0.7 * s, 0.0, -0.5 * s], [1.0, 0.8, 0.6], 0.5);
+    }));
+    // A light inside a closed box in the room (its light never leaves), radiance 1e6 inside and
+    // 1e-6 on the ceiling.
+    out.push(room("light inside a closed box, radiance 1e-6 to 1e6", 1.0, 1e-6, |b, s| {
+        let white = b.material("box", [0.5; 3], [0.0; 3], false);
+        let m = closed_box(b, "closed_box", [0.3 * s, 0.0, -0.7 * s], [0.7 * s, 0.4 * s, -0.3 * s], white, false);
+        b.node("closed_box", m, [0.0; 3]);
+        let inner = b.material("inner", [0.5; 3], [0.0; 3], false);
+        let m = closed_box(b, "closed_box_inside", [0.31 * s, 0.01 * s, -0.69 * s], [0.69 * s, 0.39 * s, -0.31 * s], inner, true);
+        b.node("closed_box_inside", m, [0.0; 3]);
+        let hot = b.material("hidden_light", [0.0; 3], [1e6; 3], true);
+        let q = [[0.45 * s, 0.2 * s, -0.55 * s], [0.55 * s, 0.2 * s, -0.55 * s], [0.55 * s, 0.2 * s, -0.45 * s], [0.45 * s, 0.2 * s, -0.45 * s]];
+        let m = b.quad("hidden_light", q, hot);
+        b.node("hidden_light", m, [0.0; 3]);
+    }));
+    // Tiny and huge scales.
+    for s in [1e-4f32, 1e5] {
+        out.push(room(&format!("room at scale {s:e}"), s, 5.0, |_, _| {}));
+    }
+    // The camera inside a solid box (it sees the box's inside faces, back-facing).
+    let mut c = room("camera inside geometry", 1.0, 5.0, |b, s| {
+        let grey = b.material("solid", [0.5; 3], [0.0; 3], false);
+        let m = closed_box(b, "solid", [0.4 * s, 0.4 * s, 0.9 * s], [0.6 * s, 0.6 * s, 1.5 * s], grey, false);
+        b.node("solid", m, [0.0; 3]);
+    });
+    c.eye = [0.5, 0.5, 1.2];
+    out.push(c);
+    // NaN vertex positions in one mesh (the loader warns; the triangles are inactive in the BLAS).
+    out.push(room("NaN vertex data", 1.0, 5.0, |b, s| {
+        let grey = b.material("nan", [0.5; 3], [0.0; 3], false);
+        let nan = f32::NAN;
+        let m = b.mesh("nan_mesh", &[[nan, 0.5 * s, -0.5 * s], [0.6 * s, nan, -0.5 * s], [0.5 * s, 0.6 * s, -0.5 * s], [0.2, 0.2, -0.2], [0.3, 0.2, -0.2], [0.2, 0.3, -0.2]], None, &[0, 1, 2, 3, 4, 5], grey);
+        b.node("nan_mesh", m, [0.0; 3]);
+    }));
+    out
+}
+
+/// Every mode the renderer has (ReSTIR biased and unbiased, with and without visibility).
+fn modes() -> Vec<(&'static str, Mode, RestirSettings)> {
+    let r = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), spatial_radius: 4.0, ..Default::default() };
+    vec![
+        ("pt", Mode::Pt, RestirSettings::default()),
+        ("uniform", Mode::Uniform, RestirSettings::default()),
+        ("ris", Mode::Ris, RestirSettings::default()),
+        ("restir", Mode::Restir, r(Bias::Unbiased, false)),
+        ("restir+vis", Mode::Restir, r(Bias::Unbiased, true)),
+        ("restir biased", Mode::Restir, r(Bias::Biased, false)),
+        ("bruteforce", Mode::Bruteforce, RestirSettings::default()),
+    ]
+}
+
+fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> usize {
+    let scene = match Scene::from_gltf_slice(case.json.as_bytes(), None, &case.name) {
+        Ok(s) => s,
+        Err(e) => panic!("{}: the generated scene does not load: {e:#}", case.name),
+    };
+    let base = RenderSettings { vpls_direct: 300, vpls_indirect: 300, ..small(24, 18, 2) };
+    let gpu = upload(ctx, &scene, &base);
+    let camera = Camera::look_at(Vec3::from(case.eye), Vec3::from(case.target), Vec3::Y, 50f32.to_radians(), "stress");
+    let mut renders = 0;
+    let mut r: Option<Renderer> = None;
+    for (label, mode, restir) in modes() {
+        for view in View::ALL {
+            let s = RenderSettings { mode, restir, view: *view, ..base.clone() };
+            if s.validate().is_err() {
+                continue; // a view this mode cannot show (the CLI refuses it too)
+            }
+            let what = format!("{} · {label} · view {}", case.name, view.name());
+            match &mut r {
+                Some(r) => r.apply_settings(s).unwrap_or_else(|e| panic!("{what}: {e:#}")),
+                None => r = Some(Renderer::new(ctx.clone(), gpu.clone(), s).unwrap_or_else(|e| panic!("{what}: {e:#}"))),
+            }
+            let r = r.as_mut().expect("set above");
+            for _ in 0..2 {
+                r.render_frame(&camera, false).unwrap_or_else(|e| panic!("{what}: {e:#}"));
+            }
+            assert_all_finite(&r.read_mean().unwrap(), &what);
+            assert_all_finite(&r.read_variance().unwrap(), &what);
+            assert_eq!(r.nonfinite_samples(), 0, "{what}: a pass produced non-finite samples");
+            if let Some(p) = r.photon_stats() {
+                let power = r.lights().total_power;
+                for c in 0..3 {
+                    let (got, want) = (p.direct_flux[c], power[c]);
+                    assert!((got - want).abs() <= 1e-3 * want.abs().max(1e-30), "{what}: direct VPL flux {got} vs light power {want}");
+                    assert!(p.indirect_flux[c].is_finite() && p.indirect_flux[c] >= 0.0, "{what}: indirect flux {}", p.indirect_flux[c]);
+                }
+            }
+            assert_eq!(ctx.validation_errors(), 0, "{what}: validation error {:?}", ctx.first_validation_error());
+            renders += 1;
+        }
+    }
+    renders
+}
+
+#[test]
+fn generated_stress_scenes_in_every_mode_and_view() {
+    let ctx = context();
+    let mut total = 0;
+    for case in cases() {
+        let n = check_case(&ctx, &case);
+        eprintln!("{}: {n} mode × view runs clean", case.name);
+        total += n;
+    }
+    eprintln!("{total} runs in all");
+    assert!(total > 200, "the suite should cover many mode × view combinations: {total}");
+}
+
+/// Furnaces at extreme radiance and scale: the closed form L = Le / (1 − ρ) must hold.
+#[test]
+fn extreme_furnaces_match_the_closed_form() {
+    for (albedo, le, size) in [(0.5f32, 1e6f32, 2e-4f32), (0.5, 1e-6, 2e5), (0.9, 1.0, 2.0)] {
+        let scene = load_json(&furnace_box_gltf(albedo, le, size), "furnace");
+        let frames = 16;
+        let settings = RenderSettings { max_bounces: -1, seed: 3, ..small(32, 32, frames) };
+        let out = render(&scene, &settings);
+        let expected = le as f64 / (1.0 - albedo as f64);
+        let (mean, se) = image_mean_and_se(&out, frames, 0..32 * 32);
+        eprintln!("furnace ρ={albedo} Le={le:e} size={size:e}: {mean:e} vs {expected:e} (se {se:.2e})");
+        // 4 standard errors, plus float rounding of the running mean.
+        assert!((mean - expected).abs() <= 4.0 * se + 1e-6 * expected, "ρ={albedo} Le={le:e} size={size:e}: mean {mean:e} vs {expected:e}");
+    }
+}
+
+/// A constant-radiance case (a closed box of albedo 0 emitting 0.1 everywhere: every sample is
+/// exactly 0.1) accumulated over many frames: the compensated running mean stays at 0.1 to float
+/// precision, where a plain float sum would drift by ~1e-4 after this many frames.
+#[test]
+fn long_accumulation_keeps_the_mean_at_float_precision() {
+    let scene = load_json(&furnace_box_gltf(0.0, 0.1, 2.0), "constant");
+    let ctx = context();
+    let settings = RenderSettings { max_bounces: -1, ..small(4, 4, 1) };
+    let gpu = upload(&ctx, &scene, &settings);
+    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let camera = r.initial_camera();
+    let frames = 20_000;
+    for _ in 0..frames {
+        r.submit_frame(&camera, false).unwrap();
+    }
+    r.complete_all().unwrap();
+    assert_eq!(r.accumulated(), frames);
+    for p in r.read_mean().unwrap() {
+        for c in p {
+            assert!((c - 0.1).abs() <= 2.0 * f32::EPSILON * 0.1, "mean {c} after {frames} frames of exactly 0.1");
+        }
+    }
+    assert_eq!(ctx.validation_errors(), 0);
+}
