@@ -184,7 +184,8 @@ gpu_struct! {
     pub prev_camera_position: [f32; 3],
     pub prev_tan_half_fov: f32,
     pub prev_camera_right: [f32; 3],
-    pub _pad1: u32,
+    /// Tests only: `POISON_*`, a pass that writes a NaN (0: none).
+    pub debug_poison: u32,
     pub prev_camera_up: [f32; 3],
     pub _pad2: u32,
     pub prev_camera_forward: [f32; 3],
@@ -279,6 +280,9 @@ pub const SHADE_VIEW_RESERVOIR_M: u32 = 2;
 pub const SHADE_VIEW_VPL_KIND: u32 = 3;
 pub const SHADE_VIEW_MOTION: u32 = 4;
 
+/// `GpuFrame::debug_poison`: `vpl_shade` writes a NaN at pixel (1, 1) (tests of `--check-finite`).
+pub const POISON_VPL_SHADE: u32 = 1;
+
 /// `vpl_view`'s `mode` push constant: clear the sphere buffers (per pixel), splat the nearest
 /// sphere depth (per VPL), record the VPL at that depth (per VPL), draw (per pixel).
 pub const VPL_VIEW_CLEAR: u32 = 0;
@@ -322,6 +326,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     SHADE_VIEW_RESERVOIR_M,
     SHADE_VIEW_VPL_KIND,
     SHADE_VIEW_MOTION,
+    POISON_VPL_SHADE,
     VPL_VIEW_CLEAR,
     VPL_VIEW_DEPTH,
     VPL_VIEW_ID,

@@ -137,9 +137,26 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         outputs.push(path.display().to_string());
     }
     let progress = Progress::new(settings.progress, settings.frames as u64);
+    let dump = settings.dump_passes_selection()?;
+    let mut dumped = Vec::new();
     for f in 0..settings.frames {
         let last = f + 1 == settings.frames;
-        renderer.render_frame(&camera_at(f), last && settings.out_dir.is_some())?;
+        let preview = last && settings.out_dir.is_some();
+        let dump_this = dump.as_ref().is_some_and(|d| d.contains(f, settings.frames));
+        if dump_this || settings.check_finite {
+            let (stats, captured) = renderer.render_frame_captured(&camera_at(f), preview)?;
+            if settings.check_finite {
+                crate::dump::check_finite(f, settings.width, settings.height, &captured)?;
+            }
+            if let (true, Some(dir)) = (dump_this, &settings.out_dir) {
+                let plan = renderer.last_plan().context("a frame was just recorded")?.clone();
+                let variance = Some(renderer.read_variance()?);
+                let dir = dir.join("passes");
+                dumped.push(crate::dump::write_frame(&dir, f, settings.width, settings.height, settings, &plan, &stats, &captured, variance)?);
+            }
+        } else {
+            renderer.render_frame(&camera_at(f), preview)?;
+        }
         if let Some(dir) = &settings.out_dir {
             if settings.save_every > 0 && (f + 1) % settings.save_every == 0 {
                 let path = dir.join(format!("accum_{:04}.exr", f + 1));
@@ -150,6 +167,15 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         progress.tick();
     }
     progress.finish();
+    if let (false, Some(dir)) = (dumped.is_empty(), &settings.out_dir) {
+        let dir = dir.join("passes");
+        if let Some(vpls) = renderer.read_vpls()? {
+            let ply = dir.join("vpls.ply");
+            crate::ply::write_vpls(&ply, &vpls)?;
+            outputs.push(ply.display().to_string());
+        }
+        outputs.push(crate::dump::write_inspector(&dir, &dumped)?.display().to_string());
+    }
     let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, outputs, warnings, start, None)?;
     let mean = renderer.read_mean()?;
     let variance = renderer.read_variance()?;
@@ -159,6 +185,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
 /// What every run ends with, headless or windowed: final.exr and final.png (when the settings have
 /// an output directory; the last frame must have been rendered with a preview), and the summary,
 /// written as summary.json beside them. `frames`: frames rendered in the run.
+#[allow(clippy::too_many_arguments)]
 pub fn finish_run(
     ctx: &Context,
     scene: &SceneGpu,

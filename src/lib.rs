@@ -6,6 +6,7 @@
 //! [`renderer`] (submission), [`headless`] (runs and outputs).
 
 pub mod camera;
+pub mod dump;
 pub mod eval;
 pub mod gpu_types;
 pub mod headless;

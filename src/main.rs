@@ -112,6 +112,14 @@ struct RenderArgs {
     /// Write the VPLs as a PLY point cloud (opens in MeshLab/Blender).
     #[arg(long, value_name = "FILE.ply")]
     dump_vpls: Option<PathBuf>,
+    /// Write every pass's outputs of these frames (`0,19`, `last` or `all`) to OUT/passes: EXR
+    /// and PNG per output, manifest.json per frame, index.html (the inspector page).
+    #[arg(long, value_name = "FRAMES")]
+    dump_passes: Option<String>,
+    /// Check every pass's outputs for NaN/Inf every frame; stop at the first one, naming the frame,
+    /// pass, buffer and pixels (costs a copy per pass; nothing when off).
+    #[arg(long)]
+    check_finite: bool,
     /// What the image shows: the estimate; the VPLs as spheres (blue direct, red indirect); the
     /// final reservoir's W or M or the kind of VPL it holds; or only direct / only indirect light.
     #[arg(long, value_parser = named::<View>(), default_value_t = DEFAULTS.view)]
@@ -423,6 +431,8 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         photon_min_bounces: cli.photon_min_bounces,
         photon_max_bounces: cli.photon_max_bounces,
         dump_vpls: cli.dump_vpls.clone(),
+        dump_passes: cli.dump_passes.clone(),
+        check_finite: cli.check_finite,
         view: cli.view,
         vpl_radius: cli.vpl_radius,
         candidates: cli.candidates,

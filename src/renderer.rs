@@ -218,7 +218,87 @@ pub struct Renderer {
     state: FrameState,
     log: FrameLog,
     last_stats: FrameStats,
+    /// Host-visible buffer the captured pass outputs are copied into (`--dump-passes`,
+    /// `--check-finite`); allocated on first use.
+    capture_buffer: Option<Buffer>,
+    /// The pass list of the last frame recorded (what ran, what was skipped and why).
+    last_plan: Option<FramePlan>,
+    /// Tests only (`RESTIR_VPL_DEBUG_POISON=vpl_shade`): a pass writes a NaN, so that
+    /// `--check-finite` can be shown to find it.
+    debug_poison: u32,
     ctx: Arc<Context>,
+}
+
+/// What a captured pass output holds, per pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CaptureKind {
+    /// `GpuSurface`.
+    Surfaces,
+    /// RGBA f32 (samples, the running mean).
+    Rgba,
+    /// `GpuReservoir`.
+    Reservoirs,
+    /// RGBA8 sRGB (the preview).
+    Rgba8,
+}
+
+impl CaptureKind {
+    pub fn bytes_per_pixel(self) -> u64 {
+        match self {
+            CaptureKind::Surfaces => std::mem::size_of::<crate::gpu_types::GpuSurface>() as u64,
+            CaptureKind::Rgba => 16,
+            CaptureKind::Reservoirs => std::mem::size_of::<crate::gpu_types::GpuReservoir>() as u64,
+            CaptureKind::Rgba8 => 4,
+        }
+    }
+}
+
+/// One pass's output as it stood right after the pass ran.
+#[derive(Clone, Debug)]
+pub struct Captured {
+    /// Position in the frame among the dispatches that ran (0-based).
+    pub position: usize,
+    pub pass: &'static str,
+    /// Which dispatch of a repeated pass (`restir_spatial` ×P).
+    pub repeat: u32,
+    /// The buffer's name in the code (the binding the pass writes).
+    pub buffer: &'static str,
+    pub kind: CaptureKind,
+    pub bytes: Vec<u8>,
+}
+
+/// A captured output's place in the capture buffer.
+#[derive(Clone, Copy, Debug)]
+struct CaptureMeta {
+    position: usize,
+    pass: &'static str,
+    repeat: u32,
+    buffer: &'static str,
+    kind: CaptureKind,
+    offset: u64,
+    size: u64,
+}
+
+/// Where a dispatch's output lies: (buffer name, kind, source buffer, byte offset in it).
+fn dispatch_output<'a>(
+    d: crate::passes::Dispatch,
+    targets: &'a FrameTargets,
+    reservoirs: Option<&'a Reservoirs>,
+    current: usize,
+    surface_half: u32,
+) -> Option<(&'static str, CaptureKind, &'a Buffer, u64)> {
+    use crate::passes::*;
+    let pixels = targets.pixels() as u64;
+    Some(match d.name {
+        GbufferPass::NAME => ("surfaces", CaptureKind::Surfaces, &targets.surfaces, surface_half as u64 * pixels * CaptureKind::Surfaces.bytes_per_pixel()),
+        PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplViewPass::NAME => ("samples", CaptureKind::Rgba, &targets.samples, 0),
+        RestirInitialPass::NAME | RestirTemporalPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
+        // Spatial pass j reads buffer(current ^ (j & 1)) and writes the other one.
+        RestirSpatialPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(1 - (current ^ (d.repeat as usize & 1))), 0),
+        AccumulatePass::NAME => ("mean", CaptureKind::Rgba, &targets.mean, 0),
+        TonemapPass::NAME => ("preview", CaptureKind::Rgba8, &targets.preview, 0),
+        _ => return None,
+    })
 }
 
 impl Renderer {
@@ -266,6 +346,12 @@ impl Renderer {
             state: FrameState::default(),
             log,
             last_stats: FrameStats::default(),
+            capture_buffer: None,
+            last_plan: None,
+            debug_poison: match std::env::var("RESTIR_VPL_DEBUG_POISON").as_deref() {
+                Ok("vpl_shade") => crate::gpu_types::POISON_VPL_SHADE,
+                _ => 0,
+            },
             ctx,
         })
     }
@@ -603,6 +689,7 @@ impl Renderer {
             total_light_power: self.lights.set.total_power_lum as f32,
             exposure: 2f32.powf(s.exposure),
             scene_scale: self.scene.info.scale,
+            debug_poison: self.debug_poison,
             accumulated_frames: self.state.accumulated + 1,
             surface_offset: halves.0 * pixels,
             prev_surface_offset: halves.1 * pixels,
@@ -630,6 +717,33 @@ impl Renderer {
     /// are in flight (the window's loop). The slot it uses may still hold an older frame: that one
     /// is completed first, and its statistics are returned.
     pub fn submit_frame(&mut self, camera: &Camera, preview: bool) -> Result<Option<FrameStats>> {
+        Ok(self.submit(camera, preview, false)?.0)
+    }
+
+    /// Renders one frame as [`Renderer::render_frame`] does and also returns every pass's output
+    /// as it stood right after that pass ran (copied out between the passes: `--dump-passes`,
+    /// `--check-finite`). A frame rendered without it records no copies.
+    pub fn render_frame_captured(&mut self, camera: &Camera, preview: bool) -> Result<(FrameStats, Vec<Captured>)> {
+        self.complete_all()?;
+        let (_, metas) = self.submit(camera, preview, true)?;
+        self.complete_all()?;
+        let buffer = self.capture_buffer.as_ref().context("the capture buffer exists after a captured frame")?;
+        let mut captured = Vec::with_capacity(metas.len());
+        for m in metas {
+            captured.push(Captured {
+                position: m.position,
+                pass: m.pass,
+                repeat: m.repeat,
+                buffer: m.buffer,
+                kind: m.kind,
+                bytes: buffer.read(m.offset as usize, m.size as usize)?,
+            });
+        }
+        Ok((self.last_stats.clone(), captured))
+    }
+
+    /// Records and submits one frame; with `capture`, copies each pass's output aside after it.
+    fn submit(&mut self, camera: &Camera, preview: bool, capture: bool) -> Result<(Option<FrameStats>, Vec<CaptureMeta>)> {
         let start = Instant::now();
         let i = self.next_slot;
         let completed = if self.slots[i].pending.is_some() { Some(self.complete_frame(i)?) } else { None };
@@ -653,6 +767,15 @@ impl Renderer {
         let half = self.state.surface_half;
         let halves = if plan.gbuffer == Step::Run { (1 - half, half) } else { (half, half) };
         let constants = self.frame_constants(camera, &prev_camera, halves);
+        if capture {
+            // Room for every output a frame can write: G-buffer, two sample writers, the
+            // reservoirs after initial, temporal and each spatial pass, the mean and the preview.
+            let pixels = self.parts.targets.pixels() as u64;
+            let need = pixels * (80 + 2 * 16 + 16 * (2 + self.settings.restir.spatial_passes as u64) + 16 + 4);
+            if self.capture_buffer.as_ref().is_none_or(|b| b.size < need) {
+                self.capture_buffer = Some(Buffer::new(&self.ctx, "capture.pass_outputs", need, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?);
+            }
+        }
         let ctx = self.ctx.clone();
         let d = &ctx.device;
         let slot = &mut self.slots[i];
@@ -668,7 +791,28 @@ impl Renderer {
         slot.timer.reset(slot.cmd);
         // Orders this frame after the previous one's last reads of the shared targets.
         crate::vk::pipeline::compute_barrier(&ctx, slot.cmd);
-        self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan);
+        let mut metas = Vec::new();
+        if capture {
+            let targets = &self.parts.targets;
+            let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
+            let (current, pixels) = (plan.vpl.current, targets.pixels() as u64);
+            let cap = self.capture_buffer.as_ref().expect("allocated before recording");
+            let mut used = 0u64;
+            let mut hook = |cmd: vk::CommandBuffer, d: crate::passes::Dispatch| {
+                let Some((buffer, kind, src, offset)) = dispatch_output(d, targets, reservoirs, current, halves.0) else { return };
+                let size = kind.bytes_per_pixel() * pixels;
+                let region = [vk::BufferCopy::default().src_offset(offset).dst_offset(used).size(size)];
+                // SAFETY: both buffers are alive; the pass's barrier precedes the copy and the one
+                // below orders the passes after it (they may overwrite the source).
+                unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, cap.raw, &region) };
+                crate::vk::pipeline::compute_barrier(&ctx, cmd);
+                metas.push(CaptureMeta { position: metas.len(), pass: d.name, repeat: d.repeat, buffer, kind, offset: used, size });
+                used += size;
+            };
+            self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut hook);
+        } else {
+            self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut |_, _| {});
+        }
         let counters_size = 4 * RAY_SLOTS.len() as u64;
         // SAFETY: buffers alive; the barrier after the last pass orders the copies after it.
         unsafe {
@@ -704,7 +848,13 @@ impl Renderer {
         st.accumulated += 1;
         st.frame_index += 1;
         self.next_slot = (i + 1) % FRAME_SLOTS;
-        Ok(completed)
+        self.last_plan = Some(plan);
+        Ok((completed, metas))
+    }
+
+    /// The pass list of the last frame recorded: which passes ran, which were skipped and why.
+    pub fn last_plan(&self) -> Option<&FramePlan> {
+        self.last_plan.as_ref()
     }
 
     /// Waits for the frame in slot `i` and logs its statistics.

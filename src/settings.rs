@@ -290,6 +290,12 @@ pub struct RenderSettings {
     pub photon_max_bounces: u32,
     /// Write the VPLs as a PLY point cloud here.
     pub dump_vpls: Option<PathBuf>,
+    /// `--dump-passes`: frames whose pass outputs are written to `OUT/passes` (`0,19`, `last`,
+    /// `all`; see `crate::dump::FrameSelection`).
+    pub dump_passes: Option<String>,
+    /// `--check-finite`: capture every pass's outputs each frame and stop at the first
+    /// non-finite value.
+    pub check_finite: bool,
     pub view: View,
     /// VPL sphere radius for `--view vpls` (scene units); default 0.25% of the scene's diagonal.
     pub vpl_radius: Option<f32>,
@@ -331,6 +337,8 @@ impl Default for RenderSettings {
             photon_min_bounces: 0,
             photon_max_bounces: 8,
             dump_vpls: None,
+            dump_passes: None,
+            check_finite: false,
             view: View::Final,
             vpl_radius: None,
             candidates: 32,
@@ -372,8 +380,19 @@ impl RenderSettings {
     }
 
     /// Checks values the CLI cannot express as types; names the flag at fault.
+    /// The parsed `--dump-passes` selection.
+    pub fn dump_passes_selection(&self) -> anyhow::Result<Option<crate::dump::FrameSelection>> {
+        self.dump_passes
+            .as_deref()
+            .map(|s| crate::dump::FrameSelection::parse(s).map_err(|e| anyhow::anyhow!("--dump-passes {e}")))
+            .transpose()
+    }
+
     pub fn validate(&self) -> anyhow::Result<()> {
         use anyhow::bail;
+        if self.dump_passes_selection()?.is_some() && self.out_dir.is_none() {
+            bail!("--dump-passes writes to OUT/passes: give --out");
+        }
         if self.width == 0 || self.width > MAX_IMAGE_SIDE {
             bail!("--width {}: must be between 1 and {MAX_IMAGE_SIDE}", self.width);
         }

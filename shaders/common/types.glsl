@@ -93,7 +93,7 @@ struct Frame {
     vec3 prev_camera_position;
     float prev_tan_half_fov;
     vec3 prev_camera_right;
-    uint _pad1;
+    uint debug_poison;
     vec3 prev_camera_up;
     uint _pad2;
     vec3 prev_camera_forward;
@@ -146,6 +146,7 @@ const uint SHADE_VIEW_RESERVOIR_W = 1u;
 const uint SHADE_VIEW_RESERVOIR_M = 2u;
 const uint SHADE_VIEW_VPL_KIND = 3u;
 const uint SHADE_VIEW_MOTION = 4u;
+const uint POISON_VPL_SHADE = 1u;
 // vpl_view `mode`: the step of the dispatch.
 const uint VPL_VIEW_CLEAR = 0u;
 const uint VPL_VIEW_DEPTH = 1u;

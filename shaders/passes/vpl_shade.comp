@@ -45,6 +45,10 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
+    if (frame.debug_poison == POISON_VPL_SHADE && pixel == uvec2(1u, 1u)) {
+        samples[index] = vec4(vec3(uintBitsToFloat(0x7fc00000u)), 1.0);  // tests of --check-finite only
+        return;
+    }
     Surface s = surfaces[surface_slot(index)];
     VplParams p = pc.params;
     if (s.hit_t < 0.0) {

@@ -300,7 +300,10 @@ impl Passes {
         })
     }
 
-    /// Records one frame: the pass order of the renderer, in one place.
+    /// Records one frame: the pass order of the renderer, in one place. `after` is called after
+    /// each dispatch that runs (and its barrier), for `--dump-passes` and `--check-finite` to copy
+    /// what the pass wrote; a plain frame passes a no-op.
+    #[allow(clippy::too_many_arguments)]
     pub fn record_frame(
         &self,
         ctx: &Context,
@@ -309,6 +312,7 @@ impl Passes {
         scene_set: vk::DescriptorSet,
         targets: &FrameTargets,
         plan: &FramePlan,
+        after: &mut dyn FnMut(vk::CommandBuffer, Dispatch),
     ) {
         let (w, h, pixels) = (targets.width, targets.height, targets.pixels());
         // SAFETY: cmd is recording; the counter buffers are alive for the frame.
@@ -320,54 +324,65 @@ impl Passes {
         }
         compute_barrier(ctx, cmd);
 
-        scoped(ctx, cmd, timer, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
-        scoped(ctx, cmd, timer, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
+        scoped(ctx, cmd, timer, after, 0, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
+        scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
 
         // VPL modes: brute force, or initial RIS -> temporal -> spatial ×n -> shade.
         let v = &plan.vpl;
         let p = &v.params;
         if let Some(pass) = &self.vpl.bruteforce {
-            scoped(ctx, cmd, timer, &plan.vpl_bruteforce, VplBruteforcePass::NAME, |cmd| pass.record(cmd, scene_set, p, w, h));
+            scoped(ctx, cmd, timer, after, 0, &plan.vpl_bruteforce, VplBruteforcePass::NAME, |cmd| pass.record(cmd, scene_set, p, w, h));
         }
         if let Some(pass) = &self.vpl.initial {
-            scoped(ctx, cmd, timer, &plan.restir_initial, RestirInitialPass::NAME, |cmd| {
+            scoped(ctx, cmd, timer, after, 0, &plan.restir_initial, RestirInitialPass::NAME, |cmd| {
                 pass.record(cmd, scene_set, p, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.temporal {
-            scoped(ctx, cmd, timer, &plan.restir_temporal, RestirTemporalPass::NAME, |cmd| {
+            scoped(ctx, cmd, timer, after, 0, &plan.restir_temporal, RestirTemporalPass::NAME, |cmd| {
                 pass.record(cmd, scene_set, p, &v.restir, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.spatial {
             for j in 0..plan.spatial_passes() {
-                scoped(ctx, cmd, timer, &plan.restir_spatial, RestirSpatialPass::NAME, |cmd| {
+                scoped(ctx, cmd, timer, after, j, &plan.restir_spatial, RestirSpatialPass::NAME, |cmd| {
                     pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
                 });
             }
         }
         if let Some(pass) = &self.vpl.shade {
             let reservoir = v.final_buffer(plan.spatial_passes());
-            scoped(ctx, cmd, timer, &plan.vpl_shade, VplShadePass::NAME, |cmd| {
+            scoped(ctx, cmd, timer, after, 0, &plan.vpl_shade, VplShadePass::NAME, |cmd| {
                 pass.record(cmd, scene_set, p, v.view, &v.restir, reservoir, w, h)
             });
         }
         if let Some(view) = &self.vpl_view {
-            scoped(ctx, cmd, timer, &plan.vpl_view, VplViewPass::NAME, |cmd| view.record(cmd, scene_set, pixels));
+            scoped(ctx, cmd, timer, after, 0, &plan.vpl_view, VplViewPass::NAME, |cmd| view.record(cmd, scene_set, pixels));
         }
-        scoped(ctx, cmd, timer, &plan.accumulate, AccumulatePass::NAME, |cmd| {
+        scoped(ctx, cmd, timer, after, 0, &plan.accumulate, AccumulatePass::NAME, |cmd| {
             self.accumulate.record(cmd, scene_set, pixels, plan.reset_accumulation)
         });
-        scoped(ctx, cmd, timer, &plan.tonemap, TonemapPass::NAME, |cmd| self.tonemap.record(cmd, scene_set, pixels));
+        scoped(ctx, cmd, timer, after, 0, &plan.tonemap, TonemapPass::NAME, |cmd| self.tonemap.record(cmd, scene_set, pixels));
     }
 }
 
-/// Runs `record` inside a label + timestamp scope named `name`, followed by a barrier, if the
-/// plan says the pass runs.
+/// One dispatch of a pass as the frame records it: the pass's name and, for a pass dispatched
+/// several times in a frame (`restir_spatial` ×P), which time (0-based).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Dispatch {
+    pub name: &'static str,
+    pub repeat: u32,
+}
+
+/// Runs `record` inside a label + timestamp scope named `name`, followed by a barrier and the
+/// `after` hook, if the plan says the pass runs.
+#[allow(clippy::too_many_arguments)]
 fn scoped(
     ctx: &Context,
     cmd: vk::CommandBuffer,
     timer: &mut GpuTimer,
+    after: &mut dyn FnMut(vk::CommandBuffer, Dispatch),
+    repeat: u32,
     step: &Step,
     name: &'static str,
     record: impl FnOnce(vk::CommandBuffer),
@@ -379,4 +394,5 @@ fn scoped(
     record(cmd);
     timer.end(cmd);
     compute_barrier(ctx, cmd);
+    after(cmd, Dispatch { name, repeat });
 }

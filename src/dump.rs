@@ -1,0 +1,447 @@
+//! Pass-level debugging. `--dump-passes FRAMES` writes what every pass of the listed frames wrote,
+//! as it stood right after the pass ran, to `OUT/passes/frame_NNNN/NN_<pass>__<what>.exr` (NN: the
+//! dispatch's position in the frame), with `manifest.json` (pass order, skipped passes and why,
+//! dispatch sizes, bindings, GPU ms, rays, and per output min / max / mean / non-finite count) and
+//! `OUT/passes/index.html`, an inspector page. `--check-finite` captures the same outputs every
+//! frame without writing them and stops at the first non-finite value, naming the frame, the
+//! pass, the buffer and the pixels.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context as _, Result};
+use serde::Serialize;
+
+use crate::gpu_types::{GpuReservoir, GpuSurface, RESERVOIR_EMPTY};
+use crate::output::{write_exr, write_png, RgbImage};
+use crate::passes::{all_pass_descs, FramePlan, Step};
+use crate::renderer::{CaptureKind, Captured, FrameStats};
+
+/// Which frames `--dump-passes` writes: a list (`0,19`), `last` or `all`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum FrameSelection {
+    All,
+    Last,
+    List(Vec<u32>),
+}
+
+impl FrameSelection {
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s.trim() {
+            "all" => Ok(Self::All),
+            "last" => Ok(Self::Last),
+            list => {
+                let frames: Result<Vec<u32>, _> = list.split(',').map(|f| f.trim().parse::<u32>()).collect();
+                match frames {
+                    Ok(f) if !f.is_empty() => Ok(Self::List(f)),
+                    _ => Err(format!("'{s}': expected frame numbers separated by commas (0,19), 'last' or 'all'")),
+                }
+            }
+        }
+    }
+
+    /// Whether frame `f` of a run of `frames` frames is dumped.
+    pub fn contains(&self, f: u32, frames: u32) -> bool {
+        match self {
+            Self::All => true,
+            Self::Last => f + 1 == frames,
+            Self::List(l) => l.contains(&f),
+        }
+    }
+}
+
+/// One image decoded from a captured output: what it shows and its pixels.
+pub struct Decoded {
+    /// e.g. `position`, `w`, `rgb`.
+    pub what: &'static str,
+    /// How the page should show it: `hdr` (exposure + sRGB), `signed` (×0.5 + 0.5), `grey`
+    /// (normalised by the max), `ids` (false colour, not to be read as numbers).
+    pub look: &'static str,
+    pub image: RgbImage,
+}
+
+fn hash_colour(v: u32) -> [f32; 3] {
+    let mut h = v.wrapping_mul(0x9e37_79b9) ^ 0x5bd1_e995;
+    h ^= h >> 15;
+    h = h.wrapping_mul(0x2c1b_3c6d);
+    h ^= h >> 12;
+    [(h & 255) as f32 / 255.0, ((h >> 8) & 255) as f32 / 255.0, ((h >> 16) & 255) as f32 / 255.0]
+}
+
+/// The images a captured output decodes into.
+pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
+    let n = (width * height) as usize;
+    let img = |pixels: Vec<[f32; 3]>| RgbImage { width, height, pixels };
+    match c.kind {
+        CaptureKind::Surfaces => {
+            let s: &[GpuSurface] = bytemuck::cast_slice(&c.bytes[..n * std::mem::size_of::<GpuSurface>()]);
+            let ids = |s: &GpuSurface| if s.hit_t < 0.0 { [0.0; 3] } else { hash_colour(s.instance.wrapping_mul(65_599) ^ s.triangle) };
+            vec![
+                Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| s.position).collect()) },
+                Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()) },
+                Decoded { what: "albedo", look: "hdr", image: img(s.iter().map(|s| s.albedo).collect()) },
+                Decoded { what: "emission", look: "hdr", image: img(s.iter().map(|s| s.emission).collect()) },
+                Decoded { what: "depth", look: "grey", image: img(s.iter().map(|s| [s.view_depth; 3]).collect()) },
+                Decoded { what: "ids", look: "ids", image: img(s.iter().map(ids).collect()) },
+            ]
+        }
+        CaptureKind::Rgba => {
+            let v: &[[f32; 4]] = bytemuck::cast_slice(&c.bytes[..n * 16]);
+            vec![Decoded { what: c.buffer, look: "hdr", image: img(v.iter().map(|p| [p[0], p[1], p[2]]).collect()) }]
+        }
+        CaptureKind::Reservoirs => {
+            let r: &[GpuReservoir] = bytemuck::cast_slice(&c.bytes[..n * std::mem::size_of::<GpuReservoir>()]);
+            let vpl = |r: &GpuReservoir| if r.vpl == RESERVOIR_EMPTY { [0.0; 3] } else { hash_colour(r.vpl) };
+            vec![
+                Decoded { what: "vpl", look: "ids", image: img(r.iter().map(vpl).collect()) },
+                Decoded { what: "w", look: "grey", image: img(r.iter().map(|r| [r.ucw; 3]).collect()) },
+                Decoded { what: "m", look: "grey", image: img(r.iter().map(|r| [r.confidence; 3]).collect()) },
+                Decoded { what: "target", look: "grey", image: img(r.iter().map(|r| [r.target; 3]).collect()) },
+            ]
+        }
+        CaptureKind::Rgba8 => {
+            let decode = |b: u8| {
+                let c = b as f32 / 255.0;
+                if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
+            };
+            vec![Decoded {
+                what: c.buffer,
+                look: "hdr",
+                image: img(c.bytes[..n * 4].chunks_exact(4).map(|p| [decode(p[0]), decode(p[1]), decode(p[2])]).collect()),
+            }]
+        }
+    }
+}
+
+/// Pixels (row-major indices) where a captured output holds a non-finite float in any field.
+pub fn nonfinite_pixels(c: &Captured, pixels: usize) -> Vec<usize> {
+    let bpp = c.kind.bytes_per_pixel() as usize;
+    // Which 4-byte words of a pixel's record are floats (the rest are ids).
+    let float_word = |w: usize| match c.kind {
+        CaptureKind::Surfaces => !matches!(w, 7 | 11 | 15), // instance, triangle, material
+        CaptureKind::Reservoirs => w != 0,                  // vpl index
+        CaptureKind::Rgba => true,
+        CaptureKind::Rgba8 => false,
+    };
+    (0..pixels)
+        .filter(|&p| {
+            let rec = &c.bytes[p * bpp..(p + 1) * bpp];
+            rec.chunks_exact(4).enumerate().any(|(w, b)| float_word(w) && !f32::from_le_bytes(b.try_into().expect("4 bytes")).is_finite())
+        })
+        .collect()
+}
+
+/// Stops at the first non-finite value of a frame's captured outputs: names the frame, the pass,
+/// the buffer and the first pixels.
+pub fn check_finite(frame: u32, width: u32, height: u32, captured: &[Captured]) -> Result<()> {
+    for c in captured {
+        let bad = nonfinite_pixels(c, (width * height) as usize);
+        if !bad.is_empty() {
+            let first: Vec<String> = bad.iter().take(5).map(|&p| format!("({}, {})", p as u32 % width, p as u32 / width)).collect();
+            bail!(
+                "--check-finite: frame {frame}: pass '{}'{} wrote non-finite values to '{}' at {} pixel(s), first at {}",
+                c.pass,
+                if c.repeat > 0 { format!(" (dispatch {})", c.repeat + 1) } else { String::new() },
+                c.buffer,
+                bad.len(),
+                first.join(", ")
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Statistics of one output image over its finite values.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutputStats {
+    pub file: String,
+    pub buffer: &'static str,
+    pub what: &'static str,
+    pub look: &'static str,
+    pub min: f64,
+    pub max: f64,
+    pub mean: f64,
+    pub nonfinite: u64,
+}
+
+fn stats(file: String, buffer: &'static str, d: &Decoded) -> OutputStats {
+    let (mut min, mut max, mut sum, mut n, mut bad) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0u64, 0u64);
+    for p in &d.image.pixels {
+        for &c in p {
+            if c.is_finite() {
+                min = min.min(c as f64);
+                max = max.max(c as f64);
+                sum += c as f64;
+                n += 1;
+            } else {
+                bad += 1;
+            }
+        }
+    }
+    let finite_or_zero = |v: f64| if v.is_finite() { v } else { 0.0 };
+    OutputStats { file, buffer, what: d.what, look: d.look, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad }
+}
+
+/// A dumped frame: its manifest and every output image's values by file name (for the page's
+/// per-pixel readout).
+pub struct DumpedFrame {
+    pub manifest: FrameManifest,
+    pub values: Vec<(String, Vec<[f32; 3]>)>,
+}
+
+/// One pass of the frame, in order: run (with its outputs) or skipped (with why).
+#[derive(Clone, Debug, Serialize)]
+pub struct PassEntry {
+    pub position: Option<usize>,
+    pub pass: &'static str,
+    pub repeat: u32,
+    pub status: &'static str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub why: Option<&'static str>,
+    /// Workgroups dispatched (x, y, z) and the local size.
+    pub workgroups: Option<[u32; 3]>,
+    pub local_size: Option<[u32; 3]>,
+    /// The pass's set-1 bindings (its own buffers), by the names the code and shader use.
+    pub bindings: Vec<&'static str>,
+    /// GPU ms of the pass (all its dispatches this frame) and the rays it traced per pixel.
+    pub gpu_ms: Option<f64>,
+    pub rays_per_pixel: Option<f64>,
+    pub outputs: Vec<OutputStats>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameManifest {
+    pub frame: u32,
+    pub width: u32,
+    pub height: u32,
+    pub mode: String,
+    pub view: String,
+    pub passes: Vec<PassEntry>,
+}
+
+fn workgroups(local: [u32; 3], width: u32, height: u32) -> [u32; 3] {
+    if local[1] > 1 {
+        [width.div_ceil(local[0]), height.div_ceil(local[1]), 1]
+    } else {
+        [(width * height).div_ceil(local[0]), 1, 1]
+    }
+}
+
+/// Writes one frame's dump under `dir/frame_NNNN/` and returns its manifest (also written there as
+/// manifest.json). `variance`: the accumulation's per-pixel variance after the frame.
+#[allow(clippy::too_many_arguments)]
+pub fn write_frame(
+    dir: &Path,
+    frame: u32,
+    width: u32,
+    height: u32,
+    settings: &crate::RenderSettings,
+    plan: &FramePlan,
+    stats_of_frame: &FrameStats,
+    captured: &[Captured],
+    variance: Option<Vec<[f32; 3]>>,
+) -> Result<DumpedFrame> {
+    let fdir = dir.join(format!("frame_{frame:04}"));
+    std::fs::create_dir_all(&fdir).with_context(|| format!("--dump-passes: creating {}", fdir.display()))?;
+    let descs = all_pass_descs();
+    let pixels = (width * height).max(1) as f64;
+    let mut passes = Vec::new();
+    let mut values = Vec::new();
+    for (name, step) in plan.steps() {
+        let desc = descs.iter().find(|d| d.name == name);
+        let common = |position, repeat, status, why| PassEntry {
+            position,
+            pass: name,
+            repeat,
+            status,
+            why,
+            workgroups: None,
+            local_size: desc.map(|d| d.local_size),
+            bindings: desc.map(|d| d.bindings.iter().map(|b| b.name).collect()).unwrap_or_default(),
+            gpu_ms: None,
+            rays_per_pixel: None,
+            outputs: Vec::new(),
+        };
+        match step {
+            Step::Skip(why) => passes.push(common(None, 0, "skipped", Some(*why))),
+            Step::Run => {
+                for c in captured.iter().filter(|c| c.pass == name) {
+                    let mut e = common(Some(c.position), c.repeat, "run", None);
+                    e.workgroups = desc.map(|d| workgroups(d.local_size, width, height));
+                    e.gpu_ms = stats_of_frame.pass_ms.iter().find(|(n, _)| *n == name).map(|p| p.1);
+                    e.rays_per_pixel = stats_of_frame.rays_by_pass.iter().find(|(n, _)| *n == name).map(|p| p.1 as f64 / pixels);
+                    let mut decoded = decode(c, width, height);
+                    if c.buffer == "mean" {
+                        if let Some(v) = &variance {
+                            decoded.push(Decoded { what: "variance", look: "grey", image: RgbImage { width, height, pixels: v.clone() } });
+                        }
+                    }
+                    for d in &decoded {
+                        let file = format!("{:02}_{}__{}.exr", c.position, dump_name(c), d.what);
+                        write_exr(&fdir.join(&file), width, height, &d.image.pixels)?;
+                        write_png(&fdir.join(file.replace(".exr", ".png")), width, height, &thumbnail(d))?;
+                        e.outputs.push(stats(file.clone(), c.buffer, d));
+                        values.push((file, d.image.pixels.clone()));
+                    }
+                    passes.push(e);
+                }
+            }
+        }
+    }
+    let manifest = FrameManifest {
+        frame,
+        width,
+        height,
+        mode: settings.mode.name().into(),
+        view: settings.view.name().into(),
+        passes,
+    };
+    let path = fdir.join("manifest.json");
+    std::fs::write(&path, serde_json::to_string_pretty(&manifest)?).with_context(|| format!("writing {}", path.display()))?;
+    Ok(DumpedFrame { manifest, values })
+}
+
+/// A dispatch's name in file names: the pass, and for a repeated pass which dispatch.
+fn dump_name(c: &Captured) -> String {
+    if c.pass == crate::passes::RestirSpatialPass::NAME {
+        format!("{}{}", c.pass, c.repeat + 1)
+    } else {
+        c.pass.to_string()
+    }
+}
+
+/// The RGBA8 preview of a decoded image as the inspector shows it.
+pub fn thumbnail(d: &Decoded) -> Vec<u8> {
+    let max = d.image.pixels.iter().flatten().filter(|c| c.is_finite()).fold(0f32, |m, &c| m.max(c.abs())).max(1e-30);
+    let map = |c: f32| -> f32 {
+        if !c.is_finite() {
+            return 0.0;
+        }
+        match d.look {
+            "signed" => 0.5 + 0.5 * (c / max),
+            "grey" => c / max,
+            "ids" => c,
+            _ => {
+                let c = c.clamp(0.0, 1.0);
+                if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 }
+            }
+        }
+    };
+    let mut out = Vec::with_capacity(d.image.pixels.len() * 4);
+    for p in &d.image.pixels {
+        let bad = p.iter().any(|c| !c.is_finite());
+        // Non-finite pixels in magenta.
+        let rgb = if bad { [1.0, 0.0, 1.0] } else { [map(p[0]), map(p[1]), map(p[2])] };
+        out.extend(rgb.iter().map(|&c| (c.clamp(0.0, 1.0) * 255.0).round() as u8));
+        out.push(255);
+    }
+    out
+}
+
+/// Most pixels whose values the page embeds for its per-pixel readout.
+const READOUT_MAX_PIXELS: u32 = 256 * 256;
+
+/// Writes `dir/index.html`: one self-contained page (PNG thumbnails beside it, no network) with
+/// each dumped frame's passes in order as an event list, every output's thumbnail and statistics,
+/// click to enlarge, and a per-pixel readout of every buffer on hover (values embedded in the
+/// page for images up to 256×256).
+pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
+    let mut html = String::from(INSPECTOR_HEAD);
+    let mut data = String::from("const FRAMES = [");
+    for DumpedFrame { manifest: m, values } in frames {
+        let readout = m.width * m.height <= READOUT_MAX_PIXELS;
+        let _ = write!(data, "{{frame:{},w:{},h:{},values:{{", m.frame, m.width, m.height);
+        if readout {
+            for (file, px) in values {
+                let flat: Vec<String> = px.iter().flat_map(|p| p.iter().map(|c| if c.is_finite() { format!("{c:.6e}") } else { "null".into() })).collect();
+                let _ = write!(data, "{:?}:[{}],", file, flat.join(","));
+            }
+        }
+        data.push_str("}},");
+        let _ = write!(html, "<section><h2>frame {} · {} · view {} · {}×{}</h2>", m.frame, m.mode, m.view, m.width, m.height);
+        if !readout {
+            let _ = write!(html, "<p class=note>per-pixel readout off above 256×256 pixels (read the EXR files)</p>");
+        }
+        html.push_str("<table><tr><th>#</th><th>pass</th><th>GPU ms</th><th>rays/px</th><th>groups</th><th>outputs</th></tr>");
+        for p in &m.passes {
+            if p.status == "skipped" {
+                let _ = write!(html, "<tr class=skip><td></td><td>{}</td><td colspan=4>skipped: {}</td></tr>", p.pass, esc(p.why.unwrap_or("")));
+                continue;
+            }
+            let _ = write!(
+                html,
+                "<tr><td>{}</td><td title=\"bindings: {}\">{}{}</td><td>{}</td><td>{}</td><td>{}</td><td class=outs>",
+                p.position.map(|x| x.to_string()).unwrap_or_default(),
+                esc(&p.bindings.join(", ")),
+                p.pass,
+                if p.pass == crate::passes::RestirSpatialPass::NAME { format!(" {}", p.repeat + 1) } else { String::new() },
+                p.gpu_ms.map(|v| format!("{v:.3}")).unwrap_or_default(),
+                p.rays_per_pixel.map(|v| format!("{v:.2}")).unwrap_or_default(),
+                p.workgroups.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).unwrap_or_default(),
+            );
+            for o in &p.outputs {
+                let png = format!("frame_{:04}/{}", m.frame, o.file.replace(".exr", ".png"));
+                let _ = write!(
+                    html,
+                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" width=128 onclick=\"big(this)\"><figcaption>{} <b>{}</b><br>min {:.3e} max {:.3e}<br>mean {:.3e}{}</figcaption></figure>",
+                    m.frame,
+                    o.file,
+                    o.buffer,
+                    o.what,
+                    o.min,
+                    o.max,
+                    o.mean,
+                    if o.nonfinite > 0 { format!("<br><span class=bad>{} non-finite</span>", o.nonfinite) } else { String::new() }
+                );
+            }
+            html.push_str("</td></tr>");
+        }
+        html.push_str("</table></section>");
+    }
+    data.push_str("];");
+    html.push_str("<div id=zoom onclick=\"this.style.display='none'\"><img id=zimg><pre id=readout></pre></div>\n<script>\n");
+    html.push_str(&data);
+    html.push_str(INSPECTOR_SCRIPT);
+    html.push_str("</script></body></html>\n");
+    let path = dir.join("index.html");
+    std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))?;
+    Ok(path)
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}
+
+const INSPECTOR_HEAD: &str = r#"<!doctype html><html><head><meta charset="utf-8"><title>restir-vpl passes</title>
+<style>
+body{font:13px system-ui,sans-serif;background:#1e1e1e;color:#ddd;margin:16px}
+h1{font-size:18px}h2{font-size:15px;margin-top:24px}
+table{border-collapse:collapse}td,th{border-bottom:1px solid #333;padding:4px 8px;vertical-align:top;text-align:left}
+tr.skip td{color:#777}.outs figure{display:inline-block;margin:0 8px 8px 0}
+figure img{image-rendering:pixelated;border:1px solid #444;cursor:zoom-in}figcaption{font-size:11px;color:#aaa}
+.bad{color:#f5a}.note{color:#aa8}
+#zoom{display:none;position:fixed;inset:0;background:rgba(0,0,0,.85);padding:24px}
+#zimg{image-rendering:pixelated;max-width:70vw;max-height:85vh;cursor:crosshair}
+#readout{position:fixed;right:16px;top:16px;width:26vw;white-space:pre-wrap;font:12px monospace;color:#eee}
+</style></head><body><h1>restir-vpl · pass outputs</h1>
+<p>Passes in the order the frame ran them; skipped passes say why. Click an output to enlarge it; hover a pixel for the values of every buffer of that frame there. Magenta: non-finite.</p>
+"#;
+
+const INSPECTOR_SCRIPT: &str = r#"
+function big(img){
+  const z=document.getElementById('zoom'), zi=document.getElementById('zimg');
+  zi.src=img.src; zi.dataset.frame=img.dataset.frame; z.style.display='block';
+  document.getElementById('readout').textContent=img.dataset.file;
+}
+document.getElementById('zimg').addEventListener('mousemove',e=>{
+  const zi=e.target, f=FRAMES.find(f=>String(f.frame)===zi.dataset.frame); if(!f)return;
+  const r=zi.getBoundingClientRect();
+  const x=Math.floor((e.clientX-r.left)/r.width*f.w), y=Math.floor((e.clientY-r.top)/r.height*f.h);
+  if(x<0||y<0||x>=f.w||y>=f.h)return;
+  const i=(y*f.w+x)*3; let t=`pixel (${x}, ${y})\n`;
+  const files=Object.keys(f.values);
+  if(!files.length){t+='(no readout for images this large)';}
+  for(const k of files){const v=f.values[k];const s=[v[i],v[i+1],v[i+2]].map(c=>c===null?'NaN/Inf':c.toPrecision(5));t+=`${k}: ${s.join(', ')}\n`;}
+  document.getElementById('readout').textContent=t;
+});
+"#;

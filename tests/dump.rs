@@ -1,0 +1,177 @@
+//! Pass-level debugging: `--dump-passes` writes every pass's outputs in the plan's order with a
+//! manifest and an inspector page; what the dump holds is what the passes computed (the final
+//! reservoir's W recombined on the CPU reproduces the shaded sample); `--check-finite` names the
+//! pass and pixel of a planted NaN and finds none in normal runs.
+
+mod common;
+
+use std::process::Command;
+
+use common::*;
+use glam::Vec3;
+use restir_vpl::gpu_types::{GpuReservoir, GpuSurface, GpuVpl, RESERVOIR_EMPTY, VPL_DIRECT_POINT};
+use restir_vpl::renderer::{CaptureKind, Renderer};
+use restir_vpl::scene::Scene;
+use restir_vpl::settings::{Attenuation, Mode};
+use restir_vpl::RenderSettings;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_restir-vpl"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR"));
+    if validate() {
+        c.arg("--validate");
+    }
+    c
+}
+
+const SMALL: [&str; 10] = ["--headless", "--width", "64", "--height", "64", "--vpls-direct", "2000", "--vpls-indirect", "2000", "--seed"];
+
+#[test]
+fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = bin().args(SMALL).args(["3", "--mode", "restir", "--frames", "3", "--dump-passes", "0,last", "--out", out]).output().unwrap();
+    assert!(!o.status.success(), "'0,last' is not a valid list");
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--dump-passes"), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = bin().args(SMALL).args(["3", "--mode", "restir", "--frames", "3", "--dump-passes", "0,2", "--out", out]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for (frame, expect) in [
+        // Frame 0: no history yet; frame 2: the G-buffer is kept (still camera) and history reused.
+        (0, vec!["gbuffer", "restir_initial", "restir_spatial", "vpl_shade", "accumulate"]),
+        (2, vec!["restir_initial", "restir_temporal", "restir_spatial", "vpl_shade", "accumulate", "tonemap"]),
+    ] {
+        let fdir = dir.path().join(format!("passes/frame_{frame:04}"));
+        let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(fdir.join("manifest.json")).unwrap()).unwrap();
+        let passes = m["passes"].as_array().unwrap();
+        let ran: Vec<&str> = passes.iter().filter(|p| p["status"] == "run").map(|p| p["pass"].as_str().unwrap()).collect();
+        assert_eq!(ran, expect, "frame {frame}: the passes that ran, in order");
+        // Every pass of the plan is listed, the skipped ones with a reason.
+        // (ten passes in the plan; one spatial pass)
+        assert_eq!(passes.len(), 10, "{m}");
+        for p in passes {
+            if p["status"] == "skipped" {
+                assert!(!p["why"].as_str().unwrap().is_empty(), "{p}");
+                continue;
+            }
+            assert!(p["gpu_ms"].as_f64().unwrap() >= 0.0 && !p["bindings"].as_array().unwrap().is_empty(), "{p}");
+            let outputs = p["outputs"].as_array().unwrap();
+            assert!(!outputs.is_empty(), "{p}");
+            for o in outputs {
+                let file = o["file"].as_str().unwrap();
+                assert!(file.starts_with(&format!("{:02}_", p["position"].as_u64().unwrap())), "{file}");
+                let img = restir_vpl::output::read_exr(&fdir.join(file)).unwrap();
+                assert_eq!((img.width, img.height), (64, 64));
+                assert!(fdir.join(file.replace(".exr", ".png")).exists());
+                assert_eq!(o["nonfinite"], 0, "{o}");
+                assert!(o["min"].as_f64().unwrap() <= o["mean"].as_f64().unwrap() && o["mean"].as_f64().unwrap() <= o["max"].as_f64().unwrap(), "{o}");
+            }
+        }
+        // Positions count up in the order the passes ran.
+        let positions: Vec<u64> = passes.iter().filter_map(|p| p["position"].as_u64()).collect();
+        assert_eq!(positions, (0..positions.len() as u64).collect::<Vec<_>>());
+    }
+    assert!(!dir.path().join("passes/frame_0001").exists(), "frame 1 was not asked for");
+    let html = std::fs::read_to_string(dir.path().join("passes/index.html")).unwrap();
+    for needle in ["frame 0", "frame 2", "restir_temporal", "skipped: no history before the first frame", "frame_0002/01_restir_temporal__w.png", "const FRAMES"] {
+        assert!(html.contains(needle), "index.html lacks {needle:?}");
+    }
+    assert!(!html.contains("http://") && !html.contains("https://"), "the page must not reach the network");
+    assert!(dir.path().join("passes/vpls.ply").exists());
+}
+
+/// The CPU's c_y(x): (ρ/π)·I(ω)·cos_x·G(d) with Yuksel's G, as method.md and shaders/restir/vpl.glsl.
+fn contribution(s: &GpuSurface, v: &GpuVpl, r2: f32) -> Vec3 {
+    let to_x = Vec3::from(s.position) - Vec3::from(v.position);
+    let d2 = to_x.length_squared();
+    let w = to_x / d2.sqrt();
+    let cos_x = -Vec3::from(s.shading_normal).dot(w);
+    if cos_x <= 0.0 || Vec3::from(s.geometric_normal).dot(w) >= 0.0 {
+        return Vec3::ZERO;
+    }
+    let emit = if v.kind == VPL_DIRECT_POINT { 0.25 } else { Vec3::from(v.normal).dot(w).max(0.0) };
+    let g = 2.0 / (d2 + r2 + d2.sqrt() * (d2 + r2).sqrt());
+    Vec3::from(s.albedo) / std::f32::consts::PI * Vec3::from(v.flux) * (emit * cos_x * g / std::f32::consts::PI)
+}
+
+#[test]
+fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
+    let ctx = context();
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let settings = RenderSettings { mode: Mode::Restir, vpls_direct: 2000, vpls_indirect: 2000, ..small(64, 64, 1) };
+    let gpu = upload(&ctx, &scene, &settings);
+    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let camera = r.initial_camera();
+    // Frame 0 traces the G-buffer; frame 1 keeps it (still camera) and reuses history.
+    let (_, first) = r.render_frame_captured(&camera, false).unwrap();
+    let (_, captured) = r.render_frame_captured(&camera, false).unwrap();
+    let vpls = r.read_vpls().unwrap().unwrap();
+    assert_eq!(r.settings().attenuation, Attenuation::Yuksel);
+    let r2 = r.vpl_summary().unwrap().yuksel_radius.unwrap().powi(2);
+    // Surfaces: frame 0's G-buffer; the final reservoirs: the last reservoir output before
+    // vpl_shade; the samples: vpl_shade's.
+    let surfaces_bytes = &first.iter().find(|c| c.kind == CaptureKind::Surfaces).unwrap().bytes;
+    let surfaces: &[GpuSurface] = bytemuck::cast_slice(surfaces_bytes);
+    let shade = captured.iter().position(|c| c.pass == "vpl_shade").unwrap();
+    let finals = captured[..shade].iter().rev().find(|c| c.kind == CaptureKind::Reservoirs).unwrap();
+    assert_eq!(finals.pass, "restir_spatial");
+    let reservoirs: &[GpuReservoir] = bytemuck::cast_slice(&finals.bytes);
+    let samples: &[[f32; 4]] = bytemuck::cast_slice(&captured[shade].bytes);
+    let (mut checked, mut shadowed) = (0, 0);
+    for i in 0..64 * 64 {
+        let (s, res, got) = (&surfaces[i], &reservoirs[i], samples[i]);
+        if s.hit_t < 0.0 || res.vpl == RESERVOIR_EMPTY {
+            continue;
+        }
+        let le = Vec3::from(s.emission);
+        let expected = le + contribution(s, &vpls[res.vpl as usize], r2) * res.ucw;
+        let got = Vec3::new(got[0], got[1], got[2]);
+        if (got - le).max_element() <= 0.0 && expected.max_element() > le.max_element() {
+            shadowed += 1; // the shadow ray found the VPL occluded: the sample is Le alone
+            continue;
+        }
+        for c in 0..3 {
+            assert!(
+                (got[c] - expected[c]).abs() <= 1e-4 * expected[c].abs() + 1e-6,
+                "pixel {i}: dumped sample {got} vs CPU Le + c·W = {expected} (W {}, VPL {})",
+                res.ucw,
+                res.vpl
+            );
+        }
+        checked += 1;
+    }
+    eprintln!("{checked} pixels recombined, {shadowed} shadowed");
+    assert!(checked > 2000 && shadowed < checked, "{checked} checked, {shadowed} shadowed");
+}
+
+#[test]
+fn check_finite_names_the_pass_and_pixel_of_a_planted_nan() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    // Normal runs: nothing non-finite in any pass.
+    for mode in ["restir", "pt", "ris"] {
+        let o = bin().args(SMALL).args(["5", "--mode", mode, "--frames", "2", "--check-finite", "--out", out]).output().unwrap();
+        assert!(o.status.success(), "{mode}: {}", String::from_utf8_lossy(&o.stderr));
+    }
+    // A NaN planted in vpl_shade's output at pixel (1, 1) (test-only switch).
+    let o = bin()
+        .args(SMALL)
+        .args(["5", "--mode", "uniform", "--frames", "2", "--check-finite", "--out", out])
+        .env("RESTIR_VPL_DEBUG_POISON", "vpl_shade")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "--check-finite must stop: {err}");
+    for needle in ["frame 0", "'vpl_shade'", "'samples'", "1 pixel(s)", "(1, 1)"] {
+        assert!(err.contains(needle), "the error should name {needle}: {err}");
+    }
+    // Without --check-finite the same run completes: accumulate counts and replaces the NaN.
+    let o = bin()
+        .args(SMALL)
+        .args(["5", "--mode", "uniform", "--frames", "2", "--out", out])
+        .env("RESTIR_VPL_DEBUG_POISON", "vpl_shade")
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["nonfinite_samples"], 2, "one NaN per frame, counted by accumulate: {s}");
+}
