@@ -5,7 +5,8 @@
 #     Debian 12, only when no such driver is present)
 #   - the Khronos validation layer (vulkan-validationlayers)
 #   - a C/C++ compiler for the glslang crate's build
-# With --test (the test command) also what the tests drive: Xvfb and xdotool for the window tests.
+# With --test (the test command) also what the tests drive: Xvfb and xdotool for the window tests,
+# headless Chromium for the pass inspector page (the main job never pulls a browser).
 # The main job does not pull these.
 # Idempotent and quiet when everything is there. Set RESTIR_VPL_SKIP_SETUP=1 to skip it entirely.
 set -euo pipefail
@@ -52,6 +53,7 @@ if [ "$for_tests" = 1 ]; then
   # The window tests: an X server, a way to press keys, and the libraries winit loads.
   command -v Xvfb >/dev/null 2>&1 || missing+=(xvfb)
   command -v xdotool >/dev/null 2>&1 || missing+=(xdotool)
+  command -v chromium >/dev/null 2>&1 || missing+=(chromium)
   for lib in libxkbcommon-x11-0 libxcursor1 libxi6 libx11-xcb1; do have_pkg "$lib" || missing+=("$lib"); done
 fi
 if [ ${#missing[@]} -gt 0 ]; then apt_install "${missing[@]}"; fi

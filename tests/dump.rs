@@ -175,3 +175,40 @@ fn check_finite_names_the_pass_and_pixel_of_a_planted_nan() {
     let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
     assert_eq!(s["nonfinite_samples"], 2, "one NaN per frame, counted by accumulate: {s}");
 }
+
+/// The inspector page in a real browser: headless Chromium loads it (no network) and its
+/// screenshot shows the thumbnails (many distinct colours, not a blank page). The test command's
+/// set-up installs Chromium; without it this test fails under CI=true and says so loudly elsewhere.
+#[test]
+fn the_inspector_page_renders_in_headless_chromium() {
+    let browser = ["chromium", "chromium-browser", "google-chrome"].into_iter().find(|b| {
+        Command::new("sh").args(["-c", &format!("command -v {b}")]).output().is_ok_and(|o| o.status.success())
+    });
+    let Some(browser) = browser else {
+        let msg = "the inspector test needs Chromium (bash scripts/test.sh installs it)";
+        if std::env::var("CI").is_ok_and(|v| v == "true") {
+            panic!("{msg}");
+        }
+        eprintln!("\n**********************************************************\n*** SKIPPED: {msg}\n**********************************************************\n");
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = bin().args(SMALL).args(["3", "--mode", "restir", "--frames", "1", "--dump-passes", "all", "--out", out]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let page = dir.path().join("passes/index.html");
+    let shot = dir.path().join("shot.png");
+    let o = Command::new(browser)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--hide-scrollbars", "--window-size=1200,900"])
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("--user-data-dir={}", dir.path().join("profile").display()))
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .unwrap();
+    assert!(shot.exists(), "no screenshot: {}", String::from_utf8_lossy(&o.stderr));
+    let img = image::open(&shot).unwrap().to_rgb8();
+    let mut colours: Vec<[u8; 3]> = img.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(colours.len() > 500, "the page looks blank: {} distinct colours", colours.len());
+}

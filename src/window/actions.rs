@@ -37,6 +37,8 @@ pub enum Action {
     /// F2: freeze the frame loop; F3: one frame while frozen.
     Freeze,
     Step,
+    /// F4: render one frame with every pass's outputs written to --out/passes (as --dump-passes).
+    DumpPasses,
     /// Esc: quit.
     Quit,
 }
@@ -64,6 +66,7 @@ pub const KEYS: &[(KeyCode, &str, Action, &str)] = &[
     (KeyCode::F1, "F1", Action::ToggleOverlay, "overlay on/off"),
     (KeyCode::F2, "F2", Action::Freeze, "freeze / resume the frame loop"),
     (KeyCode::F3, "F3", Action::Step, "one frame while frozen"),
+    (KeyCode::F4, "F4", Action::DumpPasses, "dump the next frame's pass outputs to --out/passes"),
     (KeyCode::Escape, "Esc", Action::Quit, "quit"),
 ];
 

@@ -349,6 +349,21 @@ impl App {
             Action::ToggleOverlay => r.overlay = !r.overlay,
             Action::Freeze => r.frozen = !r.frozen,
             Action::Step => r.step = r.frozen,
+            Action::DumpPasses => {
+                let camera = match &self.path {
+                    Some(p) => p.at(r.frames as f32),
+                    None => r.controller.camera(),
+                };
+                let (stats, captured) = r.renderer.render_frame_captured(&camera, true)?;
+                let s = r.renderer.settings().clone();
+                let dir = s.out_dir.clone().unwrap_or_else(|| PathBuf::from(".")).join("passes");
+                let plan = r.renderer.last_plan().context("a frame was just recorded")?.clone();
+                let variance = Some(r.renderer.read_variance()?);
+                let frame = crate::dump::write_frame(&dir, r.frames, s.width, s.height, &s, &plan, &stats, &captured, variance)?;
+                let page = crate::dump::write_inspector(&dir, &[frame])?;
+                r.message = format!("passes written: {}", page.display());
+                log::info!("{}", r.message);
+            }
             Action::Quit => event_loop.exit(),
         }
         Ok(())
