@@ -139,7 +139,22 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     let progress = Progress::new(settings.progress, settings.frames as u64);
     let dump = settings.dump_passes_selection()?;
     let mut dumped = Vec::new();
+    let mut renderdoc = settings.renderdoc_capture.map(|_| crate::vk::renderdoc::Capturer::attach(&ctx));
+    if let Some(rd) = &renderdoc {
+        if !rd.attached() {
+            log::warn!("--renderdoc-capture: {}", crate::vk::renderdoc::HOW_TO_CAPTURE);
+            warnings.push(format!("--renderdoc-capture: {}", crate::vk::renderdoc::HOW_TO_CAPTURE));
+        }
+    }
     for f in 0..settings.frames {
+        let capture_this = settings.renderdoc_capture == Some(f);
+        if capture_this {
+            // Everything earlier is complete, so the capture holds this frame's submission alone.
+            renderer.complete_all()?;
+            if let Some(rd) = &mut renderdoc {
+                rd.start();
+            }
+        }
         let last = f + 1 == settings.frames;
         let preview = last && settings.out_dir.is_some();
         let dump_this = dump.as_ref().is_some_and(|d| d.contains(f, settings.frames));
@@ -156,6 +171,13 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
             }
         } else {
             renderer.render_frame(&camera_at(f), preview)?;
+        }
+        if capture_this {
+            if let Some(rd) = &mut renderdoc {
+                if rd.end() {
+                    log::info!("RenderDoc: frame {f} captured");
+                }
+            }
         }
         if let Some(dir) = &settings.out_dir {
             if settings.save_every > 0 && (f + 1) % settings.save_every == 0 {

@@ -120,6 +120,10 @@ struct RenderArgs {
     /// pass, buffer and pixels (costs a copy per pass; nothing when off).
     #[arg(long)]
     check_finite: bool,
+    /// Wrap frame N's submission in a RenderDoc capture when running under RenderDoc (1.36 or later
+    /// for ray queries); otherwise say how to start under it and go on.
+    #[arg(long, value_name = "N")]
+    renderdoc_capture: Option<u32>,
     /// What the image shows: the estimate; the VPLs as spheres (blue direct, red indirect); the
     /// final reservoir's W or M or the kind of VPL it holds; or only direct / only indirect light.
     #[arg(long, value_parser = named::<View>(), default_value_t = DEFAULTS.view)]
@@ -433,6 +437,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         dump_vpls: cli.dump_vpls.clone(),
         dump_passes: cli.dump_passes.clone(),
         check_finite: cli.check_finite,
+        renderdoc_capture: cli.renderdoc_capture,
         view: cli.view,
         vpl_radius: cli.vpl_radius,
         candidates: cli.candidates,

@@ -296,6 +296,8 @@ pub struct RenderSettings {
     /// `--check-finite`: capture every pass's outputs each frame and stop at the first
     /// non-finite value.
     pub check_finite: bool,
+    /// `--renderdoc-capture N`: wrap frame N in a RenderDoc capture (when run under RenderDoc).
+    pub renderdoc_capture: Option<u32>,
     pub view: View,
     /// VPL sphere radius for `--view vpls` (scene units); default 0.25% of the scene's diagonal.
     pub vpl_radius: Option<f32>,
@@ -339,6 +341,7 @@ impl Default for RenderSettings {
             dump_vpls: None,
             dump_passes: None,
             check_finite: false,
+            renderdoc_capture: None,
             view: View::Final,
             vpl_radius: None,
             candidates: 32,
@@ -390,6 +393,11 @@ impl RenderSettings {
 
     pub fn validate(&self) -> anyhow::Result<()> {
         use anyhow::bail;
+        if let Some(n) = self.renderdoc_capture {
+            if n >= self.frames {
+                bail!("--renderdoc-capture {n}: the run renders frames 0..{} (--frames {})", self.frames.saturating_sub(1), self.frames);
+            }
+        }
         if self.dump_passes_selection()?.is_some() && self.out_dir.is_none() {
             bail!("--dump-passes writes to OUT/passes: give --out");
         }

@@ -258,3 +258,19 @@ fn pipeline_cache_is_saved_checked_and_a_foreign_file_ignored() {
     assert!(o.status.success());
     assert_eq!(std::fs::read_dir(off.path()).unwrap().count(), 0);
 }
+
+#[test]
+fn renderdoc_capture_without_renderdoc_says_how_and_goes_on() {
+    let out = tempfile::tempdir().unwrap();
+    let o = run(&[
+        "--headless", "--mode", "uniform", "--width", "16", "--height", "16", "--frames", "3", "--vpls-direct", "100",
+        "--vpls-indirect", "100", "--renderdoc-capture", "1", "--out", out.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("renderdoccmd capture"), "{}", stderr(&o));
+    assert!(out.path().join("final.exr").exists());
+    assert_fails(
+        &["--headless", "--frames", "3", "--renderdoc-capture", "3", "--width", "8", "--height", "8"],
+        &["--renderdoc-capture", "frames 0..2"],
+    );
+}

@@ -7,6 +7,7 @@ pub mod context;
 pub mod image;
 pub mod pipeline;
 pub mod pipeline_cache;
+pub mod renderdoc;
 pub mod timer;
 
 pub use buffer::Buffer;

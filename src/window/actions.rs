@@ -39,6 +39,8 @@ pub enum Action {
     Step,
     /// F4: render one frame with every pass's outputs written to --out/passes (as --dump-passes).
     DumpPasses,
+    /// F12: render one frame inside a RenderDoc capture (when running under RenderDoc).
+    RenderDocCapture,
     /// Esc: quit.
     Quit,
 }
@@ -67,6 +69,7 @@ pub const KEYS: &[(KeyCode, &str, Action, &str)] = &[
     (KeyCode::F2, "F2", Action::Freeze, "freeze / resume the frame loop"),
     (KeyCode::F3, "F3", Action::Step, "one frame while frozen"),
     (KeyCode::F4, "F4", Action::DumpPasses, "dump the next frame's pass outputs to --out/passes"),
+    (KeyCode::F12, "F12", Action::RenderDocCapture, "capture the next frame in RenderDoc (when run under it)"),
     (KeyCode::Escape, "Esc", Action::Quit, "quit"),
 ];
 

@@ -349,6 +349,20 @@ impl App {
             Action::ToggleOverlay => r.overlay = !r.overlay,
             Action::Freeze => r.frozen = !r.frozen,
             Action::Step => r.step = r.frozen,
+            Action::RenderDocCapture => {
+                let camera = r.controller.camera();
+                let mut rd = crate::vk::renderdoc::Capturer::attach(&r.ctx);
+                if rd.attached() {
+                    r.renderer.complete_all()?;
+                    rd.start();
+                    r.renderer.render_frame(&camera, true)?;
+                    rd.end();
+                    r.message = "RenderDoc: one frame captured".into();
+                } else {
+                    r.message = crate::vk::renderdoc::HOW_TO_CAPTURE.into();
+                }
+                log::info!("{}", r.message);
+            }
             Action::DumpPasses => {
                 let camera = match &self.path {
                     Some(p) => p.at(r.frames as f32),
