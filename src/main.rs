@@ -162,6 +162,10 @@ struct RenderArgs {
     /// (confidence weights as in the thesis: a few percent dark, fireflies).
     #[arg(long, value_parser = named::<Bias>(), default_value_t = DEFAULTS.restir.bias)]
     bias: Bias,
+    /// RTXDI's boiling filter after temporal reuse, strength in [0, 1] (0: off; 0.2 drops
+    /// reservoirs 41× over their 8×8 neighbourhood's mean weight). Biased.
+    #[arg(long, default_value_t = DEFAULTS.restir.boiling_filter)]
+    boiling_filter: f32,
     /// Shadow-test the initial ReSTIR sample, so that the targets include visibility (default off:
     /// unbiased either way; on costs two shadow rays per spatial neighbour).
     #[arg(long, value_enum)]
@@ -452,6 +456,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
             depth_threshold: cli.depth_threshold,
             bias: cli.bias,
             initial_visibility: cli.initial_visibility.map(Toggle::on),
+            boiling_filter: cli.boiling_filter,
         },
         attenuation: cli.attenuation,
         yuksel_radius: cli.yuksel_radius,

@@ -170,6 +170,9 @@ pub struct RestirSettings {
     /// Neighbours whose view depth differs by more than this fraction are rejected.
     pub depth_threshold: f32,
     pub bias: Bias,
+    /// RTXDI's boiling filter after temporal reuse: drop a reservoir whose weight sum exceeds its
+    /// 8×8 workgroup's mean non-zero one by 10/strength − 9 (0: off; biased when on).
+    pub boiling_filter: f32,
     /// Shadow-test the initial sample (targets include visibility). None: off (unbiased reuse
     /// stays unbiased without it; with it, two shadow rays per spatial neighbour).
     pub initial_visibility: Option<bool>,
@@ -188,6 +191,7 @@ impl Default for RestirSettings {
             // Unbiased by default: biased reuse is measurably dark (docs/results.md), the unbiased
             // one with unshadowed targets costs a few percent more.
             bias: Bias::Unbiased,
+            boiling_filter: 0.0,
             initial_visibility: None,
         }
     }
@@ -393,6 +397,9 @@ impl RenderSettings {
 
     pub fn validate(&self) -> anyhow::Result<()> {
         use anyhow::bail;
+        if !(0.0..=1.0).contains(&self.restir.boiling_filter) {
+            bail!("--boiling-filter {}: expected a strength in [0, 1] (0: off)", self.restir.boiling_filter);
+        }
         if let Some(n) = self.renderdoc_capture {
             if n >= self.frames {
                 bail!("--renderdoc-capture {n}: the run renders frames 0..{} (--frames {})", self.frames.saturating_sub(1), self.frames);

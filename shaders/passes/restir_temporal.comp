@@ -11,6 +11,8 @@
 //    G-buffer was not traced again this frame (still camera, no jitter) both techniques have the
 //    same target, so the heuristic reduces to confidence weights and the history's sample is known
 //    visible (its target there was positive).
+// With --boiling-filter S > 0, RTXDI's boiling filter then drops reservoirs whose weight sum is
+// more than 10/S - 9 times the mean non-zero weight sum of their 8x8 workgroup (biased).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -32,20 +34,15 @@ layout(push_constant) uniform Push {
     float mcap;
     float normal_threshold;
     float depth_threshold;
+    float boiling_strength;  // 0: off
 } pc;
 
 const uint SALT_TEMPORAL = 0x746du;
 
-void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy;
-    if (pixel.x >= frame.width || pixel.y >= frame.height) {
-        return;
-    }
-    uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[surface_slot(index)];
-    if (s.hit_t < 0.0) {
-        return;
-    }
+// The temporal merge of pixel `index`: true (with `result`) when it changes the canonical
+// reservoir `rc`; false when there is no history to merge (result = rc).
+bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, out Reservoir result, inout uint rays) {
+    result = rc;
     VplParams p = pc.params;
     bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
 
@@ -55,25 +52,23 @@ void main() {
         vec3 q = project_to_previous_frame(s.position);
         ivec2 pq = ivec2(floor(q.xy));
         if (q.z <= 0.0 || pq.x < 0 || pq.y < 0 || pq.x >= int(frame.width) || pq.y >= int(frame.height)) {
-            return;  // off screen or behind the previous camera: no history
+            return false;  // off screen or behind the previous camera: no history
         }
         prev_index = uint(pq.y) * frame.width + uint(pq.x);
         Surface sp = surfaces[prev_surface_slot(prev_index)];
         if (sp.hit_t < 0.0
             || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, pc.normal_threshold, pc.depth_threshold)) {
-            return;  // disoccluded: another surface (or none) was there
+            return false;  // disoccluded: another surface (or none) was there
         }
     }
-    Reservoir rc = reservoirs[index];
     Reservoir rh = history[prev_index];
     float mc = rc.confidence;
     float mh = min(rh.confidence, pc.mcap * mc);
     if (!(mh > 0.0)) {
-        return;
+        return false;
     }
     bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
     bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
-    uint rays = 0u;
 
     // Targets at this pixel: the canonical's was computed here; the history's sample is evaluated
     // here (visible for sure when unbiased and the surface point is the same).
@@ -104,7 +99,49 @@ void main() {
         stream_update(st, rh.vpl, m_h * pc_yh * rh.ucw, pc_yh, rand(rng));
     }
     st.confidence = mc + mh;
-    reservoirs[index] = stream_finish(st);
+    result = stream_finish(st);
+    return true;
+}
+
+shared float group_w[64];
+shared uint group_n[64];
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    bool inside = pixel.x < frame.width && pixel.y < frame.height;
+    uint index = inside ? pixel.y * frame.width + pixel.x : 0u;
+    uint rays = 0u;
+    bool changed = false;
+    Reservoir r = reservoir_empty(0.0);
+    if (inside) {
+        Surface s = surfaces[surface_slot(index)];
+        if (s.hit_t >= 0.0) {
+            changed = temporal_merge(pixel, index, s, reservoirs[index], r, rays);
+        }
+    }
+    // The boiling filter: every invocation of the workgroup takes part in the reduction.
+    if (pc.boiling_strength > 0.0) {
+        float w = reservoir_valid(r) ? r.ucw * r.target : 0.0;
+        uint lid = gl_LocalInvocationIndex;
+        group_w[lid] = w;
+        group_n[lid] = w > 0.0 ? 1u : 0u;
+        barrier();
+        for (uint stride = 32u; stride > 0u; stride >>= 1u) {
+            if (lid < stride) {
+                group_w[lid] += group_w[lid + stride];
+                group_n[lid] += group_n[lid + stride];
+            }
+            barrier();
+        }
+        float mean = group_n[0] > 0u ? group_w[0] / float(group_n[0]) : 0.0;
+        if (inside && boiling_rejects(w, mean, pc.boiling_strength)) {
+            r = reservoir_empty(r.confidence);
+            changed = true;
+        }
+    }
+    if (inside && changed) {
+        reservoirs[index] = r;
+    }
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_TEMPORAL], rays);
     }

@@ -55,6 +55,13 @@ Reservoir stream_finish(ReservoirStream s) {
     return r;
 }
 
+// RTXDI's boiling filter: a reservoir whose weight sum exceeds its neighbourhood's mean non-zero
+// weight sum by the factor 10/strength - 9 (strength 0.2: 41x) is a firefly about to spread
+// through reuse; the filter drops it. Biased (it removes energy). strength <= 0: off.
+bool boiling_rejects(float w_sum, float mean_nonzero_w_sum, float strength) {
+    return strength > 0.0 && mean_nonzero_w_sum > 0.0 && w_sum > mean_nonzero_w_sum * (10.0 / strength - 9.0);
+}
+
 Reservoir reservoir_empty(float confidence) {
     Reservoir r;
     r.vpl = RESERVOIR_EMPTY;

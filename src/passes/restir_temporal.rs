@@ -21,6 +21,8 @@ push_constants! {
         mcap: f32,
         normal_threshold: f32,
         depth_threshold: f32,
+        /// RTXDI's boiling filter strength (0: off).
+        boiling_strength: f32,
     }
 }
 
@@ -69,6 +71,7 @@ impl RestirTemporalPass {
             mcap: restir.mcap,
             normal_threshold: restir.normal_threshold,
             depth_threshold: restir.depth_threshold,
+            boiling_strength: restir.boiling_filter,
         };
         self.pipeline.dispatch_2d_variant(cmd, current, scene_set, bytemuck::bytes_of(&push), w, h);
     }
