@@ -421,6 +421,9 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
                 if ui.add(egui::Slider::new(&mut r.spatial_passes, 0..=4).text("spatial passes")).changed() {
                     what = Some("spatial passes".into());
                 }
+                if ui.add(egui::Slider::new(&mut r.boiling_filter, 0.0..=1.0).text("boiling filter")).changed() {
+                    what = Some("boiling filter".into());
+                }
             }
         });
         egui::CollapsingHeader::new("keys (F1 hides this)").default_open(false).show(ui, |ui| {
