@@ -165,3 +165,54 @@ fn cli_merge_references() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("a.exr") && err.contains("overlap") && !err.contains("panicked"), "{err}");
 }
+
+/// A reference's config keeps only what its mode's image depends on: a path-traced reference
+/// survives a change of ReSTIR's or the VPLs' settings, a RIS reference one of ReSTIR's, and none
+/// survives a change of what it does use. Configs written before a key was dropped still match.
+#[test]
+fn reference_configs_ignore_settings_the_mode_does_not_use() {
+    use restir_vpl::eval::reference::{reference_config, same_config};
+    use restir_vpl::settings::{Bias, Mode, RenderSettings};
+    let config = |f: &dyn Fn(&mut RenderSettings)| {
+        let mut s = RenderSettings::default();
+        f(&mut s);
+        reference_config(&s, "abc").unwrap()
+    };
+    let pt = config(&|s| s.mode = Mode::Pt);
+    let pt_other_restir = config(&|s| {
+        s.mode = Mode::Pt;
+        s.restir.bias = Bias::Biased;
+        s.vpls_direct = 7;
+        s.candidates = 3;
+    });
+    assert!(same_config(&pt, &pt_other_restir));
+    // Debugging and output flags never change the image.
+    assert_eq!(pt, config(&|s| {
+        s.mode = Mode::Pt;
+        s.check_finite = true;
+        s.renderdoc_capture = Some(3);
+        s.verbose = true;
+    }));
+    assert!(!same_config(&pt, &config(&|s| {
+        s.mode = Mode::Pt;
+        s.max_bounces = 2;
+    })));
+    assert!(!same_config(&pt, &config(&|s| s.mode = Mode::Ris)));
+
+    let ris = config(&|s| s.mode = Mode::Ris);
+    assert!(same_config(&ris, &config(&|s| {
+        s.mode = Mode::Ris;
+        s.restir.mcap = 3.0;
+    })));
+    assert!(!same_config(&ris, &config(&|s| {
+        s.mode = Mode::Ris;
+        s.candidates = 3;
+    })));
+
+    // An older file's config still holds the keys now dropped, with other values.
+    let mut old: serde_json::Value = serde_json::from_str(&pt).unwrap();
+    old.as_object_mut().unwrap().insert("restir".into(), serde_json::json!({"bias": "biased"}));
+    old.as_object_mut().unwrap().insert("candidates".into(), serde_json::json!(4));
+    assert!(same_config(&old.to_string(), &pt));
+    assert!(!same_config("not json", &pt));
+}

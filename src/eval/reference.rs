@@ -227,7 +227,7 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
         if m.seed != m0.seed {
             diffs.push(format!("seed {} vs {}", m0.seed, m.seed));
         }
-        if m.config != m0.config {
+        if !same_config(&m.config, &m0.config) {
             diffs.push(format!("config '{}' vs '{}'", m0.config, m.config));
         }
         if !diffs.is_empty() {
@@ -335,12 +335,61 @@ pub fn file_hash(path: &Path) -> Result<String> {
 pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<String> {
     let mut v = serde_json::to_value(settings)?;
     let obj = v.as_object_mut().expect("RenderSettings serialises to an object");
-    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls"] {
+    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture"] {
         obj.remove(k);
     }
     obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));
+    strip_unused(obj, settings.mode);
     // serde_json's map is ordered (BTreeMap), so the string is canonical.
     Ok(serde_json::to_string(&v)?)
+}
+
+/// Settings a mode's image does not depend on: a path-traced reference stays valid when, say,
+/// ReSTIR's defaults change.
+fn unused_keys(mode: Mode) -> &'static [&'static str] {
+    match mode {
+        Mode::Pt => &[
+            "restir",
+            "candidates",
+            "candidate_source",
+            "attenuation",
+            "vpl_radius",
+            "yuksel_radius",
+            "vpls_direct",
+            "vpls_indirect",
+            "photon_min_bounces",
+            "photon_max_bounces",
+        ],
+        Mode::Bruteforce | Mode::Uniform => &["restir", "candidates", "candidate_source"],
+        Mode::Ris => &["restir"],
+        Mode::Restir => &[],
+    }
+}
+
+fn strip_unused(obj: &mut serde_json::Map<String, serde_json::Value>, mode: Mode) {
+    for k in unused_keys(mode) {
+        obj.remove(*k);
+    }
+}
+
+/// Whether two references' configs ([`reference_config`]) describe the same image: equal once the
+/// settings their mode does not use are dropped (files written before a key was dropped still
+/// match). A config that is not JSON matches only itself.
+pub fn same_config(a: &str, b: &str) -> bool {
+    if a == b {
+        return true;
+    }
+    let parse = |s: &str| -> Option<serde_json::Value> {
+        let mut v: serde_json::Value = serde_json::from_str(s).ok()?;
+        let obj = v.as_object_mut()?;
+        let mode: Mode = serde_json::from_value(obj.get("mode")?.clone()).ok()?;
+        strip_unused(obj, mode);
+        Some(v)
+    };
+    match (parse(a), parse(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => false,
+    }
 }
 
 /// Modes whose partial references are independent samples of one answer (no state carried from
@@ -456,7 +505,7 @@ pub fn make_reference(
     let config = reference_config(settings, &file_hash(&settings.scene)?)?;
     let read_matching = || -> Result<(RgbImage, ReferenceMeta)> {
         let (image, meta) = read_reference(path)?;
-        if meta.config != config || meta.seed != settings.seed as u64 {
+        if !same_config(&meta.config, &config) || meta.seed != settings.seed as u64 {
             bail!(
                 "{} was rendered with other settings than this run's (scene, mode, size, seed or sampling flags \
                  differ); pass the flags it was made with, or choose another file",
