@@ -24,6 +24,7 @@ const VARIANTS: &[(&str, &str, &[(&str, &str)])] = &[
     ("passes/gbuffer.comp", "textured", &[("SCENE_TEXTURES", "1")]),
     ("passes/pathtrace.comp", "textured", &[("SCENE_TEXTURES", "1")]),
     ("passes/photon_emit.comp", "textured", &[("SCENE_TEXTURES", "1")]),
+    ("passes/vpl_compensate.comp", "textured", &[("SCENE_TEXTURES", "1")]),
 ];
 
 struct Includer {

@@ -280,6 +280,11 @@ pub const SHADE_VIEW_RESERVOIR_M: u32 = 2;
 pub const SHADE_VIEW_VPL_KIND: u32 = 3;
 pub const SHADE_VIEW_MOTION: u32 = 4;
 
+/// `vpl_compensate`'s `first_hop` push constant: what the light found by its first ray carries
+/// (the view's share of the image): the emission seen, and the VPL estimate + recursion there.
+pub const COMPENSATE_EMISSION: u32 = 1;
+pub const COMPENSATE_VPLS: u32 = 2;
+
 /// `GpuFrame::debug_poison`: `vpl_shade` writes a NaN at pixel (1, 1) (tests of `--check-finite`).
 pub const POISON_VPL_SHADE: u32 = 1;
 
@@ -326,6 +331,8 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     SHADE_VIEW_RESERVOIR_M,
     SHADE_VIEW_VPL_KIND,
     SHADE_VIEW_MOTION,
+    COMPENSATE_EMISSION,
+    COMPENSATE_VPLS,
     POISON_VPL_SHADE,
     VPL_VIEW_CLEAR,
     VPL_VIEW_DEPTH,

@@ -176,6 +176,11 @@ struct RenderArgs {
     /// Yuksel's r in scene units (default: the mean VPL spacing, sqrt(scene area / (pi * VPLs))).
     #[arg(long)]
     yuksel_radius: Option<f32>,
+    /// Add back the energy Yuksel's clamp removes near each VPL (Kollig & Keller 2004): one
+    /// cosine-sampled ray per pixel, recursively, so VPL modes converge to the path tracer for any
+    /// --yuksel-radius.
+    #[arg(long)]
+    compensate: bool,
     /// Sample glTF base colour textures (off: base colour factors only; a scene without textures
     /// never compiles the texture path).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.textures))]
@@ -461,6 +466,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         attenuation: cli.attenuation,
         yuksel_radius: cli.yuksel_radius,
         textures: cli.textures.on(),
+        compensate: cli.compensate,
     })
 }
 

@@ -16,13 +16,13 @@ use gpu_allocator::MemoryLocation;
 
 use crate::camera::Camera;
 use crate::gpu_types::{
-    GpuFrame, GpuVplParams, ATTENUATION_INVERSE_SQUARE, ATTENUATION_YUKSEL, FRAME_AA, KIND_MASK_DIRECT,
+    GpuFrame, GpuVplParams, COMPENSATE_EMISSION, COMPENSATE_VPLS, ATTENUATION_INVERSE_SQUARE, ATTENUATION_YUKSEL, FRAME_AA, KIND_MASK_DIRECT,
     KIND_MASK_INDIRECT, VPL_FLAG_INITIAL_VISIBILITY, VPL_FLAG_SAME_DOMAIN, VPL_FLAG_UNBIASED,
 };
 use crate::output::TimingStats;
 use crate::passes::{
     FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirInitialPass, RestirSpatialPass,
-    RestirTemporalPass, Step, VplBruteforcePass, VplFrame, VplInputs, VplShadePass, VplViewPass, RAY_SLOTS,
+    RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplShadePass, VplViewPass, RAY_SLOTS,
 };
 use crate::lights::{LightSet, PointEmitter};
 use crate::scene_gpu::{LightBuffers, SceneGpu};
@@ -119,6 +119,9 @@ struct VplSetup {
     /// Where the radius came from.
     yuksel_radius_source: Option<&'static str>,
     params: GpuVplParams,
+    /// `vpl_compensate`'s parameters (its own candidate count) and `COMPENSATE_*` bits; the bits
+    /// are 0 when the pass does not run (no `--compensate`, or a view that is not light).
+    compensate: (GpuVplParams, u32),
     _alias: Buffer,
     reservoirs: Option<Reservoirs>,
 }
@@ -136,6 +139,19 @@ pub struct VplSummary {
     /// Targets include visibility (initial sample shadow-tested).
     pub initial_visibility: bool,
     pub unbiased_reuse: bool,
+}
+
+/// What the first ray of `vpl_compensate` carries for `view` (`COMPENSATE_*` bits; 0: nothing,
+/// the pass does not run): the direct image misses the light of emitters near x; the indirect
+/// image the VPL light near x and everything after it; without GI there is no indirect light.
+pub fn compensate_first_hop(view: View, gi: bool) -> u32 {
+    let vpls = if gi { COMPENSATE_VPLS } else { 0 };
+    match view {
+        View::Final => COMPENSATE_EMISSION | vpls,
+        View::Direct => COMPENSATE_EMISSION,
+        View::Indirect => vpls,
+        _ => 0,
+    }
 }
 
 /// Largest pixel × VPL product a brute-force frame accepts (~2 h on lavapipe, seconds on a GPU).
@@ -291,7 +307,7 @@ fn dispatch_output<'a>(
     let pixels = targets.pixels() as u64;
     Some(match d.name {
         GbufferPass::NAME => ("surfaces", CaptureKind::Surfaces, &targets.surfaces, surface_half as u64 * pixels * CaptureKind::Surfaces.bytes_per_pixel()),
-        PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplViewPass::NAME => ("samples", CaptureKind::Rgba, &targets.samples, 0),
+        PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplCompensatePass::NAME | VplViewPass::NAME => ("samples", CaptureKind::Rgba, &targets.samples, 0),
         RestirInitialPass::NAME | RestirTemporalPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
         // Spatial pass j reads buffer(current ^ (j & 1)) and writes the other one.
         RestirSpatialPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(1 - (current ^ (d.repeat as usize & 1))), 0),
@@ -585,6 +601,12 @@ impl Renderer {
             }
             reservoirs = Some(res);
         }
+        let compensate_bits = if settings.compensate { compensate_first_hop(settings.view, settings.gi) } else { 0 };
+        if compensate_bits != 0 {
+            let textured = scene_gpu.textured && settings.textures;
+            passes.vpl.compensate = Some(VplCompensatePass::new(ctx, layout, textured, targets, &inputs)?);
+        }
+        let compensate = (GpuVplParams { candidates: settings.candidates.max(1), ..params }, compensate_bits);
         log::info!(
             "vpl: {vpl_count} VPLs, attenuation {:?}{}, {} candidate(s) from the {} source",
             settings.attenuation,
@@ -597,6 +619,7 @@ impl Renderer {
             yuksel_radius,
             yuksel_radius_source,
             params,
+            compensate,
             _alias: alias,
             reservoirs,
         })
@@ -637,7 +660,14 @@ impl Renderer {
                     // and its MIS weights reduce to confidence weights.
                     params.flags |= VPL_FLAG_SAME_DOMAIN;
                 }
-                VplFrame { params, restir: *r, view: s.view, current: st.current_reservoirs }
+                VplFrame {
+                    params,
+                    restir: *r,
+                    view: s.view,
+                    current: st.current_reservoirs,
+                    compensate_params: v.compensate.0,
+                    compensate_first_hop: v.compensate.1,
+                }
             }
             None => VplFrame::default(),
         };
@@ -655,6 +685,12 @@ impl Renderer {
                 "--spatial-passes 0 or --spatial-neighbours 0",
             ),
             vpl_shade: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
+            vpl_compensate: match self.parts.vpl.as_ref().map(|v| v.compensate.1) {
+                _ if !s.compensate => Step::Skip("no --compensate"),
+                Some(bits) if bits != 0 => shading(true, ""),
+                Some(_) => Step::Skip("the view shows no light to compensate"),
+                None => Step::Skip("mode has no VPLs"),
+            },
             vpl_view: match self.settings.view {
                 View::Vpls => Step::Run,
                 _ => Step::Skip("no --view vpls"),

@@ -314,6 +314,10 @@ pub struct RenderSettings {
     pub yuksel_radius: Option<f32>,
     /// Sample base-colour textures (off: base colour factors only, untextured shader variants).
     pub textures: bool,
+    /// `--compensate`: add back the energy Yuksel's clamp removes (Kollig & Keller 2004), so a
+    /// VPL mode converges to the path tracer for any radius (the `vpl_compensate` pass).
+    #[serde(default)]
+    pub compensate: bool,
 }
 
 impl Default for RenderSettings {
@@ -354,6 +358,7 @@ impl Default for RenderSettings {
             attenuation: Attenuation::Yuksel,
             yuksel_radius: None,
             textures: true,
+            compensate: false,
         }
     }
 }
@@ -397,6 +402,12 @@ impl RenderSettings {
 
     pub fn validate(&self) -> anyhow::Result<()> {
         use anyhow::bail;
+        if self.compensate && self.attenuation == Attenuation::InverseSquare {
+            bail!(
+                "--compensate: the inverse-square kernel removes no energy, there is nothing to compensate; \
+                 use it with --attenuation yuksel"
+            );
+        }
         if !(0.0..=1.0).contains(&self.restir.boiling_filter) {
             bail!("--boiling-filter {}: expected a strength in [0, 1] (0: off)", self.restir.boiling_filter);
         }

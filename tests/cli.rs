@@ -171,6 +171,7 @@ fn vpl_mode_flag_errors() {
     assert_fails(&with(&["--mode", "restir", "--mcap=-1"]), &["--mcap"]);
     assert_fails(&with(&["--mode", "restir", "--yuksel-radius=-3"]), &["--yuksel-radius -3"]);
     assert_fails(&with(&["--mode", "restir", "--attenuation", "inverse-square", "--yuksel-radius", "1"]), &["--yuksel-radius", "yuksel"]);
+    assert_fails(&with(&["--mode", "ris", "--attenuation", "inverse-square", "--compensate"]), &["--compensate", "yuksel"]);
     assert_fails(&with(&["--mode", "pt", "--view", "reservoir-w"]), &["--view reservoir-w", "no reservoirs"]);
     assert_fails(&with(&["--mode", "bruteforce", "--view", "vpl-kind"]), &["--view vpl-kind"]);
     assert_fails(&with(&["--mode", "pt", "--view", "indirect"]), &["--view indirect"]);

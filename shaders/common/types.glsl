@@ -121,6 +121,7 @@ const uint RAYS_TEMPORAL = 2u;
 const uint RAYS_SPATIAL = 3u;
 const uint RAYS_SHADE = 4u;
 const uint RAYS_BRUTEFORCE = 5u;
+const uint RAYS_COMPENSATE = 6u;
 
 const uint RESERVOIR_EMPTY = 0xFFFFFFFFu;
 
@@ -146,6 +147,9 @@ const uint SHADE_VIEW_RESERVOIR_W = 1u;
 const uint SHADE_VIEW_RESERVOIR_M = 2u;
 const uint SHADE_VIEW_VPL_KIND = 3u;
 const uint SHADE_VIEW_MOTION = 4u;
+// vpl_compensate `first_hop`: what the first compensation ray's hit carries.
+const uint COMPENSATE_EMISSION = 1u;
+const uint COMPENSATE_VPLS = 2u;
 const uint POISON_VPL_SHADE = 1u;
 // vpl_view `mode`: the step of the dispatch.
 const uint VPL_VIEW_CLEAR = 0u;

@@ -18,6 +18,18 @@ float vpl_attenuation(float d2, uint mode, float r2) {
     return 1.0 / d2;
 }
 
+// The share of the true geometry term 1/d^2 that Yuksel's kernel leaves out, in solid angle:
+// w(d) = 1 - d^2 G_r(d). With s = sqrt(d^2 + r^2) it is r^2 (s + 2d) / (s (s + d)^2), which has no
+// cancellation: 1 at d = 0, 0.414 at d = r, ~3r^2/(4d^2) for d >> r. 0 for r = 0 (inverse square).
+float yuksel_residual(float d2, float r2) {
+    if (!(r2 > 0.0)) {
+        return 0.0;
+    }
+    float d = sqrt(d2);
+    float s = sqrt(d2 + r2);
+    return clamp(r2 * (s + 2.0 * d) / (s * (s + d) * (s + d)), 0.0, 1.0);
+}
+
 bool vpl_kind_enabled(uint kind, uint kind_mask) {
     uint bit = kind == VPL_INDIRECT ? KIND_MASK_INDIRECT : KIND_MASK_DIRECT;
     return (kind_mask & bit) != 0u;

@@ -359,6 +359,7 @@ fn unused_keys(mode: Mode) -> &'static [&'static str] {
             "vpls_indirect",
             "photon_min_bounces",
             "photon_max_bounces",
+            "compensate",
         ],
         Mode::Bruteforce | Mode::Uniform => &["restir", "candidates", "candidate_source"],
         Mode::Ris => &["restir"],

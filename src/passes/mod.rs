@@ -14,6 +14,7 @@ pub mod restir_spatial;
 pub mod restir_temporal;
 pub mod tonemap;
 pub mod vpl_bruteforce;
+pub mod vpl_compensate;
 pub mod vpl_shade;
 pub mod vpl_view;
 
@@ -38,6 +39,7 @@ pub use restir_spatial::RestirSpatialPass;
 pub use restir_temporal::RestirTemporalPass;
 pub use tonemap::TonemapPass;
 pub use vpl_bruteforce::VplBruteforcePass;
+pub use vpl_compensate::VplCompensatePass;
 pub use vpl_shade::VplShadePass;
 pub use vpl_view::VplViewPass;
 
@@ -51,6 +53,7 @@ pub const ALL_PASSES: &[&PassDesc] = &[
     &RestirTemporalPass::DESC,
     &RestirSpatialPass::DESC,
     &VplShadePass::DESC,
+    &VplCompensatePass::DESC,
     &VplViewPass::DESC,
     &AccumulatePass::DESC,
     &TonemapPass::DESC,
@@ -63,13 +66,14 @@ pub fn all_pass_descs() -> Vec<&'static PassDesc> {
 
 /// Slots of `FrameTargets::ray_counter`: (the pass that traced them, the slot's `RAYS_*` constant
 /// in shaders/common/types.glsl, whose value is the index here).
-pub const RAY_SLOT_NAMES: [(&str, &str); 6] = [
+pub const RAY_SLOT_NAMES: [(&str, &str); 7] = [
     (PathtracePass::NAME, "RAYS_PATHTRACE"),
     (RestirInitialPass::NAME, "RAYS_INITIAL"),
     (RestirTemporalPass::NAME, "RAYS_TEMPORAL"),
     (RestirSpatialPass::NAME, "RAYS_SPATIAL"),
     (VplShadePass::NAME, "RAYS_SHADE"),
     (VplBruteforcePass::NAME, "RAYS_BRUTEFORCE"),
+    (VplCompensatePass::NAME, "RAYS_COMPENSATE"),
 ];
 
 /// The pass of each slot of `FrameTargets::ray_counter` (from [`RAY_SLOT_NAMES`]).
@@ -192,6 +196,7 @@ pub struct FramePlan {
     pub restir_temporal: Step,
     pub restir_spatial: Step,
     pub vpl_shade: Step,
+    pub vpl_compensate: Step,
     pub vpl_view: Step,
     pub accumulate: Step,
     pub tonemap: Step,
@@ -210,6 +215,10 @@ pub struct VplFrame {
     /// Reservoir buffer (0 = a, 1 = b) that receives this frame's initial reservoirs; the other
     /// holds the history.
     pub current: usize,
+    /// `vpl_compensate`'s parameters (its own RIS candidate count at the hits it finds).
+    pub compensate_params: GpuVplParams,
+    /// `vpl_compensate`'s `COMPENSATE_*` bits for the view.
+    pub compensate_first_hop: u32,
 }
 
 impl VplFrame {
@@ -229,6 +238,7 @@ impl FramePlan {
             (RestirTemporalPass::NAME, &self.restir_temporal),
             (RestirSpatialPass::NAME, &self.restir_spatial),
             (VplShadePass::NAME, &self.vpl_shade),
+            (VplCompensatePass::NAME, &self.vpl_compensate),
             (VplViewPass::NAME, &self.vpl_view),
             (AccumulatePass::NAME, &self.accumulate),
             (TonemapPass::NAME, &self.tonemap),
@@ -268,6 +278,8 @@ pub struct VplPasses {
     pub temporal: Option<RestirTemporalPass>,
     pub spatial: Option<RestirSpatialPass>,
     pub shade: Option<VplShadePass>,
+    /// Only with `--compensate`.
+    pub compensate: Option<VplCompensatePass>,
 }
 
 /// Every pass of the renderer.
@@ -327,7 +339,7 @@ impl Passes {
         scoped(ctx, cmd, timer, after, 0, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
         scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
 
-        // VPL modes: brute force, or initial RIS -> temporal -> spatial ×n -> shade.
+        // VPL modes: brute force, or initial RIS -> temporal -> spatial ×n -> shade; then compensate.
         let v = &plan.vpl;
         let p = &v.params;
         if let Some(pass) = &self.vpl.bruteforce {
@@ -354,6 +366,11 @@ impl Passes {
             let reservoir = v.final_buffer(plan.spatial_passes());
             scoped(ctx, cmd, timer, after, 0, &plan.vpl_shade, VplShadePass::NAME, |cmd| {
                 pass.record(cmd, scene_set, p, v.view, &v.restir, reservoir, w, h)
+            });
+        }
+        if let Some(pass) = &self.vpl.compensate {
+            scoped(ctx, cmd, timer, after, 0, &plan.vpl_compensate, VplCompensatePass::NAME, |cmd| {
+                pass.record(cmd, scene_set, &v.compensate_params, v.compensate_first_hop, w, h)
             });
         }
         if let Some(view) = &self.vpl_view {
