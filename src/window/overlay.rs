@@ -15,7 +15,7 @@ use winit::window::Window;
 use crate::eval::compare::{compare, to_srgb8, CompareOptions};
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
-use crate::settings::{Mode, NamedEnum, RenderSettings};
+use crate::settings::{Attenuation, Mode, NamedEnum, RenderSettings};
 use crate::vk::Context;
 
 use super::actions;
@@ -397,6 +397,15 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
                 what = Some("exposure".into());
             }
             combo(ui, "attenuation", &mut edited.attenuation, &mut what);
+            if edited.attenuation == Attenuation::InverseSquare {
+                edited.compensate = false; // nothing to compensate (and refused by validation)
+            }
+            if edited.attenuation == Attenuation::Yuksel
+                && s.mode.uses_vpls()
+                && ui.checkbox(&mut edited.compensate, "compensate the clamp (Kollig & Keller)").changed()
+            {
+                what = Some("compensation".into());
+            }
             if matches!(s.mode, Mode::Ris | Mode::Restir)
                 && ui.add(egui::Slider::new(&mut edited.candidates, 1..=1024).logarithmic(true).text("candidates")).changed()
             {
