@@ -155,17 +155,21 @@ fn cases() -> Vec<Case> {
     out
 }
 
-/// Every mode the renderer has (ReSTIR biased and unbiased, with and without visibility).
-fn modes() -> Vec<(&'static str, Mode, RestirSettings)> {
+/// Every mode the renderer has (ReSTIR biased and unbiased, with and without visibility), and the
+/// VPL modes with `--compensate` (its recursion runs into every corner and degenerate triangle).
+fn modes() -> Vec<(&'static str, Mode, RestirSettings, bool)> {
     let r = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), spatial_radius: 4.0, ..Default::default() };
     vec![
-        ("pt", Mode::Pt, RestirSettings::default()),
-        ("uniform", Mode::Uniform, RestirSettings::default()),
-        ("ris", Mode::Ris, RestirSettings::default()),
-        ("restir", Mode::Restir, r(Bias::Unbiased, false)),
-        ("restir+vis", Mode::Restir, r(Bias::Unbiased, true)),
-        ("restir biased", Mode::Restir, r(Bias::Biased, false)),
-        ("bruteforce", Mode::Bruteforce, RestirSettings::default()),
+        ("pt", Mode::Pt, RestirSettings::default(), false),
+        ("uniform", Mode::Uniform, RestirSettings::default(), false),
+        ("ris", Mode::Ris, RestirSettings::default(), false),
+        ("restir", Mode::Restir, r(Bias::Unbiased, false), false),
+        ("restir+vis", Mode::Restir, r(Bias::Unbiased, true), false),
+        ("restir biased", Mode::Restir, r(Bias::Biased, false), false),
+        ("bruteforce", Mode::Bruteforce, RestirSettings::default(), false),
+        ("ris compensated", Mode::Ris, RestirSettings::default(), true),
+        ("restir compensated", Mode::Restir, r(Bias::Unbiased, false), true),
+        ("bruteforce compensated", Mode::Bruteforce, RestirSettings::default(), true),
     ]
 }
 
@@ -179,9 +183,9 @@ fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> usize {
     let camera = Camera::look_at(Vec3::from(case.eye), Vec3::from(case.target), Vec3::Y, 50f32.to_radians(), "stress");
     let mut renders = 0;
     let mut r: Option<Renderer> = None;
-    for (label, mode, restir) in modes() {
+    for (label, mode, restir, compensate) in modes() {
         for view in View::ALL {
-            let s = RenderSettings { mode, restir, view: *view, ..base.clone() };
+            let s = RenderSettings { mode, restir, view: *view, compensate, ..base.clone() };
             if s.validate().is_err() {
                 continue; // a view this mode cannot show (the CLI refuses it too)
             }
