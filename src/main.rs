@@ -237,6 +237,12 @@ enum Command {
         /// (cached in --out/references). Writes --out/motion.md, motion.csv and plots/*_motion_rmse.svg.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons"])]
         motion: bool,
+        /// Instead: this device's raw ray rate on the three scenes (coherent primary rays and
+        /// incoherent shadow rays of random length, nothing else in the shader), and every tracing
+        /// pass's rays per second in real frames (uniform, RIS, ReSTIR, ReSTIR --compensate, pt) as
+        /// a share of it. Default size 1280×720.
+        #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion"])]
+        rays: bool,
         /// With --curves or --motion: a smoke test (tiny images, few frames and VPLs).
         #[arg(long)]
         quick: bool,
@@ -507,7 +513,7 @@ fn real_main(cli: Cli) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, rays, quick, out, checkpoints, runs }) =
         &cli.command
     {
         if (*quick || runs.is_some()) && !*curves && !*motion {
@@ -566,6 +572,25 @@ fn real_main(cli: Cli) -> Result<()> {
         }
         if *frames == 0 {
             bail!("--frames 0: at least one timed frame is needed");
+        }
+        if *rays {
+            let root = std::env::current_dir()?;
+            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+                device_index: *device,
+                ..Default::default()
+            })?);
+            let (w, h) = (width.unwrap_or(1280), height.unwrap_or(720));
+            let mut rows = Vec::new();
+            for spec in restir_vpl::eval::results::thesis_scenes(&root, 1.0) {
+                eprintln!("bench --rays: {}", spec.path.display());
+                rows.push(restir_vpl::eval::rays::measure(&ctx, &spec.path, w, h, *frames, *frames)?);
+            }
+            print!("{}", restir_vpl::eval::rays::markdown(&rows, &ctx.report.name));
+            if let Some(path) = json {
+                std::fs::write(path, serde_json::to_string_pretty(&rows)?)
+                    .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
+            }
+            return Ok(());
         }
         if *modes {
             let sizes = if width.is_some() || height.is_some() {

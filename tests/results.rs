@@ -82,3 +82,32 @@ fn results_quick_covers_the_three_scenes() {
     let csv = non_empty(&dir.path().join("motion.csv"));
     assert_eq!(csv.lines().count(), 1 + 3 * 5 * 4, "{csv}");
 }
+
+/// `bench --rays` at a tiny size: a raw primary and shadow rate for each of the three scenes, and
+/// a share for every tracing pass of every mode (gbuffer against primary rays, the rest against
+/// shadow rays), all positive and finite.
+#[test]
+fn bench_rays_reports_raw_rates_and_every_tracing_pass() {
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("rays.json");
+    let o = cli(&["bench", "--rays", "--width", "24", "--height", "16", "--frames", "1", "--json", json.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let rows: serde_json::Value = serde_json::from_str(&non_empty(&json)).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(rows.len(), 3, "three scenes");
+    for r in rows {
+        for kind in ["primary", "shadow"] {
+            let m = r[kind]["median"].as_f64().unwrap();
+            assert!(m.is_finite() && m > 0.0, "{kind} rate {m} in {r}");
+        }
+        let passes = r["passes"].as_array().unwrap();
+        for (mode, pass) in [("uniform", "vpl_shade"), ("restir", "gbuffer"), ("restir --compensate", "vpl_compensate"), ("pt", "pathtrace")] {
+            let p = passes.iter().find(|p| p["mode"] == mode && p["pass"] == pass).unwrap_or_else(|| panic!("{mode} {pass} missing: {r}"));
+            let share = p["share"].as_f64().unwrap();
+            assert!(share.is_finite() && share > 0.0, "{p}");
+            assert_eq!(p["against"], if pass == "gbuffer" { "primary" } else { "shadow" });
+        }
+    }
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("share of raw rate") && table.contains("vpl_compensate"), "{table}");
+}

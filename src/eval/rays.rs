@@ -1,0 +1,196 @@
+//! `bench --rays`: this device's raw ray rate on each scene — coherent primary rays and incoherent
+//! shadow rays of random length, with nothing else in the shader (shaders/bench/ray_rate.comp) —
+//! and every tracing pass's rays per second in real frames as a share of it.
+
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use ash::vk;
+use serde::Serialize;
+
+use crate::camera::Camera;
+use crate::gpu_types::GpuFrame;
+use crate::output::TimingStats;
+use crate::renderer::Renderer;
+use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
+use crate::settings::{Mode, RenderSettings};
+use crate::shaders;
+use crate::vk::pipeline::{storage, Binding};
+use crate::vk::{Buffer, ComputePipeline, Context, DescriptorSet, GpuTimer};
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Push {
+    bounds_lo: [f32; 3],
+    mode: u32,
+    bounds_hi: [f32; 3],
+    dispatch_index: u32,
+}
+
+const TABLE: &[Binding] = &[storage(0, "sink")];
+const RAY_RATE_PRIMARY: u32 = 0;
+const RAY_RATE_SHADOW: u32 = 1;
+
+/// One tracing pass in a real frame against the raw rate of its kind of ray.
+#[derive(Clone, Debug, Serialize)]
+pub struct PassRate {
+    pub mode: String,
+    pub pass: String,
+    pub rays_per_pixel: f64,
+    pub gpu_ms: f64,
+    pub mrays_per_s: f64,
+    /// "primary" (gbuffer) or "shadow" (every other pass: incoherent rays).
+    pub against: &'static str,
+    /// mrays_per_s / the raw rate it is measured against.
+    pub share: f64,
+}
+
+/// The raw rates and the passes of one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct RayRate {
+    pub scene: String,
+    pub triangles: usize,
+    pub width: u32,
+    pub height: u32,
+    /// Mrays/s of each timed dispatch.
+    pub primary: TimingStats,
+    pub shadow: TimingStats,
+    pub passes: Vec<PassRate>,
+}
+
+/// Frame constants that ray_rate.comp reads: the camera and the image size.
+fn frame_for(camera: &Camera, width: u32, height: u32, scene: &SceneGpu) -> GpuFrame {
+    let mut f: GpuFrame = bytemuck::Zeroable::zeroed();
+    f.camera_position = camera.position.to_array();
+    f.tan_half_fov = (camera.yfov * 0.5).tan();
+    f.camera_right = camera.right.to_array();
+    f.aspect = width as f32 / height as f32;
+    f.camera_up = camera.up.to_array();
+    f.camera_forward = camera.forward.to_array();
+    f.width = width;
+    f.height = height;
+    f.scene_scale = scene.info.scale;
+    f
+}
+
+/// Times `dispatches` dispatches of each raw ray kind (after one untimed warm-up), then renders
+/// `frames` frames (after one warm-up, with `--aa` so primary rays are traced every frame) of
+/// uniform, RIS, ReSTIR, ReSTIR with `--compensate` and the path tracer.
+pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, height: u32, dispatches: u32, frames: u32) -> Result<RayRate> {
+    anyhow::ensure!(dispatches > 0 && frames > 0, "bench --rays needs at least one timed dispatch and frame");
+    let scene = Scene::load(scene_path)?;
+    let gpu = Arc::new(SceneGpu::new(ctx, &scene, true)?);
+    let set = DescriptorSet::with_variants(ctx, "ray_rate.scene", gpu.bindings, 1)?;
+    gpu.write_set(&set)?;
+    let camera = Camera::initial(&gpu.info, None);
+    let frame = frame_for(&camera, width, height, &gpu);
+    let frame_buffer = Buffer::with_data(ctx, "ray_rate.frame", bytemuck::bytes_of(&frame), vk::BufferUsageFlags::UNIFORM_BUFFER)?;
+    set.write_buffer_in(0, 8, &frame_buffer)?;
+    let pixels = width as u64 * height as u64;
+    let sink = Buffer::with_data(ctx, "ray_rate.sink", &vec![0u8; (pixels * 4) as usize], vk::BufferUsageFlags::STORAGE_BUFFER)?;
+    let pipeline = ComputePipeline::new(ctx, "ray_rate", shaders::BENCH_RAY_RATE, set.layout, TABLE, std::mem::size_of::<Push>() as u32, [8, 8, 1])?;
+    pipeline.set1.write_buffer(0, &sink)?;
+    let (lo, hi) = gpu.info.bounds;
+    let mut timer = GpuTimer::new(ctx, 4)?;
+    let mut rate = |mode: u32, index: u32| -> Result<f64> {
+        let push = Push { bounds_lo: lo.to_array(), mode, bounds_hi: hi.to_array(), dispatch_index: index };
+        ctx.one_shot(|cmd| {
+            timer.reset(cmd);
+            timer.begin(cmd, "ray_rate");
+            pipeline.dispatch_2d(cmd, set.set, bytemuck::bytes_of(&push), width, height);
+            timer.end(cmd);
+        })?;
+        let ms: f64 = timer.collect()?.iter().map(|(_, ms)| ms).sum();
+        Ok(if ms > 0.0 { pixels as f64 / (ms * 1e3) } else { 0.0 })
+    };
+    let mut primary = Vec::new();
+    let mut shadow = Vec::new();
+    rate(RAY_RATE_PRIMARY, 0)?; // warm-up: shader compilation
+    rate(RAY_RATE_SHADOW, 0)?;
+    for i in 1..=dispatches {
+        // Interleaved so drift on a shared machine hits both alike.
+        primary.push(rate(RAY_RATE_PRIMARY, i)?);
+        shadow.push(rate(RAY_RATE_SHADOW, i)?);
+    }
+    let (primary, shadow) = (TimingStats::of(&primary), TimingStats::of(&shadow));
+
+    let mut passes = Vec::new();
+    let modes: [(&str, Mode, bool); 5] = [
+        ("uniform", Mode::Uniform, false),
+        ("ris", Mode::Ris, false),
+        ("restir", Mode::Restir, false),
+        ("restir --compensate", Mode::Restir, true),
+        ("pt", Mode::Pt, false),
+    ];
+    for (label, mode, compensate) in modes {
+        let settings = RenderSettings {
+            scene: scene_path.to_path_buf(),
+            mode,
+            width,
+            height,
+            frames: frames + 1,
+            aa: true,
+            compensate,
+            ..Default::default()
+        };
+        let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).with_context(|| format!("bench --rays: {label}"))?;
+        r.render_frame(&camera, false)?; // warm-up
+        r.reset_accumulation()?;
+        let log_before = r.log().clone();
+        for _ in 0..frames {
+            r.render_frame(&camera, false)?;
+        }
+        let log = r.log();
+        for (name, rays) in &log.pass_rays {
+            let skip = log_before.pass_rays.get(name).map(|v| v.len()).unwrap_or(0);
+            let total_rays: u64 = rays.iter().skip(skip).sum();
+            let skip_ms = log_before.pass_ms.get(name).map(|v| v.len()).unwrap_or(0);
+            let total_ms: f64 = log.pass_ms.get(name).map(|v| v.iter().skip(skip_ms).sum()).unwrap_or(0.0);
+            if total_rays == 0 || total_ms <= 0.0 {
+                continue;
+            }
+            let mrays = total_rays as f64 / (total_ms * 1e3);
+            let (against, raw) = if *name == crate::passes::GbufferPass::NAME { ("primary", primary.median) } else { ("shadow", shadow.median) };
+            passes.push(PassRate {
+                mode: label.to_string(),
+                pass: name.to_string(),
+                rays_per_pixel: total_rays as f64 / (pixels as f64 * frames as f64),
+                gpu_ms: total_ms / frames as f64,
+                mrays_per_s: mrays,
+                against,
+                share: if raw > 0.0 { mrays / raw } else { 0.0 },
+            });
+        }
+    }
+    let label = scene_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| scene_path.display().to_string());
+    Ok(RayRate { scene: label, triangles: gpu.triangle_count, width, height, primary, shadow, passes })
+}
+
+/// Markdown: the raw rates per scene, then every tracing pass's share.
+pub fn markdown(rows: &[RayRate], device: &str) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(s, "Device: {device}\n");
+    let _ = writeln!(s, "| scene | triangles | size | primary Mrays/s (median, min–max) | shadow Mrays/s (median, min–max) |");
+    let _ = writeln!(s, "|---|---:|---|---:|---:|");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {} | {}×{} | {:.2} ({:.2}–{:.2}) | {:.2} ({:.2}–{:.2}) |",
+            r.scene, r.triangles, r.width, r.height, r.primary.median, r.primary.min, r.primary.max, r.shadow.median, r.shadow.min, r.shadow.max
+        );
+    }
+    let _ = writeln!(s, "\n| scene | mode | pass | rays / px | GPU ms | Mrays/s | share of raw rate |");
+    let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|");
+    for r in rows {
+        for p in &r.passes {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.0}% of {} |",
+                r.scene, p.mode, p.pass, p.rays_per_pixel, p.gpu_ms, p.mrays_per_s, 100.0 * p.share, p.against
+            );
+        }
+    }
+    s
+}
