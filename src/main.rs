@@ -243,6 +243,13 @@ enum Command {
         /// a share of it. Default size 1280×720.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion"])]
         rays: bool,
+        /// Instead: the Yuksel radius as a trade-off on the three scenes. ReSTIR with r = 1…64 ×
+        /// the mean VPL spacing, the thesis's radius scaled to the scene, and 16× / 64× with
+        /// --compensate, against a path-traced reference (cached in --out/references): bias,
+        /// per-frame variance, RMSE and FLIP at t = 1 and 20, worst-pixel share, GPU ms. Writes
+        /// --out/radius.md and radius.csv.
+        #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion", "rays"])]
+        radius: bool,
         /// With --curves or --motion: a smoke test (tiny images, few frames and VPLs).
         #[arg(long)]
         quick: bool,
@@ -513,11 +520,34 @@ fn real_main(cli: Cli) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, rays, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, rays, radius, quick, out, checkpoints, runs }) =
         &cli.command
     {
-        if (*quick || runs.is_some()) && !*curves && !*motion {
-            bail!("--quick and --runs go with --curves or --motion");
+        if (*quick || runs.is_some()) && !*curves && !*motion && !*radius {
+            bail!("--quick and --runs go with --curves, --motion or --radius");
+        }
+        if *radius {
+            let root = std::env::current_dir()?;
+            let mut opts = if *quick {
+                restir_vpl::eval::radius::RadiusOptions::quick(&root)
+            } else {
+                restir_vpl::eval::radius::RadiusOptions::full(&root)
+            };
+            opts.out_dir = out.clone();
+            opts.runs = runs.unwrap_or(opts.runs);
+            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+                device_index: *device,
+                ..Default::default()
+            })?);
+            let rows = restir_vpl::eval::radius::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
+            let md = out.join("radius.md");
+            let text = format!("# The Yuksel radius as a trade-off (`bench --radius`)\n\n{}", restir_vpl::eval::radius::markdown(&opts, &rows));
+            std::fs::write(&md, text).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+            let csv = out.join("radius.csv");
+            restir_vpl::eval::radius::write_csv(&csv, &rows)?;
+            println!("{}\n{}", md.display(), csv.display());
+            return Ok(());
         }
         if *motion {
             let root = std::env::current_dir()?;

@@ -6,6 +6,7 @@
 pub mod bench;
 pub mod compare;
 pub mod motion;
+pub mod radius;
 pub mod rays;
 pub mod reference;
 pub mod report;

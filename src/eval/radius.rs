@@ -1,0 +1,258 @@
+//! `bench --radius`: the Yuksel radius as a measured trade-off. For each of the three scenes,
+//! ReSTIR (default settings) with r = k × the mean VPL spacing (k = 1 … 64), the thesis's fixed
+//! radius scaled to the scene, and large radii with `--compensate`, against a path-traced
+//! reference: the converged bias, the per-frame variance, RMSE and FLIP after 1 and after
+//! `frames` accumulated frames, the share of the squared error in the worst 0.1 % of pixels, and
+//! GPU ms per frame.
+//!
+//! Protocol (per scene): one renderer per rule, all sharing the device and scene; `runs` runs with
+//! independent pixel seeds (same VPL set), averaged. The reference is the path tracer with default
+//! settings (8 bounces, like the photons), cached in `out/references`.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{bail, Context as _, Result};
+use serde::Serialize;
+
+use crate::eval::compare::{compare, CompareOptions};
+use crate::eval::reference::{make_reference, ReferenceTarget};
+use crate::eval::results::SceneSpec;
+use crate::output::RgbImage;
+use crate::renderer::Renderer;
+use crate::settings::{Mode, RenderSettings, RestirSettings};
+use crate::vk::Context;
+
+/// The thesis's fixed radius, 3.0 units, read in the units of the classic Cornell box (555 units
+/// wide): 3/555 of a scene's largest extent.
+pub const THESIS_RADIUS_SHARE: f32 = 3.0 / 555.0;
+
+/// Multiples of the mean VPL spacing measured without compensation.
+pub const SPACING_MULTIPLES: [f32; 7] = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
+/// Multiples measured with `--compensate`.
+pub const COMPENSATED_MULTIPLES: [f32; 2] = [16.0, 64.0];
+
+/// What `bench --radius` measures.
+#[derive(Clone, Debug)]
+pub struct RadiusOptions {
+    pub scenes: Vec<SceneSpec>,
+    pub vpls_direct: u32,
+    pub vpls_indirect: u32,
+    /// Accumulated frames of the "t = frames" columns.
+    pub frames: u32,
+    pub reference_frames: u32,
+    pub runs: u32,
+    pub flip: bool,
+    pub out_dir: PathBuf,
+}
+
+impl RadiusOptions {
+    /// The three scenes at 0.2 × the thesis's sizes (256 px wide), 100k + 100k VPLs.
+    pub fn full(root: &Path) -> Self {
+        Self {
+            scenes: crate::eval::results::thesis_scenes(root, 0.2),
+            vpls_direct: 100_000,
+            vpls_indirect: 100_000,
+            frames: 20,
+            reference_frames: 512,
+            runs: 2,
+            flip: true,
+            out_dir: root.join("bench-out"),
+        }
+    }
+
+    /// A smoke test: tiny images, few VPLs and frames.
+    pub fn quick(root: &Path) -> Self {
+        Self {
+            scenes: crate::eval::results::thesis_scenes(root, 0.05),
+            vpls_direct: 2_000,
+            vpls_indirect: 2_000,
+            frames: 3,
+            reference_frames: 8,
+            runs: 1,
+            flip: false,
+            out_dir: root.join("bench-out"),
+        }
+    }
+}
+
+/// One radius rule on one scene (averaged over runs).
+#[derive(Clone, Debug, Serialize)]
+pub struct RadiusRow {
+    pub scene: String,
+    pub rule: String,
+    /// Yuksel's r (scene units).
+    pub radius: f32,
+    pub compensate: bool,
+    pub gpu_ms: f64,
+    /// mean ratio − 1 of the image after `frames` frames against the path tracer.
+    pub bias: f64,
+    /// Mean over pixels of the per-pixel variance of single frames (channel mean).
+    pub frame_variance: f64,
+    pub rmse_1: f64,
+    pub rmse_n: f64,
+    pub flip_1: Option<f64>,
+    pub flip_n: Option<f64>,
+    /// Worst 0.1 % pixels' share of the squared error after `frames` frames.
+    pub worst_share_n: f64,
+}
+
+/// Measures every rule on every scene.
+pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)) -> Result<Vec<RadiusRow>> {
+    if opts.frames == 0 || opts.runs == 0 || opts.reference_frames == 0 {
+        bail!("bench --radius needs at least one frame, one run and one reference frame");
+    }
+    let refs_dir = opts.out_dir.join("references");
+    let compare_opts = CompareOptions { flip: opts.flip, ..Default::default() };
+    let mut rows = Vec::new();
+    for spec in &opts.scenes {
+        let label = spec.label();
+        let scene = spec.upload(ctx)?;
+        let base = RenderSettings {
+            mode: Mode::Restir,
+            restir: RestirSettings { spatial_radius: spec.spatial_radius(), ..Default::default() },
+            ..spec.base_settings((opts.vpls_direct, opts.vpls_indirect), false, None)
+        };
+        let file = refs_dir.join(format!("{label}_{}x{}_pt.exr", spec.width, spec.height));
+        let made = make_reference(ctx, &scene, &RenderSettings { mode: Mode::Pt, ..base.clone() }, &file, ReferenceTarget::AtLeast { frames: opts.reference_frames }, &mut |_, _| {})?;
+        if let Some((n, _, wall)) = made.rendered {
+            log(format!("{}: {n} pt frames in {:.1} s", file.display(), wall * 1e-3));
+        }
+        let reference = made.image;
+        // The default rule's radius (the mean VPL spacing) from a renderer with the default.
+        let first = Renderer::new(ctx.clone(), scene.clone(), base.clone()).context("the default radius")?;
+        let spacing = first.vpl_summary().and_then(|v| v.yuksel_radius).context("the VPL modes report their radius")?;
+        drop(first);
+        let (lo, hi) = scene.info.bounds;
+        let extent = (hi - lo).max_element();
+        let mut rules: Vec<(String, f32, bool)> = SPACING_MULTIPLES.iter().map(|&k| (format!("{k}× spacing"), k * spacing, false)).collect();
+        rules.push(("thesis (3/555 of the extent)".into(), THESIS_RADIUS_SHARE * extent, false));
+        rules.extend(COMPENSATED_MULTIPLES.iter().map(|&k| (format!("{k}× spacing + --compensate"), k * spacing, true)));
+        log(format!("{label}: {} rules at {}x{} (spacing {spacing:.5})", rules.len(), spec.width, spec.height));
+        for (rule, radius, compensate) in rules {
+            let settings = RenderSettings { yuksel_radius: Some(radius), compensate, ..base.clone() };
+            let mut r = Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("{label}: {rule}"))?;
+            let camera = r.initial_camera();
+            let mut sums = [0.0f64; 9];
+            for run in 0..opts.runs {
+                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1)))?;
+                let mut ms = 0.0;
+                let mut first = None;
+                for f in 0..opts.frames {
+                    ms += r.render_frame(&camera, false)?.gpu_ms();
+                    if f == 0 {
+                        let img = RgbImage { width: spec.width, height: spec.height, pixels: r.read_mean()? };
+                        first = Some(compare(&img, &reference, &compare_opts)?);
+                    }
+                }
+                let img = RgbImage { width: spec.width, height: spec.height, pixels: r.read_mean()? };
+                let last = compare(&img, &reference, &compare_opts)?;
+                let first = first.expect("frames > 0");
+                let var = r.read_variance()?;
+                let frame_variance = var.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum::<f64>() / var.len().max(1) as f64;
+                for (s, v) in sums.iter_mut().zip([
+                    ms / opts.frames as f64,
+                    last.mean_ratio - 1.0,
+                    frame_variance,
+                    first.rmse,
+                    last.rmse,
+                    first.flip.unwrap_or(0.0),
+                    last.flip.unwrap_or(0.0),
+                    last.worst_share,
+                    0.0,
+                ]) {
+                    *s += v;
+                }
+            }
+            let n = opts.runs as f64;
+            rows.push(RadiusRow {
+                scene: label.clone(),
+                rule: rule.clone(),
+                radius,
+                compensate,
+                gpu_ms: sums[0] / n,
+                bias: sums[1] / n,
+                frame_variance: sums[2] / n,
+                rmse_1: sums[3] / n,
+                rmse_n: sums[4] / n,
+                flip_1: opts.flip.then(|| sums[5] / n),
+                flip_n: opts.flip.then(|| sums[6] / n),
+                worst_share_n: sums[7] / n,
+            });
+            log(format!("  {label}: {rule} done"));
+        }
+    }
+    Ok(rows)
+}
+
+/// The table, one block per scene.
+pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let sizes: Vec<String> = opts.scenes.iter().map(|s| format!("{} {}×{}", s.label(), s.width, s.height)).collect();
+    let _ = writeln!(
+        s,
+        "ReSTIR (unbiased, default settings) with each Yuksel radius rule against a {}-frame path-traced reference \
+         (8 bounces, as the photons). Scenes: {}. VPLs: {} direct + {} indirect (one VPL set per rule; the mean VPL \
+         spacing is √(A/(πN))). {} run(s) with independent pixel seeds averaged; t = 1 is the first frame, t = {} the \
+         mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames. Frame variance: mean per-pixel variance \
+         of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. The \
+         reference's own noise adds to every row's error alike.\n",
+        opts.reference_frames,
+        sizes.join(", "),
+        opts.vpls_direct,
+        opts.vpls_indirect,
+        opts.runs,
+        opts.frames,
+        opts.frames,
+        opts.frames,
+        opts.frames
+    );
+    let mut scenes: Vec<&str> = Vec::new();
+    for r in rows {
+        if !scenes.contains(&r.scene.as_str()) {
+            scenes.push(&r.scene);
+        }
+    }
+    for scene in scenes {
+        let _ = writeln!(s, "**{scene}**\n");
+        let _ = writeln!(
+            s,
+            "| rule | r | bias | frame variance | RMSE t=1 | RMSE t={n} | FLIP t=1 | FLIP t={n} | worst 0.1 % t={n} | GPU ms |",
+            n = opts.frames
+        );
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        for r in rows.iter().filter(|r| r.scene == scene) {
+            let flip = |f: Option<f64>| f.map(|v| format!("{v:.4}")).unwrap_or_else(|| "–".into());
+            let _ = writeln!(
+                s,
+                "| {} | {:.4} | {:+.2}% | {:.4} | {:.4} | {:.4} | {} | {} | {:.0}% | {:.1} |",
+                r.rule,
+                r.radius,
+                100.0 * r.bias,
+                r.frame_variance,
+                r.rmse_1,
+                r.rmse_n,
+                flip(r.flip_1),
+                flip(r.flip_n),
+                100.0 * r.worst_share_n,
+                r.gpu_ms
+            );
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// radius.csv: one row per scene × rule.
+pub fn write_csv(path: &Path, rows: &[RadiusRow]) -> Result<()> {
+    let mut text = String::from("scene,rule,radius,compensate,gpu_ms,bias,frame_variance,rmse_1,rmse_n,flip_1,flip_n,worst_share_n\n");
+    for r in rows {
+        let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
+        text.push_str(&format!(
+            "{},\"{}\",{},{},{},{},{},{},{},{},{},{}\n",
+            r.scene, r.rule, r.radius, r.compensate, r.gpu_ms, r.bias, r.frame_variance, r.rmse_1, r.rmse_n, opt(r.flip_1), opt(r.flip_n), r.worst_share_n
+        ));
+    }
+    std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
