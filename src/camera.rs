@@ -189,17 +189,41 @@ impl CameraPath {
     }
 }
 
-/// Movement keys held down (the window maps W/A/S/D, Space, Left Ctrl and Shift onto these).
+/// A movement key (the window maps W/A/S/D, Space and Left Ctrl onto these; Shift is `fast`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MoveKey {
+    Forward,
+    Back,
+    Left,
+    Right,
+    Up,
+    Down,
+}
+
+impl MoveKey {
+    const ALL: [MoveKey; 6] = [
+        MoveKey::Forward,
+        MoveKey::Back,
+        MoveKey::Left,
+        MoveKey::Right,
+        MoveKey::Up,
+        MoveKey::Down,
+    ];
+}
+
+/// How long each movement key was held since the last update, from the key events' own times: a
+/// tap shorter than a frame still moves the camera by what was held (on lavapipe a frame can take
+/// longer than a tap), and the distance does not depend on the frame rate.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct MoveKeys {
-    pub forward: bool,
-    pub back: bool,
-    pub left: bool,
-    pub right: bool,
-    pub up: bool,
-    pub down: bool,
-    /// Six times faster.
-    pub fast: bool,
+struct HeldKeys {
+    /// When each key went down (seconds on the caller's clock), while it is down.
+    down_since: [Option<f64>; 6],
+    /// Seconds each key was held between the last update and its release.
+    held: [f64; 6],
+    /// Whether each key went down after the last update.
+    fresh: [bool; 6],
+    /// Shift: six times faster.
+    fast: bool,
 }
 
 /// A fly-through camera controller: moves along the view direction and sideways at `speed`
@@ -220,7 +244,7 @@ pub struct FlyController {
     pub speed: f32,
     /// Radians of rotation per pixel of mouse motion.
     pub sensitivity: f32,
-    pub keys: MoveKeys,
+    keys: HeldKeys,
     /// The camera given last (scene camera, a loaded camera.json), returned as is until a move.
     exact: Option<Camera>,
     home: Camera,
@@ -243,7 +267,7 @@ impl FlyController {
             e2,
             speed: (0.2 * scene_size).max(1e-6),
             sensitivity: 0.003,
-            keys: MoveKeys::default(),
+            keys: HeldKeys::default(),
             exact: None,
             home: *camera,
         };
@@ -284,18 +308,65 @@ impl FlyController {
         Camera::look_at(self.position, self.position + f, self.world_up, self.yfov, "window")
     }
 
-    /// Applies the held keys over `dt` seconds; true when the camera moved.
-    pub fn update(&mut self, dt: f32) -> bool {
-        let k = self.keys;
+    /// The most one update moves for: after a stall (a minimised window, a lost key release) the
+    /// camera does not jump across the scene.
+    pub const MAX_STEP_SECONDS: f64 = 1.0;
+
+    /// The least a press and release count for.
+    pub const MIN_TAP_SECONDS: f64 = 1.0 / 30.0;
+
+    /// A movement key went down or up at `t` (seconds, the same clock as `update`).
+    pub fn key(&mut self, key: MoveKey, down: bool, t: f64) {
+        let i = MoveKey::ALL
+            .iter()
+            .position(|k| *k == key)
+            .expect("every key is in ALL");
+        match (down, self.keys.down_since[i]) {
+            (true, None) => {
+                self.keys.down_since[i] = Some(t);
+                self.keys.fresh[i] = true;
+            }
+            (false, Some(since)) => {
+                // Key events are read between frames, so a tap within one slow frame arrives as a
+                // press and a release at the same moment: it still nudges by MIN_TAP_SECONDS.
+                let least = if self.keys.fresh[i] {
+                    Self::MIN_TAP_SECONDS
+                } else {
+                    0.0
+                };
+                self.keys.held[i] += (t - since).max(least);
+                self.keys.down_since[i] = None;
+            }
+            _ => {} // key repeat, or a release without a press
+        }
+    }
+
+    /// Shift held (six times faster) or not.
+    pub fn set_fast(&mut self, fast: bool) {
+        self.keys.fast = fast;
+    }
+
+    /// Moves by what the keys were held since the last update, up to `t`; true when it moved.
+    pub fn update(&mut self, t: f64) -> bool {
+        let mut secs = [0f64; 6];
+        for (i, s) in secs.iter_mut().enumerate() {
+            *s = std::mem::take(&mut self.keys.held[i]);
+            self.keys.fresh[i] = false;
+            if let Some(since) = self.keys.down_since[i] {
+                *s += (t - since).max(0.0);
+                self.keys.down_since[i] = Some(t);
+            }
+            *s = s.min(Self::MAX_STEP_SECONDS);
+        }
+        let [fwd, back, left, right, up, down] = secs.map(|s| s as f32);
         let f = self.forward();
-        let right = f.cross(self.world_up).normalize_or_zero();
-        let axis = |a: bool, b: bool| (a as i32 - b as i32) as f32;
-        let dir = axis(k.forward, k.back) * f + axis(k.right, k.left) * right + axis(k.up, k.down) * self.world_up;
-        if dir == Vec3::ZERO || !(dt > 0.0) {
+        let side = f.cross(self.world_up).normalize_or_zero();
+        let speed = self.speed * if self.keys.fast { 6.0 } else { 1.0 };
+        let step = ((fwd - back) * f + (right - left) * side + (up - down) * self.world_up) * speed;
+        if step == Vec3::ZERO || !step.is_finite() {
             return false;
         }
-        let speed = self.speed * if k.fast { 6.0 } else { 1.0 };
-        self.position += dir.normalize() * speed * dt;
+        self.position += step;
         self.exact = None;
         true
     }
@@ -377,17 +448,63 @@ mod tests {
         let mut f = FlyController::new(&c, 10.0);
         assert!(f.camera().same_view(&c));
         assert!(!f.update(0.1), "no key held: no move");
-        f.keys.forward = true;
-        assert!(f.update(0.5));
+        f.key(MoveKey::Forward, true, 0.1);
+        assert!(f.update(0.6));
         let moved = f.camera();
         // speed 0.2 × 10 = 2 units/s for 0.5 s along -z.
         assert!((moved.position - Vec3::new(0.0, 1.0, 4.0)).length() < 1e-4, "{:?}", moved.position);
         assert!((moved.forward - c.forward).length() < 1e-5);
-        f.keys = MoveKeys { fast: true, right: true, ..Default::default() };
-        f.update(0.5);
+        f.key(MoveKey::Forward, false, 0.6);
+        f.set_fast(true);
+        f.key(MoveKey::Right, true, 1.0);
+        f.update(1.5);
         assert!((f.camera().position - Vec3::new(6.0, 1.0, 4.0)).length() < 1e-3);
+        f.key(MoveKey::Right, false, 1.5);
+        f.set_fast(false);
         f.go_home();
         assert!(f.camera().same_view(&c));
+    }
+
+    #[test]
+    fn a_tap_between_two_slow_frames_moves_by_what_was_held() {
+        let c = cam();
+        let mut f = FlyController::new(&c, 10.0);
+        f.update(0.0);
+        // W down for 0.3 s, released, all within one 2-second frame; a repeat press is ignored.
+        f.key(MoveKey::Forward, true, 0.5);
+        f.key(MoveKey::Forward, true, 0.6);
+        f.key(MoveKey::Forward, false, 0.8);
+        assert!(f.update(2.0), "the tap moved the camera");
+        assert!(
+            (f.camera().position - Vec3::new(0.0, 1.0, 4.4)).length() < 1e-4,
+            "{:?}",
+            f.camera().position
+        );
+        assert!(!f.update(3.0), "released: no further move");
+        // Pressed and released at the same moment (read between two slow frames): a nudge.
+        f.key(MoveKey::Forward, true, 3.0);
+        f.key(MoveKey::Forward, false, 3.0);
+        f.update(3.0);
+        let nudge = 4.4 - f.camera().position.z;
+        assert!(
+            (nudge - 2.0 * FlyController::MIN_TAP_SECONDS as f32).abs() < 1e-4,
+            "{nudge}"
+        );
+        f.set_camera(&Camera::look_at(
+            Vec3::new(0.0, 1.0, 4.4),
+            Vec3::new(0.0, 1.0, 0.0),
+            Vec3::Y,
+            0.7,
+            "test",
+        ));
+        // A stall (no update for 10 s with the key down) moves at most MAX_STEP_SECONDS.
+        f.key(MoveKey::Back, true, 3.0);
+        f.update(13.0);
+        let moved = f.camera().position.z - 4.4;
+        assert!(
+            (moved - 2.0 * FlyController::MAX_STEP_SECONDS as f32).abs() < 1e-4,
+            "{moved}"
+        );
     }
 
     #[test]

@@ -173,7 +173,8 @@ struct RenderArgs {
     /// VPL distance attenuation.
     #[arg(long, value_parser = named::<Attenuation>(), default_value_t = DEFAULTS.attenuation)]
     attenuation: Attenuation,
-    /// Yuksel's r in scene units (default: the mean VPL spacing, sqrt(scene area / (pi * VPLs))).
+    /// Yuksel's r in scene units (default: 8 × the mean VPL spacing sqrt(scene area / (pi * VPLs)),
+    /// chosen by `bench --radius`).
     #[arg(long)]
     yuksel_radius: Option<f32>,
     /// Add back the energy Yuksel's clamp removes near each VPL (Kollig & Keller 2004): one

@@ -550,9 +550,11 @@ impl Renderer {
                 Some(r) => (Some(r), Some("--yuksel-radius")),
                 None => {
                     let area = scene_gpu.info.surface_area;
-                    let r = (area / (std::f64::consts::PI * vpl_count.max(1) as f64)).sqrt() as f32;
+                    let spacing =
+                        (area / (std::f64::consts::PI * vpl_count.max(1) as f64)).sqrt() as f32;
+                    let r = crate::settings::DEFAULT_RADIUS_SPACINGS * spacing;
                     let r = if r > 0.0 && r.is_finite() { r } else { 1e-3 };
-                    (Some(r), Some("mean VPL spacing sqrt(scene area / (pi * VPL count))"))
+                    (Some(r), Some(crate::settings::DEFAULT_RADIUS_RULE))
                 }
             },
         };

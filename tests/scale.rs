@@ -72,12 +72,62 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
     ] {
         let base = RenderSettings { mode, restir, vpls_direct: 2000, vpls_indirect: 2000, ..small(48, 48, 4) };
         let one = render_scaled(1.0, &base);
+        let mut extremes = Vec::new();
         for k in [1e-4f32, 1e5] {
             let img = render_scaled(k, &base);
-            let c = compare(&img, &one, &CompareOptions { flip: false, ..Default::default() }).unwrap();
-            eprintln!("{mode:?} ×{k}: relMSE {:.2e}, mean ratio {:.6}", c.relmse, c.mean_ratio);
-            // The VPL set is traced with the same random numbers, so the images agree as closely.
-            assert!(c.relmse < 1e-4, "{mode:?} at scale {k}: relMSE {:.3e} (mean ratio {:.5})", c.relmse, c.mean_ratio);
+            extremes.push(img.clone());
+            let c = compare(
+                &img,
+                &one,
+                &CompareOptions {
+                    flip: false,
+                    ..Default::default()
+                },
+            )
+            .unwrap();
+            eprintln!(
+                "{mode:?} ×{k}: relMSE {:.2e}, mean ratio {:.6}",
+                c.relmse, c.mean_ratio
+            );
+            // The VPL set is traced with the same random numbers, so uniform sampling's images agree
+            // as closely as the path tracer's. ReSTIR makes discrete choices that feed the next
+            // frame and the neighbours: one choice flipped by rounding spreads to a few dozen pixels
+            // (measured: 72 of 2304 differ by > 0.1 %, relMSE 2e-4, mean 0.06 % apart). An absolute
+            // epsilon shifts every pixel instead (the Cornell box at 1e-4 was 3.4 % bright before
+            // scale-aware offsets): the mean must agree to 0.1 % and relMSE stay below 1e-3.
+            let (relmse_max, mean_tol) = if mode == Mode::Uniform {
+                (1e-4, 1e-4)
+            } else {
+                (1e-3, 1e-3)
+            };
+            assert!(
+                c.relmse < relmse_max && (c.mean_ratio - 1.0).abs() < mean_tol,
+                "{mode:?} at scale {k}: relMSE {:.3e} (mean ratio {:.5})",
+                c.relmse,
+                c.mean_ratio
+            );
         }
+        // Nine orders of magnitude apart, the two extremes agree with each other as closely as
+        // uniform sampling does with scale 1: whatever ReSTIR's flipped choices were, they do not
+        // depend on the scale.
+        let c = compare(
+            &extremes[0],
+            &extremes[1],
+            &CompareOptions {
+                flip: false,
+                ..Default::default()
+            },
+        )
+        .unwrap();
+        eprintln!(
+            "{mode:?} ×1e-4 against ×1e5: relMSE {:.2e}, mean ratio {:.6}",
+            c.relmse, c.mean_ratio
+        );
+        assert!(
+            c.relmse < 1e-4,
+            "{mode:?}: scales 1e-4 and 1e5 differ: relMSE {:.3e} (mean ratio {:.5})",
+            c.relmse,
+            c.mean_ratio
+        );
     }
 }

@@ -7,7 +7,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -21,6 +21,17 @@ struct Xvfb {
 
 impl Drop for Xvfb {
     fn drop(&mut self) {
+        // SIGTERM, so the server removes its socket and lock file (SIGKILL leaves them behind).
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let start = Instant::now();
+        while start.elapsed() < Duration::from_secs(5) {
+            if self.child.try_wait().ok().flatten().is_some() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
@@ -41,26 +52,43 @@ fn xvfb() -> Option<Xvfb> {
         eprintln!("\n**********************************************************\n*** SKIPPED: {msg}\n**********************************************************\n");
         return None;
     }
-    for n in 90..140 {
-        if Path::new(&format!("/tmp/.X11-unix/X{n}")).exists() || Path::new(&format!("/tmp/.X{n}-lock")).exists() {
-            continue;
+    // `-displayfd 1`: Xvfb picks a free display number itself (no race between the tests of this
+    // file, which run side by side, and stale lock files of killed servers are reclaimed) and
+    // writes it to stdout only once it accepts connections.
+    let mut child = Command::new("Xvfb")
+        .args([
+            "-displayfd",
+            "1",
+            "-screen",
+            "0",
+            "1024x768x24",
+            "-nolisten",
+            "tcp",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start Xvfb");
+    let stdout = child.stdout.take().expect("piped stdout");
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = std::io::BufRead::read_line(&mut std::io::BufReader::new(stdout), &mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx.recv_timeout(Duration::from_secs(60)).unwrap_or_default();
+    let Ok(n) = line.trim().parse::<u32>() else {
+        let _ = child.kill();
+        let mut err = String::new();
+        if let Some(mut e) = child.stderr.take() {
+            let _ = std::io::Read::read_to_string(&mut e, &mut err);
         }
-        let display = format!(":{n}");
-        let child = Command::new("Xvfb")
-            .args([display.as_str(), "-screen", "0", "1024x768x24", "-nolisten", "tcp"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start Xvfb");
-        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-        let start = Instant::now();
-        while !socket.exists() && start.elapsed() < Duration::from_secs(10) {
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        assert!(socket.exists(), "Xvfb {display} did not start");
-        return Some(Xvfb { child, display });
-    }
-    panic!("no free X display number between :90 and :139");
+        panic!("Xvfb did not report a display within 60 s (got {line:?}): {err}");
+    };
+    Some(Xvfb {
+        child,
+        display: format!(":{n}"),
+    })
 }
 
 fn restir_vpl(display: Option<&str>, args: &[&str]) -> Command {
@@ -114,11 +142,24 @@ fn window_renders_what_headless_renders() {
 }
 
 /// Waits until the window's title contains `want` (the title shows mode, ms and frames).
-fn wait_for_title(display: &str, want: &str, timeout: Duration) -> String {
+/// Fails at once, with the program's stderr, if the program exits first.
+fn wait_for_title(display: &str, child: &mut Child, want: &str, timeout: Duration) -> String {
     let start = Instant::now();
     let mut last = String::new();
     while start.elapsed() < timeout {
-        let o = xdotool(display, &["search", "--name", "restir-vpl", "getwindowname"]);
+        if let Some(status) = child.try_wait().expect("poll the renderer") {
+            let mut err = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                let _ = std::io::Read::read_to_string(&mut e, &mut err);
+            }
+            panic!(
+                "the windowed renderer exited ({status}) before its title showed '{want}': {err}"
+            );
+        }
+        let o = xdotool(
+            display,
+            &["search", "--name", "restir-vpl", "getwindowname"],
+        );
         last = String::from_utf8_lossy(&o.stdout).trim().to_string();
         if last.contains(want) {
             return last;
@@ -126,6 +167,28 @@ fn wait_for_title(display: &str, want: &str, timeout: Duration) -> String {
         std::thread::sleep(Duration::from_millis(100));
     }
     panic!("window title never contained '{want}' within {timeout:?}; last: '{last}'");
+}
+
+/// Waits until the title's smoothed frame time is below `ms`.
+fn wait_for_fast_frames(display: &str, child: &mut Child, ms: f64, timeout: Duration) {
+    let start = Instant::now();
+    loop {
+        let title = wait_for_title(display, child, " ms/frame", timeout);
+        // "restir-vpl — restir · 31.2 ms/frame (32 fps, GPU 20.1 ms) · …"
+        let shown = title
+            .split(" ms/frame")
+            .next()
+            .and_then(|a| a.rsplit(' ').next())
+            .and_then(|v| v.parse::<f64>().ok());
+        if shown.is_some_and(|v| v < ms) {
+            return;
+        }
+        assert!(
+            start.elapsed() < timeout,
+            "frames never got faster than {ms} ms: '{title}'"
+        );
+        std::thread::sleep(Duration::from_millis(250));
+    }
 }
 
 /// Presses an idempotent key until the title shows `want`: under load (the suite runs its tests
@@ -162,22 +225,51 @@ fn keys_change_mode_move_camera_resize_and_quit() {
     .spawn()
     .unwrap();
     let d = x.display.as_str();
-    wait_for_title(d, "uniform ·", Duration::from_secs(60));
-    let wid = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().unwrap().to_string();
+    // A clean checkout has no pipeline cache yet: the first frame compiles every shader while the
+    // other tests of the suite share the two cores.
+    wait_for_title(d, &mut child, "uniform ·", Duration::from_secs(120));
+    let wid = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout)
+        .trim()
+        .lines()
+        .next()
+        .unwrap()
+        .to_string();
     xdotool(d, &["windowfocus", "--sync", &wid]);
     // 3: ReSTIR.
     press_until_title(d, &wid, "3", "restir ·", Duration::from_secs(60));
+    // Key events are read between frames: wait until the first frames (which compile the shaders
+    // on a cold pipeline cache) are done, so that the hold below is measured to a frame or so.
+    wait_for_fast_frames(d, &mut child, 300.0, Duration::from_secs(120));
     // W held: the camera moves forward.
     xdotool(d, &["keydown", "w"]);
     std::thread::sleep(Duration::from_millis(800));
     xdotool(d, &["keyup", "w"]);
-    // Enter writes the outputs as a headless run does.
+    // Enter writes the outputs as a headless run does: the image last rendered, so when frames are
+    // slower than the key presses (a cold pipeline cache on lavapipe) the first write can still show
+    // the scene camera. Writing is idempotent: press until a frame with the moved camera is written.
     press_until_title(d, &wid, "Return", "wrote", Duration::from_secs(60));
-    let s = summary(&out);
+    let start = Instant::now();
+    let s = loop {
+        let s = summary(&out);
+        if s["camera"]["source"] == "window" {
+            break s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the camera should have left the scene camera: {s}"
+        );
+        std::thread::sleep(Duration::from_secs(2));
+        xdotool(d, &["windowfocus", "--sync", &wid]);
+        xdotool(d, &["key", "Return"]);
+    };
     assert_eq!(s["settings"]["mode"], "restir", "{s}");
-    assert_eq!(s["camera"]["source"], "window", "the camera should have left the scene camera: {s}");
+    // The Cornell camera stands at z = −0.8 looking along +z; W held for 0.8 s moves it forward at
+    // 0.2 × the scene's diagonal (≈ 0.19 units) per second: ≈ 0.15, however slow the frames were.
     let z = s["camera"]["position"][2].as_f64().unwrap();
-    assert!(z < 1.3, "W moves the Cornell camera (z ≈ 1.37) forward, toward −z: z = {z}");
+    assert!(
+        z > -0.8 + 0.05 && z < -0.8 + 0.4,
+        "W moves the Cornell camera forward, toward +z, by about 0.15: z = {z}"
+    );
     // A resize recreates the swapchain and the frame targets.
     xdotool(d, &["windowsize", &wid, "160", "120"]);
     std::thread::sleep(Duration::from_millis(1500));

@@ -119,9 +119,14 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
             log(format!("{}: {n} pt frames in {:.1} s", file.display(), wall * 1e-3));
         }
         let reference = made.image;
-        // The default rule's radius (the mean VPL spacing) from a renderer with the default.
-        let first = Renderer::new(ctx.clone(), scene.clone(), base.clone()).context("the default radius")?;
-        let spacing = first.vpl_summary().and_then(|v| v.yuksel_radius).context("the VPL modes report their radius")?;
+        // The mean VPL spacing, from the default rule's radius of a renderer with the default.
+        let first = Renderer::new(ctx.clone(), scene.clone(), base.clone())
+            .context("the default radius")?;
+        let default_r = first
+            .vpl_summary()
+            .and_then(|v| v.yuksel_radius)
+            .context("the VPL modes report their radius")?;
+        let spacing = default_r / crate::settings::DEFAULT_RADIUS_SPACINGS;
         drop(first);
         let (lo, hi) = scene.info.bounds;
         let extent = (hi - lo).max_element();

@@ -19,7 +19,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-use crate::camera::{CameraPath, FlyController};
+use crate::camera::{CameraPath, FlyController, MoveKey};
 use crate::headless::{finish_run, Summary};
 use crate::lights::PointEmitter;
 use crate::renderer::Renderer;
@@ -102,6 +102,8 @@ struct Running {
     looking: bool,
     cursor: Option<(f64, f64)>,
     last_frame: Instant,
+    /// The clock of key events and camera updates.
+    clock: Instant,
     last_title: Instant,
     /// Exponentially smoothed ms per frame (wall) for the title.
     smoothed_ms: f64,
@@ -195,6 +197,7 @@ impl App {
             looking: false,
             cursor: None,
             last_frame: Instant::now(),
+            clock: Instant::now(),
             last_title: Instant::now(),
             smoothed_ms: 0.0,
             message: String::new(),
@@ -218,15 +221,16 @@ impl App {
             WindowEvent::KeyboardInput { event, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
                 let down = event.state == ElementState::Pressed;
-                let k = &mut r.controller.keys;
+                let t = r.clock.elapsed().as_secs_f64();
+                let c = &mut r.controller;
                 match code {
-                    KeyCode::KeyW => k.forward = down,
-                    KeyCode::KeyS => k.back = down,
-                    KeyCode::KeyA => k.left = down,
-                    KeyCode::KeyD => k.right = down,
-                    KeyCode::Space => k.up = down,
-                    KeyCode::ControlLeft => k.down = down,
-                    KeyCode::ShiftLeft | KeyCode::ShiftRight => k.fast = down,
+                    KeyCode::KeyW => c.key(MoveKey::Forward, down, t),
+                    KeyCode::KeyS => c.key(MoveKey::Back, down, t),
+                    KeyCode::KeyA => c.key(MoveKey::Left, down, t),
+                    KeyCode::KeyD => c.key(MoveKey::Right, down, t),
+                    KeyCode::Space => c.key(MoveKey::Up, down, t),
+                    KeyCode::ControlLeft => c.key(MoveKey::Down, down, t),
+                    KeyCode::ShiftLeft | KeyCode::ShiftRight => c.set_fast(down),
                     _ => {
                         if down && !event.repeat {
                             if let Some(action) = actions::action_for(code) {
@@ -391,7 +395,7 @@ impl App {
         }
         r.step = false;
         let now = Instant::now();
-        let dt = (now - r.last_frame).as_secs_f32().min(0.25);
+        let dt = (now - r.last_frame).as_secs_f32();
         r.last_frame = now;
         if r.resize_pending {
             let size = r.window.inner_size();
@@ -414,7 +418,7 @@ impl App {
         let camera = match &self.path {
             Some(p) => p.at(r.frames as f32),
             None => {
-                r.controller.update(dt);
+                r.controller.update(r.clock.elapsed().as_secs_f64());
                 r.controller.camera()
             }
         };
