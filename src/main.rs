@@ -251,6 +251,12 @@ enum Command {
         /// --out/radius.md and radius.csv.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion", "rays"])]
         radius: bool,
+        /// Instead: how cost grows with the work. Frame GPU ms of uniform, RIS and ReSTIR against
+        /// the VPL count (10k … 2M), the image size (256² … 1920×1080) and the triangle count (~1k …
+        /// ~1M, generated), with the photon pass and the BLAS/TLAS builds; each curve's measured
+        /// exponent beside the expected one. Writes --out/scaling.md and scaling.csv.
+        #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion", "rays", "radius"])]
+        scaling: bool,
         /// With --curves or --motion: a smoke test (tiny images, few frames and VPLs).
         #[arg(long)]
         quick: bool,
@@ -521,11 +527,35 @@ fn real_main(cli: Cli) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, rays, radius, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
-        if (*quick || runs.is_some()) && !*curves && !*motion && !*radius {
-            bail!("--quick and --runs go with --curves, --motion or --radius");
+        if (*quick || runs.is_some()) && !*curves && !*motion && !*radius && !*scaling {
+            bail!("--quick and --runs go with --curves, --motion, --radius or --scaling");
+        }
+        if *scaling {
+            if runs.is_some() {
+                bail!("--runs does not go with --scaling (it times every point in one run)");
+            }
+            let root = std::env::current_dir()?;
+            let opts = if *quick {
+                restir_vpl::eval::scaling::ScalingOptions::quick(&root)
+            } else {
+                restir_vpl::eval::scaling::ScalingOptions::full(&root)
+            };
+            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+                device_index: *device,
+                ..Default::default()
+            })?);
+            let points = restir_vpl::eval::scaling::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
+            let md = out.join("scaling.md");
+            let text = format!("# How cost grows with the work (`bench --scaling`)\n\n{}", restir_vpl::eval::scaling::markdown(&opts, &points, &ctx.report.name));
+            std::fs::write(&md, text).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+            let csv = out.join("scaling.csv");
+            restir_vpl::eval::scaling::write_csv(&csv, &points)?;
+            println!("{}\n{}", md.display(), csv.display());
+            return Ok(());
         }
         if *radius {
             let root = std::env::current_dir()?;

@@ -85,6 +85,10 @@ pub struct SceneGpu {
     pub texture_count: usize,
     pub texel_bytes: usize,
     pub build_ms: f64,
+    /// Wall ms of the BLAS builds and of the TLAS build (each waits for its submission; part of
+    /// `build_ms`).
+    pub blas_ms: f64,
+    pub tlas_ms: f64,
     // Kept alive for the descriptors.
     tlas: AccelerationStructure,
     _tlas_instances: Buffer,
@@ -173,9 +177,13 @@ impl SceneGpu {
         let tm = Buffer::with_data(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), storage_usage())?;
         let mb = Buffer::with_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), storage_usage())?;
         let inb = Buffer::with_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), storage_usage())?;
+        let blas_start = std::time::Instant::now();
         let blases = accel::build_blases(ctx, &vb, std::mem::size_of::<GpuVertex>() as u64, &ib, &ranges)
             .context("building BLASes")?;
+        let blas_ms = blas_start.elapsed().as_secs_f64() * 1e3;
+        let tlas_start = std::time::Instant::now();
         let (tlas, tlas_instances) = accel::build_tlas(ctx, &blases, &descs).context("building the TLAS")?;
+        let tlas_ms = tlas_start.elapsed().as_secs_f64() * 1e3;
 
         let mut buffers = vec![(1, vb), (2, ib), (3, tm), (4, mb), (5, inb)];
         let (mut texture_count, mut texel_bytes) = (0, 0);
@@ -222,6 +230,8 @@ impl SceneGpu {
             texture_count,
             texel_bytes,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
+            blas_ms,
+            tlas_ms,
             tlas,
             _tlas_instances: tlas_instances,
             _blases: blases,

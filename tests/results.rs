@@ -140,3 +140,42 @@ fn bench_radius_quick_writes_the_table_and_csv() {
         }
     }
 }
+
+/// `bench --scaling --quick`: every sweep has every mode at every size, positive finite times, and
+/// the table states a measured and an expected exponent per curve.
+#[test]
+fn bench_scaling_quick_writes_the_table_and_csv() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = cli(&["bench", "--scaling", "--quick", "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let md = non_empty(&dir.path().join("scaling.md"));
+    let csv = non_empty(&dir.path().join("scaling.csv"));
+    let opts = restir_vpl::eval::scaling::ScalingOptions::quick(std::path::Path::new("."));
+    for (sweep, sizes, extra) in [
+        ("vpls", opts.vpl_counts.len(), &["photon_emit"][..]),
+        ("pixels", opts.sizes.len(), &[][..]),
+        ("triangles", opts.spheres.len(), &["photon_emit", "blas build", "tlas build"][..]),
+    ] {
+        let rows: Vec<Vec<&str>> = csv.lines().skip(1).filter(|l| l.starts_with(&format!("{sweep},"))).map(|l| l.split(',').collect()).collect();
+        for what in ["uniform", "ris", "restir"].iter().chain(extra) {
+            let of: Vec<&Vec<&str>> = rows.iter().filter(|r| r[2] == *what).collect();
+            assert_eq!(of.len(), sizes, "{sweep} {what}: {csv}");
+            for r in of {
+                let ms: f64 = r[3].parse().unwrap();
+                assert!(ms.is_finite() && ms >= 0.0, "{r:?}");
+            }
+        }
+    }
+    for title in ["**VPL count (Cornell box)**", "**Image size (Cornell box)**", "**Triangle count**"] {
+        assert!(md.contains(title), "{md}");
+    }
+    assert!(md.contains("| exponent | expected |") && md.contains("expected 1: fixed work per pixel"), "{md}");
+}
+
+#[test]
+fn bench_scaling_refuses_runs() {
+    let o = cli(&["bench", "--scaling", "--runs", "2"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--runs"), "{}", String::from_utf8_lossy(&o.stderr));
+}

@@ -221,54 +221,66 @@ pub fn modes(
     device: Option<usize>,
 ) -> Result<Vec<ModeBench>> {
     let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
-    let camera = Camera::initial(&scene.info, None);
     let mut out = Vec::new();
     for &(width, height) in sizes {
-        // All modes are alive at once and their timed frames interleave (one frame of each mode per
-        // round), so drift on a shared machine hits every mode alike.
-        let mut renderers = Vec::new();
-        for (label, mode, restir) in mode_cases() {
-            let settings = RenderSettings {
-                scene: scene_path.to_path_buf(),
-                mode,
-                restir,
-                width,
-                height,
-                frames: frames + 2,
-                vpls_direct: direct,
-                vpls_indirect: indirect,
-                ..Default::default()
-            };
-            let mut r = Renderer::new(ctx.clone(), scene.clone(), settings)?;
+        let base = RenderSettings {
+            scene: scene_path.to_path_buf(),
+            width,
+            height,
+            vpls_direct: direct,
+            vpls_indirect: indirect,
+            ..Default::default()
+        };
+        out.extend(time_modes(&ctx, &scene, &base, &mode_cases(), frames)?);
+    }
+    Ok(out)
+}
+
+/// Frame cost of each of `cases` (label, mode, ReSTIR settings) with `base`'s other settings, from
+/// the scene's camera: two warm-up frames per mode (shader JIT, temporal history), then `frames`
+/// timed frames per mode, interleaved across modes (one frame of each per round) so drift on a
+/// shared machine hits every mode alike. Ratios are to the first case.
+pub fn time_modes(
+    ctx: &Arc<Context>,
+    scene: &Arc<SceneGpu>,
+    base: &RenderSettings,
+    cases: &[(&str, crate::settings::Mode, crate::settings::RestirSettings)],
+    frames: u32,
+) -> Result<Vec<ModeBench>> {
+    let camera = Camera::initial(&scene.info, None);
+    let mut renderers = Vec::new();
+    for (label, mode, restir) in cases {
+        let settings = RenderSettings { mode: *mode, restir: *restir, frames: frames + 2, ..base.clone() };
+        let mut r = Renderer::new(ctx.clone(), scene.clone(), settings)?;
+        r.render_frame(&camera, false)?;
+        r.render_frame(&camera, false)?;
+        r.reset_accumulation()?;
+        renderers.push((label, r));
+    }
+    for _ in 0..frames {
+        for (_, r) in renderers.iter_mut() {
             r.render_frame(&camera, false)?;
-            r.render_frame(&camera, false)?;
-            r.reset_accumulation()?;
-            renderers.push((label, r));
         }
-        for _ in 0..frames {
-            for (_, r) in renderers.iter_mut() {
-                r.render_frame(&camera, false)?;
-            }
-        }
-        let mut uniform_ms = None;
-        for (label, r) in renderers {
-            let log = r.log();
-            let gpu = log.gpu().median;
-            let rays: Vec<(String, f64)> =
-                log.rays_per_pixel_by_pass().into_iter().map(|(k, t)| (k, t.median)).filter(|(_, n)| *n > 0.0).collect();
-            let uniform = *uniform_ms.get_or_insert(gpu);
-            out.push(ModeBench {
-                label: label.to_string(),
-                width,
-                height,
-                frames,
-                pass_ms: log.pass_stats().into_iter().map(|(k, t)| (k, t.median)).collect(),
-                gpu_ms_per_frame: gpu,
-                rays_per_pixel_total: rays.iter().map(|r| r.1).sum(),
-                rays_per_pixel: rays,
-                ratio_to_uniform: if uniform > 0.0 { gpu / uniform } else { 0.0 },
-            });
-        }
+    }
+    let mut out = Vec::new();
+    let mut first_ms = None;
+    for (label, r) in renderers {
+        let log = r.log();
+        let gpu = log.gpu().median;
+        let rays: Vec<(String, f64)> =
+            log.rays_per_pixel_by_pass().into_iter().map(|(k, t)| (k, t.median)).filter(|(_, n)| *n > 0.0).collect();
+        let first = *first_ms.get_or_insert(gpu);
+        out.push(ModeBench {
+            label: label.to_string(),
+            width: base.width,
+            height: base.height,
+            frames,
+            pass_ms: log.pass_stats().into_iter().map(|(k, t)| (k, t.median)).collect(),
+            gpu_ms_per_frame: gpu,
+            rays_per_pixel_total: rays.iter().map(|r| r.1).sum(),
+            rays_per_pixel: rays,
+            ratio_to_uniform: if first > 0.0 { gpu / first } else { 0.0 },
+        });
     }
     Ok(out)
 }

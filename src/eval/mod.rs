@@ -11,3 +11,4 @@ pub mod rays;
 pub mod reference;
 pub mod report;
 pub mod results;
+pub mod scaling;

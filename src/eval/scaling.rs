@@ -1,0 +1,270 @@
+//! `bench --scaling`: how the cost grows as the work grows. Frame GPU ms of uniform, RIS and ReSTIR
+//! (default settings) against the VPL count, the image size and the triangle count, and the photon
+//! pass and the BLAS/TLAS builds against what they build. Each curve is summarised by its measured
+//! exponent (the least-squares slope of log cost against log size) beside the exponent its
+//! algorithm predicts, so a departure from the expected law is a number, not an impression.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context as _, Result};
+use serde::Serialize;
+
+use crate::eval::bench::{dense_scene, time_modes};
+use crate::renderer::Renderer;
+use crate::scene::Scene;
+use crate::scene_gpu::SceneGpu;
+use crate::settings::{Mode, RenderSettings, RestirSettings};
+use crate::vk::Context;
+
+/// What `bench --scaling` measures.
+#[derive(Clone, Debug)]
+pub struct ScalingOptions {
+    pub cornell: PathBuf,
+    /// Total VPL counts (half direct, half indirect) of the VPL sweep.
+    pub vpl_counts: Vec<u32>,
+    /// Image sizes of the pixel sweep.
+    pub sizes: Vec<(u32, u32)>,
+    /// (rings, segments) of the generated sphere of the triangle sweep: 2·rings·segments triangles.
+    pub spheres: Vec<(u32, u32)>,
+    /// Image size of the VPL and triangle sweeps.
+    pub size: (u32, u32),
+    /// Total VPLs of the pixel and triangle sweeps.
+    pub vpls: u32,
+    /// Timed frames per mode and point (after two warm-up frames).
+    pub frames: u32,
+    /// Timed photon-pass runs per point (after the renderer's own first trace).
+    pub photon_runs: u32,
+}
+
+impl ScalingOptions {
+    /// The measurement for docs: 10k … 2M VPLs, 256² … 1920×1080, ~1k … ~1M triangles.
+    pub fn full(root: &Path) -> Self {
+        Self {
+            cornell: root.join("scenes/cornell_box.gltf"),
+            vpl_counts: vec![10_000, 50_000, 200_000, 1_000_000, 2_000_000],
+            sizes: vec![(256, 256), (512, 512), (1280, 720), (1920, 1080)],
+            spheres: vec![(16, 32), (50, 100), (160, 320), (500, 1000)],
+            size: (640, 360),
+            vpls: 200_000,
+            frames: 3,
+            photon_runs: 3,
+        }
+    }
+
+    /// A smoke test: seconds.
+    pub fn quick(root: &Path) -> Self {
+        Self {
+            cornell: root.join("scenes/cornell_box.gltf"),
+            vpl_counts: vec![2_000, 8_000],
+            sizes: vec![(32, 32), (64, 64)],
+            spheres: vec![(8, 16), (16, 32)],
+            size: (48, 32),
+            vpls: 4_000,
+            frames: 1,
+            photon_runs: 1,
+        }
+    }
+}
+
+/// One measured cost at one size of one sweep.
+#[derive(Clone, Debug, Serialize)]
+pub struct ScalingPoint {
+    /// "vpls", "pixels" or "triangles".
+    pub sweep: &'static str,
+    /// The swept quantity (VPLs, pixels or triangles).
+    pub x: f64,
+    /// What was timed: a mode's frame, "photon_emit", "blas build" or "tlas build".
+    pub what: String,
+    /// Milliseconds (GPU timestamps for frames and photons, wall for the builds).
+    pub ms: f64,
+}
+
+/// The modes every sweep times.
+fn cases() -> Vec<(&'static str, Mode, RestirSettings)> {
+    vec![
+        ("uniform", Mode::Uniform, RestirSettings::default()),
+        ("ris", Mode::Ris, RestirSettings::default()),
+        ("restir", Mode::Restir, RestirSettings::default()),
+    ]
+}
+
+fn base(scene: &Path, (width, height): (u32, u32), vpls: u32) -> RenderSettings {
+    RenderSettings {
+        scene: scene.to_path_buf(),
+        width,
+        height,
+        vpls_direct: vpls / 2,
+        vpls_indirect: vpls - vpls / 2,
+        ..Default::default()
+    }
+}
+
+/// Median GPU ms of `runs` photon-pass runs (the renderer's first trace, with shader compilation,
+/// is not timed).
+fn photon_ms(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, settings: &RenderSettings, runs: u32) -> Result<f64> {
+    let mut r = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { mode: Mode::Uniform, width: 8, height: 8, ..settings.clone() })?;
+    let times = (0..runs.max(1)).map(|_| r.retrace_photons().map(|s| s.gpu_ms)).collect::<Result<Vec<_>>>()?;
+    Ok(crate::output::TimingStats::of(&times).median)
+}
+
+/// Runs the three sweeps; `log` receives a line per point.
+pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String)) -> Result<Vec<ScalingPoint>> {
+    let mut points = Vec::new();
+    let push_modes = |points: &mut Vec<ScalingPoint>, sweep: &'static str, x: f64, rows: Vec<crate::eval::bench::ModeBench>| {
+        for r in rows {
+            points.push(ScalingPoint { sweep, x, what: r.label, ms: r.gpu_ms_per_frame });
+        }
+    };
+    let cornell = Scene::load(&opts.cornell)?;
+    let cornell_gpu = Arc::new(SceneGpu::new(ctx, &cornell, true).context("uploading the Cornell box")?);
+
+    for &n in &opts.vpl_counts {
+        let settings = base(&opts.cornell, opts.size, n);
+        let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames).with_context(|| format!("{n} VPLs"))?;
+        log(format!("vpls {n}: {}", summary(&rows)));
+        push_modes(&mut points, "vpls", n as f64, rows);
+        let ms = photon_ms(ctx, &cornell_gpu, &settings, opts.photon_runs)?;
+        points.push(ScalingPoint { sweep: "vpls", x: n as f64, what: "photon_emit".into(), ms });
+    }
+
+    for &(w, h) in &opts.sizes {
+        let settings = base(&opts.cornell, (w, h), opts.vpls);
+        let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames).with_context(|| format!("{w}x{h}"))?;
+        log(format!("{w}x{h}: {}", summary(&rows)));
+        push_modes(&mut points, "pixels", (w * h) as f64, rows);
+    }
+
+    for &(rings, segments) in &opts.spheres {
+        let scene = dense_scene(rings, segments)?;
+        let t = scene.triangle_count() as f64;
+        let gpu = Arc::new(SceneGpu::new(ctx, &scene, true).with_context(|| format!("uploading a sphere of {t} triangles"))?);
+        points.push(ScalingPoint { sweep: "triangles", x: t, what: "blas build".into(), ms: gpu.blas_ms });
+        points.push(ScalingPoint { sweep: "triangles", x: t, what: "tlas build".into(), ms: gpu.tlas_ms });
+        let settings = base(&scene.path, opts.size, opts.vpls);
+        let rows = time_modes(ctx, &gpu, &settings, &cases(), opts.frames).with_context(|| format!("{t} triangles"))?;
+        log(format!("{t} triangles (BLAS {:.1} ms, TLAS {:.1} ms): {}", gpu.blas_ms, gpu.tlas_ms, summary(&rows)));
+        push_modes(&mut points, "triangles", t, rows);
+        let ms = photon_ms(ctx, &gpu, &settings, opts.photon_runs)?;
+        points.push(ScalingPoint { sweep: "triangles", x: t, what: "photon_emit".into(), ms });
+    }
+    Ok(points)
+}
+
+fn summary(rows: &[crate::eval::bench::ModeBench]) -> String {
+    rows.iter().map(|r| format!("{} {:.1} ms", r.label, r.gpu_ms_per_frame)).collect::<Vec<_>>().join(", ")
+}
+
+/// Least-squares slope of ln(ms) against ln(x): the measured exponent of cost ∝ x^k (None with
+/// fewer than two usable points).
+pub fn exponent(points: &[(f64, f64)]) -> Option<f64> {
+    let logs: Vec<(f64, f64)> = points.iter().filter(|(x, y)| *x > 0.0 && *y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
+    if logs.len() < 2 {
+        return None;
+    }
+    let n = logs.len() as f64;
+    let (mx, my) = (logs.iter().map(|p| p.0).sum::<f64>() / n, logs.iter().map(|p| p.1).sum::<f64>() / n);
+    let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+/// The law each curve is expected to follow: (exponent, why).
+fn expected(sweep: &str, what: &str) -> (f64, &'static str) {
+    match (sweep, what) {
+        ("vpls", "photon_emit") => (1.0, "one photon path per VPL: linear"),
+        ("vpls", _) => (0.0, "a fixed number of VPLs read per pixel: independent of the count (until the VPL buffer outgrows the caches)"),
+        ("pixels", _) => (1.0, "fixed work per pixel: linear in pixels"),
+        ("triangles", "blas build") => (1.0, "a BVH build: n log n, close to linear"),
+        ("triangles", "tlas build") => (0.0, "one instance per mesh: independent of triangles"),
+        ("triangles", _) => (0.0, "BVH traversal: logarithmic, close to flat"),
+        _ => (f64::NAN, ""),
+    }
+}
+
+/// The Markdown section: one table per sweep (ms per size, measured and expected exponent).
+pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) -> String {
+    let mut s = format!(
+        "Device: {device}. GPU ms per frame (median of {} timed frames per mode after 2 warm-up frames, modes interleaved) of uniform, RIS (32 candidates) and ReSTIR (unbiased defaults); photon_emit: median GPU ms of {} re-traces; BLAS/TLAS: wall ms of the build submission. Exponent: least-squares slope of log ms against log size; expected: what the algorithm predicts. VPL and triangle sweeps at {}×{}, pixel and triangle sweeps with {} VPLs. The triangle sweep is a room with a tessellated bumpy sphere (`bench::dense_scene`), seen from its camera.\n\n",
+        opts.frames, opts.photon_runs, opts.size.0, opts.size.1, opts.vpls
+    );
+    for (sweep, title, unit) in [("vpls", "VPL count (Cornell box)", "VPLs"), ("pixels", "Image size (Cornell box)", "pixels"), ("triangles", "Triangle count", "triangles")] {
+        let sel: Vec<&ScalingPoint> = points.iter().filter(|p| p.sweep == sweep).collect();
+        if sel.is_empty() {
+            continue;
+        }
+        let mut xs: Vec<f64> = sel.iter().map(|p| p.x).collect();
+        xs.sort_by(f64::total_cmp);
+        xs.dedup();
+        let mut whats: Vec<&str> = Vec::new();
+        for p in &sel {
+            if !whats.contains(&p.what.as_str()) {
+                whats.push(&p.what);
+            }
+        }
+        s += &format!("**{title}**\n\n| ms at {unit} |");
+        for x in &xs {
+            s += &format!(" {} |", fmt_count(*x));
+        }
+        s += " exponent | expected |\n|---|";
+        s += &"---:|".repeat(xs.len() + 2);
+        s += "\n";
+        let mut laws: Vec<String> = Vec::new();
+        for w in &whats {
+            let pts: Vec<(f64, f64)> = sel.iter().filter(|p| p.what == *w).map(|p| (p.x, p.ms)).collect();
+            s += &format!("| {w} |");
+            for x in &xs {
+                match pts.iter().find(|p| p.0 == *x) {
+                    Some(p) => s += &format!(" {:.1} |", p.1),
+                    None => s += " – |",
+                }
+            }
+            let (e, why) = expected(sweep, w);
+            let k = exponent(&pts).map_or("–".to_string(), |k| format!("{k:.2}"));
+            s += &format!(" {k} | {e:.0} |\n");
+            let law = format!("expected {e:.0}: {why}");
+            if !laws.contains(&law) {
+                laws.push(law);
+            }
+        }
+        s += "\n";
+        for law in laws {
+            s += &format!("- {law}\n");
+        }
+        s += "\n";
+    }
+    s
+}
+
+fn fmt_count(x: f64) -> String {
+    if x >= 1e6 {
+        format!("{:.2}M", x / 1e6)
+    } else if x >= 1e3 {
+        format!("{:.0}k", x / 1e3)
+    } else {
+        format!("{x:.0}")
+    }
+}
+
+/// sweep,x,what,ms
+pub fn write_csv(path: &Path, points: &[ScalingPoint]) -> Result<()> {
+    let mut s = String::from("sweep,x,what,ms\n");
+    for p in points {
+        s += &format!("{},{},{},{:.4}\n", p.sweep, p.x, p.what, p.ms);
+    }
+    std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exponent_recovers_a_power_law() {
+        let pts: Vec<(f64, f64)> = [1e3, 1e4, 1e5, 1e6].iter().map(|&x: &f64| (x, 3.0 * x.powf(0.75))).collect();
+        assert!((exponent(&pts).unwrap() - 0.75).abs() < 1e-9);
+        assert!(exponent(&pts[..1]).is_none());
+        let flat = [(10.0, 5.0), (1000.0, 5.0)];
+        assert!(exponent(&flat).unwrap().abs() < 1e-12);
+    }
+}
