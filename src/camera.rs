@@ -200,17 +200,6 @@ pub enum MoveKey {
     Down,
 }
 
-impl MoveKey {
-    const ALL: [MoveKey; 6] = [
-        MoveKey::Forward,
-        MoveKey::Back,
-        MoveKey::Left,
-        MoveKey::Right,
-        MoveKey::Up,
-        MoveKey::Down,
-    ];
-}
-
 /// How long each movement key was held since the last update, from the key events' own times: a
 /// tap shorter than a frame still moves the camera by what was held (on lavapipe a frame can take
 /// longer than a tap), and the distance does not depend on the frame rate.
@@ -317,10 +306,7 @@ impl FlyController {
 
     /// A movement key went down or up at `t` (seconds, the same clock as `update`).
     pub fn key(&mut self, key: MoveKey, down: bool, t: f64) {
-        let i = MoveKey::ALL
-            .iter()
-            .position(|k| *k == key)
-            .expect("every key is in ALL");
+        let i = key as usize; // the index into HeldKeys' arrays, in declaration order
         match (down, self.keys.down_since[i]) {
             (true, None) => {
                 self.keys.down_since[i] = Some(t);

@@ -543,15 +543,9 @@ fn real_main(cli: Cli) -> Result<()> {
             } else {
                 restir_vpl::eval::scaling::ScalingOptions::full(&root)
             };
-            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-                device_index: *device,
-                ..Default::default()
-            })?);
+            let ctx = bench_context(*device)?;
             let points = restir_vpl::eval::scaling::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
-            std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
-            let md = out.join("scaling.md");
-            let text = format!("# How cost grows with the work (`bench --scaling`)\n\n{}", restir_vpl::eval::scaling::markdown(&opts, &points, &ctx.report.name));
-            std::fs::write(&md, text).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+            let md = write_report(out, "scaling.md", "How cost grows with the work (`bench --scaling`)", &restir_vpl::eval::scaling::markdown(&opts, &points, &ctx.report.name))?;
             let csv = out.join("scaling.csv");
             restir_vpl::eval::scaling::write_csv(&csv, &points)?;
             println!("{}\n{}", md.display(), csv.display());
@@ -566,15 +560,9 @@ fn real_main(cli: Cli) -> Result<()> {
             };
             opts.out_dir = out.clone();
             opts.runs = runs.unwrap_or(opts.runs);
-            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-                device_index: *device,
-                ..Default::default()
-            })?);
+            let ctx = bench_context(*device)?;
             let rows = restir_vpl::eval::radius::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
-            std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
-            let md = out.join("radius.md");
-            let text = format!("# The Yuksel radius as a trade-off (`bench --radius`)\n\n{}", restir_vpl::eval::radius::markdown(&opts, &rows));
-            std::fs::write(&md, text).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+            let md = write_report(out, "radius.md", "The Yuksel radius as a trade-off (`bench --radius`)", &restir_vpl::eval::radius::markdown(&opts, &rows))?;
             let csv = out.join("radius.csv");
             restir_vpl::eval::radius::write_csv(&csv, &rows)?;
             println!("{}\n{}", md.display(), csv.display());
@@ -589,15 +577,10 @@ fn real_main(cli: Cli) -> Result<()> {
             };
             opts.out_dir = out.clone();
             opts.runs = runs.unwrap_or(opts.runs);
-            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-                device_index: *device,
-                ..Default::default()
-            })?);
+            let ctx = bench_context(*device)?;
             let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
             let files = restir_vpl::eval::motion::write_outputs(out, &points)?;
-            let md = out.join("motion.md");
-            let text = format!("# Moving camera: error of every displayed frame\n\n{}", restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots));
-            std::fs::write(&md, text).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+            let md = write_report(out, "motion.md", "Moving camera: error of every displayed frame", &restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots))?;
             println!("{}\n{}", md.display(), files.csv.display());
             for p in &files.plots {
                 println!("{}", p.display());
@@ -636,10 +619,7 @@ fn real_main(cli: Cli) -> Result<()> {
         }
         if *rays {
             let root = std::env::current_dir()?;
-            let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-                device_index: *device,
-                ..Default::default()
-            })?);
+            let ctx = bench_context(*device)?;
             let (w, h) = (width.unwrap_or(1280), height.unwrap_or(720));
             let mut rows = Vec::new();
             for spec in restir_vpl::eval::results::thesis_scenes(&root, 1.0) {
@@ -806,6 +786,19 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
         println!("this run: {frames} frames in {:.1} s wall, {:.1} s GPU", wall_ms * 1e-3, gpu_ms * 1e-3);
     }
     Ok(())
+}
+
+/// A context without validation on `device`, for the bench subcommands.
+fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk::Context>> {
+    Ok(std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions { device_index: device, ..Default::default() })?))
+}
+
+/// Writes `OUT/name` as a Markdown page titled `title` around `body` (creating OUT); its path.
+fn write_report(out: &std::path::Path, name: &str, title: &str, body: &str) -> Result<PathBuf> {
+    std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
+    let md = out.join(name);
+    std::fs::write(&md, format!("# {title}\n\n{body}")).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+    Ok(md)
 }
 
 /// A context for `settings` (validation, device) with the scene loaded and uploaded to it.

@@ -169,6 +169,26 @@ fn wait_for_title(display: &str, child: &mut Child, want: &str, timeout: Duratio
     panic!("window title never contained '{want}' within {timeout:?}; last: '{last}'");
 }
 
+/// Presses Enter (write the outputs) until the written summary.json satisfies `done`, again every
+/// 5 s in case an event was lost under load or the frame shown was older (writing is idempotent).
+fn write_until(display: &str, wid: &str, out: &Path, timeout: Duration, what: &str, done: impl Fn(&serde_json::Value) -> bool) -> serde_json::Value {
+    let start = Instant::now();
+    let mut pressed: Option<Instant> = None;
+    loop {
+        if pressed.is_none_or(|t| t.elapsed() > Duration::from_secs(5)) {
+            xdotool(display, &["windowfocus", "--sync", wid]);
+            xdotool(display, &["key", "Return"]);
+            pressed = Some(Instant::now());
+        }
+        let s = summary(out);
+        if done(&s) {
+            return s;
+        }
+        assert!(start.elapsed() < timeout, "{what} within {timeout:?}: {s}");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+}
+
 /// Waits until the title's smoothed frame time is below `ms`.
 fn wait_for_fast_frames(display: &str, child: &mut Child, ms: f64, timeout: Duration) {
     let start = Instant::now();
@@ -248,20 +268,7 @@ fn keys_change_mode_move_camera_resize_and_quit() {
     // slower than the key presses (a cold pipeline cache on lavapipe) the first write can still show
     // the scene camera. Writing is idempotent: press until a frame with the moved camera is written.
     press_until_title(d, &wid, "Return", "wrote", Duration::from_secs(60));
-    let start = Instant::now();
-    let s = loop {
-        let s = summary(&out);
-        if s["camera"]["source"] == "window" {
-            break s;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(60),
-            "the camera should have left the scene camera: {s}"
-        );
-        std::thread::sleep(Duration::from_secs(2));
-        xdotool(d, &["windowfocus", "--sync", &wid]);
-        xdotool(d, &["key", "Return"]);
-    };
+    let s = write_until(d, &wid, &out, Duration::from_secs(60), "the camera should have left the scene camera", |s| s["camera"]["source"] == "window");
     assert_eq!(s["settings"]["mode"], "restir", "{s}");
     // The Cornell camera stands at z = −0.8 looking along +z; W held for 0.8 s moves it forward at
     // 0.2 × the scene's diagonal (≈ 0.19 units) per second: ≈ 0.15, however slow the frames were.
@@ -273,23 +280,8 @@ fn keys_change_mode_move_camera_resize_and_quit() {
     // A resize recreates the swapchain and the frame targets.
     xdotool(d, &["windowsize", &wid, "160", "120"]);
     std::thread::sleep(Duration::from_millis(1500));
-    let start = Instant::now();
-    let mut pressed: Option<Instant> = None;
-    loop {
-        // Pressed again every 5 s in case an event was lost under load (writing is idempotent).
-        if pressed.is_none_or(|t| t.elapsed() > Duration::from_secs(5)) {
-            xdotool(d, &["windowfocus", "--sync", &wid]);
-            xdotool(d, &["key", "Return"]);
-            pressed = Some(Instant::now());
-        }
-        let s = summary(&out);
-        if s["settings"]["width"] == 160 {
-            assert_eq!(s["settings"]["height"], 120);
-            break;
-        }
-        assert!(start.elapsed() < Duration::from_secs(30), "the resize never reached the renderer: {s}");
-        std::thread::sleep(Duration::from_millis(200));
-    }
+    let s = write_until(d, &wid, &out, Duration::from_secs(30), "the resize never reached the renderer", |s| s["settings"]["width"] == 160);
+    assert_eq!(s["settings"]["height"], 120);
     assert!(read_exr(&out.join("final.exr")).unwrap().pixels.len() == 160 * 120);
     // Esc: exit 0, with nothing from the validation layer on stderr.
     let start = Instant::now();

@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use crate::camera::Camera;
 use crate::output::TimingStats;
+use crate::passes::photon_emit::PhotonStats;
 use crate::renderer::Renderer;
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
@@ -147,25 +148,8 @@ pub struct PhotonBench {
 /// Times the photon pass `runs` times (after a warm-up) on `scene`.
 pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32, device: Option<usize>) -> Result<PhotonBench> {
     let (ctx, gpu) = upload(scene, device)?;
-    // A tiny image: only the photon pass is timed.
-    let settings = RenderSettings {
-        mode: crate::settings::Mode::Uniform,
-        width: 8,
-        height: 8,
-        vpls_direct: direct,
-        vpls_indirect: indirect,
-        ..Default::default()
-    };
-    let mut r = Renderer::new(ctx, gpu, settings)?; // traces once: the warm-up
-    let mut times = Vec::new();
-    let mut last = None;
-    for _ in 0..runs.max(1) {
-        let stats = r.retrace_photons()?;
-        times.push(stats.gpu_ms);
-        last = Some(stats);
-    }
-    let stats = last.expect("at least one run");
-    let gpu_ms = TimingStats::of(&times).median;
+    let settings = RenderSettings { vpls_direct: direct, vpls_indirect: indirect, ..Default::default() };
+    let (gpu_ms, stats) = time_photons(&ctx, &gpu, &settings, runs)?;
     Ok(PhotonBench {
         scene: label.to_string(),
         triangles: scene.triangle_count(),
@@ -176,6 +160,22 @@ pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32
         paths_per_second: stats.paths as f64 / (gpu_ms * 1e-3),
         indirect_vpls: stats.indirect_vpls,
     })
+}
+
+/// Median GPU ms of `runs` re-traces of the photon pass with `settings`' VPL counts, and the last
+/// run's statistics. The renderer's own first trace (shader compilation) is the untimed warm-up;
+/// the image is tiny, since only the photon pass is timed.
+pub fn time_photons(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, settings: &RenderSettings, runs: u32) -> Result<(f64, PhotonStats)> {
+    let settings = RenderSettings { mode: crate::settings::Mode::Uniform, width: 8, height: 8, ..settings.clone() };
+    let mut r = Renderer::new(ctx.clone(), scene.clone(), settings)?;
+    let mut times = Vec::new();
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let stats = r.retrace_photons()?;
+        times.push(stats.gpu_ms);
+        last = Some(stats);
+    }
+    Ok((TimingStats::of(&times).median, last.expect("at least one run")))
 }
 
 /// One VPL mode's cost at one resolution.

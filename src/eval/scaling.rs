@@ -10,8 +10,7 @@ use std::sync::Arc;
 use anyhow::{Context as _, Result};
 use serde::Serialize;
 
-use crate::eval::bench::{dense_scene, time_modes};
-use crate::renderer::Renderer;
+use crate::eval::bench::{dense_scene, time_modes, time_photons};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::settings::{Mode, RenderSettings, RestirSettings};
@@ -100,14 +99,6 @@ fn base(scene: &Path, (width, height): (u32, u32), vpls: u32) -> RenderSettings 
     }
 }
 
-/// Median GPU ms of `runs` photon-pass runs (the renderer's first trace, with shader compilation,
-/// is not timed).
-fn photon_ms(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, settings: &RenderSettings, runs: u32) -> Result<f64> {
-    let mut r = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { mode: Mode::Uniform, width: 8, height: 8, ..settings.clone() })?;
-    let times = (0..runs.max(1)).map(|_| r.retrace_photons().map(|s| s.gpu_ms)).collect::<Result<Vec<_>>>()?;
-    Ok(crate::output::TimingStats::of(&times).median)
-}
-
 /// Runs the three sweeps; `log` receives a line per point.
 pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String)) -> Result<Vec<ScalingPoint>> {
     let mut points = Vec::new();
@@ -124,7 +115,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
         let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames).with_context(|| format!("{n} VPLs"))?;
         log(format!("vpls {n}: {}", summary(&rows)));
         push_modes(&mut points, "vpls", n as f64, rows);
-        let ms = photon_ms(ctx, &cornell_gpu, &settings, opts.photon_runs)?;
+        let (ms, _) = time_photons(ctx, &cornell_gpu, &settings, opts.photon_runs)?;
         points.push(ScalingPoint { sweep: "vpls", x: n as f64, what: "photon_emit".into(), ms });
     }
 
@@ -145,7 +136,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
         let rows = time_modes(ctx, &gpu, &settings, &cases(), opts.frames).with_context(|| format!("{t} triangles"))?;
         log(format!("{t} triangles (BLAS {:.1} ms, TLAS {:.1} ms): {}", gpu.blas_ms, gpu.tlas_ms, summary(&rows)));
         push_modes(&mut points, "triangles", t, rows);
-        let ms = photon_ms(ctx, &gpu, &settings, opts.photon_runs)?;
+        let (ms, _) = time_photons(ctx, &gpu, &settings, opts.photon_runs)?;
         points.push(ScalingPoint { sweep: "triangles", x: t, what: "photon_emit".into(), ms });
     }
     Ok(points)
