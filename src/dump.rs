@@ -264,6 +264,13 @@ pub fn write_frame(
         };
         match step {
             Step::Skip(why) => passes.push(common(None, 0, "skipped", Some(*why))),
+            // A pass without a per-pixel output (vpl_presample writes VPL tiles): listed as run,
+            // with its time and why there is no image.
+            Step::Run if !captured.iter().any(|c| c.pass == name) => {
+                let mut e = common(None, 0, "run", Some("no per-pixel output (it writes the frame's presampled VPL tiles)"));
+                e.gpu_ms = stats_of_frame.pass_ms.iter().find(|(n, _)| *n == name).map(|p| p.1);
+                passes.push(e);
+            }
             Step::Run => {
                 for c in captured.iter().filter(|c| c.pass == name) {
                     let mut e = common(Some(c.position), c.repeat, "run", None);
@@ -379,6 +386,9 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                 p.rays_per_pixel.map(|v| format!("{v:.2}")).unwrap_or_default(),
                 p.workgroups.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).unwrap_or_default(),
             );
+            if p.outputs.is_empty() {
+                html.push_str(&esc(p.why.unwrap_or("")));
+            }
             for o in &p.outputs {
                 let png = format!("frame_{:04}/{}", m.frame, o.file.replace(".exr", ".png"));
                 let _ = write!(

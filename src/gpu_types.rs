@@ -235,6 +235,28 @@ gpu_struct! {
     }
 }
 
+gpu_struct! {
+    /// A VPL as the RIS candidate loop reads it: a presampled copy (`vpl_presample` fills tiles of
+    /// `PRESAMPLE_TILE_SIZE` of them), 32 bytes instead of 48, with its index and kind in one word
+    /// and its normal octahedral-encoded (the photon pass stores every VPL normal already decoded
+    /// from such a code, so both forms give the same target).
+    pub struct GpuVplCandidate as "VplCandidate" (32) {
+        pub position: [f32; 3],
+        /// Index into the VPL buffer (low `CANDIDATE_INDEX_BITS` bits) and `VPL_*` kind above it.
+        pub vpl_kind: u32,
+        pub flux: [f32; 3],
+        /// Octahedral normal, two snorm16 (`oct_encode` in shaders/lib/packing.glsl).
+        pub normal_oct: u32,
+    }
+}
+
+/// Bits of `GpuVplCandidate::vpl_kind` that hold the VPL index (the kind sits above them).
+pub const CANDIDATE_INDEX_BITS: u32 = 30;
+/// VPLs per presampled tile (a power of two: the candidate loop wraps with a mask).
+pub const PRESAMPLE_TILE_SIZE: u32 = 1024;
+/// Most tiles `vpl_presample` fills per frame (fewer for small images: one per workgroup).
+pub const PRESAMPLE_MAX_TILES: u32 = 128;
+
 /// `GpuReservoir::vpl` of an empty reservoir.
 pub const RESERVOIR_EMPTY: u32 = u32::MAX;
 
@@ -342,4 +364,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     PHOTON_EMIT_PATHS,
     PHOTON_EMIT_SCALE,
     MAX_SPATIAL_NEIGHBOURS,
+    CANDIDATE_INDEX_BITS,
+    PRESAMPLE_TILE_SIZE,
+    PRESAMPLE_MAX_TILES,
 ];

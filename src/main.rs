@@ -137,6 +137,10 @@ struct RenderArgs {
     /// Where RIS candidates come from: uniformly over the VPLs, or in proportion to their power.
     #[arg(long, value_parser = named::<CandidateSource>(), default_value_t = DEFAULTS.candidate_source)]
     candidate_source: CandidateSource,
+    /// Light presampling (ris, restir): candidates come from per-frame tiles drawn from the source
+    /// pdf, one tile per 8×8 pixels, instead of from the whole VPL buffer (same estimator, faster).
+    #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.presample))]
+    presample: Toggle,
     /// ReSTIR temporal reuse of the previous frame's reservoirs.
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.restir.temporal))]
     temporal: Toggle,
@@ -471,6 +475,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         vpl_radius: cli.vpl_radius,
         candidates: cli.candidates,
         candidate_source: cli.candidate_source,
+        presample: cli.presample.on(),
         restir: RestirSettings {
             temporal: cli.temporal.on(),
             mcap: cli.mcap,
@@ -721,10 +726,11 @@ fn real_main(cli: Cli) -> Result<()> {
     }
     if let Some(v) = &s.vpl {
         println!(
-            "vpl: {} VPLs, {} candidate(s) ({} source), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}",
+            "vpl: {} VPLs, {} candidate(s) ({} source{}), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}",
             v.vpl_count,
             v.candidates,
             v.candidate_source,
+            if v.presample { ", presampled tiles" } else { "" },
             v.yuksel_radius.map(|r| format!("{r:.4}")).unwrap_or_else(|| "- (inverse square)".into()),
             v.initial_visibility,
             v.unbiased_reuse

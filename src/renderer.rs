@@ -22,7 +22,7 @@ use crate::gpu_types::{
 use crate::output::TimingStats;
 use crate::passes::{
     FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirInitialPass, RestirSpatialPass,
-    RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplShadePass, VplViewPass, RAY_SLOTS,
+    RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_SLOTS,
 };
 use crate::lights::{LightSet, PointEmitter};
 use crate::scene_gpu::{LightBuffers, SceneGpu};
@@ -123,6 +123,8 @@ struct VplSetup {
     /// are 0 when the pass does not run (no `--compensate`, or a view that is not light).
     compensate: (GpuVplParams, u32),
     _alias: Buffer,
+    /// Bound as `restir_initial`'s tiles when there is no `vpl_presample` pass.
+    _no_tiles: Option<Buffer>,
     reservoirs: Option<Reservoirs>,
 }
 
@@ -136,6 +138,8 @@ pub struct VplSummary {
     pub candidates: u32,
     /// "uniform" or "power".
     pub candidate_source: &'static str,
+    /// Candidates come from `vpl_presample`'s tiles.
+    pub presample: bool,
     /// Targets include visibility (initial sample shadow-tested).
     pub initial_visibility: bool,
     pub unbiased_reuse: bool,
@@ -587,11 +591,24 @@ impl Renderer {
         };
         let inputs = VplInputs { vpls: &photon_pass.vpls, alias: &alias };
         let mut reservoirs = None;
+        let mut no_tiles = None;
         if mode == Mode::Bruteforce {
             passes.vpl.bruteforce = Some(VplBruteforcePass::new(ctx, layout, targets, &inputs)?);
         } else if mode.uses_reservoirs() {
             let res = Reservoirs::new(ctx, targets.pixels())?;
-            passes.vpl.initial = Some(RestirInitialPass::new(ctx, layout, targets, &inputs, &res)?);
+            if settings.presamples() {
+                passes.vpl.presample = Some(VplPresamplePass::new(ctx, layout, &inputs, targets.width, targets.height)?);
+            } else {
+                // The binding is declared by the shader but not read without presampling.
+                let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER;
+                no_tiles = Some(crate::vk::Buffer::with_data(ctx, "vpl_presample.tiles(unused)", &[0u8; 32], usage)?);
+            }
+            let tiles = match (&passes.vpl.presample, &no_tiles) {
+                (Some(p), _) => &p.tiles,
+                (None, Some(b)) => b,
+                (None, None) => unreachable!("one of the two was just made"),
+            };
+            passes.vpl.initial = Some(RestirInitialPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
             passes.vpl.shade = Some(VplShadePass::new(ctx, layout, targets, &inputs, &res)?);
             if mode == Mode::Restir {
                 if r.temporal {
@@ -623,6 +640,7 @@ impl Renderer {
             params,
             compensate,
             _alias: alias,
+            _no_tiles: no_tiles,
             reservoirs,
         })
     }
@@ -677,6 +695,13 @@ impl Renderer {
             gbuffer,
             pathtrace: shading(mode == Mode::Pt, "mode is not pt"),
             vpl_bruteforce: shading(mode == Mode::Bruteforce, "mode is not bruteforce"),
+            vpl_presample: if s.presamples() {
+                shading(true, "")
+            } else if mode.uses_reservoirs() {
+                shading(false, if mode == Mode::Uniform { "uniform sampling reads one VPL per pixel" } else { "--presample off" })
+            } else {
+                shading(false, "mode picks no VPLs per pixel")
+            },
             restir_initial: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             restir_temporal: restir_step(
                 r.temporal && st.history_valid,
@@ -1107,6 +1132,7 @@ impl Renderer {
             yuksel_radius_source: v.yuksel_radius_source,
             candidates: if self.settings.mode.uses_reservoirs() { v.params.candidates } else { 0 },
             candidate_source: if v.params.source == 1 { "power" } else { "uniform" },
+            presample: self.parts.passes.vpl.presample.is_some(),
             initial_visibility: v.params.flags & VPL_FLAG_INITIAL_VISIBILITY != 0,
             unbiased_reuse: v.params.flags & VPL_FLAG_UNBIASED != 0,
         })

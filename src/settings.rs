@@ -318,6 +318,11 @@ pub struct RenderSettings {
     /// RIS candidates per pixel (ris and restir).
     pub candidates: u32,
     pub candidate_source: CandidateSource,
+    /// RTXDI-style light presampling for ris and restir: each frame `vpl_presample` draws tiles of
+    /// candidates from the source pdf and `restir_initial` reads a workgroup's candidates from one
+    /// tile (same estimator, cache-resident reads). Off: candidates straight from the VPL buffer.
+    #[serde(default = "default_presample")]
+    pub presample: bool,
     pub restir: RestirSettings,
     pub attenuation: Attenuation,
     /// Yuksel's r (scene units); None: [`DEFAULT_RADIUS_SPACINGS`] × the mean VPL spacing
@@ -365,6 +370,7 @@ impl Default for RenderSettings {
             vpl_radius: None,
             candidates: 32,
             candidate_source: CandidateSource::Uniform,
+            presample: default_presample(),
             restir: RestirSettings::default(),
             attenuation: Attenuation::Yuksel,
             yuksel_radius: None,
@@ -374,6 +380,10 @@ impl Default for RenderSettings {
     }
 }
 
+fn default_presample() -> bool {
+    true
+}
+
 /// Largest image side accepted (keeps per-pixel buffers well inside 32-bit indexing).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
 
@@ -381,6 +391,12 @@ impl RenderSettings {
     /// Whether this run needs the VPL set (and so the photon pass).
     pub fn needs_vpls(&self) -> bool {
         self.dump_vpls.is_some() || self.view == View::Vpls || self.mode.uses_vpls()
+    }
+
+    /// Whether `vpl_presample` runs: ris and restir with `--presample on` (uniform sampling reads
+    /// one VPL per pixel: a tile would cost more than it saves).
+    pub fn presamples(&self) -> bool {
+        self.presample && matches!(self.mode, Mode::Ris | Mode::Restir)
     }
 
     /// RIS candidates the restir_initial pass draws: one for uniform sampling.

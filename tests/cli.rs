@@ -198,6 +198,7 @@ fn restir_summary_reports_rays_per_pass() {
         assert!(err.contains(&format!("  {pass}")), "pass list lacks {pass}: {err}");
     }
     assert!(err.contains("pathtrace        skip (mode is not pt)"), "{err}");
+    assert!(err.contains("vpl_presample    run"), "presampling is on by default: {err}");
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
     let by_pass = &summary["rays_per_pixel_by_pass"];
     // Unbiased reuse with visibility in the targets: rays in the initial and spatial passes,
@@ -207,6 +208,23 @@ fn restir_summary_reports_rays_per_pass() {
     assert!(by_pass.get("vpl_shade").is_none(), "{by_pass}");
     assert_eq!(summary["vpl"]["unbiased_reuse"], true);
     assert!(summary["vpl"]["yuksel_radius"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn presample_off_skips_the_pass_and_says_why() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let common = ["--headless", "--width", "16", "--height", "16", "--frames", "1", "--vpls-direct", "50", "--vpls-indirect", "50", "--verbose", "--out", out];
+    let o = run(&[&common[..], &["--mode", "ris", "--presample", "off"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("vpl_presample    skip (--presample off)"), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["vpl"]["presample"], false);
+    let o = run(&[&common[..], &["--mode", "uniform"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("vpl_presample    skip (uniform sampling reads one VPL per pixel)"), "{}", stderr(&o));
+    let o = run(&[&common[..], &["--mode", "ris", "--presample", "maybe"]].concat());
+    assert!(!o.status.success() && stderr(&o).contains("--presample"), "{}", stderr(&o));
 }
 
 #[test]

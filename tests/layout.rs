@@ -244,6 +244,11 @@ fn reservoir_layout_matches() {
 }
 
 #[test]
+fn vpl_candidate_layout_matches() {
+    check::<GpuVplCandidate>();
+}
+
+#[test]
 fn vpl_params_layout_matches() {
     check::<GpuVplParams>();
 }

@@ -113,6 +113,13 @@ struct Vpl {
     uint bounce;
 };
 
+struct VplCandidate {
+    vec3 position;
+    uint vpl_kind;
+    vec3 flux;
+    uint normal_oct;
+};
+
 
 // Slots of the per-frame ray counter (one per pass that traces rays besides gbuffer).
 const uint RAYS_PATHTRACE = 0u;
@@ -162,6 +169,10 @@ const uint PHOTON_EMIT_PATHS = 1u;
 const uint PHOTON_EMIT_SCALE = 2u;
 // restir_spatial: most neighbours per pass (the settings refuse more).
 const uint MAX_SPATIAL_NEIGHBOURS = 32u;
+// VplCandidate: index bits of `vpl_kind` (the kind above); vpl_presample tiles.
+const uint CANDIDATE_INDEX_BITS = 30u;
+const uint PRESAMPLE_TILE_SIZE = 1024u;
+const uint PRESAMPLE_MAX_TILES = 128u;
 
 struct VplParams {
     uint vpl_count;

@@ -24,7 +24,7 @@ float surface_vpl_target(Surface s, Vpl v, VplParams p, bool with_visibility, in
     if (s.hit_t < 0.0) {
         return 0.0;
     }
-    float t = vpl_target(surface_vpl_contribution(s, v, p));
+    float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
     if (t > 0.0 && with_visibility) {
         rays += 1u;
         if (!vpl_visible(s, v)) {

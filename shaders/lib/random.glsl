@@ -26,13 +26,18 @@ float rand(inout uint state) {
     return float(rng_next(state) >> 8) * (1.0 / 16777216.0);
 }
 
+// Uniform integer in [0, n) from the 32 random bits `bits` (as rand_index).
+uint rand_index_of(uint bits, uint n) {
+    uint hi;
+    uint lo;
+    umulExtended(bits, n, hi, lo);
+    return hi;
+}
+
 // Uniform integer in [0, n) from 32 random bits: floor(r * n / 2^32), off from uniform by at most
 // n / 2^32 relative (a float in [0, 1) has only 24 bits: 1% off for n = 200k).
 uint rand_index(inout uint state, uint n) {
-    uint hi;
-    uint lo;
-    umulExtended(rng_next(state), n, hi, lo);
-    return hi;
+    return rand_index_of(rng_next(state), n);
 }
 
 vec2 rand2(inout uint state) {

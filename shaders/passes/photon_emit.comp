@@ -15,6 +15,7 @@
 #include "../common/scene.glsl"
 #include "../lib/random.glsl"
 #include "../lib/brdf.glsl"
+#include "../lib/packing.glsl"
 
 layout(local_size_x = 64) in;
 
@@ -96,7 +97,7 @@ void direct_vpl(uint i) {
     Vpl v;
     v.position = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
     v.kind = point ? VPL_DIRECT_POINT : VPL_DIRECT_AREA;
-    v.normal = s.normal;
+    v.normal = oct_quantize(s.normal);  // as its VplCandidate code stores it
     v.path = i;
     v.flux = s.power_over_pdf / float(total);
     v.bounce = 0u;
@@ -127,7 +128,7 @@ void photon_path(uint p) {
             Vpl v;
             v.position = offset_ray(hit.position, hit.geometric_normal, scene_scale);
             v.kind = VPL_INDIRECT;
-            v.normal = hit.geometric_normal;  // faces the incoming photon
+            v.normal = oct_quantize(hit.geometric_normal);  // faces the incoming photon; quantized as VplCandidate stores it
             v.path = p;
             v.flux = phi;
             v.bounce = k;

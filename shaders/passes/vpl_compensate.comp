@@ -43,7 +43,7 @@ vec3 vpl_estimate(Surface s, VplParams p, inout uint rng, inout uint rays) {
     float pick_target = 0.0;
     for (uint j = 0u; j < m; ++j) {
         uint i = rand_index(rng, p.vpl_count);
-        float t = vpl_target(surface_vpl_contribution(s, vpls[i], p));
+        float t = vpl_target(vpls[i], s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
         w_sum += t;
         if (t > 0.0 && rand(rng) * w_sum < t) {
             pick = i;

@@ -8,6 +8,7 @@
 
 #include "../common/types.glsl"
 #include "../lib/brdf.glsl"
+#include "../lib/packing.glsl"
 
 // Geometry term: inverse square, or Yuksel's form, which is finite at d = 0 (2/r^2) and tends to
 // 1/d^2 when d >> r.
@@ -35,34 +36,66 @@ bool vpl_kind_enabled(uint kind, uint kind_mask) {
     return (kind_mask & bit) != 0u;
 }
 
-// Unshadowed contribution of `v` to point x (shading normal ns, geometric normal ng, both facing
-// the viewer's side; albedo rho). Zero when the VPL lies behind either surface, coincides with x,
-// or its kind is masked out. Never NaN/Inf for finite inputs with d2 > 0 or Yuksel's r2 > 0.
-vec3 vpl_contribution(Vpl v, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
-    if (!vpl_kind_enabled(v.kind, p.kind_mask)) {
-        return vec3(0.0);
+// The scalar part of a VPL's unshadowed contribution to point x (shading normal ns, geometric normal
+// ng, both facing the viewer's side): (1/pi) emit cos_x G(d), with emit = max(0, ny.w) for a cosine
+// VPL (unit normal ny) and 1/4 for a point-light VPL. Zero when the VPL lies behind either surface,
+// coincides with x, or its kind is masked out. Never NaN/Inf for finite inputs with d2 > 0 or
+// Yuksel's r2 > 0.
+float vpl_geometry(vec3 y, uint kind, vec3 ny, vec3 x, vec3 ns, vec3 ng, VplParams p) {
+    if (!vpl_kind_enabled(kind, p.kind_mask)) {
+        return 0.0;
     }
-    vec3 to_x = x - v.position;
+    vec3 to_x = x - y;
     float d2 = dot(to_x, to_x);
     if (!(d2 > 1e-20)) {
-        return vec3(0.0);  // on the point itself: the cosines are undefined (and zero in the limit)
+        return 0.0;  // on the point itself: the cosines are undefined (and zero in the limit)
     }
     vec3 w = to_x * inversesqrt(d2);
     float cos_x = -dot(ns, w);
-    if (cos_x <= 0.0 || dot(ng, w) >= 0.0) {
-        return vec3(0.0);
+    float emit = kind == VPL_DIRECT_POINT ? 0.25 : dot(ny, w);
+    if (cos_x <= 0.0 || dot(ng, w) >= 0.0 || emit <= 0.0) {
+        return 0.0;
     }
-    float emit = v.kind == VPL_DIRECT_POINT ? 0.25 : max(dot(v.normal, w), 0.0);
-    if (emit <= 0.0) {
-        return vec3(0.0);
-    }
-    float g = vpl_attenuation(d2, p.attenuation, p.yuksel_r2);  // finite: d2 > 1e-20
-    return lambert_brdf(rho) * v.flux * (INV_PI * emit * cos_x * g);
+    return INV_PI * emit * cos_x * vpl_attenuation(d2, p.attenuation, p.yuksel_r2);  // finite: d2 > 1e-20
 }
 
-// The resampling target p^ (without visibility): luminance of the unshadowed contribution.
-float vpl_target(vec3 contribution) {
-    return luminance(contribution);
+// Unshadowed contribution of a VPL (position y, kind, unit normal ny, flux) to x (albedo rho).
+vec3 vpl_contribution_at(vec3 y, uint kind, vec3 ny, vec3 flux, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return lambert_brdf(rho) * flux * vpl_geometry(y, kind, ny, x, ns, ng, p);
+}
+
+vec3 vpl_contribution(Vpl v, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return vpl_contribution_at(v.position, v.kind, v.normal, v.flux, x, ns, ng, rho, p);
+}
+
+// The compact copy of VPL `index` that the RIS candidate loop reads. Its normal decodes to v.normal
+// (up to float rounding) because the photon pass stores normals already octahedral-quantized.
+VplCandidate vpl_candidate(Vpl v, uint index) {
+    VplCandidate c;
+    c.position = v.position;
+    c.vpl_kind = index | (v.kind << CANDIDATE_INDEX_BITS);
+    c.flux = v.flux;
+    c.normal_oct = oct_encode(v.normal);
+    return c;
+}
+
+uint candidate_index(VplCandidate c) {
+    return c.vpl_kind & ((1u << CANDIDATE_INDEX_BITS) - 1u);
+}
+
+// The resampling target p^ (without visibility) of a VPL at x: the luminance of its unshadowed
+// contribution, lum(rho Phi) / pi times the geometry, as a scalar (the candidate loop's inner step;
+// every pass evaluates targets through this one function).
+float vpl_target_at(vec3 y, uint kind, vec3 ny, vec3 flux, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return luminance(rho * flux) * (INV_PI * vpl_geometry(y, kind, ny, x, ns, ng, p));
+}
+
+float vpl_target(Vpl v, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return vpl_target_at(v.position, v.kind, v.normal, v.flux, x, ns, ng, rho, p);
+}
+
+float candidate_target(VplCandidate c, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return vpl_target_at(c.position, c.vpl_kind >> CANDIDATE_INDEX_BITS, oct_decode(c.normal_oct), c.flux, x, ns, ng, rho, p);
 }
 
 #endif

@@ -19,11 +19,13 @@ layout(set = 0, binding = 8, std430) buffer B8 { Vpl layout_vpl[]; };
 layout(set = 0, binding = 9, std430) buffer B9 { Reservoir layout_reservoir[]; };
 layout(set = 0, binding = 10, std430) buffer B10 { VplParams layout_vpl_params[]; };
 layout(set = 0, binding = 11, std430) buffer B11 { TextureInfo layout_texture[]; };
+layout(set = 0, binding = 12, std430) buffer B12 { VplCandidate layout_vpl_candidate[]; };
 
 void main() {
     // Touch every buffer so glslang keeps their declarations.
     layout_vertex[0].u = layout_material[0].albedo.x + layout_instance[0].world_from_object[0][0]
         + layout_light[0].area + layout_alias[0].keep + layout_surface[0].hit_t
         + layout_frame_std430[0].aspect + layout_frame_std140.aspect + layout_vpl[0].flux.x
-        + layout_reservoir[0].ucw + layout_vpl_params[0].yuksel_r2 + float(layout_texture[0].width);
+        + layout_reservoir[0].ucw + layout_vpl_params[0].yuksel_r2 + float(layout_texture[0].width)
+        + layout_vpl_candidate[0].flux.x;
 }

@@ -15,6 +15,7 @@ pub mod restir_temporal;
 pub mod tonemap;
 pub mod vpl_bruteforce;
 pub mod vpl_compensate;
+pub mod vpl_presample;
 pub mod vpl_shade;
 pub mod vpl_view;
 
@@ -40,6 +41,7 @@ pub use restir_temporal::RestirTemporalPass;
 pub use tonemap::TonemapPass;
 pub use vpl_bruteforce::VplBruteforcePass;
 pub use vpl_compensate::VplCompensatePass;
+pub use vpl_presample::VplPresamplePass;
 pub use vpl_shade::VplShadePass;
 pub use vpl_view::VplViewPass;
 
@@ -49,6 +51,7 @@ pub const ALL_PASSES: &[&PassDesc] = &[
     &PathtracePass::DESC,
     &PhotonEmitPass::DESC,
     &VplBruteforcePass::DESC,
+    &VplPresamplePass::DESC,
     &RestirInitialPass::DESC,
     &RestirTemporalPass::DESC,
     &RestirSpatialPass::DESC,
@@ -192,6 +195,7 @@ pub struct FramePlan {
     pub gbuffer: Step,
     pub pathtrace: Step,
     pub vpl_bruteforce: Step,
+    pub vpl_presample: Step,
     pub restir_initial: Step,
     pub restir_temporal: Step,
     pub restir_spatial: Step,
@@ -234,6 +238,7 @@ impl FramePlan {
             (GbufferPass::NAME, &self.gbuffer),
             (PathtracePass::NAME, &self.pathtrace),
             (VplBruteforcePass::NAME, &self.vpl_bruteforce),
+            (VplPresamplePass::NAME, &self.vpl_presample),
             (RestirInitialPass::NAME, &self.restir_initial),
             (RestirTemporalPass::NAME, &self.restir_temporal),
             (RestirSpatialPass::NAME, &self.restir_spatial),
@@ -274,6 +279,8 @@ impl FramePlan {
 #[derive(Default)]
 pub struct VplPasses {
     pub bruteforce: Option<VplBruteforcePass>,
+    /// Only with presampling (ris and restir, `--presample on`).
+    pub presample: Option<VplPresamplePass>,
     pub initial: Option<RestirInitialPass>,
     pub temporal: Option<RestirTemporalPass>,
     pub spatial: Option<RestirSpatialPass>,
@@ -339,15 +346,23 @@ impl Passes {
         scoped(ctx, cmd, timer, after, 0, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
         scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
 
-        // VPL modes: brute force, or initial RIS -> temporal -> spatial ×n -> shade; then compensate.
+        // VPL modes: brute force, or (presample ->) initial RIS -> temporal -> spatial ×n -> shade;
+        // then compensate.
         let v = &plan.vpl;
         let p = &v.params;
         if let Some(pass) = &self.vpl.bruteforce {
             scoped(ctx, cmd, timer, after, 0, &plan.vpl_bruteforce, VplBruteforcePass::NAME, |cmd| pass.record(cmd, scene_set, p, w, h));
         }
+        if let Some(pass) = &self.vpl.presample {
+            scoped(ctx, cmd, timer, after, 0, &plan.vpl_presample, VplPresamplePass::NAME, |cmd| pass.record(cmd, scene_set, p));
+        }
+        let tiles = match (&self.vpl.presample, &plan.vpl_presample) {
+            (Some(pass), Step::Run) => pass.tile_count,
+            _ => 0,
+        };
         if let Some(pass) = &self.vpl.initial {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_initial, RestirInitialPass::NAME, |cmd| {
-                pass.record(cmd, scene_set, p, v.current, w, h)
+                pass.record(cmd, scene_set, p, tiles, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.temporal {

@@ -10,7 +10,7 @@ use ash::vk;
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
 use crate::vk::pipeline::storage;
-use crate::vk::{ComputePipeline, Context};
+use crate::vk::{Buffer, ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, Reservoirs, VplInputs};
@@ -18,6 +18,8 @@ use super::{FrameTargets, Reservoirs, VplInputs};
 push_constants! {
     struct Push {
         params: GpuVplParams,
+        /// Presampled tiles to read (`vpl_presample`); 0: draw from the VPL buffer.
+        tiles: u32,
     }
 }
 
@@ -30,7 +32,7 @@ impl RestirInitialPass {
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             storage(0, "surfaces"), storage(1, "vpls"), storage(2, "vpl_alias"),
-            storage(3, "reservoirs_out"), storage(4, "ray_count"),
+            storage(3, "reservoirs_out"), storage(4, "ray_count"), storage(5, "tiles"),
         ]);
 
     pub fn new(
@@ -39,17 +41,20 @@ impl RestirInitialPass {
         targets: &FrameTargets,
         vpls: &VplInputs,
         reservoirs: &Reservoirs,
+        tiles: &Buffer,
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
-            .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (4, &targets.ray_counter)])
+            .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (4, &targets.ray_counter), (5, tiles)])
             .ping_pong(reservoirs, 3, None)
             .build()?;
         Ok(Self { pipeline })
     }
 
-    pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, out: usize, w: u32, h: u32) {
-        let push = Push { params: *params };
+    /// `tiles`: the presampled tiles to read (0: none, draw from the VPL buffer).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, tiles: u32, out: usize, w: u32, h: u32) {
+        let push = Push { params: *params, tiles };
         self.pipeline.dispatch_2d_variant(cmd, out, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }

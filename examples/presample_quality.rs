@@ -1,0 +1,81 @@
+//! Error of RIS and ReSTIR with and without light presampling (`--presample`), and of ReSTIR's
+//! candidate × neighbour settings, against a long RIS accumulation of the same VPL set (the VPL
+//! model's answer, so the VPL bias does not mask the variance).
+//!
+//! `cargo run --release --example presample_quality -- [SCENE] [W] [H] [REF_FRAMES] [VARIANTS] [SEEDS]`
+//! VARIANTS: comma-separated `ris:on`, `restir:off/16/4` (mode:presample[/candidates[/neighbours]]).
+//! Per variant: mean relMSE of single frames 5..16 (what a moving camera shows), of the accumulated
+//! image after 1 and 16 frames, and the median GPU ms per frame, over SEEDS runs.
+
+use std::sync::Arc;
+
+use restir_vpl::renderer::Renderer;
+use restir_vpl::scene::Scene;
+use restir_vpl::scene_gpu::SceneGpu;
+use restir_vpl::settings::{Mode, RenderSettings, RestirSettings};
+use restir_vpl::vk::Context;
+
+fn rel_mse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    let s: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (0..3).map(|c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + 0.01)).sum::<f64>())
+        .sum();
+    s / (3 * a.len()) as f64
+}
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().collect();
+    let arg = |i: usize, d: &str| args.get(i).cloned().unwrap_or_else(|| d.to_string());
+    let scene_path = arg(1, "scenes/cornell_box.gltf");
+    let (w, h): (u32, u32) = (arg(2, "640").parse()?, arg(3, "360").parse()?);
+    let ref_frames: u32 = arg(4, "300").parse()?;
+    let variants = arg(5, "ris:on,ris:off,restir:on,restir:off");
+    let seeds: u32 = arg(6, "6").parse()?;
+    let ctx = Arc::new(Context::new(&Default::default())?);
+    let scene = Arc::new(SceneGpu::new(&ctx, &Scene::load(std::path::Path::new(&scene_path))?, true)?);
+    let base = RenderSettings { scene: scene_path.clone().into(), width: w, height: h, ..Default::default() };
+    let reference = {
+        let s = RenderSettings { mode: Mode::Ris, presample: false, seed: 999, frames: ref_frames, ..base.clone() };
+        let mut r = Renderer::new(ctx.clone(), scene.clone(), s)?;
+        let camera = r.initial_camera();
+        for _ in 0..ref_frames {
+            r.render_frame(&camera, false)?;
+        }
+        r.read_mean()?
+    };
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+    for v in variants.split(',') {
+        let (mode, rest) = v.split_once(':').ok_or_else(|| anyhow::anyhow!("variant {v}: expected mode:on|off[/c[/n]]"))?;
+        let parts: Vec<&str> = rest.split('/').collect();
+        let mode = if mode == "ris" { Mode::Ris } else { Mode::Restir };
+        let candidates: u32 = parts.get(1).unwrap_or(&"32").parse()?;
+        let neighbours: u32 = parts.get(2).unwrap_or(&"8").parse()?;
+        let (mut frame_err, mut t1, mut t16, mut ms) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        for seed in 0..seeds {
+            let restir = RestirSettings { spatial_neighbours: neighbours, ..Default::default() };
+            let s = RenderSettings { mode, presample: parts[0] == "on", candidates, restir, seed, frames: 16, ..base.clone() };
+            let mut r = Renderer::new(ctx.clone(), scene.clone(), s)?;
+            let camera = r.initial_camera();
+            for f in 0..16 {
+                r.render_frame(&camera, false)?;
+                if f >= 4 {
+                    frame_err.push(rel_mse(&r.read_frame_samples()?, &reference));
+                }
+                if f == 0 {
+                    t1.push(rel_mse(&r.read_mean()?, &reference));
+                }
+            }
+            t16.push(rel_mse(&r.read_mean()?, &reference));
+            ms.push(r.log().gpu().median);
+        }
+        println!(
+            "{scene_path} {w}x{h} {v}: per-frame relMSE {:.5}, t=1 {:.5}, t=16 {:.5}, GPU ms {:.1}",
+            mean(&frame_err),
+            mean(&t1),
+            mean(&t16),
+            mean(&ms)
+        );
+    }
+    Ok(())
+}

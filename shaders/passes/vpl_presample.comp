@@ -1,0 +1,41 @@
+// vpl_presample: RTXDI-style light presampling. Each frame fills `tiles` tiles of
+// PRESAMPLE_TILE_SIZE VplCandidates, every entry an independent draw from the RIS source pdf p
+// (uniform: 1/N; power: lum(Phi_i) / sum lum(Phi) through the alias table). restir_initial then
+// reads a workgroup's candidates from one tile (32 KB, cache-resident) instead of from the whole
+// VPL buffer at random. Each entry is distributed exactly as p and independent of the pixel's
+// choice of entries, so the per-pixel RIS estimator stays unbiased with the same source pdf (only
+// neighbouring pixels' candidates become correlated within a frame).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "../common/scene.glsl"
+#include "../lib/random.glsl"
+#include "../lib/sampling.glsl"
+#include "../restir/vpl.glsl"
+
+layout(local_size_x = 64) in;
+
+layout(set = 1, binding = 0, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+layout(set = 1, binding = 1, std430) readonly buffer VplAliasBuffer { AliasEntry vpl_alias[]; };
+layout(set = 1, binding = 2, std430) writeonly buffer Tiles { VplCandidate tiles[]; };
+
+layout(push_constant) uniform Push {
+    VplParams params;
+    uint tiles;
+} pc;
+
+const uint SALT_PRESAMPLE = 0x7073u;
+
+void main() {
+    uint e = gl_GlobalInvocationID.x;
+    if (e >= pc.tiles * PRESAMPLE_TILE_SIZE || pc.params.vpl_count == 0u) {
+        return;
+    }
+    uint rng = rng_init(e, frame.frame_index, frame.seed, SALT_PRESAMPLE);
+    uint i = rand_index(rng, pc.params.vpl_count);
+    if (pc.params.source == 1u) {
+        AliasEntry a = vpl_alias[i];
+        i = alias_resolve(i, a.keep, a.alias, rand(rng));
+    }
+    tiles[e] = vpl_candidate(vpls[i], i);
+}
