@@ -9,19 +9,18 @@
 
 use std::sync::Arc;
 
+use restir_vpl::eval::compare::{compare, CompareOptions};
+use restir_vpl::output::RgbImage;
 use restir_vpl::renderer::Renderer;
 use restir_vpl::scene::Scene;
 use restir_vpl::scene_gpu::SceneGpu;
 use restir_vpl::settings::{Mode, RenderSettings, RestirSettings};
 use restir_vpl::vk::Context;
 
-fn rel_mse(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
-    let s: f64 = a
-        .iter()
-        .zip(b)
-        .map(|(x, y)| (0..3).map(|c| (x[c] as f64 - y[c] as f64).powi(2) / ((y[c] as f64).powi(2) + 0.01)).sum::<f64>())
-        .sum();
-    s / (3 * a.len()) as f64
+/// relMSE (mean of (a − b)² / (b² + 0.01)) through the library's `compare`.
+fn rel_mse(a: &[[f32; 3]], b: &[[f32; 3]], w: u32, h: u32) -> anyhow::Result<f64> {
+    let img = |p: &[[f32; 3]]| RgbImage { width: w, height: h, pixels: p.to_vec() };
+    Ok(compare(&img(a), &img(b), &CompareOptions { flip: false, ..Default::default() })?.relmse)
 }
 
 fn main() -> anyhow::Result<()> {
@@ -60,13 +59,13 @@ fn main() -> anyhow::Result<()> {
             for f in 0..16 {
                 r.render_frame(&camera, false)?;
                 if f >= 4 {
-                    frame_err.push(rel_mse(&r.read_frame_samples()?, &reference));
+                    frame_err.push(rel_mse(&r.read_frame_samples()?, &reference, w, h)?);
                 }
                 if f == 0 {
-                    t1.push(rel_mse(&r.read_mean()?, &reference));
+                    t1.push(rel_mse(&r.read_mean()?, &reference, w, h)?);
                 }
             }
-            t16.push(rel_mse(&r.read_mean()?, &reference));
+            t16.push(rel_mse(&r.read_mean()?, &reference, w, h)?);
             ms.push(r.log().gpu().median);
         }
         println!(
