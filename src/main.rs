@@ -137,8 +137,9 @@ struct RenderArgs {
     /// Where RIS candidates come from: uniformly over the VPLs, or in proportion to their power.
     #[arg(long, value_parser = named::<CandidateSource>(), default_value_t = DEFAULTS.candidate_source)]
     candidate_source: CandidateSource,
-    /// Light presampling (ris, restir): candidates come from per-frame tiles drawn from the source
-    /// pdf, one tile per 8×8 pixels, instead of from the whole VPL buffer (same estimator, faster).
+    /// Light presampling (ris, restir): each pixel's candidates come from one random tile of VPLs
+    /// drawn from the source pdf this frame, instead of from the whole VPL buffer (same estimator,
+    /// faster).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.presample))]
     presample: Toggle,
     /// ReSTIR temporal reuse of the previous frame's reservoirs.

@@ -591,22 +591,18 @@ impl Renderer {
         };
         let inputs = VplInputs { vpls: &photon_pass.vpls, alias: &alias };
         let mut reservoirs = None;
-        let mut no_tiles = None;
+        let mut no_tiles: Option<Buffer> = None;
         if mode == Mode::Bruteforce {
             passes.vpl.bruteforce = Some(VplBruteforcePass::new(ctx, layout, targets, &inputs)?);
         } else if mode.uses_reservoirs() {
             let res = Reservoirs::new(ctx, targets.pixels())?;
             if settings.presamples() {
                 passes.vpl.presample = Some(VplPresamplePass::new(ctx, layout, &inputs, targets.width, targets.height)?);
-            } else {
-                // The binding is declared by the shader but not read without presampling.
-                let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER;
-                no_tiles = Some(crate::vk::Buffer::with_data(ctx, "vpl_presample.tiles(unused)", &[0u8; 32], usage)?);
             }
-            let tiles = match (&passes.vpl.presample, &no_tiles) {
-                (Some(p), _) => &p.tiles,
-                (None, Some(b)) => b,
-                (None, None) => unreachable!("one of the two was just made"),
+            let tiles = match &passes.vpl.presample {
+                Some(p) => &p.tiles,
+                // The binding is declared by the shader but not read without presampling.
+                None => &*no_tiles.insert(Buffer::with_data(ctx, "vpl_presample.tiles(unused)", &[0u8; 32], usage)?),
             };
             passes.vpl.initial = Some(RestirInitialPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
             passes.vpl.shade = Some(VplShadePass::new(ctx, layout, targets, &inputs, &res)?);

@@ -319,8 +319,9 @@ pub struct RenderSettings {
     pub candidates: u32,
     pub candidate_source: CandidateSource,
     /// RTXDI-style light presampling for ris and restir: each frame `vpl_presample` draws tiles of
-    /// candidates from the source pdf and `restir_initial` reads a workgroup's candidates from one
-    /// tile (same estimator, cache-resident reads). Off: candidates straight from the VPL buffer.
+    /// candidates from the source pdf and `restir_initial` reads each pixel's candidates from one
+    /// random tile (same estimator, cache-resident reads). Off: candidates straight from the VPL
+    /// buffer.
     #[serde(default = "default_presample")]
     pub presample: bool,
     pub restir: RestirSettings,

@@ -34,6 +34,14 @@ layout(push_constant) uniform Push {
 
 const uint SALT_INITIAL = 0x7269u;
 
+// Streams candidate VPL `i` (target t, flux Phi) into the reservoir with the RIS weight
+// t / (M p(i)), p the source pdf: 1/N, or lum(Phi) / sum lum for the power source.
+void offer(inout ReservoirStream st, uint i, float t, vec3 flux, VplParams p, float u) {
+    float source_pdf = p.source == 1u ? luminance(flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
+    float w = source_pdf > 0.0 ? t * (1.0 / float(p.candidates)) / source_pdf : 0.0;
+    stream_update(st, i, w, t, u);
+}
+
 void main() {
     uvec2 pixel = gl_GlobalInvocationID.xy;
     if (pixel.x >= frame.width || pixel.y >= frame.height) {
@@ -48,18 +56,14 @@ void main() {
     }
     uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_INITIAL);
     ReservoirStream st = stream_begin();
-    float inv_m = 1.0 / float(p.candidates);
-    float uniform_pdf = 1.0 / float(p.vpl_count);
     if (pc.tiles > 0u) {
         uint tile = rand_index(rng, pc.tiles);
         uint base = tile * PRESAMPLE_TILE_SIZE;
         uint start = rand_index(rng, PRESAMPLE_TILE_SIZE);
         for (uint j = 0u; j < p.candidates; ++j) {
             VplCandidate c = tiles[base + ((start + j) & (PRESAMPLE_TILE_SIZE - 1u))];
-            float source_pdf = p.source == 1u ? luminance(c.flux) / p.total_vpl_lum : uniform_pdf;
             float t = candidate_target(c, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            float w = source_pdf > 0.0 ? t * inv_m / source_pdf : 0.0;
-            stream_update(st, candidate_index(c), w, t, rand(rng));
+            offer(st, candidate_index(c), t, c.flux, p, rand(rng));
         }
     } else {
         for (uint j = 0u; j < p.candidates; ++j) {
@@ -69,10 +73,8 @@ void main() {
                 i = alias_resolve(i, e.keep, e.alias, rand(rng));
             }
             Vpl v = vpls[i];
-            float source_pdf = p.source == 1u ? luminance(v.flux) / p.total_vpl_lum : uniform_pdf;
             float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            float w = source_pdf > 0.0 ? t * inv_m / source_pdf : 0.0;
-            stream_update(st, i, w, t, rand(rng));
+            offer(st, i, t, v.flux, p, rand(rng));
         }
     }
     st.confidence = 1.0;

@@ -1,8 +1,8 @@
 // vpl_presample: RTXDI-style light presampling. Each frame fills `tiles` tiles of
 // PRESAMPLE_TILE_SIZE VplCandidates, every entry an independent draw from the RIS source pdf p
 // (uniform: 1/N; power: lum(Phi_i) / sum lum(Phi) through the alias table). restir_initial then
-// reads a workgroup's candidates from one tile (32 KB, cache-resident) instead of from the whole
-// VPL buffer at random. Each entry is distributed exactly as p and independent of the pixel's
+// reads each pixel's candidates from one random tile (32 KB; all tiles 4 MB) instead of from the
+// whole VPL buffer at random. Each entry is distributed exactly as p and independent of the pixel's
 // choice of entries, so the per-pixel RIS estimator stays unbiased with the same source pdf (only
 // neighbouring pixels' candidates become correlated within a frame).
 #version 460

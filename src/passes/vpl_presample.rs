@@ -37,8 +37,8 @@ impl VplPresamplePass {
         .with_push(Push::LAYOUT)
         .with_bindings(&[storage(0, "vpls"), storage(1, "vpl_alias"), storage(2, "tiles")]);
 
-    /// Tiles for an image: one per 8×8 workgroup of `restir_initial`, at most
-    /// `PRESAMPLE_MAX_TILES` (RTXDI: 128 tiles of 1024).
+    /// Tiles for an image: `PRESAMPLE_MAX_TILES` (RTXDI: 128 tiles of 1024), fewer for images of
+    /// fewer 8×8 blocks (a tiny image would spend more on drawing tiles than on reading them).
     pub fn tile_count(width: u32, height: u32) -> u32 {
         (width.div_ceil(8) * height.div_ceil(8)).clamp(1, PRESAMPLE_MAX_TILES)
     }
