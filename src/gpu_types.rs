@@ -215,8 +215,9 @@ gpu_struct! {
         pub path: u32,
         /// Flux per channel (W).
         pub flux: [f32; 3],
-        /// Bounce that made it (1 = first hit of the photon path); 0 for direct VPLs.
-        pub bounce: u32,
+        /// Yuksel's r² of this VPL alone, read with `VPL_FLAG_PER_VPL_RADIUS` (`--yuksel-knn`: from
+        /// its nearest VPLs, `vpl_radius.rs`); 0 from the photon pass.
+        pub yuksel_r2: f32,
     }
 }
 
@@ -273,6 +274,8 @@ pub const VPL_FLAG_INITIAL_VISIBILITY: u32 = 1;
 pub const VPL_FLAG_UNBIASED: u32 = 2;
 /// The previous frame's pixels are the same surface points (no jitter, static camera).
 pub const VPL_FLAG_SAME_DOMAIN: u32 = 4;
+/// `GpuVplParams::flags`: each VPL's own Yuksel r² (`GpuVpl::yuksel_r2`) instead of `yuksel_r2`.
+pub const VPL_FLAG_PER_VPL_RADIUS: u32 = 8;
 
 gpu_struct! {
     /// Parameters every VPL pass shares: the head of their push constants.
@@ -348,6 +351,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     VPL_FLAG_INITIAL_VISIBILITY,
     VPL_FLAG_UNBIASED,
     VPL_FLAG_SAME_DOMAIN,
+    VPL_FLAG_PER_VPL_RADIUS,
     SHADE_VIEW_FINAL,
     SHADE_VIEW_RESERVOIR_W,
     SHADE_VIEW_RESERVOIR_M,

@@ -20,6 +20,7 @@ pub mod scene;
 pub mod scene_gpu;
 pub mod settings;
 pub mod vk;
+pub mod vpl_radius;
 pub mod window;
 
 /// SPIR-V of every shader, compiled by build.rs.

@@ -182,6 +182,14 @@ struct RenderArgs {
     /// chosen by `bench --radius`).
     #[arg(long)]
     yuksel_radius: Option<f32>,
+    /// The multiple M of the automatic Yuksel radius (default 8): M × the mean VPL spacing, or with
+    /// --yuksel-knn M × each VPL's local spacing.
+    #[arg(long)]
+    yuksel_spacings: Option<f32>,
+    /// A Yuksel radius per VPL from its K nearest VPLs: M × d_K / sqrt(K), its local spacing
+    /// (d_K: distance to the K-th nearest), instead of one radius from the mean spacing.
+    #[arg(long)]
+    yuksel_knn: Option<u32>,
     /// Add back the energy Yuksel's clamp removes near each VPL (Kollig & Keller 2004): one
     /// cosine-sampled ray per pixel, recursively, so VPL modes converge to the path tracer for any
     /// --yuksel-radius.
@@ -491,6 +499,8 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         },
         attenuation: cli.attenuation,
         yuksel_radius: cli.yuksel_radius,
+        yuksel_spacings: cli.yuksel_spacings,
+        yuksel_knn: cli.yuksel_knn,
         textures: cli.textures.on(),
         compensate: cli.compensate,
     })

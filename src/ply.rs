@@ -89,7 +89,7 @@ pub fn read_vpls(path: &Path) -> Result<Vec<GpuVpl>> {
             normal: [f(3), f(4), f(5)],
             path: 0,
             flux: [f(6), f(7), f(8)],
-            bounce: 0,
+            yuksel_r2: 0.0,
         });
     }
     Ok(out)

@@ -17,7 +17,7 @@ use gpu_allocator::MemoryLocation;
 use crate::camera::Camera;
 use crate::gpu_types::{
     GpuFrame, GpuVplParams, COMPENSATE_EMISSION, COMPENSATE_VPLS, ATTENUATION_INVERSE_SQUARE, ATTENUATION_YUKSEL, FRAME_AA, KIND_MASK_DIRECT,
-    KIND_MASK_INDIRECT, VPL_FLAG_INITIAL_VISIBILITY, VPL_FLAG_SAME_DOMAIN, VPL_FLAG_UNBIASED,
+    KIND_MASK_INDIRECT, VPL_FLAG_INITIAL_VISIBILITY, VPL_FLAG_PER_VPL_RADIUS, VPL_FLAG_SAME_DOMAIN, VPL_FLAG_UNBIASED,
 };
 use crate::output::TimingStats;
 use crate::passes::{
@@ -117,7 +117,7 @@ struct VplSetup {
     /// Yuksel's r actually used (scene units), when the attenuation is Yuksel's.
     yuksel_radius: Option<f32>,
     /// Where the radius came from.
-    yuksel_radius_source: Option<&'static str>,
+    yuksel_radius_source: Option<String>,
     params: GpuVplParams,
     /// `vpl_compensate`'s parameters (its own candidate count) and `COMPENSATE_*` bits; the bits
     /// are 0 when the pass does not run (no `--compensate`, or a view that is not light).
@@ -133,7 +133,7 @@ struct VplSetup {
 pub struct VplSummary {
     pub vpl_count: u32,
     pub yuksel_radius: Option<f32>,
-    pub yuksel_radius_source: Option<&'static str>,
+    pub yuksel_radius_source: Option<String>,
     /// RIS candidates drawn by restir_initial (1 = uniform sampling).
     pub candidates: u32,
     /// "uniform" or "power".
@@ -548,23 +548,46 @@ impl Renderer {
             // The binding is declared by the shader but not read without the power source.
             crate::vk::Buffer::with_data(ctx, "restir_initial.vpl_alias(unused)", &[0u8; 8], usage)?
         };
+        let mut flags = 0;
         let (yuksel_radius, yuksel_radius_source) = match settings.attenuation {
             Attenuation::InverseSquare => (None, None),
             Attenuation::Yuksel => match settings.yuksel_radius {
-                Some(r) => (Some(r), Some("--yuksel-radius")),
+                Some(r) => (Some(r), Some("--yuksel-radius".to_string())),
                 None => {
+                    let multiple = settings.yuksel_spacings.unwrap_or(crate::settings::DEFAULT_RADIUS_SPACINGS);
                     let area = scene_gpu.info.surface_area;
                     let spacing =
                         (area / (std::f64::consts::PI * vpl_count.max(1) as f64)).sqrt() as f32;
-                    let r = crate::settings::DEFAULT_RADIUS_SPACINGS * spacing;
+                    let r = multiple * spacing;
                     let r = if r > 0.0 && r.is_finite() { r } else { 1e-3 };
-                    (Some(r), Some(crate::settings::DEFAULT_RADIUS_RULE))
+                    let text = crate::settings::radius_rule_text(multiple, settings.yuksel_knn);
+                    match settings.yuksel_knn {
+                        None => (Some(r), Some(text)),
+                        Some(k) => {
+                            // Each VPL's own r² goes into its record; the global r stays the
+                            // fallback of VPLs without a local spacing (coincident ones).
+                            let start = std::time::Instant::now();
+                            let mut vpls = photon_pass.read_vpls(stats)?;
+                            let positions: Vec<[f32; 3]> = vpls.iter().map(|v| v.position).collect();
+                            let (r2, median) = crate::vpl_radius::knn_r2(&positions, k as usize, multiple, r);
+                            for (v, r2) in vpls.iter_mut().zip(r2) {
+                                v.yuksel_r2 = r2;
+                            }
+                            photon_pass.write_vpls(stats, &vpls).context("uploading per-VPL radii")?;
+                            flags |= VPL_FLAG_PER_VPL_RADIUS;
+                            log::info!(
+                                "vpl: per-VPL Yuksel radius from the {k} nearest VPLs in {:.0} ms (host): median {median:.4}, \
+                                 global rule {r:.4}",
+                                start.elapsed().as_secs_f64() * 1e3
+                            );
+                            (Some(median), Some(text))
+                        }
+                    }
                 }
             },
         };
         let r = &settings.restir;
         let unbiased = mode == Mode::Restir && r.bias == Bias::Unbiased;
-        let mut flags = 0;
         if mode == Mode::Restir && r.initial_visibility() {
             flags |= VPL_FLAG_INITIAL_VISIBILITY;
         }
@@ -1125,7 +1148,7 @@ impl Renderer {
         self.parts.vpl.as_ref().map(|v| VplSummary {
             vpl_count: v.vpl_count,
             yuksel_radius: v.yuksel_radius,
-            yuksel_radius_source: v.yuksel_radius_source,
+            yuksel_radius_source: v.yuksel_radius_source.clone(),
             candidates: if self.settings.mode.uses_reservoirs() { v.params.candidates } else { 0 },
             candidate_source: if v.params.source == 1 { "power" } else { "uniform" },
             presample: self.parts.passes.vpl.presample.is_some(),

@@ -262,9 +262,19 @@ pub struct CameraOverride {
 /// RMSE at t = 1 and t = 20 on every scene; larger multiples darken more (16×: 1–3 %).
 /// `--compensate` removes the darkening for any radius.
 pub const DEFAULT_RADIUS_SPACINGS: f32 = 8.0;
-/// The default rule in words (summary.json's `yuksel_radius_source`).
-pub const DEFAULT_RADIUS_RULE: &str =
-    "8 x the mean VPL spacing sqrt(scene area / (pi * VPL count))";
+/// Most nearest VPLs `--yuksel-knn` may ask for.
+pub const MAX_YUKSEL_KNN: u32 = 256;
+/// An automatic radius rule in words (summary.json's `yuksel_radius_source`): M × the mean VPL
+/// spacing, or with `knn` M × each VPL's local spacing from its K nearest VPLs.
+pub fn radius_rule_text(multiple: f32, knn: Option<u32>) -> String {
+    match knn {
+        None => format!("{multiple} x the mean VPL spacing sqrt(scene area / (pi * VPL count))"),
+        Some(k) => format!(
+            "per VPL: {multiple} x its local spacing d_{k} / sqrt({k}), d_{k} the distance to its {k}th nearest VPL \
+             (yuksel_radius: the median)"
+        ),
+    }
+}
 
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct RenderSettings {
@@ -329,6 +339,14 @@ pub struct RenderSettings {
     /// Yuksel's r (scene units); None: [`DEFAULT_RADIUS_SPACINGS`] × the mean VPL spacing
     /// √(A / (π N)).
     pub yuksel_radius: Option<f32>,
+    /// The multiple M of the automatic radius rules (`--yuksel-spacings`); None:
+    /// [`DEFAULT_RADIUS_SPACINGS`].
+    #[serde(default)]
+    pub yuksel_spacings: Option<f32>,
+    /// `--yuksel-knn K`: a radius per VPL, M × its local spacing d_K/√K from its K nearest VPLs
+    /// (`vpl_radius.rs`), instead of M × the mean spacing of the whole set.
+    #[serde(default)]
+    pub yuksel_knn: Option<u32>,
     /// Sample base-colour textures (off: base colour factors only, untextured shader variants).
     pub textures: bool,
     /// `--compensate`: add back the energy Yuksel's clamp removes (Kollig & Keller 2004), so a
@@ -375,6 +393,8 @@ impl Default for RenderSettings {
             restir: RestirSettings::default(),
             attenuation: Attenuation::Yuksel,
             yuksel_radius: None,
+            yuksel_spacings: None,
+            yuksel_knn: None,
             textures: true,
             compensate: false,
         }
@@ -513,6 +533,29 @@ impl RenderSettings {
                 bail!("--yuksel-radius is only used with --attenuation yuksel");
             }
         }
+        if let Some(m) = self.yuksel_spacings {
+            if !(m > 0.0 && m.is_finite()) {
+                bail!("--yuksel-spacings {m}: must be a positive number (a multiple of the VPL spacing)");
+            }
+        }
+        if let Some(k) = self.yuksel_knn {
+            if !(1..=MAX_YUKSEL_KNN).contains(&k) {
+                bail!("--yuksel-knn {k}: must be between 1 and {MAX_YUKSEL_KNN} nearest VPLs");
+            }
+            if self.compensate {
+                bail!("--yuksel-knn with --compensate: the compensation's residual weight needs one radius for every VPL; \
+                       drop one of them");
+            }
+        }
+        if self.yuksel_knn.is_some() || self.yuksel_spacings.is_some() {
+            let flag = if self.yuksel_knn.is_some() { "--yuksel-knn" } else { "--yuksel-spacings" };
+            if self.attenuation != Attenuation::Yuksel {
+                bail!("{flag} is only used with --attenuation yuksel");
+            }
+            if self.yuksel_radius.is_some() {
+                bail!("{flag} and --yuksel-radius both set Yuksel's radius: give one of them");
+            }
+        }
         if self.view.shows_reservoirs() && !self.mode.uses_reservoirs() {
             bail!("--view {}: mode {} has no reservoirs (use --mode uniform, ris or restir)", self.view.name(), self.mode.name());
         }
@@ -549,9 +592,8 @@ mod tests {
 
     #[test]
     fn default_radius_rule_names_its_multiple() {
-        assert!(
-            DEFAULT_RADIUS_RULE.starts_with(&format!("{DEFAULT_RADIUS_SPACINGS} x ")),
-            "{DEFAULT_RADIUS_RULE}"
-        );
+        let text = radius_rule_text(DEFAULT_RADIUS_SPACINGS, None);
+        assert!(text.starts_with(&format!("{DEFAULT_RADIUS_SPACINGS} x ")), "{text}");
+        assert!(radius_rule_text(4.0, Some(16)).contains("4 x its local spacing d_16 / sqrt(16)"));
     }
 }

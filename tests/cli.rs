@@ -172,6 +172,11 @@ fn vpl_mode_flag_errors() {
     assert_fails(&with(&["--mode", "restir", "--yuksel-radius=-3"]), &["--yuksel-radius -3"]);
     assert_fails(&with(&["--mode", "restir", "--attenuation", "inverse-square", "--yuksel-radius", "1"]), &["--yuksel-radius", "yuksel"]);
     assert_fails(&with(&["--mode", "ris", "--attenuation", "inverse-square", "--compensate"]), &["--compensate", "yuksel"]);
+    assert_fails(&with(&["--mode", "ris", "--yuksel-knn", "0"]), &["--yuksel-knn 0", "between 1 and"]);
+    assert_fails(&with(&["--mode", "ris", "--yuksel-knn", "8", "--compensate"]), &["--yuksel-knn", "--compensate"]);
+    assert_fails(&with(&["--mode", "ris", "--yuksel-knn", "8", "--yuksel-radius", "0.1"]), &["--yuksel-knn", "--yuksel-radius"]);
+    assert_fails(&with(&["--mode", "ris", "--yuksel-spacings=-2"]), &["--yuksel-spacings -2"]);
+    assert_fails(&with(&["--mode", "ris", "--attenuation", "inverse-square", "--yuksel-spacings", "4"]), &["--yuksel-spacings", "yuksel"]);
     assert_fails(&with(&["--mode", "pt", "--view", "reservoir-w"]), &["--view reservoir-w", "no reservoirs"]);
     assert_fails(&with(&["--mode", "bruteforce", "--view", "vpl-kind"]), &["--view vpl-kind"]);
     assert_fails(&with(&["--mode", "pt", "--view", "indirect"]), &["--view indirect"]);

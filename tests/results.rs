@@ -113,7 +113,8 @@ fn bench_rays_reports_raw_rates_and_every_tracing_pass() {
 }
 
 /// `bench --radius --quick`: the table and CSV for the three scenes, every rule once per scene, the
-/// radii growing with the multiple of the VPL spacing, every figure finite.
+/// radii growing with the multiple of the VPL spacing (global and per-VPL rules), every figure
+/// finite.
 #[test]
 fn bench_radius_quick_writes_the_table_and_csv() {
     let dir = tempfile::tempdir().unwrap();
@@ -122,17 +123,21 @@ fn bench_radius_quick_writes_the_table_and_csv() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let md = non_empty(&dir.path().join("radius.md"));
     let csv = non_empty(&dir.path().join("radius.csv"));
-    let rules = restir_vpl::eval::radius::SPACING_MULTIPLES.len() + 1 + restir_vpl::eval::radius::COMPENSATED_MULTIPLES.len();
+    use restir_vpl::eval::radius::{COMPENSATED_MULTIPLES, KNN_MULTIPLES, SPACING_MULTIPLES};
+    let rules = SPACING_MULTIPLES.len() + 1 + COMPENSATED_MULTIPLES.len() + KNN_MULTIPLES.len();
     for scene in ["cornell_box", "living_room", "open_box_figure"] {
         assert!(md.contains(&format!("**{scene}**")), "{md}");
         let rows: Vec<Vec<&str>> = csv.lines().skip(1).filter(|l| l.starts_with(&format!("{scene},"))).map(|l| l.split(',').collect()).collect();
         assert_eq!(rows.len(), rules, "{csv}");
         let plain: Vec<f64> = rows.iter().filter(|r| r[1].contains("× spacing\"")).map(|r| r[2].parse().unwrap()).collect();
-        assert_eq!(plain.len(), restir_vpl::eval::radius::SPACING_MULTIPLES.len());
+        assert_eq!(plain.len(), SPACING_MULTIPLES.len());
         assert!(plain.windows(2).all(|w| w[1] > w[0]), "radii grow with k: {plain:?}");
+        let local: Vec<f64> = rows.iter().filter(|r| r[1].contains("local spacing")).map(|r| r[2].parse().unwrap()).collect();
+        assert_eq!(local.len(), KNN_MULTIPLES.len());
+        assert!(local[0] > 0.0 && local.windows(2).all(|w| w[1] > w[0]), "median per-VPL radii grow with M: {local:?}");
         for r in &rows {
-            // radius, gpu_ms, bias, frame_variance, rmse_1, rmse_n, worst_share_n
-            for i in [2, 4, 5, 6, 7, 8, 11] {
+            // radius, setup_s, gpu_ms, bias, frame_variance, rmse_1, rmse_n, worst_share_n
+            for i in [2, 3, 5, 6, 7, 8, 9, 12] {
                 let v = r[i];
                 let x: f64 = v.parse().unwrap_or_else(|_| panic!("{v} in {r:?}"));
                 assert!(x.is_finite(), "{r:?}");

@@ -105,7 +105,7 @@ fn yuksel_tends_to_inverse_square_and_is_finite_at_zero() {
 #[test]
 fn vpl_on_the_shaded_point_gives_finite_contribution() {
     let n = [0.0f32, 1.0, 0.0];
-    let vpl = |pos: [f32; 3], kind: u32| GpuVpl { position: pos, kind, normal: n, path: 0, flux: [1.0, 2.0, 3.0], bounce: 1 };
+    let vpl = |pos: [f32; 3], kind: u32| GpuVpl { position: pos, kind, normal: n, path: 0, flux: [1.0, 2.0, 3.0], yuksel_r2: 0.0 };
     let vpls = vec![
         vpl([0.0, 0.0, 0.0], VPL_INDIRECT),
         vpl([0.0, 0.0, 0.0], VPL_DIRECT_POINT),

@@ -110,7 +110,7 @@ struct Vpl {
     vec3 normal;
     uint path;
     vec3 flux;
-    uint bounce;
+    float yuksel_r2;
 };
 
 struct VplCandidate {
@@ -146,6 +146,7 @@ const uint KIND_MASK_INDIRECT = 2u;
 const uint VPL_FLAG_INITIAL_VISIBILITY = 1u;
 const uint VPL_FLAG_UNBIASED = 2u;
 const uint VPL_FLAG_SAME_DOMAIN = 4u;
+const uint VPL_FLAG_PER_VPL_RADIUS = 8u;
 
 // Push-constant codes of single passes.
 // vpl_shade `view`: what the pass writes.

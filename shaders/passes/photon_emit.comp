@@ -100,7 +100,7 @@ void direct_vpl(uint i) {
     v.normal = oct_quantize(s.normal);  // as its VplCandidate code stores it
     v.path = i;
     v.flux = s.power_over_pdf / float(total);
-    v.bounce = 0u;
+    v.yuksel_r2 = 0.0;  // per-VPL radii are set on the host (vpl_radius.rs) when asked for
     vpls[base + i] = v;
 }
 
@@ -131,7 +131,7 @@ void photon_path(uint p) {
             v.normal = oct_quantize(hit.geometric_normal);  // faces the incoming photon; quantized as VplCandidate stores it
             v.path = p;
             v.flux = phi;
-            v.bounce = k;
+            v.yuksel_r2 = 0.0;
             vpls[base + slot] = v;
         }
         if (k == max_bounces) {

@@ -62,7 +62,9 @@ void main() {
         uint start = rand_index(rng, PRESAMPLE_TILE_SIZE);
         for (uint j = 0u; j < p.candidates; ++j) {
             VplCandidate c = tiles[base + ((start + j) & (PRESAMPLE_TILE_SIZE - 1u))];
-            float t = candidate_target(c, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
+            // A per-VPL radius costs one extra read of the full record (off by default).
+            float r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u ? vpls[candidate_index(c)].yuksel_r2 : p.yuksel_r2;
+            float t = candidate_target(c, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
             offer(st, candidate_index(c), t, c.flux, p, rand(rng));
         }
     } else {

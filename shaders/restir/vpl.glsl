@@ -1,8 +1,9 @@
 // The contribution of one VPL to a surface point, as in ../shared/notes/method.md:
 //   c_i(x) = (rho_x/pi) * I_i(w) * max(0, -n_x.w) * G(d) * V(x, y_i),  w = (x - y_i)/d,
 // with I_i(w) = Phi_i max(0, n_i.w)/pi for a cosine VPL and Phi_i/(4 pi) for a point-light VPL.
-// G is 1/d^2 or Yuksel's non-singular 2/(d^2 + r^2 + d sqrt(d^2 + r^2)). Visibility is the
-// caller's (shadow rays need the scene bindings). Binding-free.
+// G is 1/d^2 or Yuksel's non-singular 2/(d^2 + r^2 + d sqrt(d^2 + r^2)), with one r for every VPL
+// (p.yuksel_r2) or, with VPL_FLAG_PER_VPL_RADIUS, each VPL's own (Vpl.yuksel_r2, from its nearest
+// VPLs). Visibility is the caller's (shadow rays need the scene bindings). Binding-free.
 #ifndef VPL_GLSL
 #define VPL_GLSL
 
@@ -38,10 +39,10 @@ bool vpl_kind_enabled(uint kind, uint kind_mask) {
 
 // The scalar part of a VPL's unshadowed contribution to point x (shading normal ns, geometric normal
 // ng, both facing the viewer's side): (1/pi) emit cos_x G(d), with emit = max(0, ny.w) for a cosine
-// VPL (unit normal ny) and 1/4 for a point-light VPL. Zero when the VPL lies behind either surface,
-// coincides with x, or its kind is masked out. Never NaN/Inf for finite inputs with d2 > 0 or
-// Yuksel's r2 > 0.
-float vpl_geometry(vec3 y, uint kind, vec3 ny, vec3 x, vec3 ns, vec3 ng, VplParams p) {
+// VPL (unit normal ny) and 1/4 for a point-light VPL, and r2 the VPL's Yuksel r^2 (vpl_r2). Zero
+// when the VPL lies behind either surface, coincides with x, or its kind is masked out. Never
+// NaN/Inf for finite inputs with d2 > 0 or Yuksel's r2 > 0.
+float vpl_geometry(vec3 y, uint kind, vec3 ny, float r2, vec3 x, vec3 ns, vec3 ng, VplParams p) {
     if (!vpl_kind_enabled(kind, p.kind_mask)) {
         return 0.0;
     }
@@ -56,16 +57,22 @@ float vpl_geometry(vec3 y, uint kind, vec3 ny, vec3 x, vec3 ns, vec3 ng, VplPara
     if (cos_x <= 0.0 || dot(ng, w) >= 0.0 || emit <= 0.0) {
         return 0.0;
     }
-    return INV_PI * emit * cos_x * vpl_attenuation(d2, p.attenuation, p.yuksel_r2);  // finite: d2 > 1e-20
+    return INV_PI * emit * cos_x * vpl_attenuation(d2, p.attenuation, r2);  // finite: d2 > 1e-20
 }
 
-// Unshadowed contribution of a VPL (position y, kind, unit normal ny, flux) to x (albedo rho).
-vec3 vpl_contribution_at(vec3 y, uint kind, vec3 ny, vec3 flux, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
-    return lambert_brdf(rho) * flux * vpl_geometry(y, kind, ny, x, ns, ng, p);
+// Yuksel's r^2 of VPL v: its own with VPL_FLAG_PER_VPL_RADIUS, else the one of every VPL.
+float vpl_r2(float own_r2, VplParams p) {
+    return (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u ? own_r2 : p.yuksel_r2;
+}
+
+// Unshadowed contribution of a VPL (position y, kind, unit normal ny, flux, Yuksel r2) to x
+// (albedo rho).
+vec3 vpl_contribution_at(vec3 y, uint kind, vec3 ny, vec3 flux, float r2, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return lambert_brdf(rho) * flux * vpl_geometry(y, kind, ny, r2, x, ns, ng, p);
 }
 
 vec3 vpl_contribution(Vpl v, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
-    return vpl_contribution_at(v.position, v.kind, v.normal, v.flux, x, ns, ng, rho, p);
+    return vpl_contribution_at(v.position, v.kind, v.normal, v.flux, vpl_r2(v.yuksel_r2, p), x, ns, ng, rho, p);
 }
 
 // The compact copy of VPL `index` that the RIS candidate loop reads. Its normal decodes to v.normal
@@ -86,16 +93,18 @@ uint candidate_index(VplCandidate c) {
 // The resampling target p^ (without visibility) of a VPL at x: the luminance of its unshadowed
 // contribution, lum(rho Phi) / pi times the geometry, as a scalar (the candidate loop's inner step;
 // every pass evaluates targets through this one function).
-float vpl_target_at(vec3 y, uint kind, vec3 ny, vec3 flux, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
-    return luminance(rho * flux) * (INV_PI * vpl_geometry(y, kind, ny, x, ns, ng, p));
+float vpl_target_at(vec3 y, uint kind, vec3 ny, vec3 flux, float r2, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return luminance(rho * flux) * (INV_PI * vpl_geometry(y, kind, ny, r2, x, ns, ng, p));
 }
 
 float vpl_target(Vpl v, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
-    return vpl_target_at(v.position, v.kind, v.normal, v.flux, x, ns, ng, rho, p);
+    return vpl_target_at(v.position, v.kind, v.normal, v.flux, vpl_r2(v.yuksel_r2, p), x, ns, ng, rho, p);
 }
 
-float candidate_target(VplCandidate c, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
-    return vpl_target_at(c.position, c.vpl_kind >> CANDIDATE_INDEX_BITS, oct_decode(c.normal_oct), c.flux, x, ns, ng, rho, p);
+// The compact record has no room for a per-VPL radius: the caller passes vpl_r2 of the VPL's own
+// (read from the full record only when VPL_FLAG_PER_VPL_RADIUS is set).
+float candidate_target(VplCandidate c, float r2, vec3 x, vec3 ns, vec3 ng, vec3 rho, VplParams p) {
+    return vpl_target_at(c.position, c.vpl_kind >> CANDIDATE_INDEX_BITS, oct_decode(c.normal_oct), c.flux, r2, x, ns, ng, rho, p);
 }
 
 #endif

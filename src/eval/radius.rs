@@ -31,6 +31,12 @@ pub const THESIS_RADIUS_SHARE: f32 = 3.0 / 555.0;
 pub const SPACING_MULTIPLES: [f32; 7] = [1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0];
 /// Multiples measured with `--compensate`.
 pub const COMPENSATED_MULTIPLES: [f32; 2] = [16.0, 64.0];
+/// Nearest VPLs of the per-VPL rule (`--yuksel-knn`).
+pub const KNN_K: u32 = 16;
+/// Multiples of each VPL's local spacing measured with the per-VPL rule. Photons crowd where light
+/// is (the direct VPLs all lie on the lights), so local spacings run well below the mean one and
+/// the useful multiples are larger.
+pub const KNN_MULTIPLES: [f32; 4] = [8.0, 16.0, 32.0, 64.0];
 
 /// What `bench --radius` measures.
 #[derive(Clone, Debug)]
@@ -81,8 +87,10 @@ impl RadiusOptions {
 pub struct RadiusRow {
     pub scene: String,
     pub rule: String,
-    /// Yuksel's r (scene units).
+    /// Yuksel's r (scene units); the median over VPLs for a per-VPL rule.
     pub radius: f32,
+    /// Wall seconds to build the renderer (photons, the kNN search of a per-VPL rule, pipelines).
+    pub setup_s: f64,
     pub compensate: bool,
     pub gpu_ms: f64,
     /// mean ratio − 1 of the image after `frames` frames against the path tracer.
@@ -130,13 +138,22 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
         drop(first);
         let (lo, hi) = scene.info.bounds;
         let extent = (hi - lo).max_element();
-        let mut rules: Vec<(String, f32, bool)> = SPACING_MULTIPLES.iter().map(|&k| (format!("{k}× spacing"), k * spacing, false)).collect();
-        rules.push(("thesis (3/555 of the extent)".into(), THESIS_RADIUS_SHARE * extent, false));
-        rules.extend(COMPENSATED_MULTIPLES.iter().map(|&k| (format!("{k}× spacing + --compensate"), k * spacing, true)));
+        let fixed = |r: f32, compensate: bool| RenderSettings { yuksel_radius: Some(r), compensate, ..base.clone() };
+        let mut rules: Vec<(String, RenderSettings)> =
+            SPACING_MULTIPLES.iter().map(|&k| (format!("{k}× spacing"), fixed(k * spacing, false))).collect();
+        rules.push(("thesis (3/555 of the extent)".into(), fixed(THESIS_RADIUS_SHARE * extent, false)));
+        rules.extend(COMPENSATED_MULTIPLES.iter().map(|&k| (format!("{k}× spacing + --compensate"), fixed(k * spacing, true))));
+        rules.extend(KNN_MULTIPLES.iter().map(|&m| {
+            let s = RenderSettings { yuksel_knn: Some(KNN_K), yuksel_spacings: Some(m), ..base.clone() };
+            (format!("per VPL: {m}× local spacing ({KNN_K}-NN)"), s)
+        }));
         log(format!("{label}: {} rules at {}x{} (spacing {spacing:.5})", rules.len(), spec.width, spec.height));
-        for (rule, radius, compensate) in rules {
-            let settings = RenderSettings { yuksel_radius: Some(radius), compensate, ..base.clone() };
+        for (rule, settings) in rules {
+            let compensate = settings.compensate;
+            let start = std::time::Instant::now();
             let mut r = Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("{label}: {rule}"))?;
+            let setup_s = start.elapsed().as_secs_f64();
+            let radius = r.vpl_summary().and_then(|v| v.yuksel_radius).context("the VPL modes report their radius")?;
             let camera = r.initial_camera();
             let mut sums = [0.0f64; 9];
             for run in 0..opts.runs {
@@ -174,6 +191,7 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                 scene: label.clone(),
                 rule: rule.clone(),
                 radius,
+                setup_s,
                 compensate,
                 gpu_ms: sums[0] / n,
                 bias: sums[1] / n,
@@ -201,8 +219,11 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
          (8 bounces, as the photons). Scenes: {}. VPLs: {} direct + {} indirect (one VPL set per rule; the mean VPL \
          spacing is √(A/(πN))). {} run(s) with independent pixel seeds averaged; t = 1 is the first frame, t = {} the \
          mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames. Frame variance: mean per-pixel variance \
-         of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. The \
-         reference's own noise adds to every row's error alike.\n",
+         of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. Per-VPL \
+         rules (`--yuksel-knn {KNN_K} --yuksel-spacings M`): each VPL's r is M × its local spacing d_K/√K from its K \
+         nearest VPLs; their r column is the median over VPLs. Setup: wall seconds to build the renderer (photons, \
+         pipelines, and the host's nearest-neighbour search of a per-VPL rule). The reference's own noise adds to \
+         every row's error alike.\n",
         opts.reference_frames,
         sizes.join(", "),
         opts.vpls_direct,
@@ -223,15 +244,15 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
         let _ = writeln!(s, "**{scene}**\n");
         let _ = writeln!(
             s,
-            "| rule | r | bias | frame variance | RMSE t=1 | RMSE t={n} | FLIP t=1 | FLIP t={n} | worst 0.1 % t={n} | GPU ms |",
+            "| rule | r | bias | frame variance | RMSE t=1 | RMSE t={n} | FLIP t=1 | FLIP t={n} | worst 0.1 % t={n} | GPU ms | setup s |",
             n = opts.frames
         );
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
         for r in rows.iter().filter(|r| r.scene == scene) {
             let flip = |f: Option<f64>| f.map(|v| format!("{v:.4}")).unwrap_or_else(|| "–".into());
             let _ = writeln!(
                 s,
-                "| {} | {:.4} | {:+.2}% | {:.4} | {:.4} | {:.4} | {} | {} | {:.0}% | {:.1} |",
+                "| {} | {:.4} | {:+.2}% | {:.4} | {:.4} | {:.4} | {} | {} | {:.0}% | {:.1} | {:.1} |",
                 r.rule,
                 r.radius,
                 100.0 * r.bias,
@@ -241,7 +262,8 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
                 flip(r.flip_1),
                 flip(r.flip_n),
                 100.0 * r.worst_share_n,
-                r.gpu_ms
+                r.gpu_ms,
+                r.setup_s
             );
         }
         s.push('\n');
@@ -251,12 +273,12 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
 
 /// radius.csv: one row per scene × rule.
 pub fn write_csv(path: &Path, rows: &[RadiusRow]) -> Result<()> {
-    let mut text = String::from("scene,rule,radius,compensate,gpu_ms,bias,frame_variance,rmse_1,rmse_n,flip_1,flip_n,worst_share_n\n");
+    let mut text = String::from("scene,rule,radius,setup_s,compensate,gpu_ms,bias,frame_variance,rmse_1,rmse_n,flip_1,flip_n,worst_share_n\n");
     for r in rows {
         let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
         text.push_str(&format!(
-            "{},\"{}\",{},{},{},{},{},{},{},{},{},{}\n",
-            r.scene, r.rule, r.radius, r.compensate, r.gpu_ms, r.bias, r.frame_variance, r.rmse_1, r.rmse_n, opt(r.flip_1), opt(r.flip_n), r.worst_share_n
+            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.scene, r.rule, r.radius, r.setup_s, r.compensate, r.gpu_ms, r.bias, r.frame_variance, r.rmse_1, r.rmse_n, opt(r.flip_1), opt(r.flip_n), r.worst_share_n
         ));
     }
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))

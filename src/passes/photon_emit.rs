@@ -277,12 +277,14 @@ impl PhotonEmitPass {
 
     /// Puts the indirect VPLs in (path, bounce) order: the atomic append order varies from run to
     /// run, and sampling indexes VPLs, so a fixed order keeps same-seed images bit-identical. Done
-    /// once per static scene on the host (a few ms for 100k VPLs).
+    /// once per static scene on the host (a few ms for 100k VPLs). A stable sort by path alone
+    /// gives bounce order within a path: one invocation appends its path's VPLs bounce by bounce,
+    /// so their slots increase.
     fn sort_indirect(&self, indirect: &mut [GpuVpl]) -> Result<()> {
         if indirect.is_empty() {
             return Ok(());
         }
-        indirect.sort_unstable_by_key(|v| (v.path, v.bounce));
+        indirect.sort_by_key(|v| v.path);
         let offset = self.settings.direct as u64 * std::mem::size_of::<GpuVpl>() as u64;
         self.vpls.upload(offset, bytemuck::cast_slice(indirect))
     }
@@ -295,6 +297,16 @@ impl PhotonEmitPass {
         let base = self.settings.direct as usize;
         out.extend_from_slice(&all[base..base + stats.indirect_vpls as usize]);
         Ok(out)
+    }
+
+    /// Writes `vpls` (as [`Self::read_vpls`] returns them: direct, then indirect) back into the
+    /// VPL buffer.
+    pub fn write_vpls(&self, stats: &PhotonStats, vpls: &[GpuVpl]) -> Result<()> {
+        let direct = stats.direct_vpls as usize;
+        anyhow::ensure!(vpls.len() == direct + stats.indirect_vpls as usize, "write_vpls: {} VPLs for {} slots", vpls.len(), direct + stats.indirect_vpls as usize);
+        self.vpls.upload(0, bytemuck::cast_slice(&vpls[..direct]))?;
+        let offset = self.settings.direct as u64 * std::mem::size_of::<GpuVpl>() as u64;
+        self.vpls.upload(offset, bytemuck::cast_slice(&vpls[direct..]))
     }
 
     /// Number of VPL slots in use (direct + indirect, contiguous).
