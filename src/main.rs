@@ -377,6 +377,10 @@ enum Command {
         /// Skip FLIP.
         #[arg(long)]
         no_flip: bool,
+        /// Leave out the moving-camera section (its per-frame path-traced references are the
+        /// slowest part; `bench --motion` measures it on its own).
+        #[arg(long)]
+        no_motion: bool,
         #[arg(long)]
         device: Option<usize>,
     },
@@ -519,7 +523,7 @@ fn real_main(cli: Cli) -> Result<()> {
         settings.validate()?;
         return reference_main(&settings, out, *first_frame, *resume);
     }
-    if let Some(Command::Results { out, scale, quick, runs, pt_frames, vpl_frames, checkpoints, no_flip, device }) =
+    if let Some(Command::Results { out, scale, quick, runs, pt_frames, vpl_frames, checkpoints, no_flip, no_motion, device }) =
         &cli.command
     {
         if !(scale.is_finite() && *scale > 0.0 && *scale <= 4.0) {
@@ -539,6 +543,9 @@ fn real_main(cli: Cli) -> Result<()> {
             opts.checkpoints = c.clone();
         }
         opts.flip = !*no_flip;
+        if *no_motion {
+            opts.motion = None;
+        }
         opts.device_index = *device;
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
@@ -564,7 +571,11 @@ fn real_main(cli: Cli) -> Result<()> {
             let md = write_report(out, "scaling.md", "How cost grows with the work (`bench --scaling`)", &restir_vpl::eval::scaling::markdown(&opts, &points, &ctx.report.name))?;
             let csv = out.join("scaling.csv");
             restir_vpl::eval::scaling::write_csv(&csv, &points)?;
+            let plots = restir_vpl::eval::scaling::write_plots(out, &points)?;
             println!("{}\n{}", md.display(), csv.display());
+            for p in plots {
+                println!("{}", p.display());
+            }
             return Ok(());
         }
         if *radius {

@@ -176,6 +176,13 @@ fn bench_scaling_quick_writes_the_table_and_csv() {
         assert!(md.contains(title), "{md}");
     }
     assert!(md.contains("| exponent | expected |") && md.contains("expected 1: fixed work per pixel"), "{md}");
+    // One log-log plot per sweep, linked from the Markdown, with a line per timed thing.
+    for sweep in ["vpls", "pixels", "triangles"] {
+        let link = format!("plots/scaling_{sweep}.svg");
+        assert!(md.contains(&format!("]({link})")), "{md}");
+        let svg = non_empty(&dir.path().join(&link));
+        assert!(svg.starts_with("<svg") && svg.contains("RIS") && svg.contains("ReSTIR") && svg.contains("<polyline"), "{sweep}: {svg}");
+    }
 }
 
 #[test]

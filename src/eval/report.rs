@@ -606,6 +606,19 @@ pub fn mode_color(mode: &str) -> (u8, u8, u8) {
     }
 }
 
+/// The colours of one plot's series: a mode's own colour ([`mode_color`]) where no earlier series
+/// of the plot has it, else the first palette colour not yet used in the plot (hashed colours of
+/// other keys can collide; within one plot they must not).
+fn series_colors(series: &[(String, Vec<(f64, f64)>)]) -> Vec<(u8, u8, u8)> {
+    let mut used: Vec<(u8, u8, u8)> = Vec::new();
+    for (key, _) in series {
+        let own = mode_color(key);
+        let c = if used.contains(&own) { PALETTE.iter().copied().find(|c| !used.contains(c)).unwrap_or(own) } else { own };
+        used.push(c);
+    }
+    used
+}
+
 const PALETTE: [(u8, u8, u8); 10] = [
     (31, 119, 180),  // blue
     (44, 160, 44),   // green
@@ -734,18 +747,39 @@ fn plot(path: &Path, points: &[CurvePoint], scene: &str, reference: &str, metric
             if matches!(x, XAxis::WallMs) { " and a positive wall time" } else { "" }
         );
     }
-    let svg = render_svg(&series, scene, reference, metric, x).map_err(|e| anyhow!("{}: drawing the plot: {e}", path.display()))?;
+    let (x_desc, x_name) = match x {
+        XAxis::Frames => ("accumulated frames", "accumulated frames"),
+        XAxis::WallMs => ("cumulative wall time (ms)", "wall time"),
+        XAxis::Displayed => ("displayed frame of the moving camera (each frame alone)", "displayed frame"),
+    };
+    let axes = LogLogAxes {
+        title: format!("{scene}: {} vs {x_name} ({})", metric.label(), reference_label(reference)),
+        x_desc: x_desc.into(),
+        y_desc: format!("{} vs {}", metric.label(), reference_label(reference)),
+        legend: "Sampling".into(),
+    };
+    write_loglog_svg(path, &series, &axes)
+}
+
+/// Titles of a log-log plot.
+pub struct LogLogAxes {
+    pub title: String,
+    pub x_desc: String,
+    pub y_desc: String,
+    /// Heading of the legend beside the plot.
+    pub legend: String,
+}
+
+/// Writes a log-log line plot of `series` (key, points with positive coordinates) as SVG. A key
+/// that names a mode ("ris", "restir-unbiased") gets that mode's colour, marker and display name
+/// in every plot of the project; other keys are shown as given.
+pub fn write_loglog_svg(path: &Path, series: &[(String, Vec<(f64, f64)>)], axes: &LogLogAxes) -> Result<()> {
+    let svg = render_svg(series, axes).map_err(|e| anyhow!("{}: drawing the plot: {e}", path.display()))?;
     create_parent(path)?;
     std::fs::write(path, svg).with_context(|| format!("writing {}", path.display()))
 }
 
-fn render_svg(
-    series: &[(String, Vec<(f64, f64)>)],
-    scene: &str,
-    reference: &str,
-    metric: Metric,
-    x: XAxis,
-) -> std::result::Result<String, Box<dyn std::error::Error>> {
+fn render_svg(series: &[(String, Vec<(f64, f64)>)], axes: &LogLogAxes) -> std::result::Result<String, Box<dyn std::error::Error>> {
     use plotters::prelude::*;
     use plotters::style::text_anchor::{HPos, Pos, VPos};
 
@@ -756,15 +790,9 @@ fn render_svg(
     let (y_lo, y_hi) = padded(y_lo, y_hi, 1.15, 3.0);
     let (xb, xl) = log_ticks(x_lo, x_hi);
     let (yb, yl) = log_ticks(y_lo, y_hi);
-
-    let (x_desc, x_name) = match x {
-        XAxis::Frames => ("accumulated frames", "accumulated frames"),
-        XAxis::WallMs => ("cumulative wall time (ms)", "wall time"),
-        XAxis::Displayed => ("displayed frame of the moving camera (each frame alone)", "displayed frame"),
-    };
-    let y_desc = format!("{} vs {}", metric.label(), reference_label(reference));
-    let title = format!("{scene}: {} vs {x_name} ({})", metric.label(), reference_label(reference));
+    let (title, x_desc, y_desc) = (axes.title.as_str(), axes.x_desc.as_str(), axes.y_desc.as_str());
     let labels: Vec<String> = series.iter().map(|(m, _)| mode_display_name(m)).collect();
+    let colors = series_colors(series);
     let legend_w = (labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32 * 9 + 70).clamp(130, 280);
 
     let (w, h) = (760 + legend_w, 520u32);
@@ -772,7 +800,7 @@ fn render_svg(
     {
         let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
-        let body = root.titled(&title, ("sans-serif", 24))?;
+        let body = root.titled(title, ("sans-serif", 24))?;
         let (plot_area, legend_area) = body.split_horizontally(w - legend_w);
 
         let mut chart = ChartBuilder::on(&plot_area)
@@ -787,7 +815,7 @@ fn render_svg(
         chart
             .configure_mesh()
             .x_desc(x_desc)
-            .y_desc(y_desc.as_str())
+            .y_desc(y_desc)
             .x_label_formatter(&fmt)
             .y_label_formatter(&fmt)
             .label_style(("sans-serif", 17))
@@ -796,8 +824,7 @@ fn render_svg(
             .light_line_style(RGBColor(238, 238, 238))
             .draw()?;
 
-        for (mode, pts) in series {
-            let (r, g, b) = mode_color(mode);
+        for ((mode, pts), &(r, g, b)) in series.iter().zip(&colors) {
             let c = RGBColor(r, g, b);
             chart.draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))?;
             let filled = c.filled();
@@ -819,13 +846,12 @@ fn render_svg(
 
         // Legend beside the plot, so that it never covers data.
         legend_area.draw(&Text::new(
-            "Sampling",
+            axes.legend.as_str(),
             (12, 24),
             TextStyle::from(("sans-serif", 18).into_font()).pos(Pos::new(HPos::Left, VPos::Center)),
         ))?;
-        for (i, ((mode, _), label)) in series.iter().zip(&labels).enumerate() {
+        for (i, (((mode, _), label), &(r, g, b))) in series.iter().zip(&labels).zip(&colors).enumerate() {
             let y = 52 + 26 * i as i32;
-            let (r, g, b) = mode_color(mode);
             let c = RGBColor(r, g, b);
             legend_area.draw(&PathElement::new(vec![(12, y), (44, y)], c.stroke_width(2)))?;
             let filled = c.filled();
@@ -895,6 +921,82 @@ pub fn bias_table_markdown(points: &[CurvePoint], scene_labels: &[String]) -> St
             s.push('\n');
         }
     }
+    s
+}
+
+/// The accuracy goals of the default mode (issue 12), checked per scene against the path-traced
+/// reference: at frame count `t_bias` the share of squared error in the worst 0.1 % of pixels is at
+/// most `max_firefly_share` and |mean ratio − 1| below `max_bias`; and at each t in `equal_time_at`
+/// `mode`'s RMSE after t frames is below `rival`'s RMSE within the same wall time (log-log
+/// interpolation along the rival's curve; a rival whose run ended before that time is not
+/// compared, since its last value overstates its error). Returns the table and one verdict line.
+pub fn goals_markdown(
+    points: &[CurvePoint],
+    scene_labels: &[String],
+    mode: &str,
+    rival: &str,
+    t_bias: u32,
+    equal_time_at: &[u32],
+    max_firefly_share: f64,
+    max_bias: f64,
+) -> String {
+    let at = |scene: &str, m: &str, t: u32| points.iter().find(|p| p.scene == scene && p.reference == "pt" && p.mode == m && p.frames == t);
+    let mark = |ok: bool| if ok { "✓" } else { "✗" };
+    let mut s = format!(
+        "| scene | worst 0.1 % share, t = {t_bias} (≤ {:.0} %) | bias against pt, t = {t_bias} (within ±{:.0} %) |",
+        100.0 * max_firefly_share,
+        100.0 * max_bias
+    );
+    for t in equal_time_at {
+        let _ = write!(s, " RMSE t = {t}: {} vs {} at equal time |", mode_display_name(mode), mode_display_name(rival));
+    }
+    s.push_str("\n|---|---:|---:|");
+    s.push_str(&"---:|".repeat(equal_time_at.len()));
+    s.push('\n');
+    let (mut fireflies_ok, mut bias_ok, mut faster_scenes) = (0, 0, 0);
+    for label in scene_labels {
+        let label = label.as_str();
+        let _ = write!(s, "| {label} |");
+        match at(label, mode, t_bias) {
+            Some(p) => {
+                let (f, b) = (p.worst_share <= max_firefly_share, (p.mean_ratio - 1.0).abs() < max_bias);
+                fireflies_ok += f as usize;
+                bias_ok += b as usize;
+                let _ = write!(s, " {:.0} % {} | {:+.2} % {} |", 100.0 * p.worst_share, mark(f), 100.0 * (p.mean_ratio - 1.0), mark(b));
+            }
+            None => s.push_str(" — | — |"),
+        }
+        let mut all_below = !equal_time_at.is_empty();
+        for &t in equal_time_at {
+            let ours = at(label, mode, t);
+            let theirs = ours.and_then(|p| error_within_budget(points, label, "pt", rival, Metric::Rmse, p.wall_ms));
+            match (ours, theirs) {
+                (Some(p), Some(r)) if !r.run_ended => {
+                    let below = p.rmse < r.value;
+                    all_below &= below;
+                    let _ = write!(s, " {} vs {} {} |", fmt_sig3(p.rmse), fmt_sig3(r.value), mark(below));
+                }
+                (Some(p), Some(_)) => {
+                    all_below = false;
+                    let _ = write!(s, " {} vs — ({} run ended first) |", fmt_sig3(p.rmse), mode_display_name(rival));
+                }
+                _ => {
+                    all_below = false;
+                    s.push_str(" — |");
+                }
+            }
+        }
+        faster_scenes += all_below as usize;
+        s.push('\n');
+    }
+    let n = scene_labels.len();
+    let _ = write!(
+        s,
+        "\nFireflies within the goal on {fireflies_ok} of {n} scenes, bias within it on {bias_ok} of {n}; {} below {} at \
+         equal time at every t on {faster_scenes} of {n} scenes.\n",
+        mode_display_name(mode),
+        mode_display_name(rival)
+    );
     s
 }
 

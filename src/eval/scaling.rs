@@ -173,13 +173,55 @@ fn expected(sweep: &str, what: &str) -> (f64, &'static str) {
     }
 }
 
-/// The Markdown section: one table per sweep (ms per size, measured and expected exponent).
+/// The sweeps: (key, title, unit of x).
+const SWEEPS: [(&str, &str, &str); 3] =
+    [("vpls", "VPL count (Cornell box)", "VPLs"), ("pixels", "Image size (Cornell box)", "pixels"), ("triangles", "Triangle count", "triangles")];
+
+/// The plot of one sweep, relative to the Markdown's directory.
+fn plot_file(sweep: &str) -> String {
+    format!("plots/scaling_{sweep}.svg")
+}
+
+/// One log-log plot per sweep under `dir` (`plots/scaling_<sweep>.svg`): every timed thing's ms
+/// against the swept size, so a power law is a straight line and its exponent its slope.
+pub fn write_plots(dir: &Path, points: &[ScalingPoint]) -> Result<Vec<PathBuf>> {
+    let mut written = Vec::new();
+    for (sweep, title, unit) in SWEEPS {
+        let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+        for p in points.iter().filter(|p| p.sweep == sweep && p.x > 0.0 && p.ms > 0.0 && p.ms.is_finite()) {
+            match series.iter_mut().find(|(w, _)| *w == p.what) {
+                Some((_, pts)) => pts.push((p.x, p.ms)),
+                None => series.push((p.what.clone(), vec![(p.x, p.ms)])),
+            }
+        }
+        if series.is_empty() {
+            continue;
+        }
+        for (_, pts) in series.iter_mut() {
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        }
+        let axes = crate::eval::report::LogLogAxes {
+            // "VPL count" stays, "Triangle count" → "triangle count".
+            title: format!("Cost against the {}", if title.starts_with("VPL") { title.to_string() } else { title[..1].to_lowercase() + &title[1..] }),
+            x_desc: unit.into(),
+            y_desc: "ms (frames, photons: GPU; builds: wall)".into(),
+            legend: "Timed".into(),
+        };
+        let path = dir.join(plot_file(sweep));
+        crate::eval::report::write_loglog_svg(&path, &series, &axes)?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
+/// The Markdown section: one table per sweep (ms per size, measured and expected exponent) and its
+/// plot ([`write_plots`]).
 pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) -> String {
     let mut s = format!(
         "Device: {device}. GPU ms per frame (median of {} timed frames per mode after 2 warm-up frames, modes interleaved) of uniform, RIS (32 candidates) and ReSTIR (unbiased defaults); photon_emit: median GPU ms of {} re-traces; BLAS/TLAS: wall ms of the build submission. Exponent: least-squares slope of log ms against log size; expected: what the algorithm predicts. VPL and triangle sweeps at {}×{}, pixel and triangle sweeps with {} VPLs. The triangle sweep is a room with a tessellated bumpy sphere (`bench::dense_scene`), seen from its camera.\n\n",
         opts.frames, opts.photon_runs, opts.size.0, opts.size.1, opts.vpls
     );
-    for (sweep, title, unit) in [("vpls", "VPL count (Cornell box)", "VPLs"), ("pixels", "Image size (Cornell box)", "pixels"), ("triangles", "Triangle count", "triangles")] {
+    for (sweep, title, unit) in SWEEPS {
         let sel: Vec<&ScalingPoint> = points.iter().filter(|p| p.sweep == sweep).collect();
         if sel.is_empty() {
             continue;
@@ -222,7 +264,7 @@ pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) ->
         for law in laws {
             s += &format!("- {law}\n");
         }
-        s += "\n";
+        s += &format!("\n![{title}: ms against {unit}, log-log]({})\n\n", plot_file(sweep));
     }
     s
 }
