@@ -566,20 +566,8 @@ impl Renderer {
                         Some(k) => {
                             // Each VPL's own r² goes into its record; the global r stays the
                             // fallback of VPLs without a local spacing (coincident ones).
-                            let start = std::time::Instant::now();
-                            let mut vpls = photon_pass.read_vpls(stats)?;
-                            let positions: Vec<[f32; 3]> = vpls.iter().map(|v| v.position).collect();
-                            let (r2, median) = crate::vpl_radius::knn_r2(&positions, k as usize, multiple, r);
-                            for (v, r2) in vpls.iter_mut().zip(r2) {
-                                v.yuksel_r2 = r2;
-                            }
-                            photon_pass.write_vpls(stats, &vpls).context("uploading per-VPL radii")?;
+                            let median = photon_pass.set_knn_radii(stats, k, multiple, r)?;
                             flags |= VPL_FLAG_PER_VPL_RADIUS;
-                            log::info!(
-                                "vpl: per-VPL Yuksel radius from the {k} nearest VPLs in {:.0} ms (host): median {median:.4}, \
-                                 global rule {r:.4}",
-                                start.elapsed().as_secs_f64() * 1e3
-                            );
                             (Some(median), Some(text))
                         }
                     }

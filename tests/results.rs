@@ -14,6 +14,15 @@ fn cli(args: &[&str]) -> std::process::Output {
         .expect("run restir-vpl")
 }
 
+/// Runs `args --quick --out DIR` in a fresh temporary DIR, asserts success and returns DIR.
+fn quick_run(args: &[&str]) -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let o = cli(&[args, &["--quick", "--out", out]].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    dir
+}
+
 fn non_empty(path: &Path) -> String {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     assert!(!text.trim().is_empty(), "{} is empty", path.display());
@@ -22,10 +31,7 @@ fn non_empty(path: &Path) -> String {
 
 #[test]
 fn bench_curves_quick_writes_csv_tables_and_plots() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
-    let o = cli(&["bench", "--curves", "--quick", "--out", out]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let dir = quick_run(&["bench", "--curves"]);
     let points = read_curves_csv(dir.path().join("curves.csv")).unwrap();
     // 3 modes × 2 references × 3 checkpoints.
     assert_eq!(points.len(), 18, "{points:?}");
@@ -52,17 +58,14 @@ fn bench_curves_quick_writes_csv_tables_and_plots() {
         }
     }
     // Both references were written and are reused by a second run (nothing re-rendered).
-    let o = cli(&["bench", "--curves", "--quick", "--out", out]);
+    let o = cli(&["bench", "--curves", "--quick", "--out", dir.path().to_str().unwrap()]);
     assert!(o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("reusing"), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
 #[test]
 fn results_quick_covers_the_three_scenes() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
-    let o = cli(&["results", "--quick", "--out", out]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let dir = quick_run(&["results"]);
     let md = non_empty(&dir.path().join("results.md"));
     for scene in ["cornell_box", "living_room", "open_box_figure"] {
         assert!(md.contains(&format!("## {scene}")), "results.md lacks {scene}");
@@ -117,10 +120,7 @@ fn bench_rays_reports_raw_rates_and_every_tracing_pass() {
 /// finite.
 #[test]
 fn bench_radius_quick_writes_the_table_and_csv() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
-    let o = cli(&["bench", "--radius", "--quick", "--out", out]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let dir = quick_run(&["bench", "--radius"]);
     let md = non_empty(&dir.path().join("radius.md"));
     let csv = non_empty(&dir.path().join("radius.csv"));
     use restir_vpl::eval::radius::{COMPENSATED_MULTIPLES, KNN_MULTIPLES, SPACING_MULTIPLES};
@@ -150,10 +150,7 @@ fn bench_radius_quick_writes_the_table_and_csv() {
 /// the table states a measured and an expected exponent per curve.
 #[test]
 fn bench_scaling_quick_writes_the_table_and_csv() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
-    let o = cli(&["bench", "--scaling", "--quick", "--out", out]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let dir = quick_run(&["bench", "--scaling"]);
     let md = non_empty(&dir.path().join("scaling.md"));
     let csv = non_empty(&dir.path().join("scaling.csv"));
     let opts = restir_vpl::eval::scaling::ScalingOptions::quick(std::path::Path::new("."));

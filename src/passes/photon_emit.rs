@@ -79,6 +79,9 @@ pub struct PhotonEmitPass {
     capacity: u32,
     light_count: u32,
     scene_scale: f32,
+    /// The per-VPL radius rule the VPL records hold, (K, M bits, fallback r bits), and its median
+    /// radius; None until [`Self::set_knn_radii`], and again after each [`Self::run`].
+    knn_radii: std::cell::Cell<Option<((u32, u32, u32), f32)>>,
     ctx: Arc<Context>,
 }
 
@@ -159,7 +162,18 @@ impl PhotonEmitPass {
             .buffers(&[(0, &vpls), (1, &counter), (2, &cdf_buf)])
             .build()?;
         let light_count = lights.lights.len() as u32;
-        Ok(Self { pipeline, vpls, counter, _cdf: cdf_buf, settings, capacity, light_count, scene_scale, ctx: ctx.clone() })
+        Ok(Self {
+            pipeline,
+            vpls,
+            counter,
+            _cdf: cdf_buf,
+            settings,
+            capacity,
+            light_count,
+            scene_scale,
+            knn_radii: Default::default(),
+            ctx: ctx.clone(),
+        })
     }
 
     fn push(&self, mode: u32) -> Push {
@@ -212,6 +226,7 @@ impl PhotonEmitPass {
     /// Returns the statistics; the VPLs stay on the GPU.
     pub fn run(&self, scene_set: vk::DescriptorSet) -> Result<PhotonStats> {
         let start = std::time::Instant::now();
+        self.knn_radii.set(None);
         let mut timer = GpuTimer::new(&self.ctx, 4)?;
         let mut stats = PhotonStats::default();
         let s = self.settings;
@@ -299,14 +314,35 @@ impl PhotonEmitPass {
         Ok(out)
     }
 
-    /// Writes `vpls` (as [`Self::read_vpls`] returns them: direct, then indirect) back into the
-    /// VPL buffer.
-    pub fn write_vpls(&self, stats: &PhotonStats, vpls: &[GpuVpl]) -> Result<()> {
+    /// Gives every VPL its own Yuksel r² (`GpuVpl::yuksel_r2`): `multiple` × its local spacing from
+    /// its `k` nearest VPLs, `fallback` where it has none ([`crate::vpl_radius::knn_r2`]). Returns
+    /// the median radius. The host search (~1 s for 200k VPLs) runs once per VPL set and rule: a
+    /// settings change that keeps the VPL set reuses the records as they are.
+    pub fn set_knn_radii(&self, stats: &PhotonStats, k: u32, multiple: f32, fallback: f32) -> Result<f32> {
+        let key = (k, multiple.to_bits(), fallback.to_bits());
+        if let Some((held, median)) = self.knn_radii.get() {
+            if held == key {
+                return Ok(median);
+            }
+        }
+        let start = std::time::Instant::now();
+        let mut vpls = self.read_vpls(stats)?;
+        let positions: Vec<[f32; 3]> = vpls.iter().map(|v| v.position).collect();
+        let (r2, median) = crate::vpl_radius::knn_r2(&positions, k as usize, multiple, fallback);
+        for (v, r2) in vpls.iter_mut().zip(r2) {
+            v.yuksel_r2 = r2;
+        }
+        // Back where read_vpls found them: direct from slot 0, indirect from slot `direct`.
         let direct = stats.direct_vpls as usize;
-        anyhow::ensure!(vpls.len() == direct + stats.indirect_vpls as usize, "write_vpls: {} VPLs for {} slots", vpls.len(), direct + stats.indirect_vpls as usize);
         self.vpls.upload(0, bytemuck::cast_slice(&vpls[..direct]))?;
         let offset = self.settings.direct as u64 * std::mem::size_of::<GpuVpl>() as u64;
-        self.vpls.upload(offset, bytemuck::cast_slice(&vpls[direct..]))
+        self.vpls.upload(offset, bytemuck::cast_slice(&vpls[direct..])).context("uploading per-VPL radii")?;
+        self.knn_radii.set(Some((key, median)));
+        log::info!(
+            "vpl: per-VPL Yuksel radius from the {k} nearest VPLs in {:.0} ms (host): median {median:.4}, global rule {fallback:.4}",
+            start.elapsed().as_secs_f64() * 1e3
+        );
+        Ok(median)
     }
 
     /// Number of VPL slots in use (direct + indirect, contiguous).
