@@ -20,7 +20,8 @@
 layout(local_size_x = 64) in;
 
 layout(set = 1, binding = 0, std430) buffer VplBuffer { Vpl vpls[]; };
-layout(set = 1, binding = 1, std430) buffer VplCounter { uint indirect_count; };
+// indirect_count: VPL slots taken; next_path: paths of this dispatch handed out (zeroed per batch).
+layout(set = 1, binding = 1, std430) buffer VplCounter { uint indirect_count; uint next_path; } counters;
 layout(set = 1, binding = 2, std430) readonly buffer LightCdf { float light_cdf[]; };
 
 layout(push_constant) uniform Push {
@@ -104,51 +105,92 @@ void direct_vpl(uint i) {
     vpls[base + i] = v;
 }
 
-void photon_path(uint p) {
-    uint rng = rng_init(p, 1u, seed, SALT_PATHS);
-    uint t = invert_light_cdf(rand(rng));
-    LightSample s = sample_light_point(t, rng);
-    vec3 phi0 = s.power_over_pdf;
-    vec3 phi = phi0;
+// The state of one photon path between bounces.
+struct PhotonPath {
+    uint index;
+    uint rng;
+    uint bounce;   // the bounce whose hit the next ray looks for (1 = first)
+    vec3 phi0;
+    vec3 phi;
+    vec3 origin;
+    vec3 dir;
+};
+
+PhotonPath start_path(uint p) {
+    PhotonPath path;
+    path.index = p;
+    path.rng = rng_init(p, 1u, seed, SALT_PATHS);
+    uint t = invert_light_cdf(rand(path.rng));
+    LightSample s = sample_light_point(t, path.rng);
+    path.phi0 = s.power_over_pdf;
+    path.phi = path.phi0;
     bool point = (lights[t].flags & LIGHT_POINT) != 0u;
-    vec3 origin = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
-    vec3 dir = point ? s.normal : sample_cosine_hemisphere(s.normal, rand2(rng));
-    for (uint k = 1u; k <= max_bounces; ++k) {
-        Hit hit;
-        float dist;
-        if (!trace_closest(origin, dir, 1e30, hit, dist)) {
-            break;  // left the scene
+    path.origin = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
+    path.dir = point ? s.normal : sample_cosine_hemisphere(s.normal, rand2(path.rng));
+    path.bounce = 1u;
+    return path;
+}
+
+// Traces one segment of `path`: stores a VPL at its hit and prepares the next segment. Returns
+// false when the path has ended.
+bool trace_segment(inout PhotonPath path) {
+    Hit hit;
+    float dist;
+    if (!trace_closest(path.origin, path.dir, 1e30, hit, dist)) {
+        return false;  // left the scene
+    }
+    path.phi *= hit_albedo(hit);
+    if (max3(path.phi) <= 0.0) {
+        return false;
+    }
+    uint slot = atomicAdd(counters.indirect_count, 1u);
+    if (slot < capacity) {
+        Vpl v;
+        v.position = offset_ray(hit.position, hit.geometric_normal, scene_scale);
+        v.kind = VPL_INDIRECT;
+        v.normal = oct_quantize(hit.geometric_normal);  // faces the incoming photon; quantized as VplCandidate stores it
+        v.path = path.index;
+        v.flux = path.phi;
+        v.yuksel_r2 = 0.0;
+        vpls[base + slot] = v;
+    }
+    if (path.bounce == max_bounces) {
+        return false;
+    }
+    if (path.bounce >= min_bounces) {
+        float q = clamp(max3(path.phi / path.phi0), 0.05, 0.95);
+        if (rand(path.rng) >= q) {
+            return false;
         }
-        phi *= hit_albedo(hit);
-        if (max3(phi) <= 0.0) {
-            break;
-        }
-        uint slot = atomicAdd(indirect_count, 1u);
-        if (slot < capacity) {
-            Vpl v;
-            v.position = offset_ray(hit.position, hit.geometric_normal, scene_scale);
-            v.kind = VPL_INDIRECT;
-            v.normal = oct_quantize(hit.geometric_normal);  // faces the incoming photon; quantized as VplCandidate stores it
-            v.path = p;
-            v.flux = phi;
-            v.yuksel_r2 = 0.0;
-            vpls[base + slot] = v;
-        }
-        if (k == max_bounces) {
-            break;
-        }
-        if (k >= min_bounces) {
-            float q = clamp(max3(phi / phi0), 0.05, 0.95);
-            if (rand(rng) >= q) {
+        path.phi /= q;
+    }
+    path.dir = sample_cosine_hemisphere(hit.shading_normal, rand2(path.rng));
+    if (dot(path.dir, hit.geometric_normal) <= 0.0) {
+        return false;
+    }
+    path.origin = offset_ray(hit.position, hit.geometric_normal, scene_scale);
+    path.bounce += 1u;
+    return true;
+}
+
+// Paths first .. first + count - 1, handed out one at a time from counters.next_path: an
+// invocation whose path ends takes the next one at once, so on SIMD hardware (GPU warps,
+// lavapipe's 8-wide lanes) every lane traces a ray in every iteration until the batch runs out,
+// instead of waiting for the longest path of its group. Which invocation traces a path changes
+// nothing: a path's random numbers come from its index alone.
+void photon_paths() {
+    PhotonPath path;
+    bool alive = false;
+    for (;;) {
+        if (!alive) {
+            uint p = atomicAdd(counters.next_path, 1u);
+            if (p >= count) {
                 break;
             }
-            phi /= q;
+            path = start_path(first + p);
+            alive = true;
         }
-        dir = sample_cosine_hemisphere(hit.shading_normal, rand2(rng));
-        if (dot(dir, hit.geometric_normal) <= 0.0) {
-            break;
-        }
-        origin = offset_ray(hit.position, hit.geometric_normal, scene_scale);
+        alive = trace_segment(path);
     }
 }
 
@@ -160,7 +202,7 @@ void main() {
     if (mode == PHOTON_EMIT_DIRECT) {
         direct_vpl(first + k);
     } else if (mode == PHOTON_EMIT_PATHS) {
-        photon_path(first + k);
+        photon_paths();
     } else {
         vpls[base + first + k].flux *= scale;
     }

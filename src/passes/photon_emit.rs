@@ -3,9 +3,11 @@
 //! first frame, and its VPLs serve every frame.
 //!
 //! Layout of the VPL buffer: `[direct: N_d][indirect: up to capacity]`. Photon paths are launched
-//! in batches until the indirect count reaches the target; every launched path is traced to its
-//! end (the buffer has room for `batch · max_bounces` more), so the number of paths P is exact and
-//! the final 1/P normalisation is right.
+//! in batches until the indirect count reaches the target ([`BatchPlan`]); every launched path is
+//! traced to its end and a batch that overflows the buffer is forgotten and traced again smaller,
+//! so the paths kept are exactly 0 .. P and the final 1/P normalisation is right. Within a batch an
+//! invocation whose path ends takes the next path at once (path regeneration), so SIMD lanes do
+//! not idle behind the longest path of their group.
 
 use std::sync::Arc;
 
@@ -19,7 +21,7 @@ use crate::lights::LightSet;
 use crate::shaders;
 use crate::settings::PhotonSettings;
 use crate::vk::buffer::read_back;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{compute_barrier, storage};
 use crate::vk::{Buffer, ComputePipeline, Context, GpuTimer};
 
 use super::desc::{push_constants, PassDesc};
@@ -69,6 +71,79 @@ push_constants! {
 
 /// Largest single dispatch in items (keeps one submission short on slow devices).
 const MAX_DISPATCH: u32 = 1 << 18;
+
+/// Invocations that trace a batch of photon paths, each taking a new path when its last one ends
+/// (enough to fill a large GPU; on lavapipe the first few workgroups take nearly all paths).
+const PATH_LANES: u32 = 1 << 16;
+
+/// How photon paths are launched: in batches until `target` indirect VPLs are stored in a buffer
+/// of `capacity` slots. Every launched path is traced to its end and every batch's VPLs are kept,
+/// so the paths traced are exactly 0 .. P and the 1/P normalisation is exact.
+#[derive(Clone, Copy, Debug)]
+pub struct BatchPlan {
+    pub target: u32,
+    pub capacity: u32,
+    pub max_bounces: u32,
+}
+
+impl BatchPlan {
+    /// Stops launching after this many paths (photons that keep leaving the scene).
+    pub fn max_paths(&self) -> u64 {
+        64 * self.target as u64 + 1_000_000
+    }
+
+    /// Paths in the next batch, `count` VPLs having come from `paths` paths so far. The first
+    /// batch assumes every path makes `max_bounces` VPLs, so it fits the buffer whatever happens;
+    /// later ones aim at the remaining VPLs from the mean per path so far, with 1 % + 256 to spare
+    /// (so one more batch is rarely needed), and keep that expectation within 1/1.2 of the room
+    /// left. A batch that overflows anyway (a mean from few paths can be far off) is traced again
+    /// at half its size by [`Self::run`].
+    pub fn batch_size(&self, count: u32, paths: u64) -> u32 {
+        let room = self.capacity.saturating_sub(count) as f64;
+        let (wanted, fits) = if paths == 0 {
+            let worst = self.max_bounces as f64;
+            (self.target as f64 / worst, room / worst)
+        } else {
+            let per_path = (count as f64 / paths as f64).max(1e-3);
+            let remaining = self.target.saturating_sub(count) as f64;
+            ((remaining * 1.01 + 256.0) / per_path, room / (1.2 * per_path))
+        };
+        let left = self.max_paths().saturating_sub(paths).min(u32::MAX as u64 / 2) as f64;
+        wanted.ceil().min(fits.floor()).min(left).max(0.0) as u32
+    }
+
+    /// Launches batches until the target is reached: `trace(first, n)` traces paths first ..
+    /// first + n and returns the VPL counter after it (which may exceed the capacity: VPLs past it
+    /// were dropped); `reset(count)` sets the counter back so an overflowed batch is forgotten and
+    /// its first half traced again. Returns (VPLs, paths, batches submitted).
+    pub fn run(
+        &self,
+        trace: &mut dyn FnMut(u64, u32) -> Result<u32>,
+        reset: &mut dyn FnMut(u32) -> Result<()>,
+    ) -> Result<(u32, u64, u32)> {
+        let (mut count, mut paths, mut batches) = (0u32, 0u64, 0u32);
+        while count < self.target && paths < self.max_paths() {
+            let mut batch = self.batch_size(count, paths);
+            if batch == 0 {
+                break;
+            }
+            loop {
+                let after = trace(paths, batch)?;
+                batches += 1;
+                if after <= self.capacity {
+                    count = after;
+                    break;
+                }
+                ensure!(batch > 1, "photon_emit: one photon path overflowed the VPL buffer ({after} > {})", self.capacity);
+                log::debug!("photon_emit: a batch of {batch} paths overflowed the VPL buffer; tracing {} of them again", batch / 2);
+                reset(count)?;
+                batch /= 2;
+            }
+            paths += batch as u64;
+        }
+        Ok((count, paths, batches))
+    }
+}
 
 pub struct PhotonEmitPass {
     pipeline: ComputePipeline,
@@ -217,6 +292,21 @@ impl PhotonEmitPass {
         Ok(())
     }
 
+    /// Records one batch of paths (`push.first`, `push.count`): next_path is zeroed, then
+    /// min(count, PATH_LANES) invocations take paths from it until the batch is done.
+    fn record_paths(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: Push) {
+        // SAFETY: cmd is recording; the counter is alive until the submission's wait returns.
+        unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 4, 4, 0) };
+        compute_barrier(&self.ctx, cmd);
+        self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), push.count.min(PATH_LANES));
+    }
+
+    /// Sets the VPL counter (a batch that overflowed is forgotten).
+    fn set_counter(&self, value: u32) -> Result<()> {
+        // SAFETY: the counter is alive until one_shot's wait returns.
+        self.ctx.one_shot(|cmd| unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 0, 4, value) })
+    }
+
     fn read_counter(&self) -> Result<u32> {
         let bytes = read_back(&self.ctx, &self.counter)?;
         Ok(u32::from_le_bytes(bytes[..4].try_into().expect("4 bytes")))
@@ -245,24 +335,14 @@ impl PhotonEmitPass {
         }
         // Photon paths, in batches sized from the VPLs per path seen so far.
         if s.indirect > 0 {
-            let mut count = 0u32;
-            let mut paths = 0u64;
-            let max_paths = 64 * s.indirect as u64 + 1_000_000;
-            while count < s.indirect && paths < max_paths {
-                let per_path = if paths == 0 { s.max_bounces as f64 } else { (count as f64 / paths as f64).max(1e-3) };
-                let wanted = ((s.indirect - count) as f64 / per_path).ceil() as u64;
-                let room = ((self.capacity - count) / s.max_bounces) as u64;
-                let batch = wanted.clamp(64, MAX_DISPATCH as u64 * 4).min(room).min(max_paths - paths) as u32;
-                if batch == 0 {
-                    break;
-                }
-                let push = Push { base: s.direct, ..self.push(PHOTON_EMIT_PATHS) };
-                self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_chunks(cmd, scene_set, push, paths as u32, batch))?;
-                paths += batch as u64;
-                stats.batches += 1;
-                count = self.read_counter()?;
-                ensure!(count <= self.capacity, "photon_emit overflowed its buffer ({count} > {})", self.capacity);
-            }
+            let plan = BatchPlan { target: s.indirect, capacity: self.capacity, max_bounces: s.max_bounces };
+            let mut trace = |first: u64, batch: u32| -> Result<u32> {
+                let push = Push { base: s.direct, first: first as u32, count: batch, ..self.push(PHOTON_EMIT_PATHS) };
+                self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_paths(cmd, scene_set, push))?;
+                self.read_counter()
+            };
+            let (count, paths, batches) = plan.run(&mut trace, &mut |count| self.set_counter(count))?;
+            stats.batches = batches;
             if count < s.indirect {
                 log::warn!(
                     "--vpls-indirect {}: only {count} indirect VPLs after {paths} photon paths (photons leave the scene?)",
@@ -348,5 +428,93 @@ impl PhotonEmitPass {
     /// Number of VPL slots in use (direct + indirect, contiguous).
     pub fn vpl_count(stats: &PhotonStats) -> u32 {
         stats.direct_vpls + stats.indirect_vpls
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Runs `plan` against a simulated tracer where path p makes `vpls(p)` VPLs, checking what the
+    /// GPU pass relies on: the paths kept are exactly 0 .. P, each traced once into the counter
+    /// (an overflowed batch is forgotten whole), and the count is theirs. Returns (count, paths,
+    /// batches, overflows).
+    fn simulate(plan: BatchPlan, vpls: impl Fn(u64) -> u32) -> (u32, u64, u32, u32) {
+        use std::cell::Cell;
+        let counter = Cell::new(0u32);
+        let next = Cell::new(0u64);
+        let overflows = Cell::new(0u32);
+        let mut trace = |first: u64, n: u32| -> Result<u32> {
+            assert_eq!(first, next.get(), "batches continue where the kept ones ended");
+            let made: u64 = (first..first + n as u64).map(&vpls).map(u64::from).sum();
+            let after = (counter.get() as u64 + made).min(u32::MAX as u64) as u32;
+            counter.set(after);
+            if after <= plan.capacity {
+                next.set(first + n as u64);
+            } else {
+                overflows.set(overflows.get() + 1);
+            }
+            Ok(after)
+        };
+        let mut reset = |c: u32| -> Result<()> {
+            counter.set(c);
+            Ok(())
+        };
+        let (count, paths, batches) = plan.run(&mut trace, &mut reset).unwrap();
+        assert_eq!(paths, next.get());
+        assert_eq!(count as u64, (0..paths).map(&vpls).map(u64::from).sum::<u64>(), "count is the kept paths' VPLs");
+        assert!(count <= plan.capacity);
+        (count, paths, batches, overflows.get())
+    }
+
+    fn hash(p: u64) -> u64 {
+        let mut x = p.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        x ^= x >> 29;
+        x = x.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        x ^ (x >> 32)
+    }
+
+    fn plan(target: u32, max_bounces: u32) -> BatchPlan {
+        let slack = (target / 4).max(1024 * max_bounces);
+        BatchPlan { target, capacity: target + slack, max_bounces }
+    }
+
+    /// Paths of 0..=3 VPLs (mean 1.5, the Cornell box makes ~1.8): the first batch gives the mean
+    /// and the second all but at most a little of the rest; no overflow.
+    #[test]
+    fn typical_paths_take_two_or_three_batches() {
+        let (count, paths, batches, overflows) = simulate(plan(100_000, 8), |p| (hash(p) % 4) as u32);
+        assert!(count >= 100_000 && count < 102_000, "{count}");
+        assert!(paths > 60_000, "{paths}");
+        assert!(batches <= 3, "{batches} batches");
+        assert_eq!(overflows, 0);
+    }
+
+    /// The first batch finds no VPL (every early path escapes) and later paths make many: the
+    /// mean guess is far too low, the batch overflows and is traced again at half size until it
+    /// fits; the target is still met with the paths contiguous.
+    #[test]
+    fn an_overflowing_batch_is_forgotten_and_halved() {
+        let (count, _, _, overflows) = simulate(plan(200, 8), |p| if p < 100 { 0 } else { 3 });
+        assert!(overflows >= 1, "the scenario overflows");
+        assert!(count >= 200, "{count}");
+    }
+
+    /// Photons that never hit anything: stops after max_paths with no VPL.
+    #[test]
+    fn escaping_photons_stop_at_max_paths() {
+        let p = plan(1000, 8);
+        let (count, paths, _, _) = simulate(p, |_| 0);
+        assert_eq!(count, 0);
+        assert_eq!(paths, p.max_paths());
+    }
+
+    /// Every path bounces max_bounces times (closed box without roulette): the first batch's
+    /// worst-case sizing is exact and nothing overflows.
+    #[test]
+    fn worst_case_paths_never_overflow() {
+        let (count, _, _, overflows) = simulate(plan(20_000, 5), |_| 5);
+        assert_eq!(overflows, 0);
+        assert!(count >= 20_000);
     }
 }
