@@ -256,7 +256,7 @@ pub fn write_frame(
             status,
             why,
             workgroups: None,
-            local_size: desc.map(|d| d.local_size),
+            local_size: desc.map(|d| d.local_size_with(settings.workgroup)),
             bindings: desc.map(|d| d.bindings.iter().map(|b| b.name).collect()).unwrap_or_default(),
             gpu_ms: None,
             rays_per_pixel: None,
@@ -274,7 +274,7 @@ pub fn write_frame(
             Step::Run => {
                 for c in captured.iter().filter(|c| c.pass == name) {
                     let mut e = common(Some(c.position), c.repeat, "run", None);
-                    e.workgroups = desc.map(|d| workgroups(d.local_size, width, height));
+                    e.workgroups = desc.map(|d| workgroups(d.local_size_with(settings.workgroup), width, height));
                     e.gpu_ms = stats_of_frame.pass_ms.iter().find(|(n, _)| *n == name).map(|p| p.1);
                     e.rays_per_pixel = stats_of_frame.rays_by_pass.iter().find(|(n, _)| *n == name).map(|p| p.1 as f64 / pixels);
                     let mut decoded = decode(c, width, height);

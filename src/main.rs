@@ -142,6 +142,11 @@ struct RenderArgs {
     /// faster).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.presample))]
     presample: Toggle,
+    /// Workgroup WxH of the per-pixel passes (gbuffer, pathtrace, restir_initial, restir_spatial,
+    /// vpl_shade, vpl_compensate, vpl_bruteforce; restir_temporal stays 8x8). Same image for any
+    /// size; `bench --workgroups` measures them.
+    #[arg(long, value_parser = restir_vpl::settings::parse_workgroup, default_value = "8x8")]
+    workgroup: [u32; 2],
     /// ReSTIR temporal reuse of the previous frame's reservoirs.
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.restir.temporal))]
     temporal: Toggle,
@@ -238,6 +243,11 @@ enum Command {
         /// uniform) at 1280×720 and 1280×1280 (or --width × --height if given) with 100k + 100k VPLs.
         #[arg(long)]
         modes: bool,
+        /// Instead: GPU ms of every per-pixel pass of ReSTIR and the path tracer at seven workgroup
+        /// shapes (--workgroup; 8x8 default, 4x4 … 64x1), interleaved frame by frame, with the
+        /// ratio to 8x8. Default size 1280×720.
+        #[arg(long, conflicts_with_all = ["modes", "photons", "curves", "motion", "rays", "radius", "scaling"])]
+        workgroups: bool,
         /// Instead: error against frames and time on this scene (uniform, RIS, ReSTIR and the
         /// unbiased ReSTIR variants) against a path-traced and a converged VPL reference, both
         /// rendered first (cached in --out/references). Writes --out/curves.md, curves.csv,
@@ -489,6 +499,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         candidates: cli.candidates,
         candidate_source: cli.candidate_source,
         presample: cli.presample.on(),
+        workgroup: cli.workgroup,
         restir: RestirSettings {
             temporal: cli.temporal.on(),
             mcap: cli.mcap,
@@ -550,7 +561,7 @@ fn real_main(cli: Cli) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
         if (*quick || runs.is_some()) && !*curves && !*motion && !*radius && !*scaling {
@@ -654,6 +665,15 @@ fn real_main(cli: Cli) -> Result<()> {
                 rows.push(restir_vpl::eval::rays::measure(&ctx, &spec.path, w, h, *frames, *frames)?);
             }
             print!("{}", restir_vpl::eval::rays::markdown(&rows, &ctx.report.name));
+            if let Some(path) = json {
+                std::fs::write(path, serde_json::to_string_pretty(&rows)?)
+                    .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
+            }
+            return Ok(());
+        }
+        if *workgroups {
+            let rows = restir_vpl::eval::bench::workgroups(scene, width.unwrap_or(1280), height.unwrap_or(720), *frames, *device)?;
+            print!("{}", restir_vpl::eval::bench::workgroups_markdown(&rows));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
                     .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;

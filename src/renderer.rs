@@ -394,7 +394,7 @@ impl Renderer {
         // everything else is built, so a failure leaves the old parts whole.
         let (old_targets, mut old_photons) = match old {
             Some((p, s, same_lights)) => {
-                let same_size = (s.width, s.height) == (settings.width, settings.height);
+                let same_size = (s.width, s.height, s.workgroup) == (settings.width, settings.height, settings.workgroup);
                 let same_vpls = same_lights
                     && p.textured == textured
                     && s.needs_vpls() == settings.needs_vpls()
@@ -413,7 +413,7 @@ impl Renderer {
         }
         let targets = match old_targets {
             Some(t) => t,
-            None => Rc::new(FrameTargets::new(ctx, settings.width, settings.height).context("allocating frame targets")?),
+            None => Rc::new(FrameTargets::new(ctx, settings.width, settings.height, settings.workgroup).context("allocating frame targets")?),
         };
         let mut passes = Passes::new(ctx, layout, textured, &targets).context("creating passes")?;
         let info = &scene.info;

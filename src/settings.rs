@@ -334,6 +334,12 @@ pub struct RenderSettings {
     /// buffer.
     #[serde(default = "default_presample")]
     pub presample: bool,
+    /// Workgroup (x, y) of the per-pixel passes whose shaders take it as specialisation constants
+    /// (gbuffer, pathtrace, restir_initial, restir_spatial, vpl_shade, vpl_compensate,
+    /// vpl_bruteforce); restir_temporal stays 8×8 (its boiling filter averages over the
+    /// workgroup). `--workgroup WxH`; `bench --workgroups` measures the choice.
+    #[serde(default = "default_workgroup")]
+    pub workgroup: [u32; 2],
     pub restir: RestirSettings,
     pub attenuation: Attenuation,
     /// Yuksel's r (scene units); None: [`DEFAULT_RADIUS_SPACINGS`] × the mean VPL spacing
@@ -390,6 +396,7 @@ impl Default for RenderSettings {
             candidates: 32,
             candidate_source: CandidateSource::Uniform,
             presample: default_presample(),
+            workgroup: default_workgroup(),
             restir: RestirSettings::default(),
             attenuation: Attenuation::Yuksel,
             yuksel_radius: None,
@@ -403,6 +410,35 @@ impl Default for RenderSettings {
 
 fn default_presample() -> bool {
     true
+}
+
+/// 8×8: a 64-invocation workgroup (a warp or wavefront pair on GPUs; eight 8-lane SIMD steps on
+/// lavapipe), the size RTXDI and Bevy Solari use for their per-pixel passes.
+pub const DEFAULT_WORKGROUP: [u32; 2] = [8, 8];
+
+fn default_workgroup() -> [u32; 2] {
+    DEFAULT_WORKGROUP
+}
+
+/// Parses `--workgroup WxH` (e.g. `8x8`, `16x4`): both sides 1..=1024 and at most 1024
+/// invocations (Vulkan's guaranteed minimum of maxComputeWorkGroupInvocations is 128; the device's
+/// own limit is checked when the passes are built).
+pub fn parse_workgroup(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X', '×'])
+        .ok_or_else(|| format!("'{s}': expected WIDTHxHEIGHT, like 8x8"))?;
+    let side = |v: &str| -> Result<u32, String> {
+        let n = v.trim().parse::<u32>().map_err(|e| format!("'{s}': '{v}' is not a whole number ({e})"))?;
+        if n == 0 || n > 1024 {
+            return Err(format!("'{s}': each side must be 1 to 1024, not {n}"));
+        }
+        Ok(n)
+    };
+    let size = [side(w)?, side(h)?];
+    if size[0] * size[1] > 1024 {
+        return Err(format!("'{s}': {} invocations per workgroup, more than 1024", size[0] * size[1]));
+    }
+    Ok(size)
 }
 
 /// Largest image side accepted (keeps per-pixel buffers well inside 32-bit indexing).

@@ -182,6 +182,9 @@ fn vpl_mode_flag_errors() {
     assert_fails(&with(&["--mode", "pt", "--view", "indirect"]), &["--view indirect"]);
     assert_fails(&with(&["--mode", "restir", "--temporal", "maybe"]), &["--temporal"]);
     assert_fails(&with(&["--mode", "restir", "--bias", "slightly"]), &["--bias"]);
+    assert_fails(&with(&["--mode", "restir", "--workgroup", "64x64"]), &["--workgroup", "4096 invocations"]);
+    assert_fails(&with(&["--mode", "restir", "--workgroup", "0x8"]), &["--workgroup", "1 to 1024"]);
+    assert_fails(&with(&["--mode", "restir", "--workgroup", "8"]), &["--workgroup", "WIDTHxHEIGHT"]);
     // Brute force refuses a frame that would take hours, naming the flags to change.
     assert_fails(
         &["--headless", "--mode", "bruteforce", "--width", "4096", "--height", "4096", "--frames", "1"],

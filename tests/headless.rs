@@ -84,6 +84,27 @@ fn same_seed_same_image_different_seed_same_mean() {
     assert!((ma - mc).abs() <= 4.0 * se, "means {ma} vs {mc}: {:.1} standard errors", (ma - mc).abs() / se);
 }
 
+/// The workgroup shape changes only how pixels are grouped, never which random numbers a pixel
+/// uses: the image is bit-identical at 8×8, 16×4 (wider than 8: a shader that ignored its
+/// specialisation would leave columns unwritten) and an odd 5×3 that does not divide the image.
+/// pt covers gbuffer and pathtrace; ReSTIR with --compensate restir_initial, restir_spatial,
+/// vpl_shade and vpl_compensate (uniform and RIS use the same passes); brute force its own pass.
+#[test]
+fn workgroup_shape_leaves_the_image_unchanged() {
+    use restir_vpl::settings::Mode;
+    let scene = cornell();
+    for (mode, compensate) in [(Mode::Pt, false), (Mode::Restir, true), (Mode::Bruteforce, false)] {
+        let base = RenderSettings { mode, compensate, vpls_direct: 600, vpls_indirect: 600, aa: true, ..small(36, 28, 3) };
+        let image = |workgroup: [u32; 2]| render(&scene, &RenderSettings { workgroup, ..base.clone() }).mean;
+        let reference = image([8, 8]);
+        assert_all_finite(&reference, "8x8");
+        assert!(reference.iter().any(|p| p[0] > 0.0), "{mode:?}: the image is lit");
+        for workgroup in [[16, 4], [5, 3]] {
+            assert!(image(workgroup) == reference, "{mode:?}: {workgroup:?} changes the image");
+        }
+    }
+}
+
 /// With --aa the G-buffer is retraced every frame (jittered); without it, once.
 #[test]
 fn gbuffer_traced_once_unless_aa() {

@@ -21,7 +21,7 @@ use rspirv::spirv::{Decoration, ExecutionMode, Op, StorageClass};
 
 use restir_vpl::gpu_types::*;
 use restir_vpl::passes::desc::{PassDesc, PushLayout};
-use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, VplShadePass};
+use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, RestirTemporalPass, VplShadePass};
 use restir_vpl::vk::pipeline::{storage, uniform};
 use restir_vpl::vk::BindingKind;
 
@@ -356,6 +356,17 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
         Some(size) => out.push(format!("{at}: local size is {size:?} in the shader, {:?} in the desc", desc.local_size)),
         None => out.push(format!("{at}: the shader has no literal LocalSize")),
     }
+    // A specialisable workgroup: spec constants 0 and 1 exactly where the desc says so.
+    let spec_ids: Vec<u32> =
+        m.decorations.iter().filter(|((_, d), _)| *d == Decoration::SpecId).map(|(_, &id)| id).collect();
+    let specialisable = spec_ids.contains(&0) && spec_ids.contains(&1);
+    if specialisable != desc.workgroup_spec {
+        out.push(format!(
+            "{at}: the desc says workgroup_spec = {}, the shader {} local_size_x_id = 0 / local_size_y_id = 1",
+            desc.workgroup_spec,
+            if specialisable { "has" } else { "lacks" }
+        ));
+    }
     out
 }
 
@@ -447,6 +458,14 @@ fn a_drifted_local_size_is_detected() {
     assert_reported(&wide, "local size is [8, 8, 1] in the shader, [16, 8, 1] in the desc");
     let flat = PassDesc { local_size: [8, 8, 1], ..AccumulatePass::DESC };
     assert_reported(&flat, "local size is [64, 1, 1] in the shader");
+}
+
+#[test]
+fn a_workgroup_spec_flag_that_drifted_is_detected() {
+    let fixed = PassDesc { workgroup_spec: false, ..GbufferPass::DESC };
+    assert_reported(&fixed, "the desc says workgroup_spec = false, the shader has local_size_x_id");
+    let spec = PassDesc { workgroup_spec: true, ..RestirTemporalPass::DESC };
+    assert_reported(&spec, "the desc says workgroup_spec = true, the shader lacks local_size_x_id");
 }
 
 // ---- Constants ----------------------------------------------------------------------------------

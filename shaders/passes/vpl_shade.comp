@@ -8,7 +8,8 @@
 #include "../common/vpl_target.glsl"
 #include "../restir/reservoir.glsl"
 
-layout(local_size_x = 8, local_size_y = 8) in;
+// 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
+layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
 layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
 layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };

@@ -247,24 +247,35 @@ pub fn time_modes(
     cases: &[(&str, crate::settings::Mode, crate::settings::RestirSettings)],
     frames: u32,
 ) -> Result<Vec<ModeBench>> {
+    let cases: Vec<(String, RenderSettings)> = cases
+        .iter()
+        .map(|(label, mode, restir)| (label.to_string(), RenderSettings { mode: *mode, restir: *restir, ..base.clone() }))
+        .collect();
+    time_settings(ctx, scene, &cases, frames)
+}
+
+/// Frame cost of each (label, settings) case, as [`time_modes`] measures it: two warm-up frames
+/// each, then `frames` timed frames interleaved across the cases. Ratios are to the first case.
+pub fn time_settings(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, cases: &[(String, RenderSettings)], frames: u32) -> Result<Vec<ModeBench>> {
     let camera = Camera::initial(&scene.info, None);
     let mut renderers = Vec::new();
-    for (label, mode, restir) in cases {
-        let settings = RenderSettings { mode: *mode, restir: *restir, frames: frames + 2, ..base.clone() };
+    for (label, settings) in cases {
+        let settings = RenderSettings { frames: frames + 2, ..settings.clone() };
+        let (width, height) = (settings.width, settings.height);
         let mut r = Renderer::new(ctx.clone(), scene.clone(), settings)?;
         r.render_frame(&camera, false)?;
         r.render_frame(&camera, false)?;
         r.reset_accumulation()?;
-        renderers.push((label, r));
+        renderers.push((label, width, height, r));
     }
     for _ in 0..frames {
-        for (_, r) in renderers.iter_mut() {
+        for (_, _, _, r) in renderers.iter_mut() {
             r.render_frame(&camera, false)?;
         }
     }
     let mut out = Vec::new();
     let mut first_ms = None;
-    for (label, r) in renderers {
+    for (label, width, height, r) in renderers {
         let log = r.log();
         let gpu = log.gpu().median;
         let rays: Vec<(String, f64)> =
@@ -272,8 +283,8 @@ pub fn time_modes(
         let first = *first_ms.get_or_insert(gpu);
         out.push(ModeBench {
             label: label.to_string(),
-            width: base.width,
-            height: base.height,
+            width,
+            height,
             frames,
             pass_ms: log.pass_stats().into_iter().map(|(k, t)| (k, t.median)).collect(),
             gpu_ms_per_frame: gpu,
@@ -283,6 +294,77 @@ pub fn time_modes(
         });
     }
     Ok(out)
+}
+
+/// Workgroup shapes `bench --workgroups` compares; the first is the default.
+pub const WORKGROUP_SHAPES: [[u32; 2]; 7] = [[8, 8], [4, 4], [8, 4], [16, 4], [16, 16], [32, 8], [64, 1]];
+
+/// One mode's per-pass cost at each workgroup shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct WorkgroupBench {
+    pub mode: String,
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    /// (shape, median GPU ms per pass, median GPU ms per frame), shapes as [`WORKGROUP_SHAPES`].
+    pub shapes: Vec<([u32; 2], Vec<(String, f64)>, f64)>,
+}
+
+/// Per-pass cost of the per-pixel passes at each of [`WORKGROUP_SHAPES`] (`--workgroup`), for
+/// the default ReSTIR and the path tracer, with jittered primary rays so the G-buffer pass runs
+/// every frame. Every shape of one mode is timed in one interleaved run ([`time_settings`]), so
+/// the ratios to 8×8 share the machine's state.
+pub fn workgroups(scene_path: &std::path::Path, width: u32, height: u32, frames: u32, device: Option<usize>) -> Result<Vec<WorkgroupBench>> {
+    use crate::settings::Mode;
+    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
+    let mut out = Vec::new();
+    for mode in [Mode::Restir, Mode::Pt] {
+        let base = RenderSettings { scene: scene_path.to_path_buf(), mode, width, height, aa: true, ..Default::default() };
+        let cases: Vec<(String, RenderSettings)> = WORKGROUP_SHAPES
+            .iter()
+            .map(|&workgroup| (format!("{}x{}", workgroup[0], workgroup[1]), RenderSettings { workgroup, ..base.clone() }))
+            .collect();
+        let rows = time_settings(&ctx, &scene, &cases, frames)?;
+        out.push(WorkgroupBench {
+            mode: format!("{mode:?}").to_lowercase(),
+            width,
+            height,
+            frames,
+            shapes: WORKGROUP_SHAPES.iter().zip(rows).map(|(&shape, r)| (shape, r.pass_ms, r.gpu_ms_per_frame)).collect(),
+        });
+    }
+    Ok(out)
+}
+
+/// Markdown of [`workgroups`]: per mode, one row per pass (and the frame), one column per shape,
+/// median GPU ms and its ratio to 8×8. restir_temporal keeps 8×8 in every column.
+pub fn workgroups_markdown(rows: &[WorkgroupBench]) -> String {
+    let mut s = String::new();
+    for b in rows {
+        s += &format!("\n{} at {}×{}, {} interleaved frames per shape, median GPU ms (× 8×8):\n\n| pass |", b.mode, b.width, b.height, b.frames);
+        for (shape, _, _) in &b.shapes {
+            s += &format!(" {}×{} |", shape[0], shape[1]);
+        }
+        s += "\n|---|";
+        s += &"---:|".repeat(b.shapes.len());
+        s += "\n";
+        let Some((_, first_passes, first_frame)) = b.shapes.first() else { continue };
+        let cell = |ms: f64, base: f64| if base > 0.0 { format!(" {ms:.1} ({:.2}) |", ms / base) } else { format!(" {ms:.1} |") };
+        for (pass, base) in first_passes {
+            s += &format!("| {pass} |");
+            for (_, passes, _) in &b.shapes {
+                let ms = passes.iter().find(|(n, _)| n == pass).map(|p| p.1).unwrap_or(0.0);
+                s += &cell(ms, *base);
+            }
+            s += "\n";
+        }
+        s += "| **frame** |";
+        for (_, _, frame) in &b.shapes {
+            s += &cell(*frame, *first_frame);
+        }
+        s += "\n";
+    }
+    s
 }
 
 /// Markdown table of [`modes`]: one row per mode and size.
@@ -304,4 +386,29 @@ pub fn modes_markdown(rows: &[ModeBench]) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// One column per shape, one row per pass of the first shape plus the frame, each cell the
+    /// median and its ratio to the first shape; a pass missing from a shape shows 0.
+    #[test]
+    fn workgroup_table_has_a_ratio_per_shape() {
+        let pass = |a: f64, b: f64| vec![("vpl_shade".to_string(), a), ("restir_temporal".to_string(), b)];
+        let rows = [WorkgroupBench {
+            mode: "restir".into(),
+            width: 64,
+            height: 32,
+            frames: 3,
+            shapes: vec![([8, 8], pass(10.0, 4.0), 14.0), ([16, 4], pass(5.0, 4.0), 9.0), ([64, 1], vec![], 7.0)],
+        }];
+        let md = workgroups_markdown(&rows);
+        assert!(md.contains("restir at 64×32, 3 interleaved frames"), "{md}");
+        assert!(md.contains("| pass | 8×8 | 16×4 | 64×1 |\n|---|---:|---:|---:|\n"), "{md}");
+        assert!(md.contains("| vpl_shade | 10.0 (1.00) | 5.0 (0.50) | 0.0 (0.00) |"), "{md}");
+        assert!(md.contains("| restir_temporal | 4.0 (1.00) | 4.0 (1.00) | 0.0 (0.00) |"), "{md}");
+        assert!(md.contains("| **frame** | 14.0 (1.00) | 9.0 (0.64) | 7.0 (0.50) |"), "{md}");
+    }
 }

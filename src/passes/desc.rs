@@ -55,15 +55,23 @@ pub struct PassDesc {
     /// Set 1, as the shader declares it.
     pub bindings: &'static [Binding],
     pub push: PushLayout,
-    /// The shader's `local_size_x/y/z`.
+    /// The shader's `local_size_x/y/z` (its default where `workgroup_spec`).
     pub local_size: [u32; 3],
+    /// The shader's x and y local size are specialisation constants 0 and 1 (`local_size_x_id`,
+    /// `local_size_y_id`), so the renderer can set them (`--workgroup`).
+    pub workgroup_spec: bool,
 }
 
 impl PassDesc {
     /// A pass without set-1 bindings, push constants or a textured variant; the `with_*` methods
     /// add them.
     pub const fn new(name: &'static str, spirv: &'static [u8], local_size: [u32; 3]) -> Self {
-        Self { name, spirv, textured: None, bindings: &[], push: PushLayout::NONE, local_size }
+        Self { name, spirv, textured: None, bindings: &[], push: PushLayout::NONE, local_size, workgroup_spec: false }
+    }
+
+    /// The shader's x and y local size are specialisation constants 0 and 1.
+    pub const fn with_workgroup_spec(self) -> Self {
+        Self { workgroup_spec: true, ..self }
     }
 
     pub const fn with_textured(self, spirv: &'static [u8]) -> Self {
@@ -78,6 +86,16 @@ impl PassDesc {
         Self { push, ..self }
     }
 
+    /// The local size a pipeline built with `.workgroup(workgroup)` runs: `workgroup` for a
+    /// specialisable shader, the shader's own otherwise.
+    pub fn local_size_with(&self, workgroup: [u32; 2]) -> [u32; 3] {
+        if self.workgroup_spec {
+            [workgroup[0], workgroup[1], self.local_size[2]]
+        } else {
+            self.local_size
+        }
+    }
+
     /// (variant name, SPIR-V) of every compiled variant: `default`, then `textured` where it exists.
     pub fn spirv_variants(&self) -> Vec<(&'static str, &'static [u8])> {
         let mut out = vec![("default", self.spirv)];
@@ -87,7 +105,7 @@ impl PassDesc {
 
     /// Starts building the pass's pipeline on `scene_layout` (set 0).
     pub fn pipeline<'a>(&'a self, ctx: &'a Arc<Context>, scene_layout: vk::DescriptorSetLayout) -> PipelineBuilder<'a> {
-        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, shared: Vec::new(), per_variant: Vec::new() }
+        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, workgroup: None, shared: Vec::new(), per_variant: Vec::new() }
     }
 }
 
@@ -98,6 +116,7 @@ pub struct PipelineBuilder<'a> {
     ctx: &'a Arc<Context>,
     scene_layout: vk::DescriptorSetLayout,
     textured: bool,
+    workgroup: Option<[u32; 2]>,
     shared: Vec<(u32, &'a Buffer)>,
     /// Empty: one set-1 variant.
     per_variant: Vec<Vec<(u32, &'a Buffer)>>,
@@ -107,6 +126,13 @@ impl<'a> PipelineBuilder<'a> {
     /// Use the `textured` SPIR-V when `textured` (the scene set has textures bound).
     pub fn textured(mut self, textured: bool) -> Self {
         self.textured = textured;
+        self
+    }
+
+    /// The workgroup's x and y (a pass whose desc has `workgroup_spec`; `build` refuses others
+    /// unless the size is the shader's own).
+    pub fn workgroup(mut self, size: [u32; 2]) -> Self {
+        self.workgroup = Some(size);
         self
     }
 
@@ -148,6 +174,14 @@ impl<'a> PipelineBuilder<'a> {
             d.spirv
         };
         let push_size = u32::try_from(d.push.size).context("push-constant size")?;
+        let workgroup = match self.workgroup {
+            Some(size) if d.workgroup_spec => Some(size),
+            Some(size) => {
+                ensure!(size == [d.local_size[0], d.local_size[1]], "pass '{}' has a fixed {:?} workgroup, not {size:?}", d.name, d.local_size);
+                None
+            }
+            None => None,
+        };
         let pipeline = ComputePipeline::with_variants(
             self.ctx,
             d.name,
@@ -156,6 +190,7 @@ impl<'a> PipelineBuilder<'a> {
             d.bindings,
             push_size,
             d.local_size,
+            workgroup,
             variants as u32,
         )?;
         for &(binding, buffer) in &self.shared {

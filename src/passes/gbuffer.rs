@@ -17,12 +17,13 @@ pub struct GbufferPass { pipeline: ComputePipeline }
 impl GbufferPass {
     pub const NAME: &'static str = "gbuffer";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_GBUFFER, [8, 8, 1])
+        .with_workgroup_spec()
         .with_textured(shaders::PASSES_GBUFFER_TEXTURED)
         .with_bindings(&[storage(0, "surfaces")]);
 
     /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, textured: bool, targets: &FrameTargets) -> Result<Self> {
-        let pipeline = Self::DESC.pipeline(ctx, scene_layout).textured(textured).buffers(&[(0, &targets.surfaces)]).build()?;
+        let pipeline = Self::DESC.pipeline(ctx, scene_layout).workgroup(targets.workgroup).textured(textured).buffers(&[(0, &targets.surfaces)]).build()?;
         Ok(Self { pipeline })
     }
 

@@ -101,6 +101,8 @@ pub fn glsl_constants() -> Vec<(&'static str, u32)> {
 pub struct FrameTargets {
     pub width: u32,
     pub height: u32,
+    /// How the per-pixel passes tile the image: their workgroup (x, y) (`--workgroup`).
+    pub workgroup: [u32; 2],
     /// `GpuSurface` per pixel (gbuffer output), twice: a ping-pong of this frame's and the previous
     /// frame's G-buffer (`GpuFrame::surface_offset`, `prev_surface_offset`), for reprojection.
     pub surfaces: Buffer,
@@ -120,7 +122,19 @@ pub struct FrameTargets {
 }
 
 impl FrameTargets {
-    pub fn new(ctx: &Arc<Context>, width: u32, height: u32) -> Result<Self> {
+    /// `workgroup`: checked against the device's compute limits here, before any pass is built.
+    pub fn new(ctx: &Arc<Context>, width: u32, height: u32, workgroup: [u32; 2]) -> Result<Self> {
+        let limits = &ctx.properties.limits;
+        let [x, y] = workgroup;
+        anyhow::ensure!(
+            x <= limits.max_compute_work_group_size[0]
+                && y <= limits.max_compute_work_group_size[1]
+                && x * y <= limits.max_compute_work_group_invocations,
+            "--workgroup {x}x{y}: this device allows at most {}x{} and {} invocations per workgroup",
+            limits.max_compute_work_group_size[0],
+            limits.max_compute_work_group_size[1],
+            limits.max_compute_work_group_invocations
+        );
         let n = width as u64 * height as u64;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_SRC
@@ -129,6 +143,7 @@ impl FrameTargets {
         Ok(Self {
             width,
             height,
+            workgroup,
             surfaces: make("gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64)?,
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,

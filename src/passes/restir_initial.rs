@@ -29,6 +29,7 @@ pub struct RestirInitialPass { pipeline: ComputePipeline }
 impl RestirInitialPass {
     pub const NAME: &'static str = "restir_initial";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_INITIAL, [8, 8, 1])
+        .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             storage(0, "surfaces"), storage(1, "vpls"), storage(2, "vpl_alias"),
@@ -45,6 +46,7 @@ impl RestirInitialPass {
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
+            .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (4, &targets.ray_counter), (5, tiles)])
             .ping_pong(reservoirs, 3, None)
             .build()?;

@@ -33,6 +33,7 @@ pub struct RestirSpatialPass { pipeline: ComputePipeline }
 impl RestirSpatialPass {
     pub const NAME: &'static str = "restir_spatial";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_SPATIAL, [8, 8, 1])
+        .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "src"), storage(3, "dst"), storage(4, "ray_count")]);
 
@@ -45,6 +46,7 @@ impl RestirSpatialPass {
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
+            .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (4, &targets.ray_counter)])
             .ping_pong(reservoirs, 2, Some(3))
             .build()?;

@@ -34,12 +34,13 @@ pub struct VplBruteforcePass {
 impl VplBruteforcePass {
     pub const NAME: &'static str = "vpl_bruteforce";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_BRUTEFORCE, [8, 8, 1])
+        .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);
 
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets, vpls: &VplInputs) -> Result<Self> {
         let buffers = [(0, &targets.surfaces), (1, vpls.vpls), (2, &targets.samples), (3, &targets.ray_counter)];
-        Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).buffers(&buffers).build()?, ctx: ctx.clone() })
+        Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).workgroup(targets.workgroup).buffers(&buffers).build()?, ctx: ctx.clone() })
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, w: u32, h: u32) {

@@ -29,6 +29,7 @@ pub struct VplCompensatePass { pipeline: ComputePipeline }
 impl VplCompensatePass {
     pub const NAME: &'static str = "vpl_compensate";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_COMPENSATE, [8, 8, 1])
+        .with_workgroup_spec()
         .with_textured(shaders::PASSES_VPL_COMPENSATE_TEXTURED)
         .with_push(Push::LAYOUT)
         .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);
@@ -42,7 +43,7 @@ impl VplCompensatePass {
         vpls: &VplInputs,
     ) -> Result<Self> {
         let buffers = [(0, &targets.surfaces), (1, vpls.vpls), (2, &targets.samples), (3, &targets.ray_counter)];
-        Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).textured(textured).buffers(&buffers).build()? })
+        Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).workgroup(targets.workgroup).textured(textured).buffers(&buffers).build()? })
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, first_hop: u32, w: u32, h: u32) {

@@ -32,6 +32,7 @@ pub struct VplShadePass { pipeline: ComputePipeline }
 impl VplShadePass {
     pub const NAME: &'static str = "vpl_shade";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_SHADE, [8, 8, 1])
+        .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             storage(0, "surfaces"), storage(1, "vpls"), storage(2, "reservoirs"),
@@ -47,6 +48,7 @@ impl VplShadePass {
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
+            .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (3, &targets.samples), (4, &targets.ray_counter)])
             .ping_pong(reservoirs, 2, None)
             .build()?;

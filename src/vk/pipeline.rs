@@ -209,10 +209,12 @@ impl ComputePipeline {
         push_size: u32,
         local_size: [u32; 3],
     ) -> Result<Self> {
-        Self::with_variants(ctx, name, spirv, scene_layout, table, push_size, local_size, 1)
+        Self::with_variants(ctx, name, spirv, scene_layout, table, push_size, local_size, None, 1)
     }
 
     /// As [`ComputePipeline::new`] with `variants` set-1 variants (see [`DescriptorSet::with_variants`]).
+    /// `workgroup`: (x, y) for a shader whose local size is specialisable (`local_size_x_id = 0,
+    /// local_size_y_id = 1`); it replaces `local_size`'s x and y.
     #[allow(clippy::too_many_arguments)]
     pub fn with_variants(
         ctx: &Arc<Context>,
@@ -222,8 +224,13 @@ impl ComputePipeline {
         table: &'static [Binding],
         push_size: u32,
         local_size: [u32; 3],
+        workgroup: Option<[u32; 2]>,
         variants: u32,
     ) -> Result<Self> {
+        let local_size = match workgroup {
+            Some([x, y]) => [x, y, local_size[2]],
+            None => local_size,
+        };
         let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
         let code = ash::util::read_spv(&mut Cursor::new(spirv)).with_context(|| format!("SPIR-V of '{name}'"))?;
         let device = &ctx.device;
@@ -242,10 +249,17 @@ impl ComputePipeline {
             let layout_info = if push_size > 0 { layout_info.push_constant_ranges(&ranges) } else { layout_info };
             let layout = device.create_pipeline_layout(&layout_info, None).with_context(|| format!("pipeline layout '{name}'"))?;
             ctx.set_name(layout, name);
+            let spec_entries = [
+                vk::SpecializationMapEntry { constant_id: 0, offset: 0, size: 4 },
+                vk::SpecializationMapEntry { constant_id: 1, offset: 4, size: 4 },
+            ];
+            let spec_data: [u8; 8] = bytemuck::cast([local_size[0], local_size[1]]);
+            let spec = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
+            let stage = if workgroup.is_some() { stage.specialization_info(&spec) } else { stage };
             let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
             let result = device.create_compute_pipelines(ctx.pipeline_cache, &info, None);
             device.destroy_shader_module(module, None);
