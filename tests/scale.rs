@@ -90,13 +90,16 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
                 c.relmse, c.mean_ratio
             );
             // The VPL set is traced with the same random numbers, so uniform sampling's images agree
-            // as closely as the path tracer's. ReSTIR makes discrete choices that feed the next
+            // as closely as the path tracer's (relMSE); a shadow ray or VPL choice flipped by
+            // rounding still moves a pixel or two (measured with the VPL set of the batch plan of
+            // e97f267: 6 of 2304 pixels differ by > 1 %, one black pixel lit, mean 0.025 % apart),
+            // so the mean gets the tolerance ReSTIR has. ReSTIR makes discrete choices that feed the next
             // frame and the neighbours: one choice flipped by rounding spreads to a few dozen pixels
             // (measured: 72 of 2304 differ by > 0.1 %, relMSE 2e-4, mean 0.06 % apart). An absolute
             // epsilon shifts every pixel instead (the Cornell box at 1e-4 was 3.4 % bright before
             // scale-aware offsets): the mean must agree to 0.1 % and relMSE stay below 1e-3.
             let (relmse_max, mean_tol) = if mode == Mode::Uniform {
-                (1e-4, 1e-4)
+                (1e-4, 1e-3)
             } else {
                 (1e-3, 1e-3)
             };
