@@ -394,12 +394,12 @@ impl Renderer {
         // everything else is built, so a failure leaves the old parts whole.
         let (old_targets, mut old_photons) = match old {
             Some((p, s, same_lights)) => {
-                let same_size = (s.width, s.height, s.workgroup) == (settings.width, settings.height, settings.workgroup);
+                let same_grid = (s.width, s.height, s.workgroup) == (settings.width, settings.height, settings.workgroup);
                 let same_vpls = same_lights
                     && p.textured == textured
                     && s.needs_vpls() == settings.needs_vpls()
                     && s.photon_settings() == settings.photon_settings();
-                (same_size.then(|| p.targets.clone()), same_vpls.then_some(&mut p.photons))
+                (same_grid.then(|| p.targets.clone()), same_vpls.then_some(&mut p.photons))
             }
             None => (None, None),
         };

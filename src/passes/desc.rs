@@ -174,14 +174,9 @@ impl<'a> PipelineBuilder<'a> {
             d.spirv
         };
         let push_size = u32::try_from(d.push.size).context("push-constant size")?;
-        let workgroup = match self.workgroup {
-            Some(size) if d.workgroup_spec => Some(size),
-            Some(size) => {
-                ensure!(size == [d.local_size[0], d.local_size[1]], "pass '{}' has a fixed {:?} workgroup, not {size:?}", d.name, d.local_size);
-                None
-            }
-            None => None,
-        };
+        let workgroup = self.workgroup.unwrap_or([d.local_size[0], d.local_size[1]]);
+        let local_size = d.local_size_with(workgroup);
+        ensure!(local_size[..2] == workgroup, "pass '{}' has a fixed {:?} workgroup, not {workgroup:?}", d.name, d.local_size);
         let pipeline = ComputePipeline::with_variants(
             self.ctx,
             d.name,
@@ -189,8 +184,8 @@ impl<'a> PipelineBuilder<'a> {
             self.scene_layout,
             d.bindings,
             push_size,
-            d.local_size,
-            workgroup,
+            local_size,
+            d.workgroup_spec,
             variants as u32,
         )?;
         for &(binding, buffer) in &self.shared {

@@ -301,7 +301,7 @@ impl PhotonEmitPass {
         self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), push.count.min(PATH_LANES));
     }
 
-    /// Sets the VPL counter (a batch that overflowed is forgotten).
+    /// Sets the VPL counter: 0 before a run, back to the count before a batch that overflowed.
     fn set_counter(&self, value: u32) -> Result<()> {
         // SAFETY: the counter is alive until one_shot's wait returns.
         self.ctx.one_shot(|cmd| unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 0, 4, value) })
@@ -320,10 +320,7 @@ impl PhotonEmitPass {
         let mut timer = GpuTimer::new(&self.ctx, 4)?;
         let mut stats = PhotonStats::default();
         let s = self.settings;
-        let ctx = self.ctx.clone();
-        // Zero the counter.
-        // SAFETY: the counter is alive until one_shot's wait returns.
-        ctx.one_shot(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 0, vk::WHOLE_SIZE, 0) })?;
+        self.set_counter(0)?;
         if self.light_count == 0 {
             return Ok(stats);
         }

@@ -209,12 +209,12 @@ impl ComputePipeline {
         push_size: u32,
         local_size: [u32; 3],
     ) -> Result<Self> {
-        Self::with_variants(ctx, name, spirv, scene_layout, table, push_size, local_size, None, 1)
+        Self::with_variants(ctx, name, spirv, scene_layout, table, push_size, local_size, false, 1)
     }
 
     /// As [`ComputePipeline::new`] with `variants` set-1 variants (see [`DescriptorSet::with_variants`]).
-    /// `workgroup`: (x, y) for a shader whose local size is specialisable (`local_size_x_id = 0,
-    /// local_size_y_id = 1`); it replaces `local_size`'s x and y.
+    /// `specialise`: the shader's local size is specialisable (`local_size_x_id = 0,
+    /// local_size_y_id = 1`), and `local_size`'s x and y are passed as those constants.
     #[allow(clippy::too_many_arguments)]
     pub fn with_variants(
         ctx: &Arc<Context>,
@@ -224,13 +224,9 @@ impl ComputePipeline {
         table: &'static [Binding],
         push_size: u32,
         local_size: [u32; 3],
-        workgroup: Option<[u32; 2]>,
+        specialise: bool,
         variants: u32,
     ) -> Result<Self> {
-        let local_size = match workgroup {
-            Some([x, y]) => [x, y, local_size[2]],
-            None => local_size,
-        };
         let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
         let code = ash::util::read_spv(&mut Cursor::new(spirv)).with_context(|| format!("SPIR-V of '{name}'"))?;
         let device = &ctx.device;
@@ -259,7 +255,7 @@ impl ComputePipeline {
                 .stage(vk::ShaderStageFlags::COMPUTE)
                 .module(module)
                 .name(c"main");
-            let stage = if workgroup.is_some() { stage.specialization_info(&spec) } else { stage };
+            let stage = if specialise { stage.specialization_info(&spec) } else { stage };
             let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
             let result = device.create_compute_pipelines(ctx.pipeline_cache, &info, None);
             device.destroy_shader_module(module, None);
