@@ -277,7 +277,7 @@ pub fn finish_run(
     if let Some(dir) = &summary.settings.out_dir {
         let path: PathBuf = dir.join("summary.json");
         let json = serde_json::to_string_pretty(&summary).context("serialising summary.json")?;
-        std::fs::write(&path, json).with_context(|| format!("writing {}", path.display()))?;
+        crate::output::write_replacing(&path, |partial| Ok(std::fs::write(partial, json)?))?;
     }
     Ok(summary)
 }

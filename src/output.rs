@@ -1,17 +1,38 @@
 //! Image and summary outputs: float32 RGB EXR (row 0 at the top), sRGB PNG, summary.json.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
+
+/// Writes `path` through `write`, which is handed a hidden sibling (`.NAME.PID.partial`) to fill;
+/// the sibling then replaces `path` by a rename. A reader polling the output (a script, the window
+/// test pressing Enter again and again, another run sharing the pipeline cache) sees the old file or
+/// the new one, never a half-written one.
+pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let name = path.file_name().with_context(|| format!("{} names no file", path.display()))?;
+    let mut partial_name = std::ffi::OsString::from(".");
+    partial_name.push(name);
+    partial_name.push(format!(".{}.partial", std::process::id()));
+    let partial: PathBuf = path.with_file_name(partial_name);
+    let written = write(&partial).and_then(|()| {
+        std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
+    });
+    if written.is_err() {
+        let _ = std::fs::remove_file(&partial);
+    }
+    written.with_context(|| format!("writing {}", path.display()))
+}
 
 /// Writes a float32 RGB OpenEXR file; `pixels` are row-major with row 0 at the top.
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<()> {
     anyhow::ensure!(pixels.len() == (width * height) as usize, "image size mismatch writing {}", path.display());
-    exr::prelude::write_rgb_file(path, width as usize, height as usize, |x, y| {
-        let p = pixels[y * width as usize + x];
-        (p[0], p[1], p[2])
+    write_replacing(path, |partial| {
+        exr::prelude::write_rgb_file(partial, width as usize, height as usize, |x, y| {
+            let p = pixels[y * width as usize + x];
+            (p[0], p[1], p[2])
+        })
+        .map_err(anyhow::Error::from)
     })
-    .with_context(|| format!("writing {}", path.display()))
 }
 
 /// An RGB float image read from disk.
@@ -56,8 +77,9 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
 
 /// Writes an RGBA8 buffer as PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
-    image::save_buffer(path, rgba, width, height, image::ColorType::Rgba8)
-        .with_context(|| format!("writing {}", path.display()))
+    write_replacing(path, |partial| {
+        image::save_buffer_with_format(partial, rgba, width, height, image::ColorType::Rgba8, image::ImageFormat::Png).map_err(anyhow::Error::from)
+    })
 }
 
 /// Median, min, max and mean of a list of timings.
@@ -80,5 +102,48 @@ impl TimingStats {
         let n = v.len();
         let median = if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) };
         Self { median, min: v[0], max: v[n - 1], mean: v.iter().sum::<f64>() / n as f64, count: n }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reader polling the file while it is rewritten sees only whole versions (the window test
+    /// once read an empty summary.json that `std::fs::write` had just truncated).
+    #[test]
+    fn a_polling_reader_never_sees_a_partial_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("summary.json");
+        let versions: Vec<String> = (0..2).map(|v| format!("{v}").repeat(1 << 20)).collect();
+        write_replacing(&path, |p| Ok(std::fs::write(p, &versions[0])?)).unwrap();
+        let stop = std::sync::atomic::AtomicBool::new(false);
+        std::thread::scope(|s| {
+            let reader = s.spawn(|| {
+                let mut reads = 0;
+                while !stop.load(std::sync::atomic::Ordering::Relaxed) {
+                    let text = std::fs::read_to_string(&path).unwrap();
+                    assert!(versions.contains(&text), "read {} bytes that are neither version", text.len());
+                    reads += 1;
+                }
+                reads
+            });
+            for i in 0..200 {
+                write_replacing(&path, |p| Ok(std::fs::write(p, &versions[i % 2])?)).unwrap();
+            }
+            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+            assert!(reader.join().unwrap() > 0);
+        });
+        // A failed write keeps the old file and leaves no partial sibling behind.
+        let before = std::fs::read_to_string(&path).unwrap();
+        let err = write_replacing(&path, |p| {
+            std::fs::write(p, "half")?;
+            anyhow::bail!("encoder failed")
+        })
+        .unwrap_err();
+        assert!(format!("{err:#}").contains("summary.json") && format!("{err:#}").contains("encoder failed"), "{err:#}");
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
+        let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("summary.json")]);
     }
 }

@@ -60,12 +60,10 @@ pub fn header_matches(data: &[u8], props: &vk::PhysicalDeviceProperties) -> Resu
     Ok(())
 }
 
-/// Writes the cache atomically (a temporary file renamed over the old one).
-pub fn save(path: &Path, data: &[u8]) -> std::io::Result<()> {
+/// Writes the cache atomically (see [`crate::output::write_replacing`]).
+pub fn save(path: &Path, data: &[u8]) -> anyhow::Result<()> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)?;
     }
-    let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-    std::fs::write(&tmp, data)?;
-    std::fs::rename(&tmp, path)
+    crate::output::write_replacing(path, |partial| Ok(std::fs::write(partial, data)?))
 }
