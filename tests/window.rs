@@ -54,7 +54,10 @@ fn xvfb() -> Option<Xvfb> {
     }
     // `-displayfd 1`: Xvfb picks a free display number itself (no race between the tests of this
     // file, which run side by side, and stale lock files of killed servers are reclaimed) and
-    // writes it to stdout only once it accepts connections.
+    // writes it to stdout only once it accepts connections. `-noreset`: by default the server
+    // resets whenever its last client disconnects, and a connection arriving during the reset is
+    // refused; the tests poll the window title with xdotool (connect, disconnect) while the
+    // renderer starts, so one run in ~6 had the renderer fail to open its window.
     let mut child = Command::new("Xvfb")
         .args([
             "-displayfd",
@@ -64,6 +67,7 @@ fn xvfb() -> Option<Xvfb> {
             "1024x768x24",
             "-nolisten",
             "tcp",
+            "-noreset",
         ])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
