@@ -76,6 +76,9 @@ gpu_struct! {
 
 /// Instance flags.
 pub const INSTANCE_MIRRORED: u32 = 1;
+/// `GpuInstance::flags`: the transform is exactly the identity, so hit reconstruction skips both
+/// matrices (their loads are most of a hit's memory reads on lavapipe).
+pub const INSTANCE_IDENTITY: u32 = 2;
 
 gpu_struct! {
     /// One TLAS instance (its `instanceCustomIndex` is its index here).
@@ -339,6 +342,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     MATERIAL_DOUBLE_SIDED,
     LIGHT_POINT,
     INSTANCE_MIRRORED,
+    INSTANCE_IDENTITY,
     FRAME_AA,
     VPL_DIRECT_AREA,
     VPL_DIRECT_POINT,

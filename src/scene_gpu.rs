@@ -97,6 +97,14 @@ pub struct SceneGpu {
     buffers: Vec<(u32, Buffer)>,
 }
 
+/// `GpuInstance::flags` of an instance with world-from-object transform `t`.
+fn instance_flags(t: Mat4) -> u32 {
+    let mirrored = if Mat3::from_mat4(t).determinant() < 0.0 { INSTANCE_MIRRORED } else { 0 };
+    // Exactly the identity (glTF nodes without a transform): hit reconstruction skips the matrices.
+    let identity = if t == Mat4::IDENTITY { INSTANCE_IDENTITY } else { 0 };
+    mirrored | identity
+}
+
 fn storage_usage() -> vk::BufferUsageFlags {
     vk::BufferUsageFlags::STORAGE_BUFFER
 }
@@ -164,7 +172,7 @@ impl SceneGpu {
                 first_index: m.first_index,
                 first_vertex: m.first_vertex,
                 first_triangle: mesh_first_triangle[inst.mesh],
-                flags: if Mat3::from_mat4(t).determinant() < 0.0 { INSTANCE_MIRRORED } else { 0 },
+                flags: instance_flags(t),
             });
             let r = t.transpose().to_cols_array(); // rows of t
             descs.push(InstanceDesc { mesh: inst.mesh, transform: r[..12].try_into().expect("12 of 16") });
@@ -274,5 +282,20 @@ impl LightBuffers {
     pub fn write_set(&self, set: &DescriptorSet) -> Result<()> {
         set.write_buffer(6, &self.lights)?;
         set.write_buffer(7, &self.alias)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec3;
+
+    #[test]
+    fn only_the_exact_identity_skips_the_matrices() {
+        assert_eq!(instance_flags(Mat4::IDENTITY), INSTANCE_IDENTITY);
+        assert_eq!(instance_flags(Mat4::from_scale(Vec3::ONE)), INSTANCE_IDENTITY);
+        assert_eq!(instance_flags(Mat4::from_translation(Vec3::new(0.0, 1e-7, 0.0))), 0);
+        assert_eq!(instance_flags(Mat4::from_scale(Vec3::new(1.0, 1.0, 1.0 + 1e-6))), 0);
+        assert_eq!(instance_flags(Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))), INSTANCE_MIRRORED);
     }
 }

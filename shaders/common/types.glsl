@@ -8,6 +8,7 @@
 const uint MATERIAL_DOUBLE_SIDED = 1u;
 const uint LIGHT_POINT = 2u;
 const uint INSTANCE_MIRRORED = 1u;
+const uint INSTANCE_IDENTITY = 2u;
 const uint FRAME_AA = 1u;
 
 struct Vertex {
