@@ -243,6 +243,11 @@ enum Command {
         /// uniform) at 1280×720 and 1280×1280 (or --width × --height if given) with 100k + 100k VPLs.
         #[arg(long)]
         modes: bool,
+        /// With --modes: the camera follows the path committed beside the scene
+        /// (scenes/<name>.path.json, back and forth) and every frame is displayed alone, as in the
+        /// window while flying: the G-buffer and the temporal reprojection run every frame.
+        #[arg(long, requires = "modes")]
+        moving: bool,
         /// Instead: GPU ms of every per-pixel pass of ReSTIR and the path tracer at seven workgroup
         /// shapes (--workgroup; 8x8 default, 4x4 … 64x1), interleaved frame by frame, with the
         /// ratio to 8x8. Default size 1280×720.
@@ -561,7 +566,7 @@ fn real_main(cli: Cli) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
         if (*quick || runs.is_some()) && !*curves && !*motion && !*radius && !*scaling {
@@ -686,7 +691,7 @@ fn real_main(cli: Cli) -> Result<()> {
             } else {
                 vec![(1280, 720), (1280, 1280)]
             };
-            let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device)?;
+            let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device, *moving)?;
             print!("{}", restir_vpl::eval::bench::modes_markdown(&rows));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)

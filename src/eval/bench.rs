@@ -2,10 +2,10 @@
 
 use std::sync::Arc;
 
-use anyhow::Result;
+use anyhow::{Context as _, Result};
 use serde::Serialize;
 
-use crate::camera::Camera;
+use crate::camera::{Camera, CameraPath};
 use crate::output::TimingStats;
 use crate::passes::photon_emit::PhotonStats;
 use crate::renderer::Renderer;
@@ -185,6 +185,8 @@ pub struct ModeBench {
     pub width: u32,
     pub height: u32,
     pub frames: u32,
+    /// The camera moved along the scene's path (G-buffer and reprojection every frame).
+    pub moving: bool,
     /// Median GPU ms per pass.
     pub pass_ms: Vec<(String, f64)>,
     /// Median GPU ms per frame (sum of its passes).
@@ -211,7 +213,10 @@ pub fn mode_cases() -> Vec<(&'static str, crate::settings::Mode, crate::settings
 
 /// Frame cost of uniform, RIS and ReSTIR on one scene at the given sizes with `direct + indirect`
 /// VPLs: two warm-up frames (shader JIT, temporal history), then `frames` timed frames per mode,
-/// interleaved across modes so the ratios share the machine's state.
+/// interleaved across modes so the ratios share the machine's state. `moving`: the camera follows
+/// the path committed beside the scene (`<scene>.path.json`, see [`moving_camera`]) and every frame
+/// is displayed alone (progressive off), as in the window while flying; otherwise the camera stands
+/// still at the scene's own and the G-buffer is traced once.
 pub fn modes(
     scene_path: &std::path::Path,
     sizes: &[(u32, u32)],
@@ -219,7 +224,14 @@ pub fn modes(
     indirect: u32,
     frames: u32,
     device: Option<usize>,
+    moving: bool,
 ) -> Result<Vec<ModeBench>> {
+    let path = if moving {
+        let file = crate::eval::motion::path_file(scene_path);
+        Some(CameraPath::load(&file).context("bench --modes --moving follows the camera path committed beside the scene")?)
+    } else {
+        None
+    };
     let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
     let mut out = Vec::new();
     for &(width, height) in sizes {
@@ -229,11 +241,27 @@ pub fn modes(
             height,
             vpls_direct: direct,
             vpls_indirect: indirect,
+            progressive: !moving,
             ..Default::default()
         };
-        out.extend(time_modes(&ctx, &scene, &base, &mode_cases(), frames)?);
+        let cases: Vec<(String, RenderSettings)> = mode_cases()
+            .iter()
+            .map(|(label, mode, restir)| (label.to_string(), RenderSettings { mode: *mode, restir: *restir, ..base.clone() }))
+            .collect();
+        out.extend(time_settings(&ctx, &scene, &cases, frames, path.as_ref())?);
     }
     Ok(out)
+}
+
+/// The camera of timed frame `f` (0-based) on `path`: path frame f + 1, going back and forth
+/// between the first and last keyframe, so that no two consecutive frames (the warm-up at the
+/// path's start included) share a camera however many frames are timed.
+pub fn moving_camera(path: &CameraPath, f: u32) -> Camera {
+    let first = path.keyframes[0].frame;
+    let span = path.keyframes[path.keyframes.len() - 1].frame.saturating_sub(first).max(1);
+    let t = (f + 1) % (2 * span);
+    let along = if t <= span { t } else { 2 * span - t };
+    path.at((first + along) as f32)
 }
 
 /// Frame cost of each of `cases` (label, mode, ReSTIR settings) with `base`'s other settings, from
@@ -251,13 +279,23 @@ pub fn time_modes(
         .iter()
         .map(|(label, mode, restir)| (label.to_string(), RenderSettings { mode: *mode, restir: *restir, ..base.clone() }))
         .collect();
-    time_settings(ctx, scene, &cases, frames)
+    time_settings(ctx, scene, &cases, frames, None)
 }
 
 /// Frame cost of each (label, settings) case, as [`time_modes`] measures it: two warm-up frames
 /// each, then `frames` timed frames interleaved across the cases. Ratios are to the first case.
-pub fn time_settings(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, cases: &[(String, RenderSettings)], frames: u32) -> Result<Vec<ModeBench>> {
-    let camera = Camera::initial(&scene.info, None);
+/// With a `path` the warm-up stands at its start and timed frame f uses [`moving_camera`].
+pub fn time_settings(
+    ctx: &Arc<Context>,
+    scene: &Arc<SceneGpu>,
+    cases: &[(String, RenderSettings)],
+    frames: u32,
+    path: Option<&CameraPath>,
+) -> Result<Vec<ModeBench>> {
+    let camera = match path {
+        Some(p) => p.at(p.keyframes[0].frame as f32),
+        None => Camera::initial(&scene.info, None),
+    };
     let mut renderers = Vec::new();
     for (label, settings) in cases {
         let settings = RenderSettings { frames: frames + 2, ..settings.clone() };
@@ -268,7 +306,8 @@ pub fn time_settings(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, cases: &[(String
         r.reset_accumulation()?;
         renderers.push((label, width, height, r));
     }
-    for _ in 0..frames {
+    for f in 0..frames {
+        let camera = path.map_or(camera, |p| moving_camera(p, f));
         for (_, _, _, r) in renderers.iter_mut() {
             r.render_frame(&camera, false)?;
         }
@@ -286,6 +325,7 @@ pub fn time_settings(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, cases: &[(String
             width,
             height,
             frames,
+            moving: path.is_some(),
             pass_ms: log.pass_stats().into_iter().map(|(k, t)| (k, t.median)).collect(),
             gpu_ms_per_frame: gpu,
             rays_per_pixel_total: rays.iter().map(|r| r.1).sum(),
@@ -324,7 +364,7 @@ pub fn workgroups(scene_path: &std::path::Path, width: u32, height: u32, frames:
             .iter()
             .map(|&workgroup| (format!("{}x{}", workgroup[0], workgroup[1]), RenderSettings { workgroup, ..base.clone() }))
             .collect();
-        let rows = time_settings(&ctx, &scene, &cases, frames)?;
+        let rows = time_settings(&ctx, &scene, &cases, frames, None)?;
         out.push(WorkgroupBench {
             mode: format!("{mode:?}").to_lowercase(),
             width,
@@ -370,14 +410,15 @@ pub fn workgroups_markdown(rows: &[WorkgroupBench]) -> String {
 /// Markdown table of [`modes`]: one row per mode and size.
 pub fn modes_markdown(rows: &[ModeBench]) -> String {
     let mut s = String::from(
-        "| size | mode | GPU ms / frame | × uniform | rays / pixel | per pass (GPU ms) |\n|---|---|---:|---:|---:|---|\n",
+        "| size | camera | mode | GPU ms / frame | × uniform | rays / pixel | per pass (GPU ms) |\n|---|---|---|---:|---:|---:|---|\n",
     );
     for r in rows {
         let passes: Vec<String> = r.pass_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
         s += &format!(
-            "| {}×{} | {} | {:.1} | {:.2} | {:.2} | {} |\n",
+            "| {}×{} | {} | {} | {:.1} | {:.2} | {:.2} | {} |\n",
             r.width,
             r.height,
+            if r.moving { "moving" } else { "still" },
             r.label,
             r.gpu_ms_per_frame,
             r.ratio_to_uniform,
@@ -391,6 +432,24 @@ pub fn modes_markdown(rows: &[ModeBench]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every timed frame moves: it differs from the one before (the first from the warm-up at the
+    /// path's start), also past the path's last keyframe, and stays on the path.
+    #[test]
+    fn moving_camera_never_stands_still() {
+        let path = CameraPath::from_json(
+            r#"{"keyframes": [{"frame": 0, "eye": [0, 0, 0], "target": [0, 0, 1], "up": [0, 1, 0], "fov": 40},
+                             {"frame": 5, "eye": [5, 0, 0], "target": [5, 0, 1], "up": [0, 1, 0], "fov": 40}]}"#,
+        )
+        .expect("a valid path");
+        let mut previous = path.at(0.0).position;
+        for f in 0..40 {
+            let p = moving_camera(&path, f).position;
+            assert!((p - previous).length() > 0.5, "frame {f} stands at {p} like the one before");
+            assert!(p.x >= 0.0 && p.x <= 5.0 && p.y == 0.0, "frame {f} at {p} is off the path");
+            previous = p;
+        }
+    }
 
     /// One column per shape, one row per pass of the first shape plus the frame, each cell the
     /// median and its ratio to the first shape; a pass missing from a shape shows 0.
