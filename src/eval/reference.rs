@@ -335,7 +335,8 @@ pub fn file_hash(path: &Path) -> Result<String> {
 pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<String> {
     let mut v = serde_json::to_value(settings)?;
     let obj = v.as_object_mut().expect("RenderSettings serialises to an object");
-    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture"] {
+    // Output, debugging and speed-only flags (the image is the same for every workgroup shape).
+    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture", "workgroup"] {
         obj.remove(k);
     }
     obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));
