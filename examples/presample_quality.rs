@@ -3,7 +3,8 @@
 //! model's answer, so the VPL bias does not mask the variance).
 //!
 //! `cargo run --release --example presample_quality -- [SCENE] [W] [H] [REF_FRAMES] [VARIANTS] [SEEDS]`
-//! VARIANTS: comma-separated `ris:on`, `restir:off/16/4` (mode:presample[/candidates[/neighbours]]).
+//! VARIANTS: comma-separated `ris:on`, `restir:off/16/4`, `restir:on/32/8/10`
+//! (mode:presample[/candidates[/neighbours[/spatial radius in pixels]]]; defaults 32, 8, 20).
 //! Per variant: mean relMSE of single frames 5..16 (what a moving camera shows), of the accumulated
 //! image after 1 and 16 frames, and the median GPU ms per frame, over SEEDS runs.
 
@@ -45,14 +46,15 @@ fn main() -> anyhow::Result<()> {
     };
     let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
     for v in variants.split(',') {
-        let (mode, rest) = v.split_once(':').ok_or_else(|| anyhow::anyhow!("variant {v}: expected mode:on|off[/c[/n]]"))?;
+        let (mode, rest) = v.split_once(':').ok_or_else(|| anyhow::anyhow!("variant {v}: expected mode:on|off[/c[/n[/r]]]"))?;
         let parts: Vec<&str> = rest.split('/').collect();
         let mode = if mode == "ris" { Mode::Ris } else { Mode::Restir };
         let candidates: u32 = parts.get(1).unwrap_or(&"32").parse()?;
         let neighbours: u32 = parts.get(2).unwrap_or(&"8").parse()?;
+        let radius: f32 = parts.get(3).unwrap_or(&"20").parse()?;
         let (mut frame_err, mut t1, mut t16, mut ms) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for seed in 0..seeds {
-            let restir = RestirSettings { spatial_neighbours: neighbours, ..Default::default() };
+            let restir = RestirSettings { spatial_neighbours: neighbours, spatial_radius: Some(radius), ..Default::default() };
             let s = RenderSettings { mode, presample: parts[0] == "on", candidates, restir, seed, frames: 16, ..base.clone() };
             let mut r = Renderer::new(ctx.clone(), scene.clone(), s)?;
             let camera = r.initial_camera();

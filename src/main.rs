@@ -156,9 +156,10 @@ struct RenderArgs {
     /// ReSTIR spatial neighbours per pass (at most 32).
     #[arg(long, default_value_t = DEFAULTS.restir.spatial_neighbours)]
     spatial_neighbours: u32,
-    /// Radius of the disc spatial neighbours are drawn from (pixels).
-    #[arg(long, default_value_t = DEFAULTS.restir.spatial_radius)]
-    spatial_radius: f32,
+    /// Radius of the disc spatial neighbours are drawn from (pixels) [default: 20 per 1280 px of
+    /// image width, at least 4].
+    #[arg(long)]
+    spatial_radius: Option<f32>,
     /// Spatial reuse passes per frame.
     #[arg(long, default_value_t = DEFAULTS.restir.spatial_passes)]
     spatial_passes: u32,
@@ -773,14 +774,15 @@ fn real_main(cli: Cli) -> Result<()> {
     }
     if let Some(v) = &s.vpl {
         println!(
-            "vpl: {} VPLs, {} candidate(s) ({} source{}), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}",
+            "vpl: {} VPLs, {} candidate(s) ({} source{}), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}{}",
             v.vpl_count,
             v.candidates,
             v.candidate_source,
             if v.presample { ", presampled tiles" } else { "" },
             v.yuksel_radius.map(|r| format!("{r:.4}")).unwrap_or_else(|| "- (inverse square)".into()),
             v.initial_visibility,
-            v.unbiased_reuse
+            v.unbiased_reuse,
+            v.spatial_radius_px.map(|r| format!(", spatial radius {r:.1} px")).unwrap_or_default()
         );
     }
     println!("GPU ms per pass (median / min / max), rays per pixel per frame (mean):");

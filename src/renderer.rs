@@ -143,6 +143,9 @@ pub struct VplSummary {
     /// Targets include visibility (initial sample shadow-tested).
     pub initial_visibility: bool,
     pub unbiased_reuse: bool,
+    /// The spatial reuse disc's radius in pixels (given, or scaled with the width); None without
+    /// spatial reuse.
+    pub spatial_radius_px: Option<f32>,
 }
 
 /// What the first ray of `vpl_compensate` carries for `view` (`COMPENSATE_*` bits; 0: nothing,
@@ -1142,6 +1145,11 @@ impl Renderer {
             presample: self.parts.passes.vpl.presample.is_some(),
             initial_visibility: v.params.flags & VPL_FLAG_INITIAL_VISIBILITY != 0,
             unbiased_reuse: v.params.flags & VPL_FLAG_UNBIASED != 0,
+            spatial_radius_px: {
+                let r = &self.settings.restir;
+                (self.settings.mode == crate::settings::Mode::Restir && r.spatial_passes > 0 && r.spatial_neighbours > 0)
+                    .then(|| r.spatial_radius_px(self.settings.width))
+            },
         })
     }
 

@@ -228,6 +228,7 @@ fn presample_off_skips_the_pass_and_says_why() {
     assert!(stderr(&o).contains("vpl_presample    skip (--presample off)"), "{}", stderr(&o));
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["vpl"]["presample"], false);
+    assert!(summary["vpl"]["spatial_radius_px"].is_null(), "RIS has no spatial reuse: {summary}");
     let o = run(&[&common[..], &["--mode", "uniform"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("vpl_presample    skip (uniform sampling reads one VPL per pixel)"), "{}", stderr(&o));
@@ -247,6 +248,8 @@ fn restir_defaults_to_unbiased_reuse_with_unshadowed_targets() {
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["vpl"]["unbiased_reuse"], true, "{summary}");
     assert_eq!(summary["vpl"]["initial_visibility"], false, "{summary}");
+    // The spatial radius scales with the width (20 px per 1280), at least 4 px: 4 at 24 px.
+    assert_eq!(summary["vpl"]["spatial_radius_px"], 4.0, "{summary}");
     // No visibility in the targets: the one shadow ray per pixel is vpl_shade's.
     let by_pass = &summary["rays_per_pixel_by_pass"];
     assert!(by_pass.get("restir_spatial").is_none() && by_pass["vpl_shade"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");

@@ -245,7 +245,7 @@ fn unbiased_restir_stays_unbiased_along_a_camera_path() {
     brute.render_frame(&cam, false).unwrap();
     let truth = brute.read_mean().unwrap();
     drop(brute);
-    let restir = RestirSettings { bias: Bias::Unbiased, spatial_radius: 6.0, ..Default::default() };
+    let restir = RestirSettings { bias: Bias::Unbiased, spatial_radius: Some(6.0), ..Default::default() };
     let mut r = Renderer::new(ctx.clone(), gpu, RenderSettings { mode: Mode::Restir, restir, ..base }).unwrap();
     // Blocks of 16×16 pixels: mean over runs of each block's mean, against brute force's.
     let blocks = (w / 16) * (h / 16);

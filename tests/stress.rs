@@ -158,7 +158,7 @@ fn cases() -> Vec<Case> {
 /// Every mode the renderer has (ReSTIR biased and unbiased, with and without visibility), and the
 /// VPL modes with `--compensate` (its recursion runs into every corner and degenerate triangle).
 fn modes() -> Vec<(&'static str, Mode, RestirSettings, bool)> {
-    let r = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), spatial_radius: 4.0, ..Default::default() };
+    let r = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), spatial_radius: Some(4.0), ..Default::default() };
     vec![
         ("pt", Mode::Pt, RestirSettings::default(), false),
         ("uniform", Mode::Uniform, RestirSettings::default(), false),

@@ -280,7 +280,7 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
         ("restir (unbiased, unshadowed targets)", Mode::Restir, Bias::Unbiased, Some(false)),
         ("restir (biased)", Mode::Restir, Bias::Biased, None),
     ] {
-        let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: visibility, spatial_radius: 4.0, ..Default::default() };
+        let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: visibility, spatial_radius: Some(4.0), ..Default::default() };
         let s = RenderSettings { mode, restir, ..base.clone() };
         let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         let mut per_frame = Vec::new();

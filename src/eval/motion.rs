@@ -162,8 +162,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
         log(format!("{label}: measuring {} modes over {} moving frames at {}x{}", modes.len(), opts.frames, spec.width, spec.height));
         let mut renderers = Vec::new();
         for m in &modes {
-            let restir = RestirSettings { spatial_radius: spec.spatial_radius(), ..m.restir };
-            let settings = RenderSettings { mode: m.mode, restir, ..base.clone() };
+            let settings = RenderSettings { mode: m.mode, restir: m.restir, ..base.clone() };
             renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
         }
         // Sums over runs per (mode, frame): gpu, rmse, relmse, flip.

@@ -20,7 +20,7 @@ use crate::eval::reference::{make_reference, ReferenceTarget};
 use crate::eval::results::SceneSpec;
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
-use crate::settings::{Mode, RenderSettings, RestirSettings};
+use crate::settings::{Mode, RenderSettings};
 use crate::vk::Context;
 
 /// The thesis's fixed radius, 3.0 units, read in the units of the classic Cornell box (555 units
@@ -118,7 +118,6 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
         let scene = spec.upload(ctx)?;
         let base = RenderSettings {
             mode: Mode::Restir,
-            restir: RestirSettings { spatial_radius: spec.spatial_radius(), ..Default::default() },
             ..spec.base_settings((opts.vpls_direct, opts.vpls_indirect), false, None)
         };
         let file = refs_dir.join(format!("{label}_{}x{}_pt.exr", spec.width, spec.height));

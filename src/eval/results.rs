@@ -258,13 +258,8 @@ impl SceneSpec {
         Ok(Arc::new(SceneGpu::new(ctx, &scene, true).context("uploading the scene")?))
     }
 
-    /// The thesis's 20 px spatial radius is meant for 1280 px wide images: scaled to this width.
-    pub fn spatial_radius(&self) -> f32 {
-        (20.0 * self.width as f32 / 1280.0).max(2.0)
-    }
-
     /// The settings every mode of a study starts from: this scene at this size, the study's VPL
-    /// counts, the scaled spatial radius.
+    /// counts (the spatial radius is the renderer's default, which scales with the width).
     pub fn base_settings(&self, vpls: (u32, u32), validate: bool, device_index: Option<usize>) -> RenderSettings {
         RenderSettings {
             scene: self.path.clone(),
@@ -274,7 +269,6 @@ impl SceneSpec {
             vpls_indirect: vpls.1,
             validate,
             device_index,
-            restir: RestirSettings { spatial_radius: self.spatial_radius(), ..Default::default() },
             ..Default::default()
         }
     }
@@ -543,9 +537,15 @@ fn results_markdown(
         opts.checkpoints,
         opts.runs
     );
-    let _ = writeln!(s, "Modes: `uniform` (one uniformly chosen VPL per pixel), `ris` (32 candidates), `restir` (biased \
-        spatiotemporal reuse as in the thesis: M-cap 20, 8 neighbours, radius 20 px at 1280 px width, scaled with the image), \
-        `restir-unbiased` (pairwise MIS, unshadowed targets) and `restir-unbiased-vis` (pairwise MIS, visibility in the targets).\n");
+    let _ = writeln!(
+        s,
+        "Modes: `uniform` (one uniformly chosen VPL per pixel), `ris` (32 candidates), `restir` (biased \
+         spatiotemporal reuse as in the thesis: M-cap 20, 8 neighbours; spatial radius the renderer's default, {} px per \
+         1280 px of width and at least {} px; the thesis had 20 px at 1280), `restir-unbiased` (pairwise MIS, \
+         unshadowed targets) and `restir-unbiased-vis` (pairwise MIS, visibility in the targets).\n",
+        crate::settings::default_spatial_radius(1280),
+        crate::settings::default_spatial_radius(0)
+    );
     let _ = writeln!(s, "## References\n");
     let _ = writeln!(
         s,

@@ -68,7 +68,7 @@ impl RestirSpatialPass {
         let push = Push {
             params: *params,
             neighbours: restir.spatial_neighbours,
-            radius: restir.spatial_radius,
+            radius: restir.spatial_radius_px(w),
             normal_threshold: restir.normal_threshold,
             depth_threshold: restir.depth_threshold,
             pass_index,

@@ -412,6 +412,7 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
                 what = Some("candidates".into());
             }
             if s.mode == Mode::Restir {
+                let width = edited.width;
                 let r = &mut edited.restir;
                 combo(ui, "bias", &mut r.bias, &mut what);
                 if ui.checkbox(&mut r.temporal, "temporal reuse").changed() {
@@ -424,7 +425,10 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
                 if ui.add(egui::Slider::new(&mut r.spatial_neighbours, 0..=max_n).text("neighbours")).changed() {
                     what = Some("spatial neighbours".into());
                 }
-                if ui.add(egui::Slider::new(&mut r.spatial_radius, 1.0..=64.0).text("radius (px)")).changed() {
+                // Shows the automatic radius until moved; a moved slider fixes it.
+                let mut radius = r.spatial_radius_px(width);
+                if ui.add(egui::Slider::new(&mut radius, 1.0..=64.0).text("radius (px)")).changed() {
+                    r.spatial_radius = Some(radius);
                     what = Some("spatial radius".into());
                 }
                 if ui.add(egui::Slider::new(&mut r.spatial_passes, 0..=4).text("spatial passes")).changed() {
