@@ -244,11 +244,7 @@ pub fn modes(
             progressive: !moving,
             ..Default::default()
         };
-        let cases: Vec<(String, RenderSettings)> = mode_cases()
-            .iter()
-            .map(|(label, mode, restir)| (label.to_string(), RenderSettings { mode: *mode, restir: *restir, ..base.clone() }))
-            .collect();
-        out.extend(time_settings(&ctx, &scene, &cases, frames, path.as_ref())?);
+        out.extend(time_modes(&ctx, &scene, &base, &mode_cases(), frames, path.as_ref())?);
     }
     Ok(out)
 }
@@ -265,21 +261,23 @@ pub fn moving_camera(path: &CameraPath, f: u32) -> Camera {
 }
 
 /// Frame cost of each of `cases` (label, mode, ReSTIR settings) with `base`'s other settings, from
-/// the scene's camera: two warm-up frames per mode (shader JIT, temporal history), then `frames`
-/// timed frames per mode, interleaved across modes (one frame of each per round) so drift on a
-/// shared machine hits every mode alike. Ratios are to the first case.
+/// the scene's camera (or along `path`, see [`time_settings`]): two warm-up frames per mode (shader
+/// JIT, temporal history), then `frames` timed frames per mode, interleaved across modes (one frame
+/// of each per round) so drift on a shared machine hits every mode alike. Ratios are to the first
+/// case.
 pub fn time_modes(
     ctx: &Arc<Context>,
     scene: &Arc<SceneGpu>,
     base: &RenderSettings,
     cases: &[(&str, crate::settings::Mode, crate::settings::RestirSettings)],
     frames: u32,
+    path: Option<&CameraPath>,
 ) -> Result<Vec<ModeBench>> {
     let cases: Vec<(String, RenderSettings)> = cases
         .iter()
         .map(|(label, mode, restir)| (label.to_string(), RenderSettings { mode: *mode, restir: *restir, ..base.clone() }))
         .collect();
-    time_settings(ctx, scene, &cases, frames, None)
+    time_settings(ctx, scene, &cases, frames, path)
 }
 
 /// Frame cost of each (label, settings) case, as [`time_modes`] measures it: two warm-up frames

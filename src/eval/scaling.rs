@@ -112,7 +112,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
 
     for &n in &opts.vpl_counts {
         let settings = base(&opts.cornell, opts.size, n);
-        let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames).with_context(|| format!("{n} VPLs"))?;
+        let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames, None).with_context(|| format!("{n} VPLs"))?;
         log(format!("vpls {n}: {}", summary(&rows)));
         push_modes(&mut points, "vpls", n as f64, rows);
         let (ms, _) = time_photons(ctx, &cornell_gpu, &settings, opts.photon_runs)?;
@@ -121,7 +121,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
 
     for &(w, h) in &opts.sizes {
         let settings = base(&opts.cornell, (w, h), opts.vpls);
-        let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames).with_context(|| format!("{w}x{h}"))?;
+        let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames, None).with_context(|| format!("{w}x{h}"))?;
         log(format!("{w}x{h}: {}", summary(&rows)));
         push_modes(&mut points, "pixels", (w * h) as f64, rows);
     }
@@ -133,7 +133,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
         points.push(ScalingPoint { sweep: "triangles", x: t, what: "blas build".into(), ms: gpu.blas_ms });
         points.push(ScalingPoint { sweep: "triangles", x: t, what: "tlas build".into(), ms: gpu.tlas_ms });
         let settings = base(&scene.path, opts.size, opts.vpls);
-        let rows = time_modes(ctx, &gpu, &settings, &cases(), opts.frames).with_context(|| format!("{t} triangles"))?;
+        let rows = time_modes(ctx, &gpu, &settings, &cases(), opts.frames, None).with_context(|| format!("{t} triangles"))?;
         log(format!("{t} triangles (BLAS {:.1} ms, TLAS {:.1} ms): {}", gpu.blas_ms, gpu.tlas_ms, summary(&rows)));
         push_modes(&mut points, "triangles", t, rows);
         let (ms, _) = time_photons(ctx, &gpu, &settings, opts.photon_runs)?;
