@@ -1145,11 +1145,13 @@ impl Renderer {
             presample: self.parts.passes.vpl.presample.is_some(),
             initial_visibility: v.params.flags & VPL_FLAG_INITIAL_VISIBILITY != 0,
             unbiased_reuse: v.params.flags & VPL_FLAG_UNBIASED != 0,
-            spatial_radius_px: {
-                let r = &self.settings.restir;
-                (self.settings.mode == crate::settings::Mode::Restir && r.spatial_passes > 0 && r.spatial_neighbours > 0)
-                    .then(|| r.spatial_radius_px(self.settings.width))
-            },
+            spatial_radius_px: self
+                .parts
+                .passes
+                .vpl
+                .spatial
+                .is_some()
+                .then(|| self.settings.restir.spatial_radius_px(self.settings.width)),
         })
     }
 
