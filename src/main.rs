@@ -267,10 +267,11 @@ enum Command {
         /// (cached in --out/references). Writes --out/motion.md, motion.csv and plots/*_motion_rmse.svg.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons"])]
         motion: bool,
-        /// Instead: this device's raw ray rate on the three scenes (coherent primary rays and
-        /// incoherent shadow rays of random length, nothing else in the shader), and every tracing
-        /// pass's rays per second in real frames (uniform, RIS, ReSTIR, ReSTIR --compensate, pt) as
-        /// a share of it. Default size 1280×720.
+        /// Instead: this device's raw ray rate on the three scenes (coherent primary rays,
+        /// incoherent shadow rays of random length and incoherent closest-hit rays, nothing else in
+        /// the shader), and every tracing pass's rays per second in real frames (uniform, RIS,
+        /// ReSTIR, ReSTIR --initial-visibility on, ReSTIR --compensate, pt) and in the photon pass
+        /// as a share of the raw rate of its kind. Default size 1280×720.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion"])]
         rays: bool,
         /// Instead: the Yuksel radius as a trade-off on the three scenes. ReSTIR with r = 1…64 ×
@@ -704,13 +705,21 @@ fn real_main(cli: Cli) -> Result<()> {
             let runs = (*frames).min(5);
             let loaded = restir_vpl::scene::Scene::load(scene)?;
             let dense = restir_vpl::eval::bench::dense_scene(160, 320)?;
-            println!("| scene | triangles | VPLs (direct + indirect) | photon paths | GPU ms (median of {runs}) | M paths/s |");
-            println!("|---|---:|---:|---:|---:|---:|");
+            println!("| scene | triangles | VPLs (direct + indirect) | photon paths | closest-hit rays | GPU ms (median of {runs}) | M paths/s | M rays/s |");
+            println!("|---|---:|---:|---:|---:|---:|---:|---:|");
             for (s, label) in [(&loaded, scene.display().to_string()), (&dense, "generated bumpy sphere in a room".to_string())] {
                 let b = restir_vpl::eval::bench::photons(s, &label, 100_000, 100_000, runs, *device)?;
                 println!(
-                    "| {} | {} | {} + {} | {} | {:.1} | {:.2} |",
-                    b.scene, b.triangles, b.direct, b.indirect_vpls, b.paths, b.gpu_ms, b.paths_per_second * 1e-6
+                    "| {} | {} | {} + {} | {} | {} | {:.1} | {:.2} | {:.2} |",
+                    b.scene,
+                    b.triangles,
+                    b.direct,
+                    b.indirect_vpls,
+                    b.paths,
+                    b.rays,
+                    b.gpu_ms,
+                    b.paths_per_second * 1e-6,
+                    b.rays as f64 / (b.gpu_ms * 1e3)
                 );
             }
             return Ok(());

@@ -86,9 +86,10 @@ fn results_quick_covers_the_three_scenes() {
     assert_eq!(csv.lines().count(), 1 + 3 * 5 * 4, "{csv}");
 }
 
-/// `bench --rays` at a tiny size: a raw primary and shadow rate for each of the three scenes, and
-/// a share for every tracing pass of every mode (gbuffer against primary rays, the rest against
-/// shadow rays), all positive and finite.
+/// `bench --rays` at a tiny size: a raw primary, shadow and bounce rate for each of the three
+/// scenes, and a share for every tracing pass of every mode and for the photon pass (gbuffer
+/// against primary rays, photon_emit against bounce rays, pathtrace against their mix with shadow
+/// rays, the rest against shadow rays), all positive and finite.
 #[test]
 fn bench_rays_reports_raw_rates_and_every_tracing_pass() {
     let dir = tempfile::tempdir().unwrap();
@@ -99,20 +100,33 @@ fn bench_rays_reports_raw_rates_and_every_tracing_pass() {
     let rows = rows.as_array().unwrap();
     assert_eq!(rows.len(), 3, "three scenes");
     for r in rows {
-        for kind in ["primary", "shadow"] {
+        for kind in ["primary", "shadow", "bounce"] {
             let m = r[kind]["median"].as_f64().unwrap();
             assert!(m.is_finite() && m > 0.0, "{kind} rate {m} in {r}");
         }
         let passes = r["passes"].as_array().unwrap();
-        for (mode, pass) in [("uniform", "vpl_shade"), ("restir", "gbuffer"), ("restir --compensate", "vpl_compensate"), ("pt", "pathtrace")] {
+        let cases = [
+            ("uniform", "vpl_shade", "shadow"),
+            ("restir", "gbuffer", "primary"),
+            ("restir --initial-visibility on", "restir_initial", "shadow"),
+            ("restir --initial-visibility on", "restir_spatial", "shadow"),
+            ("restir --compensate", "vpl_compensate", "shadow"),
+            ("pt", "pathtrace", "bounce+shadow"),
+            ("photons", "photon_emit", "bounce"),
+        ];
+        for (mode, pass, against) in cases {
             let p = passes.iter().find(|p| p["mode"] == mode && p["pass"] == pass).unwrap_or_else(|| panic!("{mode} {pass} missing: {r}"));
             let share = p["share"].as_f64().unwrap();
             assert!(share.is_finite() && share > 0.0, "{p}");
-            assert_eq!(p["against"], if pass == "gbuffer" { "primary" } else { "shadow" });
+            assert_eq!(p["against"], against, "{p}");
+            assert!(p["rays"].as_f64().unwrap() > 0.0, "{p}");
+            assert_eq!(p["rays_per_pixel"].is_null(), pass == "photon_emit", "{p}");
         }
+        // Without visibility in the targets the ReSTIR passes trace nothing, so they have no row.
+        assert!(!passes.iter().any(|p| p["mode"] == "restir" && p["pass"] == "restir_spatial"), "{r}");
     }
     let table = String::from_utf8_lossy(&o.stdout);
-    assert!(table.contains("share of raw rate") && table.contains("vpl_compensate"), "{table}");
+    assert!(table.contains("share of raw rate") && table.contains("vpl_compensate") && table.contains("photon_emit"), "{table}");
 }
 
 /// `bench --radius --quick`: the table and CSV for the three scenes, every rule once per scene, the

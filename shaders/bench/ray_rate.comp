@@ -2,8 +2,9 @@
 // per dispatch: RAY_RATE_PRIMARY traces the camera ray through a jittered point of the pixel
 // (coherent, closest hit); RAY_RATE_SHADOW traces a shadow ray (terminate on first hit) from a
 // uniform point of the scene's bounds in a uniform direction, of uniform random length up to the
-// bounds' diagonal (incoherent). The only other work is one store per thread, so the compiler
-// keeps the query.
+// bounds' diagonal (incoherent); RAY_RATE_BOUNCE traces a closest-hit ray of unbounded length from
+// such a point in such a direction (incoherent: the rays of photon paths and path-tracer bounces).
+// The only other work is one store per thread, so the compiler keeps the query.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -23,6 +24,7 @@ layout(push_constant) uniform Push {
 
 const uint RAY_RATE_PRIMARY = 0u;
 const uint RAY_RATE_SHADOW = 1u;
+const uint RAY_RATE_BOUNCE = 2u;
 
 void main() {
     uvec2 pixel = gl_GlobalInvocationID.xy;
@@ -39,8 +41,12 @@ void main() {
         vec3 extent = pc.bounds_hi - pc.bounds_lo;
         vec3 origin = pc.bounds_lo + extent * vec3(rand(rng), rand(rng), rand(rng));
         vec3 dir = sample_uniform_sphere(rand2(rng));
-        float len = max(rand(rng) * length(extent), 1e-6);
-        rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, origin, 0.0, dir, len);
+        if (pc.mode == RAY_RATE_BOUNCE) {
+            rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT, 0xFFu, origin, 0.0, dir, 1e30);
+        } else {
+            float len = max(rand(rng) * length(extent), 1e-6);
+            rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, origin, 0.0, dir, len);
+        }
     }
     while (rayQueryProceedEXT(rq)) {
     }

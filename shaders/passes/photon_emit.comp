@@ -20,8 +20,9 @@
 layout(local_size_x = 64) in;
 
 layout(set = 1, binding = 0, std430) buffer VplBuffer { Vpl vpls[]; };
-// indirect_count: VPL slots taken; next_path: paths of this dispatch handed out (zeroed per batch).
-layout(set = 1, binding = 1, std430) buffer VplCounter { uint indirect_count; uint next_path; } counters;
+// indirect_count: VPL slots taken; next_path: paths of this dispatch handed out; rays: closest-hit
+// rays traced by this dispatch (both zeroed per batch; bench --rays reads the rays).
+layout(set = 1, binding = 1, std430) buffer VplCounter { uint indirect_count; uint next_path; uint rays; } counters;
 layout(set = 1, binding = 2, std430) readonly buffer LightCdf { float light_cdf[]; };
 
 layout(push_constant) uniform Push {
@@ -181,6 +182,7 @@ bool trace_segment(inout PhotonPath path) {
 void photon_paths() {
     PhotonPath path;
     bool alive = false;
+    uint rays = 0u;
     for (;;) {
         if (!alive) {
             uint p = atomicAdd(counters.next_path, 1u);
@@ -191,6 +193,10 @@ void photon_paths() {
             alive = true;
         }
         alive = trace_segment(path);
+        rays += 1u;
+    }
+    if (rays > 0u) {
+        atomicAdd(counters.rays, rays);  // once per invocation, not per ray
     }
 }
 

@@ -141,6 +141,8 @@ pub struct PhotonBench {
     /// Median over runs.
     pub gpu_ms: f64,
     pub paths: u64,
+    /// Closest-hit rays of one run.
+    pub rays: u64,
     pub paths_per_second: f64,
     pub indirect_vpls: u32,
 }
@@ -157,6 +159,7 @@ pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32
         indirect_target: indirect,
         gpu_ms,
         paths: stats.paths,
+        rays: stats.rays,
         paths_per_second: stats.paths as f64 / (gpu_ms * 1e-3),
         indirect_vpls: stats.indirect_vpls,
     })

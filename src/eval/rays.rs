@@ -1,6 +1,7 @@
-//! `bench --rays`: this device's raw ray rate on each scene — coherent primary rays and incoherent
-//! shadow rays of random length, with nothing else in the shader (shaders/bench/ray_rate.comp) —
-//! and every tracing pass's rays per second in real frames as a share of it.
+//! `bench --rays`: this device's raw ray rate on each scene — coherent primary rays, incoherent
+//! shadow rays of random length and incoherent closest-hit ("bounce") rays, with nothing else in
+//! the shader (shaders/bench/ray_rate.comp) — and every tracing pass's rays per second (in real
+//! frames, and the photon pass) as a share of the raw rate of its kind of ray.
 
 use std::sync::Arc;
 
@@ -31,16 +32,22 @@ struct Push {
 const TABLE: &[Binding] = &[storage(0, "sink")];
 const RAY_RATE_PRIMARY: u32 = 0;
 const RAY_RATE_SHADOW: u32 = 1;
+const RAY_RATE_BOUNCE: u32 = 2;
 
 /// One tracing pass in a real frame against the raw rate of its kind of ray.
 #[derive(Clone, Debug, Serialize)]
 pub struct PassRate {
     pub mode: String,
     pub pass: String,
-    pub rays_per_pixel: f64,
+    /// None for the photon pass, which traces per VPL, not per pixel.
+    pub rays_per_pixel: Option<f64>,
+    /// Rays of one frame (of one photon pass for photon_emit).
+    pub rays: f64,
     pub gpu_ms: f64,
     pub mrays_per_s: f64,
-    /// "primary" (gbuffer) or "shadow" (every other pass: incoherent rays).
+    /// The raw rate it is measured against: "primary" (gbuffer), "bounce" (photon_emit: closest-hit
+    /// rays), "bounce+shadow" (pathtrace: a closest-hit and a shadow ray per bounce, so the raw
+    /// time per ray is the mean of the two kinds') or "shadow" (every other pass).
     pub against: &'static str,
     /// mrays_per_s / the raw rate it is measured against.
     pub share: f64,
@@ -56,6 +63,7 @@ pub struct RayRate {
     /// Mrays/s of each timed dispatch.
     pub primary: TimingStats,
     pub shadow: TimingStats,
+    pub bounce: TimingStats,
     pub passes: Vec<PassRate>,
 }
 
@@ -74,9 +82,22 @@ fn frame_for(camera: &Camera, width: u32, height: u32, scene: &SceneGpu) -> GpuF
     f
 }
 
+/// The modes whose frames `measure` renders: label, mode, `--compensate`, `--initial-visibility`.
+const MODES: [(&str, Mode, bool, bool); 6] = [
+    ("uniform", Mode::Uniform, false, false),
+    ("ris", Mode::Ris, false, false),
+    ("restir", Mode::Restir, false, false),
+    ("restir --initial-visibility on", Mode::Restir, false, true),
+    ("restir --compensate", Mode::Restir, true, false),
+    ("pt", Mode::Pt, false, false),
+];
+
+/// The label of the photon pass's row.
+pub const PHOTONS_LABEL: &str = "photons";
+
 /// Times `dispatches` dispatches of each raw ray kind (after one untimed warm-up), then renders
-/// `frames` frames (after one warm-up, with `--aa` so primary rays are traced every frame) of
-/// uniform, RIS, ReSTIR, ReSTIR with `--compensate` and the path tracer.
+/// `frames` frames (after one warm-up, with `--aa` so primary rays are traced every frame) of each
+/// of [`MODES`], and traces the photons (100k + 100k VPLs, the defaults) `frames` times more.
 pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, height: u32, dispatches: u32, frames: u32) -> Result<RayRate> {
     anyhow::ensure!(dispatches > 0 && frames > 0, "bench --rays needs at least one timed dispatch and frame");
     let scene = Scene::load(scene_path)?;
@@ -104,27 +125,25 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
         let ms: f64 = timer.collect()?.iter().map(|(_, ms)| ms).sum();
         Ok(if ms > 0.0 { pixels as f64 / (ms * 1e3) } else { 0.0 })
     };
-    let mut primary = Vec::new();
-    let mut shadow = Vec::new();
-    rate(RAY_RATE_PRIMARY, 0)?; // warm-up: shader compilation
-    rate(RAY_RATE_SHADOW, 0)?;
-    for i in 1..=dispatches {
-        // Interleaved so drift on a shared machine hits both alike.
-        primary.push(rate(RAY_RATE_PRIMARY, i)?);
-        shadow.push(rate(RAY_RATE_SHADOW, i)?);
+    let kinds = [RAY_RATE_PRIMARY, RAY_RATE_SHADOW, RAY_RATE_BOUNCE];
+    let mut samples = [Vec::new(), Vec::new(), Vec::new()];
+    for kind in kinds {
+        rate(kind, 0)?; // warm-up: shader compilation
     }
-    let (primary, shadow) = (TimingStats::of(&primary), TimingStats::of(&shadow));
+    for i in 1..=dispatches {
+        // Interleaved so drift on a shared machine hits all kinds alike.
+        for (kind, out) in kinds.into_iter().zip(samples.iter_mut()) {
+            out.push(rate(kind, i)?);
+        }
+    }
+    let [primary, shadow, bounce] = samples.map(|s| TimingStats::of(&s));
+    // Per ray, a path tracer's bounce costs a closest-hit and a shadow ray: the mean raw time.
+    let bounce_and_shadow = 2.0 / (1.0 / bounce.median + 1.0 / shadow.median);
+    let share = |mrays: f64, raw: f64| if raw > 0.0 && raw.is_finite() { mrays / raw } else { 0.0 };
 
     let mut passes = Vec::new();
-    let modes: [(&str, Mode, bool); 5] = [
-        ("uniform", Mode::Uniform, false),
-        ("ris", Mode::Ris, false),
-        ("restir", Mode::Restir, false),
-        ("restir --compensate", Mode::Restir, true),
-        ("pt", Mode::Pt, false),
-    ];
-    for (label, mode, compensate) in modes {
-        let settings = RenderSettings {
+    for (label, mode, compensate, initial_visibility) in MODES {
+        let mut settings = RenderSettings {
             scene: scene_path.to_path_buf(),
             mode,
             width,
@@ -134,6 +153,9 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
             compensate,
             ..Default::default()
         };
+        if initial_visibility {
+            settings.restir.initial_visibility = Some(true);
+        }
         let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).with_context(|| format!("bench --rays: {label}"))?;
         r.render_frame(&camera, false)?; // warm-up
         r.reset_accumulation()?;
@@ -151,20 +173,42 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
                 continue;
             }
             let mrays = total_rays as f64 / (total_ms * 1e3);
-            let (against, raw) = if *name == crate::passes::GbufferPass::NAME { ("primary", primary.median) } else { ("shadow", shadow.median) };
+            let (against, raw) = match *name {
+                crate::passes::GbufferPass::NAME => ("primary", primary.median),
+                crate::passes::PathtracePass::NAME => ("bounce+shadow", bounce_and_shadow),
+                _ => ("shadow", shadow.median),
+            };
             passes.push(PassRate {
                 mode: label.to_string(),
                 pass: name.to_string(),
-                rays_per_pixel: total_rays as f64 / (pixels as f64 * frames as f64),
+                rays_per_pixel: Some(total_rays as f64 / (pixels as f64 * frames as f64)),
+                rays: total_rays as f64 / frames as f64,
                 gpu_ms: total_ms / frames as f64,
                 mrays_per_s: mrays,
                 against,
-                share: if raw > 0.0 { mrays / raw } else { 0.0 },
+                share: share(mrays, raw),
             });
         }
     }
+
+    // The photon pass: its paths' closest-hit rays against the raw bounce rate.
+    let settings = RenderSettings { scene: scene_path.to_path_buf(), ..Default::default() };
+    let (ms, stats) = crate::eval::bench::time_photons(ctx, &gpu, &settings, frames).context("bench --rays: photons")?;
+    if stats.rays > 0 && ms > 0.0 {
+        let mrays = stats.rays as f64 / (ms * 1e3);
+        passes.push(PassRate {
+            mode: PHOTONS_LABEL.to_string(),
+            pass: crate::passes::PhotonEmitPass::NAME.to_string(),
+            rays_per_pixel: None,
+            rays: stats.rays as f64,
+            gpu_ms: ms,
+            mrays_per_s: mrays,
+            against: "bounce",
+            share: share(mrays, bounce.median),
+        });
+    }
     let label = scene_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| scene_path.display().to_string());
-    Ok(RayRate { scene: label, triangles: gpu.triangle_count, width, height, primary, shadow, passes })
+    Ok(RayRate { scene: label, triangles: gpu.triangle_count, width, height, primary, shadow, bounce, passes })
 }
 
 /// Markdown: the raw rates per scene, then every tracing pass's share.
@@ -172,23 +216,21 @@ pub fn markdown(rows: &[RayRate], device: &str) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(s, "Device: {device}\n");
-    let _ = writeln!(s, "| scene | triangles | size | primary Mrays/s (median, min–max) | shadow Mrays/s (median, min–max) |");
-    let _ = writeln!(s, "|---|---:|---|---:|---:|");
+    let _ = writeln!(s, "| scene | triangles | size | Mrays/s (median, min–max): primary | shadow | bounce |");
+    let _ = writeln!(s, "|---|---:|---|---:|---:|---:|");
+    let stats = |t: &TimingStats| format!("{:.2} ({:.2}–{:.2})", t.median, t.min, t.max);
     for r in rows {
-        let _ = writeln!(
-            s,
-            "| {} | {} | {}×{} | {:.2} ({:.2}–{:.2}) | {:.2} ({:.2}–{:.2}) |",
-            r.scene, r.triangles, r.width, r.height, r.primary.median, r.primary.min, r.primary.max, r.shadow.median, r.shadow.min, r.shadow.max
-        );
+        let _ = writeln!(s, "| {} | {} | {}×{} | {} | {} | {} |", r.scene, r.triangles, r.width, r.height, stats(&r.primary), stats(&r.shadow), stats(&r.bounce));
     }
     let _ = writeln!(s, "\n| scene | mode | pass | rays / px | GPU ms | Mrays/s | share of raw rate |");
     let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|");
     for r in rows {
         for p in &r.passes {
+            let per_pixel = p.rays_per_pixel.map(|x| format!("{x:.2}")).unwrap_or_else(|| format!("({:.0} rays)", p.rays));
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {:.2} | {:.1} | {:.2} | {:.0}% of {} |",
-                r.scene, p.mode, p.pass, p.rays_per_pixel, p.gpu_ms, p.mrays_per_s, 100.0 * p.share, p.against
+                "| {} | {} | {} | {per_pixel} | {:.1} | {:.2} | {:.0}% of {} |",
+                r.scene, p.mode, p.pass, p.gpu_ms, p.mrays_per_s, 100.0 * p.share, p.against
             );
         }
     }

@@ -33,6 +33,9 @@ pub struct PhotonStats {
     pub indirect_vpls: u32,
     /// Photon paths traced (the normalisation count P).
     pub paths: u64,
+    /// Closest-hit rays the photon paths traced, batches traced again after an overflow included
+    /// (their time is in `gpu_ms` too).
+    pub rays: u64,
     pub batches: u32,
     /// GPU time of all batches (ms).
     pub gpu_ms: f64,
@@ -292,11 +295,11 @@ impl PhotonEmitPass {
         Ok(())
     }
 
-    /// Records one batch of paths (`push.first`, `push.count`): next_path is zeroed, then
+    /// Records one batch of paths (`push.first`, `push.count`): next_path and rays are zeroed, then
     /// min(count, PATH_LANES) invocations take paths from it until the batch is done.
     fn record_paths(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: Push) {
         // SAFETY: cmd is recording; the counter is alive until the submission's wait returns.
-        unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 4, 4, 0) };
+        unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 4, 8, 0) };
         compute_barrier(&self.ctx, cmd);
         self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), push.count.min(PATH_LANES));
     }
@@ -307,9 +310,11 @@ impl PhotonEmitPass {
         self.ctx.one_shot(|cmd| unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.counter.raw, 0, 4, value) })
     }
 
-    fn read_counter(&self) -> Result<u32> {
+    /// The VPL counter and the rays of the last batch.
+    fn read_counter(&self) -> Result<(u32, u32)> {
         let bytes = read_back(&self.ctx, &self.counter)?;
-        Ok(u32::from_le_bytes(bytes[..4].try_into().expect("4 bytes")))
+        let word = |i: usize| u32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().expect("the counter buffer has 16 bytes"));
+        Ok((word(0), word(2)))
     }
 
     /// Traces the photons and fills the VPL buffer (direct, then indirect in (path, bounce) order).
@@ -333,13 +338,17 @@ impl PhotonEmitPass {
         // Photon paths, in batches sized from the VPLs per path seen so far.
         if s.indirect > 0 {
             let plan = BatchPlan { target: s.indirect, capacity: self.capacity, max_bounces: s.max_bounces };
+            let mut rays = 0u64;
             let mut trace = |first: u64, batch: u32| -> Result<u32> {
                 let push = Push { base: s.direct, first: first as u32, count: batch, ..self.push(PHOTON_EMIT_PATHS) };
                 self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_paths(cmd, scene_set, push))?;
-                self.read_counter()
+                let (count, batch_rays) = self.read_counter()?;
+                rays += batch_rays as u64;
+                Ok(count)
             };
             let (count, paths, batches) = plan.run(&mut trace, &mut |count| self.set_counter(count))?;
             stats.batches = batches;
+            stats.rays = rays;
             if count < s.indirect {
                 log::warn!(
                     "--vpls-indirect {}: only {count} indirect VPLs after {paths} photon paths (photons leave the scene?)",
