@@ -11,7 +11,7 @@ OUT=$(mktemp -d)
 XPID=""
 if [ -z "${DISPLAY:-}" ]; then
   export DISPLAY=:87
-  Xvfb "$DISPLAY" -screen 0 "$((W + 64))x$((H + 64))x24" -nolisten tcp >/dev/null 2>&1 &
+  Xvfb "$DISPLAY" -screen 0 "$((W + 64))x$((H + 64))x24" -nolisten tcp -noreset >/dev/null 2>&1 &
   XPID=$!
   sleep 2
 fi

@@ -145,8 +145,8 @@ struct RenderArgs {
     /// Workgroup WxH of the per-pixel passes (gbuffer, pathtrace, restir_initial, restir_spatial,
     /// vpl_shade, vpl_compensate, vpl_bruteforce; restir_temporal stays 8x8). Same image for any
     /// size; `bench --workgroups` measures them.
-    #[arg(long, value_parser = restir_vpl::settings::parse_workgroup, default_value = "8x8")]
-    workgroup: [u32; 2],
+    #[arg(long, value_parser = Workgroup::parse, default_value_t = Workgroup(restir_vpl::settings::DEFAULT_WORKGROUP))]
+    workgroup: Workgroup,
     /// ReSTIR temporal reuse of the previous frame's reservoirs.
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.restir.temporal))]
     temporal: Toggle,
@@ -413,6 +413,22 @@ fn named<T: NamedEnum + Send + Sync>() -> impl clap::builder::TypedValueParser<V
         .map(|s| T::from_name(&s).expect("clap accepts only the listed names"))
 }
 
+/// `--workgroup WxH`, printed the way it is parsed, so that the help's default is the renderer's.
+#[derive(Clone, Copy, Debug)]
+struct Workgroup([u32; 2]);
+
+impl Workgroup {
+    fn parse(s: &str) -> Result<Self, String> {
+        restir_vpl::settings::parse_workgroup(s).map(Self)
+    }
+}
+
+impl std::fmt::Display for Workgroup {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}x{}", self.0[0], self.0[1])
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum Toggle {
     On,
@@ -506,7 +522,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         candidates: cli.candidates,
         candidate_source: cli.candidate_source,
         presample: cli.presample.on(),
-        workgroup: cli.workgroup,
+        workgroup: cli.workgroup.0,
         restir: RestirSettings {
             temporal: cli.temporal.on(),
             mcap: cli.mcap,
