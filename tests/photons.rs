@@ -215,6 +215,7 @@ fn same_seed_same_vpl_set() {
     // The Cornell box is open at the front: some photons leave it, so there are more rays than
     // indirect VPLs, and every path traces at least one.
     assert!(pa.rays > pa.indirect_vpls as u64 && pa.rays >= pa.paths, "{pa:?}");
+    assert!(pa.paths_gpu_ms > 0.0 && pa.paths_gpu_ms <= pa.gpu_ms, "the path batches are part of the pass: {pa:?}");
     let exact = |v: &[GpuVpl]| v.iter().map(key).collect::<Vec<_>>();
     assert_eq!(exact(&a), exact(&b), "same seed, same VPLs in the same order");
     for w in a.iter().filter(|v| v.kind == VPL_INDIRECT).collect::<Vec<_>>().windows(2) {

@@ -3,7 +3,7 @@
 // are rejected. Targets are always evaluated at the receiving pixel.
 //  - biased: confidence weights M_k / sum M, targets without visibility (no rays);
 //  - unbiased: confidence-weighted pairwise MIS (Lin et al. 2022) with the same target everywhere.
-//    With --initial-visibility on (the default there) the targets include visibility: two shadow
+//    With --initial-visibility on (off by default) the targets include visibility: two shadow
 //    rays per neighbour (receiving pixel -> neighbour's sample, neighbour -> canonical sample).
 //    Off: unshadowed targets, no rays here, visibility only in vpl_shade. Either way the converged
 //    mean is the brute-force sum.

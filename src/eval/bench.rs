@@ -151,7 +151,7 @@ pub struct PhotonBench {
 pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32, device: Option<usize>) -> Result<PhotonBench> {
     let (ctx, gpu) = upload(scene, device)?;
     let settings = RenderSettings { vpls_direct: direct, vpls_indirect: indirect, ..Default::default() };
-    let (gpu_ms, stats) = time_photons(&ctx, &gpu, &settings, runs)?;
+    let PhotonTiming { gpu_ms, stats, .. } = time_photons(&ctx, &gpu, &settings, runs)?;
     Ok(PhotonBench {
         scene: label.to_string(),
         triangles: scene.triangle_count(),
@@ -165,20 +165,35 @@ pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32
     })
 }
 
-/// Median GPU ms of `runs` re-traces of the photon pass with `settings`' VPL counts, and the last
-/// run's statistics. The renderer's own first trace (shader compilation) is the untimed warm-up;
-/// the image is tiny, since only the photon pass is timed.
-pub fn time_photons(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, settings: &RenderSettings, runs: u32) -> Result<(f64, PhotonStats)> {
+/// The photon pass timed over several re-traces.
+pub struct PhotonTiming {
+    /// Median GPU ms of the whole pass.
+    pub gpu_ms: f64,
+    /// Median GPU ms of its photon path batches (the part that traces rays).
+    pub paths_gpu_ms: f64,
+    /// The last run's statistics (the counts are the same in every run: same seed).
+    pub stats: PhotonStats,
+}
+
+/// `runs` re-traces of the photon pass with `settings`' VPL counts. The renderer's own first trace
+/// (shader compilation) is the untimed warm-up; the image is tiny, since only the photon pass is
+/// timed.
+pub fn time_photons(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, settings: &RenderSettings, runs: u32) -> Result<PhotonTiming> {
     let settings = RenderSettings { mode: crate::settings::Mode::Uniform, width: 8, height: 8, ..settings.clone() };
     let mut r = Renderer::new(ctx.clone(), scene.clone(), settings)?;
-    let mut times = Vec::new();
+    let (mut total, mut paths) = (Vec::new(), Vec::new());
     let mut last = None;
     for _ in 0..runs.max(1) {
         let stats = r.retrace_photons()?;
-        times.push(stats.gpu_ms);
+        total.push(stats.gpu_ms);
+        paths.push(stats.paths_gpu_ms);
         last = Some(stats);
     }
-    Ok((TimingStats::of(&times).median, last.expect("at least one run")))
+    Ok(PhotonTiming {
+        gpu_ms: TimingStats::of(&total).median,
+        paths_gpu_ms: TimingStats::of(&paths).median,
+        stats: last.expect("at least one run"),
+    })
 }
 
 /// One VPL mode's cost at one resolution.

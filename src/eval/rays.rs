@@ -193,7 +193,9 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
 
     // The photon pass: its paths' closest-hit rays against the raw bounce rate.
     let settings = RenderSettings { scene: scene_path.to_path_buf(), ..Default::default() };
-    let (ms, stats) = crate::eval::bench::time_photons(ctx, &gpu, &settings, frames).context("bench --rays: photons")?;
+    // Only the path batches trace rays: the direct VPLs and the flux normalisation are left out.
+    let timing = crate::eval::bench::time_photons(ctx, &gpu, &settings, frames).context("bench --rays: photons")?;
+    let (ms, stats) = (timing.paths_gpu_ms, timing.stats);
     if stats.rays > 0 && ms > 0.0 {
         let mrays = stats.rays as f64 / (ms * 1e3);
         passes.push(PassRate {

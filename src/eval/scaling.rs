@@ -115,7 +115,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
         let rows = time_modes(ctx, &cornell_gpu, &settings, &cases(), opts.frames, None).with_context(|| format!("{n} VPLs"))?;
         log(format!("vpls {n}: {}", summary(&rows)));
         push_modes(&mut points, "vpls", n as f64, rows);
-        let (ms, _) = time_photons(ctx, &cornell_gpu, &settings, opts.photon_runs)?;
+        let ms = time_photons(ctx, &cornell_gpu, &settings, opts.photon_runs)?.gpu_ms;
         points.push(ScalingPoint { sweep: "vpls", x: n as f64, what: "photon_emit".into(), ms });
     }
 
@@ -136,7 +136,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
         let rows = time_modes(ctx, &gpu, &settings, &cases(), opts.frames, None).with_context(|| format!("{t} triangles"))?;
         log(format!("{t} triangles (BLAS {:.1} ms, TLAS {:.1} ms): {}", gpu.blas_ms, gpu.tlas_ms, summary(&rows)));
         push_modes(&mut points, "triangles", t, rows);
-        let (ms, _) = time_photons(ctx, &gpu, &settings, opts.photon_runs)?;
+        let ms = time_photons(ctx, &gpu, &settings, opts.photon_runs)?.gpu_ms;
         points.push(ScalingPoint { sweep: "triangles", x: t, what: "photon_emit".into(), ms });
     }
     Ok(points)

@@ -34,11 +34,13 @@ pub struct PhotonStats {
     /// Photon paths traced (the normalisation count P).
     pub paths: u64,
     /// Closest-hit rays the photon paths traced, batches traced again after an overflow included
-    /// (their time is in `gpu_ms` too).
+    /// (their time is in `paths_gpu_ms` too).
     pub rays: u64,
     pub batches: u32,
-    /// GPU time of all batches (ms).
+    /// GPU time of the whole pass: direct VPLs, photon paths and the flux normalisation (ms).
     pub gpu_ms: f64,
+    /// GPU time of the photon path batches alone, the part that traces rays (ms).
+    pub paths_gpu_ms: f64,
     pub wall_ms: f64,
     /// Σ flux of the direct / indirect VPLs per channel (W).
     pub direct_flux: [f64; 3],
@@ -338,15 +340,17 @@ impl PhotonEmitPass {
         // Photon paths, in batches sized from the VPLs per path seen so far.
         if s.indirect > 0 {
             let plan = BatchPlan { target: s.indirect, capacity: self.capacity, max_bounces: s.max_bounces };
-            let mut rays = 0u64;
+            let (mut rays, mut paths_ms) = (0u64, 0.0);
             let mut trace = |first: u64, batch: u32| -> Result<u32> {
                 let push = Push { base: s.direct, first: first as u32, count: batch, ..self.push(PHOTON_EMIT_PATHS) };
-                self.submit(&mut timer, &mut gpu_ms, |cmd| self.record_paths(cmd, scene_set, push))?;
+                self.submit(&mut timer, &mut paths_ms, |cmd| self.record_paths(cmd, scene_set, push))?;
                 let (count, batch_rays) = self.read_counter()?;
                 rays += batch_rays as u64;
                 Ok(count)
             };
             let (count, paths, batches) = plan.run(&mut trace, &mut |count| self.set_counter(count))?;
+            gpu_ms += paths_ms;
+            stats.paths_gpu_ms = paths_ms;
             stats.batches = batches;
             stats.rays = rays;
             if count < s.indirect {
