@@ -789,10 +789,11 @@ fn real_main(cli: Cli) -> Result<()> {
     );
     if let Some(p) = &s.photons {
         println!(
-            "photon_emit (once, static scene): {:.2} GPU ms, {} paths ({:.2} M paths/s), {} direct + {} indirect VPLs",
+            "photon_emit (once, static scene): {:.2} GPU ms, {} paths ({:.2} M paths/s), {} closest-hit rays, {} direct + {} indirect VPLs",
             p.gpu_ms,
             p.paths,
             p.paths_per_second * 1e-6,
+            p.rays,
             p.direct_vpls,
             p.indirect_vpls
         );
