@@ -144,6 +144,8 @@ pub struct PhotonBench {
     /// Closest-hit rays of one run.
     pub rays: u64,
     pub paths_per_second: f64,
+    /// Rays over the time of the path batches alone (the direct VPLs trace none).
+    pub rays_per_second: f64,
     pub indirect_vpls: u32,
 }
 
@@ -151,7 +153,7 @@ pub struct PhotonBench {
 pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32, device: Option<usize>) -> Result<PhotonBench> {
     let (ctx, gpu) = upload(scene, device)?;
     let settings = RenderSettings { vpls_direct: direct, vpls_indirect: indirect, ..Default::default() };
-    let PhotonTiming { gpu_ms, stats, .. } = time_photons(&ctx, &gpu, &settings, runs)?;
+    let PhotonTiming { gpu_ms, paths_gpu_ms, stats } = time_photons(&ctx, &gpu, &settings, runs)?;
     Ok(PhotonBench {
         scene: label.to_string(),
         triangles: scene.triangle_count(),
@@ -161,6 +163,7 @@ pub fn photons(scene: &Scene, label: &str, direct: u32, indirect: u32, runs: u32
         paths: stats.paths,
         rays: stats.rays,
         paths_per_second: stats.paths as f64 / (gpu_ms * 1e-3),
+        rays_per_second: stats.rays as f64 / (paths_gpu_ms * 1e-3),
         indirect_vpls: stats.indirect_vpls,
     })
 }
