@@ -204,8 +204,12 @@ impl Default for RestirSettings {
 /// (1.8× the best relMSE at 16 frames at 256²); radii under 4 px reuse correlated samples; between
 /// half and this radius relMSE is a little lower and FLIP higher (blotchier noise).
 pub fn default_spatial_radius(width: u32) -> f32 {
-    (20.0 * width as f32 / 1280.0).max(4.0)
+    (SPATIAL_RADIUS_AT_1280 * width as f32 / 1280.0).max(MIN_SPATIAL_RADIUS)
 }
+
+/// [`default_spatial_radius`] at a 1280 px wide image (the thesis's radius), and its floor.
+pub const SPATIAL_RADIUS_AT_1280: f32 = 20.0;
+pub const MIN_SPATIAL_RADIUS: f32 = 4.0;
 
 impl RestirSettings {
     /// The spatial disc radius in pixels at image width `width`: the one given, or

@@ -15,7 +15,7 @@ use crate::output::TimingStats;
 use crate::renderer::Renderer;
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
-use crate::settings::{Mode, RenderSettings};
+use crate::settings::{Mode, RenderSettings, RestirSettings};
 use crate::shaders;
 use crate::vk::pipeline::{storage, Binding};
 use crate::vk::{Buffer, ComputePipeline, Context, DescriptorSet, GpuTimer};
@@ -143,7 +143,7 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
 
     let mut passes = Vec::new();
     for (label, mode, compensate, initial_visibility) in MODES {
-        let mut settings = RenderSettings {
+        let settings = RenderSettings {
             scene: scene_path.to_path_buf(),
             mode,
             width,
@@ -151,11 +151,9 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
             frames: frames + 1,
             aa: true,
             compensate,
+            restir: RestirSettings { initial_visibility: initial_visibility.then_some(true), ..Default::default() },
             ..Default::default()
         };
-        if initial_visibility {
-            settings.restir.initial_visibility = Some(true);
-        }
         let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).with_context(|| format!("bench --rays: {label}"))?;
         r.render_frame(&camera, false)?; // warm-up
         r.reset_accumulation()?;

@@ -543,8 +543,8 @@ fn results_markdown(
          spatiotemporal reuse as in the thesis: M-cap 20, 8 neighbours; spatial radius the renderer's default, {} px per \
          1280 px of width and at least {} px; the thesis had 20 px at 1280), `restir-unbiased` (pairwise MIS, \
          unshadowed targets) and `restir-unbiased-vis` (pairwise MIS, visibility in the targets).\n",
-        crate::settings::default_spatial_radius(1280),
-        crate::settings::default_spatial_radius(0)
+        crate::settings::SPATIAL_RADIUS_AT_1280,
+        crate::settings::MIN_SPATIAL_RADIUS
     );
     let _ = writeln!(s, "## References\n");
     let _ = writeln!(
