@@ -27,7 +27,7 @@ use crate::passes::{
 use crate::lights::{LightSet, PointEmitter};
 use crate::scene_gpu::{LightBuffers, SceneGpu};
 use crate::settings::{Attenuation, Bias, CandidateSource, Mode, RenderSettings, View};
-use crate::vk::buffer::read_back;
+use crate::vk::buffer::{read_back, read_back_records};
 use crate::vk::{Buffer, Context, DescriptorSet, GpuTimer};
 
 /// Statistics of one rendered frame.
@@ -1161,9 +1161,7 @@ impl Renderer {
             return Ok(None);
         };
         let last = 1 - self.state.current_reservoirs;
-        let bytes = read_back(&self.ctx, res.buffer(last))?;
-        let all: &[crate::gpu_types::GpuReservoir] = bytemuck::cast_slice(&bytes);
-        Ok(Some(all[..self.parts.targets.pixels() as usize].to_vec()))
+        Ok(Some(read_back_records(&self.ctx, res.buffer(last), self.parts.targets.pixels() as usize)?))
     }
 
     /// The VPL set (direct first, then indirect), when the run has one.
@@ -1173,26 +1171,23 @@ impl Renderer {
 
     /// The running mean, row 0 at the top, RGB.
     pub fn read_mean(&self) -> Result<Vec<[f32; 3]>> {
-        let bytes = read_back(&self.ctx, &self.parts.targets.mean)?;
-        let v: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        Ok(v[..self.parts.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
+        let v: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.mean, self.parts.targets.pixels() as usize)?;
+        Ok(v.iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 
     /// The last frame's own estimate per pixel (before accumulation), row 0 at the top, RGB.
     pub fn read_frame_samples(&self) -> Result<Vec<[f32; 3]>> {
-        let bytes = read_back(&self.ctx, &self.parts.targets.samples)?;
-        let v: &[[f32; 4]] = bytemuck::cast_slice(&bytes);
-        Ok(v[..self.parts.targets.pixels() as usize].iter().map(|p| [p[0], p[1], p[2]]).collect())
+        let v: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.samples, self.parts.targets.pixels() as usize)?;
+        Ok(v.iter().map(|p| [p[0], p[1], p[2]]).collect())
     }
 
     /// Per-pixel sample variance of the accumulated frames (unbiased, n − 1), RGB.
     pub fn read_variance(&self) -> Result<Vec<[f32; 3]>> {
         let n = self.state.accumulated as f64;
-        let sums = read_back(&self.ctx, &self.parts.targets.accum_sum)?;
-        let comp = read_back(&self.ctx, &self.parts.targets.accum_compensation)?;
-        let sq = read_back(&self.ctx, &self.parts.targets.accum_squares)?;
-        let (s, c, q): (&[[f32; 4]], &[[f32; 4]], &[[f32; 4]]) =
-            (bytemuck::cast_slice(&sums), bytemuck::cast_slice(&comp), bytemuck::cast_slice(&sq));
+        let pixels = self.parts.targets.pixels() as usize;
+        let s: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_sum, pixels)?;
+        let c: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_compensation, pixels)?;
+        let q: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_squares, pixels)?;
         Ok((0..self.parts.targets.pixels() as usize)
             .map(|i| {
                 let mut out = [0f32; 3];

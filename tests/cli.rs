@@ -151,6 +151,27 @@ fn vpl_count_errors() {
     );
 }
 
+/// `--no-gi --vpls-direct 0` is an empty VPL set, which the error for `--vpls-direct 0` offers: every
+/// VPL mode renders it (the visible emitters only) instead of panicking when the VPLs are read back.
+#[test]
+fn empty_vpl_set_renders_in_every_vpl_mode() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut means = Vec::new();
+    for mode in ["uniform", "ris", "restir", "bruteforce"] {
+        let out = dir.path().join(mode);
+        let o = run(&[
+            "--headless", "--mode", mode, "--vpls-direct", "0", "--no-gi", "--frames", "2", "--width", "16", "--height", "16",
+            "--out", &out.display().to_string(),
+        ]);
+        assert!(o.status.success() && !stderr(&o).contains("panicked"), "{mode}: {}", stderr(&o));
+        let img = restir_vpl::output::read_exr(&out.join("final.exr")).unwrap();
+        assert_all_finite(&img.pixels, mode);
+        means.push(img.pixels.iter().map(|p| (p[0] + p[1] + p[2]) as f64).sum::<f64>());
+    }
+    // No VPL lights anything, so every mode shows the same thing: the emitters seen directly.
+    assert!(means.iter().all(|m| *m == means[0]) && means[0] > 0.0, "{means:?}");
+}
+
 /// A repeated flag overrides the earlier one (the render script appends the user's arguments).
 #[test]
 fn later_flag_overrides_earlier() {

@@ -20,7 +20,7 @@ use crate::gpu_types::{GpuVpl, PHOTON_EMIT_DIRECT, PHOTON_EMIT_PATHS, PHOTON_EMI
 use crate::lights::LightSet;
 use crate::shaders;
 use crate::settings::PhotonSettings;
-use crate::vk::buffer::read_back;
+use crate::vk::buffer::{read_back, read_back_records};
 use crate::vk::pipeline::{compute_barrier, storage};
 use crate::vk::{Buffer, ComputePipeline, Context, GpuTimer};
 
@@ -396,11 +396,15 @@ impl PhotonEmitPass {
 
     /// The VPLs on the host: direct first, then indirect.
     pub fn read_vpls(&self, stats: &PhotonStats) -> Result<Vec<GpuVpl>> {
-        let bytes = read_back(&self.ctx, &self.vpls).context("reading VPLs back")?;
-        let all: &[GpuVpl] = bytemuck::cast_slice(&bytes);
-        let mut out = all[..stats.direct_vpls as usize].to_vec();
+        // Direct VPLs from slot 0, indirect from slot `direct`. The buffer has a minimum size even
+        // for an empty VPL set (`--no-gi --vpls-direct 0`), so only the slots in use are read as
+        // records.
         let base = self.settings.direct as usize;
-        out.extend_from_slice(&all[base..base + stats.indirect_vpls as usize]);
+        let (direct, indirect) = (stats.direct_vpls as usize, stats.indirect_vpls as usize);
+        let used = if indirect > 0 { base + indirect } else { direct };
+        let all: Vec<GpuVpl> = read_back_records(&self.ctx, &self.vpls, used).context("reading VPLs back")?;
+        let mut out = all[..direct].to_vec();
+        out.extend_from_slice(&all[base.min(used)..used]);
         Ok(out)
     }
 

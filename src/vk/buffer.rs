@@ -152,3 +152,18 @@ pub fn read_back(ctx: &Arc<Context>, src: &Buffer) -> Result<Vec<u8>> {
     })?;
     staging.read(0, src.size as usize)
 }
+
+/// The first `count` records of type `T` in `src`, copied out of the read-back bytes (which have
+/// no alignment to cast in place). An error, not a panic, when the buffer is shorter.
+pub fn read_back_records<T: bytemuck::Pod>(ctx: &Arc<Context>, src: &Buffer, count: usize) -> Result<Vec<T>> {
+    let bytes = read_back(ctx, src)?;
+    let need = count * std::mem::size_of::<T>();
+    anyhow::ensure!(
+        bytes.len() >= need,
+        "buffer '{}' holds {} bytes, fewer than {count} records of {} bytes",
+        src.name,
+        bytes.len(),
+        std::mem::size_of::<T>()
+    );
+    Ok(bytemuck::pod_collect_to_vec(&bytes[..need]))
+}
