@@ -53,6 +53,18 @@ pub fn read_exr(path: &Path) -> Result<RgbImage> {
 pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage, Option<exr::meta::attribute::AttributeValue>)> {
     use exr::meta::attribute::Text;
     use exr::prelude::*;
+    // The header first: a file that claims a huge image (a corrupt or hostile header) must be an
+    // error here, not an allocation of its claimed size before any pixel is read.
+    let meta = exr::meta::MetaData::read_from_file(path, false).with_context(|| format!("reading {}", path.display()))?;
+    let side = crate::settings::MAX_IMAGE_SIDE as usize;
+    if let Some(h) = meta.headers.iter().find(|h| h.layer_size.width() > side || h.layer_size.height() > side) {
+        anyhow::bail!(
+            "reading {}: its header claims a {}×{} image, larger than the {side}×{side} this program renders",
+            path.display(),
+            h.layer_size.width(),
+            h.layer_size.height()
+        );
+    }
     let image = read_first_rgba_layer_from_file(
         path,
         |resolution, _| RgbImage {
@@ -108,6 +120,27 @@ impl TimingStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An EXR whose header claims a huge image is refused from its header, before an allocation of
+    /// the claimed size (which aborted the process: "memory allocation of 120000000000 bytes").
+    #[test]
+    fn an_exr_header_claiming_a_huge_image_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.exr");
+        write_exr(&path, 4, 4, &[[0.5; 3]; 16]).unwrap();
+        assert_eq!(read_exr(&path).unwrap().pixels.len(), 16);
+        let mut bytes = std::fs::read(&path).unwrap();
+        for name in [&b"dataWindow\0box2i\0"[..], &b"displayWindow\0box2i\0"[..]] {
+            let at = bytes.windows(name.len()).position(|w| w == name).expect("the attribute is in the header") + name.len();
+            // size (i32), then xmin, ymin, xmax, ymax
+            for corner in [at + 12, at + 16] {
+                bytes[corner..corner + 4].copy_from_slice(&99_999i32.to_le_bytes());
+            }
+        }
+        std::fs::write(&path, bytes).unwrap();
+        let err = format!("{:#}", read_exr(&path).unwrap_err());
+        assert!(err.contains("100000×100000") && err.contains("huge.exr"), "{err}");
+    }
 
     /// A reader polling the file while it is rewritten sees only whole versions (the window test
     /// once read an empty summary.json that `std::fs::write` had just truncated).

@@ -166,6 +166,30 @@ fn cli_merge_references() {
     assert!(!o.status.success() && err.contains("a.exr") && err.contains("overlap") && !err.contains("panicked"), "{err}");
 }
 
+/// A part with a NaN or Inf pixel is refused (it would spread into the merge, which `compare`
+/// then rejects), and so is an --out that is one of the parts.
+#[test]
+fn non_finite_parts_and_out_over_an_input_are_refused() {
+    for bad in [f32::NAN, f32::INFINITY] {
+        let mut img = image(12, 10, 2);
+        img.pixels[12 * 3 + 5][1] = bad;
+        let e = format!("{:#}", merge(&[(image(12, 10, 1), meta(3, 0)), (img, meta(5, 3))]).unwrap_err());
+        assert!(e.contains("part #2") && e.contains("NaN or Inf") && e.contains("(5, 3)"), "{e}");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (pa, pb) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    write_reference(&pa, &image(12, 10, 1), &meta(3, 0)).unwrap();
+    write_reference(&pb, &image(12, 10, 2), &meta(5, 3)).unwrap();
+    let before = std::fs::read(&pb).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_restir-vpl"))
+        .args(["merge-references", &pa.display().to_string(), &pb.display().to_string(), "--out", &pb.display().to_string()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--out") && err.contains("b.exr") && !err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read(&pb).unwrap(), before, "the input is untouched");
+}
+
 /// A reference's config keeps only what its mode's image depends on: a path-traced reference
 /// survives a change of ReSTIR's or the VPLs' settings, a RIS reference one of ReSTIR's, and none
 /// survives a change of what it does use. Configs written before a key was dropped still match.

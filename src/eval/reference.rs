@@ -120,6 +120,17 @@ impl ReferenceMeta {
                 self.height
             );
             ensure!(img.pixels.len() == img.width as usize * img.height as usize, "pixel count does not match the size");
+            // A reference is a mean of finite frames; a NaN or Inf would spread into every merge
+            // and comparison made from it.
+            let bad = img.pixels.iter().filter(|p| p.iter().any(|c| !c.is_finite())).count();
+            if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+                bail!(
+                    "{bad} pixel(s) are NaN or Inf, the first at ({}, {}): {:?}",
+                    i % img.width as usize,
+                    i / img.width as usize,
+                    img.pixels[i]
+                );
+            }
         }
         Ok(())
     }
@@ -296,6 +307,11 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
 /// The `restir-vpl merge-references` command: merges `inputs` into `out` and prints the result's
 /// frame count and ranges.
 pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path) -> Result<()> {
+    // Writing over one of the parts would lose its frames if anything went wrong after the write.
+    let same_file = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
+    if let Some(p) = inputs.iter().find(|p| same_file(p, out)) {
+        bail!("--out {}: is also the input {}; write the merge to a new file", out.display(), p.display());
+    }
     let mut parts = Vec::with_capacity(inputs.len());
     for p in inputs {
         parts.push(read_reference(p)?);
