@@ -146,7 +146,7 @@ impl CameraPath {
 
     /// Reads and checks `file`; errors name the file.
     pub fn load(file: &std::path::Path) -> anyhow::Result<Self> {
-        let text = std::fs::read_to_string(file).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
+        let text = String::from_utf8(crate::output::read_input(file)?).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
         Self::from_json(&text).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))
     }
 

@@ -23,6 +23,26 @@ pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> 
     written.with_context(|| format!("writing {}", path.display()))
 }
 
+/// Reads an input file whole (a scene, one of its buffers or images, a camera path). Anything but a
+/// regular file or a pipe is refused: `/dev/zero` as a scene would otherwise be read until the
+/// out-of-memory killer ends the process, with no message.
+pub fn read_input(path: &Path) -> Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).with_context(|| format!("cannot read '{}'", path.display()))?;
+    let pipe = {
+        #[cfg(unix)]
+        {
+            std::os::unix::fs::FileTypeExt::is_fifo(&meta.file_type())
+        }
+        #[cfg(not(unix))]
+        {
+            false
+        }
+    };
+    anyhow::ensure!(!meta.is_dir(), "cannot read '{}': it is a directory", path.display());
+    anyhow::ensure!(meta.is_file() || pipe, "cannot read '{}': not a regular file", path.display());
+    std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
+}
+
 /// Writes a float32 RGB OpenEXR file; `pixels` are row-major with row 0 at the top.
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<()> {
     anyhow::ensure!(pixels.len() == (width * height) as usize, "image size mismatch writing {}", path.display());

@@ -70,6 +70,15 @@ fn missing_scene_file() {
     assert_fails(&["--headless", "--scene", "/nonexistent/scene.gltf", "--frames", "1"], &["/nonexistent/scene.gltf"]);
 }
 
+/// A device or a directory as the scene is refused at once: /dev/zero was read until the
+/// out-of-memory killer ended the process, with no message.
+#[test]
+fn scene_that_is_not_a_file() {
+    assert_fails(&["--headless", "--scene", "/dev/zero", "--frames", "1"], &["/dev/zero", "not a regular file"]);
+    assert_fails(&["--headless", "--scene", "/tmp", "--frames", "1"], &["/tmp", "directory"]);
+    assert_fails(&["--headless", "--camera-path", "/dev/zero", "--frames", "1"], &["/dev/zero", "not a regular file"]);
+}
+
 #[test]
 fn malformed_gltf() {
     let dir = tempfile::tempdir().unwrap();

@@ -18,8 +18,7 @@ const MAX_VIEWLESS_ACCESSOR_BYTES: usize = 1 << 30;
 
 /// Reads and loads a `.gltf`/`.glb` file; external URIs resolve relative to its directory.
 pub(super) fn load_path(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| anyhow!("cannot read scene file '{}': {e}", path.display()))?;
+    let bytes = crate::output::read_input(path).map_err(|e| anyhow!("scene file: {e:#}"))?;
     let base = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
@@ -255,7 +254,7 @@ fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
         anyhow!("external file '{relative}' cannot be resolved without a base directory")
     })?;
     let path = base.join(&relative);
-    std::fs::read(&path).map_err(|e| anyhow!("cannot read '{}': {e}", path.display()))
+    crate::output::read_input(&path)
 }
 
 /// True if `uri` starts with an RFC 3986 scheme (`scheme:`).
