@@ -18,7 +18,7 @@ use restir_vpl::vk::NoRayQueryDevice;
 /// GPU global illumination: photon-traced VPLs + ReSTIR DI on Vulkan ray queries, with a path-traced
 /// ground truth.
 #[derive(Debug, Parser)]
-#[command(name = "restir-vpl", version, about, args_conflicts_with_subcommands = true, args_override_self = true)]
+#[command(name = "restir-vpl", version, about, args_conflicts_with_subcommands = true, args_override_self = true, allow_negative_numbers = true)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -219,6 +219,7 @@ struct RenderArgs {
 #[derive(Debug, clap::Subcommand)]
 enum Command {
     /// Throughput benchmark: primary rays and path tracing (Mrays/s, GPU ms per pass).
+    #[command(allow_negative_numbers = true)]
     Bench {
         #[arg(long, default_value_os_t = DEFAULTS.scene.clone())]
         scene: PathBuf,
@@ -242,7 +243,7 @@ enum Command {
         photons: bool,
         /// Instead: frame cost of uniform, RIS and ReSTIR (per pass, rays per pixel, ratio to
         /// uniform) at 1280×720 and 1280×1280 (or --width × --height if given) with 100k + 100k VPLs.
-        #[arg(long)]
+        #[arg(long, conflicts_with = "photons")]
         modes: bool,
         /// With --modes: the camera follows the path committed beside the scene
         /// (scenes/<name>.path.json, back and forth) and every frame is displayed alone, as in the
@@ -258,7 +259,7 @@ enum Command {
         /// unbiased ReSTIR variants) against a path-traced and a converged VPL reference, both
         /// rendered first (cached in --out/references). Writes --out/curves.md, curves.csv,
         /// frame_times.csv and plots/*.svg. Default size 320×320 (--width/--height to change).
-        #[arg(long)]
+        #[arg(long, conflicts_with_all = ["modes", "photons"])]
         curves: bool,
         /// Instead: the real-time measurement. A camera moves along the path committed beside each
         /// of the three scenes (scenes/<name>.path.json); every displayed frame of uniform, RIS,
@@ -309,6 +310,7 @@ enum Command {
     /// Exit status: 0 on success; 3 if either image has NaN or Inf pixels (reported on stderr with
     /// the file, count and first positions; the metrics over the finite pixels are still printed);
     /// 1 on other errors (missing or unreadable file, sizes differ); 2 on bad arguments.
+    #[command(allow_negative_numbers = true)]
     Compare {
         /// Test image (EXR).
         #[arg(value_name = "A.exr")]
@@ -337,6 +339,7 @@ enum Command {
     ///
     /// The parts must agree in size, mode, scene, seed and settings; their frame ranges must not
     /// overlap. Prints the merged frame count and ranges.
+    #[command(allow_negative_numbers = true)]
     MergeReferences {
         /// Partial references.
         #[arg(required = true, value_name = "REF.exr")]
@@ -351,6 +354,7 @@ enum Command {
     /// Resumable (--resume renders --frames more frames after the file's last one and merges) and
     /// splittable (runs with disjoint --first-frame ranges combine with `merge-references`; frame k
     /// uses the same random numbers in every run, so the merge equals one long run).
+    #[command(allow_negative_numbers = true)]
     Reference {
         #[command(flatten)]
         render: RenderArgs,
@@ -369,6 +373,7 @@ enum Command {
     /// tables, CSVs and plots for the Cornell box, the living room and the open box with a figure.
     ///
     /// References are cached under OUT/references and resumed when more frames are asked for.
+    #[command(allow_negative_numbers = true)]
     Results {
         /// Output directory (results.md, curves.csv, frame_times.csv, plots/, references/).
         #[arg(long, default_value = "docs")]
@@ -569,6 +574,14 @@ fn real_main(cli: Cli) -> Result<()> {
         } else {
             restir_vpl::eval::results::ResultsOptions::full(&root, *scale)
         };
+        // Checked before any reference renders, naming the flag (these were caught late, under
+        // another flag's name).
+        for (flag, value) in [("--runs", runs), ("--pt-frames", pt_frames), ("--vpl-frames", vpl_frames)] {
+            if *value == Some(0) {
+                bail!("{flag} 0: at least 1 is needed");
+            }
+        }
+        check_checkpoints(checkpoints.as_deref())?;
         opts.out_dir = out.clone();
         opts.runs = runs.unwrap_or(opts.runs);
         opts.pt_reference_frames = pt_frames.unwrap_or(opts.pt_reference_frames);
@@ -587,6 +600,10 @@ fn real_main(cli: Cli) -> Result<()> {
     if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
+        if *runs == Some(0) {
+            bail!("--runs 0: at least 1 is needed");
+        }
+        check_checkpoints(checkpoints.as_deref())?;
         if (*quick || runs.is_some()) && !*curves && !*motion && !*radius && !*scaling {
             bail!("--quick and --runs go with --curves, --motion, --radius or --scaling");
         }
@@ -870,6 +887,14 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
 }
 
 /// A context without validation on `device`, for the bench subcommands.
+/// `--checkpoints`: accumulated frame counts, each at least 1.
+fn check_checkpoints(checkpoints: Option<&[u32]>) -> Result<()> {
+    match checkpoints {
+        Some(c) if c.is_empty() || c.contains(&0) => bail!("--checkpoints {c:?}: every checkpoint is a frame count of at least 1"),
+        _ => Ok(()),
+    }
+}
+
 fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk::Context>> {
     Ok(std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions { device_index: device, ..Default::default() })?))
 }

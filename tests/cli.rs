@@ -116,6 +116,19 @@ fn bad_flags() {
     assert_fails(&["--headless", "--eye", "1,2"], &["--eye"]);
     assert_fails(&["--headless", "--eye", "0,0,1"], &["--target"]);
     assert_fails(&["--headless", "--max-bounces", "-5"], &["--max-bounces"]);
+    // A negative value for an unsigned flag names the flag and the value (clap took "-5" for an
+    // unknown flag before allow_negative_numbers), in subcommands too.
+    assert_fails(&["--headless", "--width", "-5"], &["--width", "'-5'"]);
+    assert_fails(&["bench", "--frames", "-1"], &["--frames", "'-1'"]);
+    // Counts of `results` and `bench --curves` are checked before any reference renders, under
+    // their own names; the "Instead" benches exclude each other.
+    let out = std::env::temp_dir().join("restir-vpl-cli-bad-flags").display().to_string();
+    assert_fails(&["results", "--quick", "--out", &out, "--pt-frames", "0"], &["--pt-frames 0"]);
+    assert_fails(&["results", "--quick", "--out", &out, "--vpl-frames", "0"], &["--vpl-frames 0"]);
+    assert_fails(&["results", "--quick", "--out", &out, "--checkpoints", "0"], &["--checkpoints"]);
+    assert_fails(&["bench", "--curves", "--quick", "--out", &out, "--checkpoints", "5,0"], &["--checkpoints"]);
+    assert_fails(&["bench", "--photons", "--modes"], &["--photons", "--modes"]);
+    assert_fails(&["bench", "--curves", "--photons"], &["--curves", "--photons"]);
     assert_fails(&["--headless", "--device", "99", "--frames", "1", "--width", "8", "--height", "8"], &["--device 99"]);
 }
 
