@@ -886,7 +886,6 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
     Ok(())
 }
 
-/// A context without validation on `device`, for the bench subcommands.
 /// `--checkpoints`: accumulated frame counts, each at least 1.
 fn check_checkpoints(checkpoints: Option<&[u32]>) -> Result<()> {
     match checkpoints {
@@ -894,6 +893,8 @@ fn check_checkpoints(checkpoints: Option<&[u32]>) -> Result<()> {
         _ => Ok(()),
     }
 }
+
+/// A context without validation on `device`, for the bench subcommands.
 
 fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk::Context>> {
     Ok(std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions { device_index: device, ..Default::default() })?))

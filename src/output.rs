@@ -43,6 +43,22 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
 }
 
+/// Checks that `path` can be written the way [`write_replacing`] will: its directory exists and
+/// takes a new file (created and removed again here), and `path` is not a directory.
+pub fn check_writable(path: &Path) -> Result<()> {
+    anyhow::ensure!(!path.is_dir(), "{} is a directory; name a file", path.display());
+    let probe = {
+        let name = path.file_name().with_context(|| format!("{} names no file", path.display()))?;
+        let mut n = std::ffi::OsString::from(".");
+        n.push(name);
+        n.push(format!(".{}.probe", std::process::id()));
+        path.with_file_name(n)
+    };
+    std::fs::File::create(&probe).with_context(|| format!("cannot create a file beside {}", path.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Writes a float32 RGB OpenEXR file; `pixels` are row-major with row 0 at the top.
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<()> {
     anyhow::ensure!(pixels.len() == (width * height) as usize, "image size mismatch writing {}", path.display());
@@ -51,8 +67,14 @@ pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> R
             let p = pixels[y * width as usize + x];
             (p[0], p[1], p[2])
         })
-        .map_err(anyhow::Error::from)
+        .map_err(exr_error)
     })
+}
+
+/// An `exr` error as one message: its I/O variant prints the OS error and also hands it on as the
+/// source, so a `{:#}` chain printed "No such file or directory (os error 2)" twice.
+pub fn exr_error(e: exr::error::Error) -> anyhow::Error {
+    anyhow::anyhow!("{e}")
 }
 
 /// An RGB float image read from disk.
@@ -75,7 +97,7 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
     use exr::prelude::*;
     // The header first: a file that claims a huge image (a corrupt or hostile header) must be an
     // error here, not an allocation of its claimed size before any pixel is read.
-    let meta = exr::meta::MetaData::read_from_file(path, false).with_context(|| format!("reading {}", path.display()))?;
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(exr_error).with_context(|| format!("reading {}", path.display()))?;
     let side = crate::settings::MAX_IMAGE_SIDE as usize;
     if let Some(h) = meta.headers.iter().find(|h| h.layer_size.width() > side || h.layer_size.height() > side) {
         anyhow::bail!(
@@ -97,6 +119,7 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
             img.pixels[pos.y() * w + pos.x()] = [r, g, b];
         },
     )
+    .map_err(exr_error)
     .with_context(|| format!("reading {}", path.display()))?;
     let value = if attribute.is_empty() {
         None

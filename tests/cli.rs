@@ -128,6 +128,12 @@ fn bad_flags() {
     assert_fails(&["results", "--quick", "--out", &out, "--checkpoints", "0"], &["--checkpoints"]);
     assert_fails(&["bench", "--curves", "--quick", "--out", &out, "--checkpoints", "5,0"], &["--checkpoints"]);
     assert_fails(&["bench", "--photons", "--modes"], &["--photons", "--modes"]);
+    // An unwritable reference path fails before the frames (it failed after rendering them all).
+    // (No frame progress is printed: none was rendered.)
+    let args = ["reference", "--width", "8", "--height", "8", "--frames", "3", "--out", "/proc/restir-vpl-test.exr"];
+    assert_fails(&args, &["/proc/restir-vpl-test.exr"]);
+    let err = stderr(&run(&args));
+    assert!(!err.contains("/3 frames"), "the path was checked only after rendering: {err}");
     assert_fails(&["bench", "--curves", "--photons"], &["--curves", "--photons"]);
     assert_fails(&["--headless", "--device", "99", "--frames", "1", "--width", "8", "--height", "8"], &["--device 99"]);
 }

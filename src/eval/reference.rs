@@ -175,7 +175,11 @@ pub fn write_reference(path: &Path, image: &RgbImage, meta: &ReferenceMeta) -> R
             (p[0], p[1], p[2])
         }),
     );
-    Image::from_layer(layer).write().to_file(path).with_context(|| format!("writing {}", path.display()))
+    // Through a sibling and a rename: `reference --resume` rewrites a file that may hold hours of
+    // frames, and an interrupted write must leave the old one whole.
+    crate::output::write_replacing(path, |partial| {
+        Image::from_layer(layer).write().to_file(partial).map_err(crate::output::exr_error)
+    })
 }
 
 /// Reads a reference written by [`write_reference`]. A plain EXR (no metadata) is an error.
@@ -555,15 +559,18 @@ pub fn make_reference(
         }
         ReferenceTarget::AtLeast { frames } => (None, 0, frames),
     };
+    // Where the reference goes is checked before the frames, not after them: a mistyped path must
+    // not cost a whole reference render.
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    crate::output::check_writable(path)?;
     let part = render_reference(ctx.clone(), scene.clone(), settings, first, frames, |done| progress(done, frames))?;
     let rendered = Some((frames, part.gpu_ms, part.wall_ms));
     let (image, meta) = match existing {
         Some(old) => merge(&[old, (part.image, part.meta)])?,
         None => (part.image, part.meta),
     };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
     write_reference(path, &image, &meta)?;
     Ok(MadeReference { image, meta, rendered })
 }
