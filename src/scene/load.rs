@@ -154,7 +154,38 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
     if scene.triangle_count() == 0 {
         bail!("no triangles in scene");
     }
+    check_light_power(&scene)?;
     Ok(scene)
+}
+
+/// The most power (W, per channel) the lights may emit together. Fluxes, photon weights and
+/// resampling weights are 32-bit floats on the GPU: a total near f32::MAX (3.4e38) overflows to
+/// Inf on the way and every VPL mode rendered black without a word. 1e30 W leaves 8 orders of
+/// magnitude for those products and is 4 orders above the Sun (3.8e26 W).
+pub const MAX_LIGHT_POWER: f64 = 1e30;
+
+fn check_light_power(scene: &Scene) -> Result<()> {
+    use std::f64::consts::PI;
+    let mut lights: Vec<(f64, String)> = scene
+        .point_lights
+        .iter()
+        .map(|l| (4.0 * PI * (l.color * l.intensity).max_element() as f64, format!("point light '{}'", l.name)))
+        .collect();
+    lights.extend(scene.emissive_triangles().iter().map(|t| {
+        let sides = if t.double_sided { 2.0 } else { 1.0 };
+        (sides * PI * t.emission.max_element() as f64 * t.area as f64, format!("an emissive triangle of instance {}", t.instance))
+    }));
+    let total: f64 = lights.iter().map(|l| l.0).sum();
+    if total.is_finite() && total <= MAX_LIGHT_POWER {
+        return Ok(());
+    }
+    let brightest = lights.iter().max_by(|a, b| a.0.total_cmp(&b.0)).expect("a total above zero has a light");
+    bail!(
+        "the lights emit {total:.3e} W together, more than the {MAX_LIGHT_POWER:.0e} W the renderer's 32-bit fluxes \
+         hold (the brightest: {}, {:.3e} W); scale the emission or intensity down",
+        brightest.1,
+        brightest.0
+    )
 }
 
 /// Parses and validates the document; returns it with the GLB binary chunk, if any.

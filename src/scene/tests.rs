@@ -621,6 +621,29 @@ fn scene_selection() {
     );
 }
 
+/// Lights whose power overflows the GPU's 32-bit fluxes are an error naming the brightest (a
+/// point light of 1e38 cd rendered every VPL mode black without a word); a bright but
+/// representable one loads.
+#[test]
+fn light_power_beyond_32_bit_fluxes_is_an_error() {
+    let scene_with = |intensity: f32, emission: f32| {
+        let mut b = GltfBuilder::new();
+        let m = b.material("m", [0.5; 3], [0.0; 3], false);
+        let hot = b.material("hot", [0.5; 3], [emission; 3], false);
+        let floor = b.quad("floor", [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]], m);
+        let panel = b.quad("panel", [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 1.0, 1.0], [0.0, 1.0, 1.0]], hot);
+        b.node("floor", floor, [0.0; 3]);
+        b.node("panel", panel, [0.0; 3]);
+        b.point_light("bulb", [0.5, 0.5, 0.5], [1.0; 3], intensity);
+        serde_json::from_str::<Value>(&b.to_json_string()).unwrap()
+    };
+    assert!(load_value(&scene_with(1e20, 1e20)).is_ok());
+    let err = load_err(&scene_with(1e38, 1.0));
+    assert_contains(&err, &["point light 'bulb'", "32-bit"]);
+    let err = load_err(&scene_with(1.0, 1e36));
+    assert_contains(&err, &["emissive triangle", "32-bit"]);
+}
+
 #[test]
 fn lights_cameras_and_warnings() {
     let mut b = GltfBuilder::new();
