@@ -80,9 +80,9 @@ struct RenderArgs {
     /// Camera target "x,y,z".
     #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
     target: Option<Vec3>,
-    /// Camera up "x,y,z".
-    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true, default_value = "0,1,0")]
-    up: Vec3,
+    /// Camera up "x,y,z" (with --eye/--target; default 0,1,0).
+    #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
+    up: Option<Vec3>,
     /// Vertical field of view in degrees (with --eye/--target; default 45, or the scene camera's).
     #[arg(long)]
     fov: Option<f32>,
@@ -482,12 +482,15 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         (Some(eye), Some(target)) => Some(CameraOverride {
             eye,
             target,
-            up: cli.up,
+            up: cli.up.unwrap_or(Vec3::Y),
             yfov_degrees: cli.fov.unwrap_or(45.0),
         }),
         (None, None) => {
             if cli.fov.is_some() {
                 bail!("--fov needs --eye and --target (the scene camera keeps its own field of view)");
+            }
+            if cli.up.is_some() {
+                bail!("--up needs --eye and --target (the scene camera keeps its own orientation)");
             }
             None
         }

@@ -495,7 +495,6 @@ impl RenderSettings {
         }
     }
 
-    /// Checks values the CLI cannot express as types; names the flag at fault.
     /// The parsed `--dump-passes` selection.
     pub fn dump_passes_selection(&self) -> anyhow::Result<Option<crate::dump::FrameSelection>> {
         self.dump_passes
@@ -504,6 +503,7 @@ impl RenderSettings {
             .transpose()
     }
 
+    /// Checks values the CLI cannot express as types; names the flag at fault.
     pub fn validate(&self) -> anyhow::Result<()> {
         use anyhow::bail;
         if self.compensate && self.attenuation == Attenuation::InverseSquare {
@@ -520,8 +520,14 @@ impl RenderSettings {
                 bail!("--renderdoc-capture {n}: the run renders frames 0..{} (--frames {})", self.frames.saturating_sub(1), self.frames);
             }
         }
-        if self.dump_passes_selection()?.is_some() && self.out_dir.is_none() {
+        let dump = self.dump_passes_selection()?;
+        if dump.is_some() && self.out_dir.is_none() {
             bail!("--dump-passes writes to OUT/passes: give --out");
+        }
+        if let Some(crate::dump::FrameSelection::List(frames)) = &dump {
+            if let Some(n) = frames.iter().find(|&&n| n >= self.frames) {
+                bail!("--dump-passes {n}: the run renders frames 0..{} (--frames {}), so nothing would be dumped", self.frames - 1, self.frames);
+            }
         }
         if self.width == 0 || self.width > MAX_IMAGE_SIDE {
             bail!("--width {}: must be between 1 and {MAX_IMAGE_SIDE}", self.width);
