@@ -463,6 +463,8 @@ pub fn parse_workgroup(s: &str) -> Result<[u32; 2], String> {
 
 /// Largest image side accepted (keeps per-pixel buffers well inside 32-bit indexing).
 pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// The most bounces a photon path may make (`--photon-max-bounces`).
+pub const MAX_PHOTON_BOUNCES: u32 = 1024;
 
 impl RenderSettings {
     /// Whether this run needs the VPL set (and so the photon pass).
@@ -553,6 +555,11 @@ impl RenderSettings {
         }
         if self.photon_max_bounces == 0 {
             bail!("--photon-max-bounces 0: photons need at least one bounce (use --no-gi for no indirect light)");
+        }
+        if self.photon_max_bounces > MAX_PHOTON_BOUNCES {
+            // The VPL buffer keeps room for 1024 paths of this length; beyond a few dozen bounces
+            // the roulette ends nearly every path anyway.
+            bail!("--photon-max-bounces {}: at most {MAX_PHOTON_BOUNCES}", self.photon_max_bounces);
         }
         if self.photon_min_bounces > self.photon_max_bounces {
             bail!(

@@ -177,7 +177,7 @@ impl PhotonEmitPass {
         if s.indirect == 0 {
             0
         } else {
-            (s.indirect / 4).max(1024 * s.max_bounces)
+            (s.indirect / 4).max(1024u32.saturating_mul(s.max_bounces))
         }
     }
 
