@@ -649,6 +649,11 @@ impl RenderSettings {
             if !f.is_finite() || f.length_squared() == 0.0 {
                 bail!("--eye and --target must differ");
             }
+            // Squares of the view vector's length must stay finite (normalising and the parallel
+            // test below square it); 1e18 leaves room, far beyond any scene.
+            if f.abs().max_element() > 1e18 || !f.length_squared().is_normal() {
+                bail!("--eye {} --target {}: their distance must be between 1e-18 and 1e18 (32-bit floats)", c.eye, c.target);
+            }
             if f.cross(c.up).length_squared() <= 1e-12 * f.length_squared() * c.up.length_squared().max(1e-30) {
                 bail!("--up must not be parallel to the view direction (--target minus --eye)");
             }

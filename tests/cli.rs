@@ -118,6 +118,8 @@ fn bad_flags() {
     assert_fails(&["--headless", "--max-bounces", "-5"], &["--max-bounces"]);
     // Flags that would be silently ignored are errors, as --fov without --eye is.
     assert_fails(&["--headless", "--up", "0,0,1"], &["--up", "--eye"]);
+    // A view vector whose square overflows is named as such, not as "--up parallel".
+    assert_fails(&["--headless", "--eye", "1e30,0,0", "--target", "0,0,0"], &["--eye", "distance"]);
     assert_fails(&["--headless", "--mode", "restir", "--photon-max-bounces", "4294967295"], &["--photon-max-bounces 4294967295"]);
     assert_fails(&["--headless", "--frames", "1", "--out", "/tmp", "--dump-passes", "5"], &["--dump-passes 5", "--frames 1"]);
     // A negative value for an unsigned flag names the flag and the value (clap took "-5" for an
