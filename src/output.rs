@@ -107,6 +107,11 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
             h.layer_size.height()
         );
     }
+    let has = |h: &exr::meta::header::Header, name: &str| h.channels.list.iter().any(|c| c.name.eq_case_insensitive(name));
+    if !meta.headers.iter().any(|h| ["R", "G", "B"].iter().all(|n| has(h, n))) {
+        let found: Vec<String> = meta.headers.iter().flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string())).collect();
+        anyhow::bail!("reading {}: no layer has R, G and B channels (found: {})", path.display(), found.join(", "));
+    }
     let image = read_first_rgba_layer_from_file(
         path,
         |resolution, _| RgbImage {
@@ -183,6 +188,19 @@ mod tests {
         std::fs::write(&path, bytes).unwrap();
         let err = format!("{:#}", read_exr(&path).unwrap_err());
         assert!(err.contains("100000×100000") && err.contains("huge.exr"), "{err}");
+    }
+
+    /// An EXR without R, G and B channels is an error that says so and lists what it has (the exr
+    /// crate's own message named no channel).
+    #[test]
+    fn an_exr_without_rgb_channels_names_its_channels() {
+        use exr::prelude::*;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("depth.exr");
+        let channels = SpecificChannels::build().with_channel("Z").with_pixel_fn(|_: Vec2<usize>| (1.0f32,));
+        Image::from_channels((2, 2), channels).write().to_file(&path).unwrap();
+        let err = format!("{:#}", read_exr(&path).unwrap_err());
+        assert!(err.contains("depth.exr") && err.contains("R, G and B") && err.contains("found: Z"), "{err}");
     }
 
     /// A reader polling the file while it is rewritten sees only whole versions (the window test
