@@ -327,6 +327,15 @@ impl FlyController {
         }
     }
 
+    /// Every held key released at `t` (the window lost focus, whose releases then go elsewhere):
+    /// what was held until `t` still counts, then the camera stops.
+    pub fn release_all(&mut self, t: f64) {
+        for key in [MoveKey::Forward, MoveKey::Back, MoveKey::Left, MoveKey::Right, MoveKey::Up, MoveKey::Down] {
+            self.key(key, false, t);
+        }
+        self.keys.fast = false;
+    }
+
     /// Shift held (six times faster) or not.
     pub fn set_fast(&mut self, fast: bool) {
         self.keys.fast = fast;
@@ -449,6 +458,25 @@ mod tests {
         f.set_fast(false);
         f.go_home();
         assert!(f.camera().same_view(&c));
+    }
+
+    #[test]
+    fn release_all_stops_the_camera_after_what_was_held() {
+        let c = cam();
+        let mut f = FlyController::new(&c, 10.0);
+        f.update(0.0);
+        f.set_fast(true);
+        f.key(MoveKey::Forward, true, 0.0);
+        f.key(MoveKey::Up, true, 0.0);
+        f.release_all(0.25);
+        assert!(f.update(0.5), "what was held until the release moves");
+        let after = f.camera().position;
+        assert!(!f.update(2.0), "nothing held afterwards");
+        assert_eq!(f.camera().position, after);
+        // Fast was released too: 0.25 s forward at 2 units/s is 0.5, not 3.
+        f.key(MoveKey::Forward, true, 2.0);
+        f.update(2.25);
+        assert!(((f.camera().position - after).length() - 0.5).abs() < 1e-3, "{:?}", f.camera().position - after);
     }
 
     #[test]

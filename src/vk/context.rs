@@ -365,7 +365,7 @@ impl Context {
                 let (mut r, rank) = inspect(&instance, i, *pd);
                 if let Some((loader, raw)) = &surface {
                     if present_family(&instance, loader, *raw, *pd).is_none() {
-                        r.missing.push("a compute queue that presents to the window (VK_KHR_swapchain)".into());
+                        r.missing.push("a compute and graphics queue that presents to the window (VK_KHR_swapchain)".into());
                     }
                 }
                 (r, rank, *pd)
@@ -421,7 +421,7 @@ impl Context {
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
         let queue_family = match &surface {
             Some((loader, raw)) => present_family(&instance, loader, *raw, physical_device)
-                .context("the chosen device has no compute queue that presents to the window")?,
+                .context("the chosen device has no compute and graphics queue that presents to the window")?,
             None => families
                 .iter()
                 .position(|f| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && f.timestamp_valid_bits > 0)
@@ -641,8 +641,8 @@ impl Context {
     }
 }
 
-/// The queue family of `pd` that computes and presents to `surface` (with timestamps when one
-/// does), if any.
+/// The queue family of `pd` that computes, draws (the preview's blit and the overlay's render pass
+/// need a graphics queue) and presents to `surface` (with timestamps when one does), if any.
 fn present_family(
     instance: &ash::Instance,
     loader: &ash::khr::surface::Instance,
@@ -655,7 +655,7 @@ fn present_family(
         // SAFETY: as above; i indexes an existing family.
         unsafe { loader.get_physical_device_surface_support(pd, i as u32, surface) }.unwrap_or(false)
     };
-    let ok = |i: usize, f: &vk::QueueFamilyProperties| f.queue_flags.contains(vk::QueueFlags::COMPUTE) && presents(i);
+    let ok = |i: usize, f: &vk::QueueFamilyProperties| f.queue_flags.contains(vk::QueueFlags::COMPUTE | vk::QueueFlags::GRAPHICS) && presents(i);
     let with_timestamps = families.iter().enumerate().position(|(i, f)| ok(i, f) && f.timestamp_valid_bits > 0);
     with_timestamps.or_else(|| families.iter().enumerate().position(|(i, f)| ok(i, f))).map(|i| i as u32)
 }

@@ -133,10 +133,16 @@ impl ApplicationHandler for App {
         }
     }
 
-    fn about_to_wait(&mut self, _event_loop: &ActiveEventLoop) {
+    fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
         if let Some(r) = &self.running {
-            if !r.frozen || r.step {
+            let size = r.window.inner_size();
+            let drawing = (!r.frozen || r.step) && size.width > 0 && size.height > 0;
+            if drawing {
+                event_loop.set_control_flow(ControlFlow::Poll);
                 r.window.request_redraw();
+            } else {
+                // Frozen or minimised: sleep until an event (a key, a resize) instead of spinning.
+                event_loop.set_control_flow(ControlFlow::Wait);
             }
         }
     }
@@ -211,12 +217,17 @@ impl App {
             // The panel takes the pointer over it, and the keys while one of its widgets has focus.
             let consumed = r.ui.on_window_event(&r.window, &event);
             let keyboard = matches!(event, WindowEvent::KeyboardInput { .. });
-            if consumed && (!keyboard || r.ui.wants_keyboard()) && !matches!(event, WindowEvent::Resized(_) | WindowEvent::CloseRequested) {
+            // Key releases always reach the controller: a movement key held when a widget took
+            // focus would otherwise stay down and the camera fly on.
+            let release = matches!(&event, WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Released);
+            if consumed && !release && (!keyboard || r.ui.wants_keyboard()) && !matches!(event, WindowEvent::Resized(_) | WindowEvent::CloseRequested) {
                 return Ok(());
             }
         }
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
+            // Releases made while another window has focus never arrive here.
+            WindowEvent::Focused(false) => r.controller.release_all(r.clock.elapsed().as_secs_f64()),
             WindowEvent::Resized(_) => r.resize_pending = true,
             WindowEvent::KeyboardInput { event, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
@@ -315,7 +326,8 @@ impl App {
             Action::SpawnLight | Action::RemoveLight => {
                 let mut extra = r.renderer.extra_lights().to_vec();
                 if action == Action::SpawnLight {
-                    extra.push(spawned_light(&r.controller.camera(), &r.scene));
+                    let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames as f32));
+                    extra.push(spawned_light(&camera, &r.scene));
                 } else if extra.pop().is_none() {
                     r.message = "no spawned light to remove".into();
                     return Ok(());
@@ -326,18 +338,29 @@ impl App {
                     Err(e) => r.message = format!("refused: {e:#}"),
                 }
             }
+            // Writing can fail (a full disk, a read-only --out): the message says so and the
+            // window stays, as a refused setting does.
             Action::SaveImage => {
                 let outputs = Vec::new();
                 let displayed = r.displayed(self.opts.present_mode);
-                let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start, displayed)?;
-                r.message = format!("wrote {}", summary.outputs.join(", "));
+                r.message = match finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start, displayed) {
+                    Ok(summary) => format!("wrote {}", summary.outputs.join(", ")),
+                    Err(e) => format!("saving failed: {e:#}"),
+                };
                 log::info!("{}", r.message);
             }
             Action::SaveCamera => {
                 let file = camera_file(&self.settings);
-                std::fs::write(&file, CameraPath::still(&r.controller.camera()).to_json())
-                    .with_context(|| format!("writing {}", file.display()))?;
-                r.message = format!("camera saved to {}", file.display());
+                let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames as f32));
+                let written = file
+                    .parent()
+                    .filter(|d| !d.as_os_str().is_empty())
+                    .map_or(Ok(()), std::fs::create_dir_all)
+                    .and_then(|()| std::fs::write(&file, CameraPath::still(&camera).to_json()));
+                r.message = match written {
+                    Ok(()) => format!("camera saved to {}", file.display()),
+                    Err(e) => format!("saving the camera to {} failed: {e}", file.display()),
+                };
             }
             Action::LoadCamera => {
                 let file = camera_file(&self.settings);
@@ -354,7 +377,7 @@ impl App {
             Action::Freeze => r.frozen = !r.frozen,
             Action::Step => r.step = r.frozen,
             Action::RenderDocCapture => {
-                let camera = r.controller.camera();
+                let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames as f32));
                 let mut rd = crate::vk::renderdoc::Capturer::attach(&r.ctx);
                 if rd.attached() {
                     r.renderer.complete_all()?;
@@ -377,9 +400,12 @@ impl App {
                 let dir = s.out_dir.clone().unwrap_or_else(|| PathBuf::from(".")).join("passes");
                 let plan = r.renderer.last_plan().context("a frame was just recorded")?.clone();
                 let variance = Some(r.renderer.read_variance()?);
-                let frame = crate::dump::write_frame(&dir, r.frames, s.width, s.height, &s, &plan, &stats, &captured, variance)?;
-                let page = crate::dump::write_inspector(&dir, &[frame])?;
-                r.message = format!("passes written: {}", page.display());
+                let written = crate::dump::write_frame(&dir, r.frames, s.width, s.height, &s, &plan, &stats, &captured, variance)
+                    .and_then(|frame| crate::dump::write_inspector(&dir, &[frame]));
+                r.message = match written {
+                    Ok(page) => format!("passes written: {}", page.display()),
+                    Err(e) => format!("writing the passes failed: {e:#}"),
+                };
                 log::info!("{}", r.message);
             }
             Action::Quit => event_loop.exit(),
@@ -402,18 +428,35 @@ impl App {
             if size.width == 0 || size.height == 0 {
                 return Ok(()); // minimised: nothing to show until restored
             }
-            r.resize_pending = false;
             // SAFETY: nothing may use the old swapchain or targets while they are replaced.
             unsafe { r.ctx.device.device_wait_idle() }.context("waiting for the device")?;
-            r.swapchain = Swapchain::new(&r.ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, Some(&r.swapchain))?;
+            let wanted = vk::Extent2D { width: size.width, height: size.height };
+            r.swapchain = match Swapchain::new(&r.ctx, wanted, self.opts.present_mode, Some(&r.swapchain)) {
+                Ok(sc) => sc,
+                // The surface went to zero area while the window still reported a size (being
+                // minimised): try again on a later frame.
+                Err(e) if e.is::<swapchain::NoArea>() => return Ok(()),
+                Err(e) => return Err(e),
+            };
+            r.resize_pending = false;
             r.presenter = Presenter::new(&r.ctx, &r.swapchain)?;
             r.ui.set_swapchain(&r.swapchain)?;
             let (w, h) = (r.swapchain.extent.width, r.swapchain.extent.height);
-            self.settings.width = w;
-            self.settings.height = h;
-            let mut s = r.renderer.settings().clone();
-            (s.width, s.height) = (w, h);
-            r.renderer.apply_settings(s)?;
+            // A swapchain recreated at the same size (out of date, suboptimal) keeps the renderer
+            // and what it has accumulated.
+            if (w, h) != (r.renderer.settings().width, r.renderer.settings().height) {
+                let mut s = r.renderer.settings().clone();
+                (s.width, s.height) = (w, h);
+                if let Err(e) = r.renderer.apply_settings(s.clone()) {
+                    // E.g. brute force refuses this many pixel × VPL pairs: fall back to ReSTIR at
+                    // the new size rather than close the window.
+                    s.mode = Mode::Restir;
+                    r.renderer.apply_settings(s).with_context(|| format!("resizing to {w}×{h}"))?;
+                    r.message = format!("refused at {w}×{h}: {e:#}; switched to mode restir");
+                    log::warn!("{}", r.message);
+                }
+                self.settings = r.renderer.settings().clone();
+            }
         }
         let camera = match &self.path {
             Some(p) => p.at(r.frames as f32),
@@ -435,6 +478,10 @@ impl App {
             Shown::YesRecreate => r.resize_pending = true,
             Shown::OutOfDate => {
                 r.resize_pending = true;
+                // The overlay's input was taken by prepare(): apply its edit even so.
+                if let Some(e) = edit {
+                    self.change(&e.what, |s| *s = e.settings)?;
+                }
                 return Ok(());
             }
         }

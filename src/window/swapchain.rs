@@ -9,6 +9,11 @@ use ash::vk;
 use crate::settings::PresentMode;
 use crate::vk::Context;
 
+/// The surface has no area (a window being minimised): the caller waits and tries again.
+#[derive(Debug, thiserror::Error)]
+#[error("the window has no area (minimised)")]
+pub struct NoArea;
+
 fn vk_present_mode(mode: PresentMode) -> vk::PresentModeKHR {
     match mode {
         PresentMode::Fifo => vk::PresentModeKHR::FIFO,
@@ -67,7 +72,7 @@ impl Swapchain {
             }
         };
         if extent.width == 0 || extent.height == 0 {
-            bail!("the window has no area (minimised)");
+            return Err(NoArea.into());
         }
         let mut count = caps.min_image_count + 1;
         if caps.max_image_count > 0 {
@@ -76,6 +81,22 @@ impl Swapchain {
         if !caps.supported_usage_flags.contains(vk::ImageUsageFlags::TRANSFER_DST) {
             bail!("the surface's images cannot be transfer destinations; cannot show the preview");
         }
+        // The preview is blitted into the swapchain image: its format must take blits.
+        // SAFETY: valid physical device.
+        let format_props = unsafe { ctx.instance.get_physical_device_format_properties(pd, format.format) };
+        if !format_props.optimal_tiling_features.contains(vk::FormatFeatureFlags::BLIT_DST) {
+            bail!("the surface's format {:?} cannot be a blit destination; cannot show the preview", format.format);
+        }
+        // Opaque where offered (every desktop driver seen); otherwise the first mode the surface has.
+        let composite_alpha = [
+            vk::CompositeAlphaFlagsKHR::OPAQUE,
+            vk::CompositeAlphaFlagsKHR::INHERIT,
+            vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
+            vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
+        ]
+        .into_iter()
+        .find(|m| caps.supported_composite_alpha.contains(*m))
+        .context("the surface offers no composite alpha mode")?;
         let info = vk::SwapchainCreateInfoKHR::default()
             .surface(p.surface)
             .min_image_count(count)
@@ -86,7 +107,7 @@ impl Swapchain {
             .image_usage(vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::COLOR_ATTACHMENT)
             .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
             .pre_transform(caps.current_transform)
-            .composite_alpha(vk::CompositeAlphaFlagsKHR::OPAQUE)
+            .composite_alpha(composite_alpha)
             .present_mode(present_mode)
             .clipped(true)
             .old_swapchain(old.map(|o| o.raw).unwrap_or_default());
