@@ -56,6 +56,19 @@ vec3 project_to_previous_frame(vec3 x) {
                            vec2(frame.width, frame.height));
 }
 
+// The previous frame's pixel of a point projected there (q from project_to_previous_frame): false
+// when it lies behind the previous camera or off its image. The tests are made on the floats
+// before any conversion: converting a float beyond int's range (a point barely in front of the
+// camera) is undefined, and NaN fails every comparison.
+bool previous_pixel(vec3 q, out ivec2 pq) {
+    pq = ivec2(0);
+    if (!(q.z > 0.0 && q.x >= 0.0 && q.y >= 0.0 && q.x < float(frame.width) && q.y < float(frame.height))) {
+        return false;
+    }
+    pq = min(ivec2(floor(q.xy)), ivec2(frame.width, frame.height) - 1);
+    return true;
+}
+
 // The G-buffer's two halves: element of pixel `index` in this frame's and the previous frame's.
 uint surface_slot(uint index) {
     return frame.surface_offset + index;

@@ -50,8 +50,8 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, out Reserv
     uint prev_index = index;
     if (!same_domain) {
         vec3 q = project_to_previous_frame(s.position);
-        ivec2 pq = ivec2(floor(q.xy));
-        if (q.z <= 0.0 || pq.x < 0 || pq.y < 0 || pq.x >= int(frame.width) || pq.y >= int(frame.height)) {
+        ivec2 pq;
+        if (!previous_pixel(q, pq)) {
             return false;  // off screen or behind the previous camera: no history
         }
         prev_index = uint(pq.y) * frame.width + uint(pq.x);

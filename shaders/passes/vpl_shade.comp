@@ -28,8 +28,8 @@ layout(push_constant) uniform Push {
 vec3 motion_view(uvec2 pixel, Surface s) {
     vec3 q = project_to_previous_frame(s.position);
     vec2 motion = q.xy - (vec2(pixel) + 0.5);
-    ivec2 pq = ivec2(floor(q.xy));
-    if (q.z <= 0.0 || pq.x < 0 || pq.y < 0 || pq.x >= int(frame.width) || pq.y >= int(frame.height)) {
+    ivec2 pq;
+    if (!previous_pixel(q, pq)) {
         return vec3(motion, -1.0);
     }
     Surface sp = surfaces[prev_surface_slot(uint(pq.y) * frame.width + uint(pq.x))];
