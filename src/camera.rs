@@ -328,7 +328,8 @@ impl FlyController {
     }
 
     /// Every held key released at `t` (the window lost focus, whose releases then go elsewhere):
-    /// what was held until `t` still counts, then the camera stops.
+    /// what was held until `t` still counts (at normal speed: Shift is released too), then the
+    /// camera stops.
     pub fn release_all(&mut self, t: f64) {
         for key in [MoveKey::Forward, MoveKey::Back, MoveKey::Left, MoveKey::Right, MoveKey::Up, MoveKey::Down] {
             self.key(key, false, t);

@@ -867,6 +867,11 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
     } else {
         ReferenceTarget::New { first_frame, frames: settings.frames }
     };
+    // Before the device and the scene, as well as before the frames (make_reference checks again).
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("--out {}: creating {}: {e}", out.display(), dir.display()))?;
+    }
+    restir_vpl::output::check_writable(out).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
     let (ctx, scene) = upload(settings)?;
     let mut next_report = 0u32;
     let started = std::time::Instant::now();

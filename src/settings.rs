@@ -526,9 +526,10 @@ impl RenderSettings {
         if dump.is_some() && self.out_dir.is_none() {
             bail!("--dump-passes writes to OUT/passes: give --out");
         }
-        if let Some(crate::dump::FrameSelection::List(frames)) = &dump {
+        // (--frames 0 is reported below, under its own name.)
+        if let (Some(crate::dump::FrameSelection::List(frames)), true) = (&dump, self.frames > 0) {
             if let Some(n) = frames.iter().find(|&&n| n >= self.frames) {
-                bail!("--dump-passes {n}: the run renders frames 0..{} (--frames {}), so nothing would be dumped", self.frames - 1, self.frames);
+                bail!("--dump-passes {n}: the run renders frames 0..{} (--frames {}), so nothing would be dumped", self.frames.saturating_sub(1), self.frames);
             }
         }
         if self.width == 0 || self.width > MAX_IMAGE_SIDE {
@@ -651,7 +652,8 @@ impl RenderSettings {
             }
             // Squares of the view vector's length must stay finite (normalising and the parallel
             // test below square it); 1e18 leaves room, far beyond any scene.
-            if f.abs().max_element() > 1e18 || !f.length_squared().is_normal() {
+            let d = f64::from(f.x).hypot(f64::from(f.y)).hypot(f64::from(f.z));
+            if !(1e-18..=1e18).contains(&d) {
                 bail!("--eye {} --target {}: their distance must be between 1e-18 and 1e18 (32-bit floats)", c.eye, c.target);
             }
             if f.cross(c.up).length_squared() <= 1e-12 * f.length_squared() * c.up.length_squared().max(1e-30) {

@@ -122,6 +122,7 @@ fn bad_flags() {
     assert_fails(&["--headless", "--eye", "1e30,0,0", "--target", "0,0,0"], &["--eye", "distance"]);
     assert_fails(&["--headless", "--mode", "restir", "--photon-max-bounces", "4294967295"], &["--photon-max-bounces 4294967295"]);
     assert_fails(&["--headless", "--frames", "1", "--out", "/tmp", "--dump-passes", "5"], &["--dump-passes 5", "--frames 1"]);
+    assert_fails(&["--headless", "--frames", "0", "--out", "/tmp", "--dump-passes", "0"], &["--frames 0"]);
     // A negative value for an unsigned flag names the flag and the value (clap took "-5" for an
     // unknown flag before allow_negative_numbers), in subcommands too.
     assert_fails(&["--headless", "--width", "-5"], &["--width", "'-5'"]);

@@ -227,7 +227,10 @@ impl App {
         match event {
             WindowEvent::CloseRequested => event_loop.exit(),
             // Releases made while another window has focus never arrive here.
-            WindowEvent::Focused(false) => r.controller.release_all(r.clock.elapsed().as_secs_f64()),
+            WindowEvent::Focused(false) => {
+                r.controller.release_all(r.clock.elapsed().as_secs_f64());
+                r.looking = false;
+            }
             WindowEvent::Resized(_) => r.resize_pending = true,
             WindowEvent::KeyboardInput { event, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
@@ -326,7 +329,8 @@ impl App {
             Action::SpawnLight | Action::RemoveLight => {
                 let mut extra = r.renderer.extra_lights().to_vec();
                 if action == Action::SpawnLight {
-                    let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames as f32));
+                    // The camera on screen: frame() shows frame k from p.at(k) and then counts it.
+                    let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames.saturating_sub(1) as f32));
                     extra.push(spawned_light(&camera, &r.scene));
                 } else if extra.pop().is_none() {
                     r.message = "no spawned light to remove".into();
@@ -351,7 +355,7 @@ impl App {
             }
             Action::SaveCamera => {
                 let file = camera_file(&self.settings);
-                let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames as f32));
+                let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames.saturating_sub(1) as f32));
                 let written = file
                     .parent()
                     .filter(|d| !d.as_os_str().is_empty())
@@ -447,9 +451,13 @@ impl App {
             if (w, h) != (r.renderer.settings().width, r.renderer.settings().height) {
                 let mut s = r.renderer.settings().clone();
                 (s.width, s.height) = (w, h);
-                if let Err(e) = r.renderer.apply_settings(s.clone()) {
-                    // E.g. brute force refuses this many pixel × VPL pairs: fall back to ReSTIR at
-                    // the new size rather than close the window.
+                let refused = match r.renderer.apply_settings(s.clone()) {
+                    Err(e) if s.mode == Mode::Bruteforce => Some(e),
+                    other => other.map(|()| None).with_context(|| format!("resizing to {w}×{h}"))?,
+                };
+                if let Some(e) = refused {
+                    // Brute force refuses this many pixel × VPL pairs: fall back to ReSTIR at the
+                    // new size rather than close the window.
                     s.mode = Mode::Restir;
                     r.renderer.apply_settings(s).with_context(|| format!("resizing to {w}×{h}"))?;
                     r.message = format!("refused at {w}×{h}: {e:#}; switched to mode restir");
