@@ -74,7 +74,8 @@ pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
     let img = |pixels: Vec<[f32; 3]>| RgbImage { width, height, pixels };
     match c.kind {
         CaptureKind::Surfaces => {
-            let s: &[GpuSurface] = bytemuck::cast_slice(&c.bytes[..n * std::mem::size_of::<GpuSurface>()]);
+            // Copied out as records: a byte vector has no alignment to cast in place.
+            let s: Vec<GpuSurface> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuSurface>()]);
             let ids = |s: &GpuSurface| if s.hit_t < 0.0 { [0.0; 3] } else { hash_colour(s.instance.wrapping_mul(65_599) ^ s.triangle) };
             vec![
                 Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| s.position).collect()) },
@@ -86,11 +87,11 @@ pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
             ]
         }
         CaptureKind::Rgba => {
-            let v: &[[f32; 4]] = bytemuck::cast_slice(&c.bytes[..n * 16]);
+            let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&c.bytes[..n * 16]);
             vec![Decoded { what: c.buffer, look: "hdr", image: img(v.iter().map(|p| [p[0], p[1], p[2]]).collect()) }]
         }
         CaptureKind::Reservoirs => {
-            let r: &[GpuReservoir] = bytemuck::cast_slice(&c.bytes[..n * std::mem::size_of::<GpuReservoir>()]);
+            let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuReservoir>()]);
             let vpl = |r: &GpuReservoir| if r.vpl == RESERVOIR_EMPTY { [0.0; 3] } else { hash_colour(r.vpl) };
             vec![
                 Decoded { what: "vpl", look: "ids", image: img(r.iter().map(vpl).collect()) },

@@ -579,12 +579,7 @@ fn real_main(cli: Cli) -> Result<()> {
         };
         // Checked before any reference renders, naming the flag (these were caught late, under
         // another flag's name).
-        for (flag, value) in [("--runs", runs), ("--pt-frames", pt_frames), ("--vpl-frames", vpl_frames)] {
-            if *value == Some(0) {
-                bail!("{flag} 0: at least 1 is needed");
-            }
-        }
-        check_checkpoints(checkpoints.as_deref())?;
+        check_counts(&[("--runs", *runs), ("--pt-frames", *pt_frames), ("--vpl-frames", *vpl_frames)], checkpoints.as_deref())?;
         opts.out_dir = out.clone();
         opts.runs = runs.unwrap_or(opts.runs);
         opts.pt_reference_frames = pt_frames.unwrap_or(opts.pt_reference_frames);
@@ -603,10 +598,7 @@ fn real_main(cli: Cli) -> Result<()> {
     if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
-        if *runs == Some(0) {
-            bail!("--runs 0: at least 1 is needed");
-        }
-        check_checkpoints(checkpoints.as_deref())?;
+        check_counts(&[("--runs", *runs)], checkpoints.as_deref())?;
         if (*quick || runs.is_some()) && !*curves && !*motion && !*radius && !*scaling {
             bail!("--quick and --runs go with --curves, --motion, --radius or --scaling");
         }
@@ -868,10 +860,7 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
         ReferenceTarget::New { first_frame, frames: settings.frames }
     };
     // Before the device and the scene, as well as before the frames (make_reference checks again).
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("--out {}: creating {}: {e}", out.display(), dir.display()))?;
-    }
-    restir_vpl::output::check_writable(out).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
+    restir_vpl::output::prepare_output_file(out).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
     let (ctx, scene) = upload(settings)?;
     let mut next_report = 0u32;
     let started = std::time::Instant::now();
@@ -894,8 +883,12 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
     Ok(())
 }
 
-/// `--checkpoints`: accumulated frame counts, each at least 1.
-fn check_checkpoints(checkpoints: Option<&[u32]>) -> Result<()> {
+/// Counts given on the command line (`--runs`, frame counts) are at least 1, and so is every
+/// `--checkpoints` entry (accumulated frame counts).
+fn check_counts(counts: &[(&str, Option<u32>)], checkpoints: Option<&[u32]>) -> Result<()> {
+    if let Some((flag, _)) = counts.iter().find(|(_, v)| *v == Some(0)) {
+        bail!("{flag} 0: at least 1 is needed");
+    }
     match checkpoints {
         Some(c) if c.is_empty() || c.contains(&0) => bail!("--checkpoints {c:?}: every checkpoint is a frame count of at least 1"),
         _ => Ok(()),

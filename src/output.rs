@@ -43,6 +43,15 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
 }
 
+/// Creates `path`'s directory and checks that it takes the file ([`check_writable`]): called
+/// before a long render whose result goes to `path`.
+pub fn prepare_output_file(path: &Path) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    check_writable(path)
+}
+
 /// Checks that `path` can be written the way [`write_replacing`] will: its directory exists and
 /// takes a new file (created and removed again here), and `path` is not a directory.
 pub fn check_writable(path: &Path) -> Result<()> {

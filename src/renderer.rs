@@ -1188,7 +1188,7 @@ impl Renderer {
         let s: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_sum, pixels)?;
         let c: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_compensation, pixels)?;
         let q: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_squares, pixels)?;
-        Ok((0..self.parts.targets.pixels() as usize)
+        Ok((0..pixels)
             .map(|i| {
                 let mut out = [0f32; 3];
                 for ch in 0..3 {

@@ -122,8 +122,9 @@ impl ReferenceMeta {
             ensure!(img.pixels.len() == img.width as usize * img.height as usize, "pixel count does not match the size");
             // A reference is a mean of finite frames; a NaN or Inf would spread into every merge
             // and comparison made from it.
-            let bad = img.pixels.iter().filter(|p| p.iter().any(|c| !c.is_finite())).count();
-            if let Some(i) = img.pixels.iter().position(|p| p.iter().any(|c| !c.is_finite())) {
+            let non_finite = |p: &[f32; 3]| p.iter().any(|c| !c.is_finite());
+            if let Some(i) = img.pixels.iter().position(non_finite) {
+                let bad = img.pixels[i..].iter().filter(|p| non_finite(p)).count();
                 bail!(
                     "{bad} pixel(s) are NaN or Inf, the first at ({}, {}): {:?}",
                     i % img.width as usize,
@@ -561,10 +562,7 @@ pub fn make_reference(
     };
     // Where the reference goes is checked before the frames, not after them: a mistyped path must
     // not cost a whole reference render.
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    }
-    crate::output::check_writable(path)?;
+    crate::output::prepare_output_file(path)?;
     let part = render_reference(ctx.clone(), scene.clone(), settings, first, frames, |done| progress(done, frames))?;
     let rendered = Some((frames, part.gpu_ms, part.wall_ms));
     let (image, meta) = match existing {

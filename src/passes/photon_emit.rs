@@ -20,7 +20,7 @@ use crate::gpu_types::{GpuVpl, PHOTON_EMIT_DIRECT, PHOTON_EMIT_PATHS, PHOTON_EMI
 use crate::lights::LightSet;
 use crate::shaders;
 use crate::settings::PhotonSettings;
-use crate::vk::buffer::{read_back, read_back_records};
+use crate::vk::buffer::read_back_records;
 use crate::vk::pipeline::{compute_barrier, storage};
 use crate::vk::{Buffer, ComputePipeline, Context, GpuTimer};
 
@@ -314,9 +314,8 @@ impl PhotonEmitPass {
 
     /// The VPL counter and the rays of the last batch.
     fn read_counter(&self) -> Result<(u32, u32)> {
-        let bytes = read_back(&self.ctx, &self.counter)?;
-        let word = |i: usize| u32::from_le_bytes(bytes[4 * i..4 * i + 4].try_into().expect("the counter buffer has 16 bytes"));
-        Ok((word(0), word(2)))
+        let words: Vec<u32> = read_back_records(&self.ctx, &self.counter, 3)?;
+        Ok((words[0], words[2]))
     }
 
     /// Traces the photons and fills the VPL buffer (direct, then indirect in (path, bounce) order).

@@ -19,7 +19,7 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{KeyCode, PhysicalKey};
 use winit::window::{Window, WindowId};
 
-use crate::camera::{CameraPath, FlyController, MoveKey};
+use crate::camera::{Camera, CameraPath, FlyController, MoveKey};
 use crate::headless::{finish_run, Summary};
 use crate::lights::PointEmitter;
 use crate::renderer::Renderer;
@@ -329,8 +329,7 @@ impl App {
             Action::SpawnLight | Action::RemoveLight => {
                 let mut extra = r.renderer.extra_lights().to_vec();
                 if action == Action::SpawnLight {
-                    // The camera on screen: frame() shows frame k from p.at(k) and then counts it.
-                    let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames.saturating_sub(1) as f32));
+                    let camera = r.camera_on_screen(self.path.as_ref());
                     extra.push(spawned_light(&camera, &r.scene));
                 } else if extra.pop().is_none() {
                     r.message = "no spawned light to remove".into();
@@ -355,7 +354,7 @@ impl App {
             }
             Action::SaveCamera => {
                 let file = camera_file(&self.settings);
-                let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames.saturating_sub(1) as f32));
+                let camera = r.camera_on_screen(self.path.as_ref());
                 let written = file
                     .parent()
                     .filter(|d| !d.as_os_str().is_empty())
@@ -381,7 +380,7 @@ impl App {
             Action::Freeze => r.frozen = !r.frozen,
             Action::Step => r.step = r.frozen,
             Action::RenderDocCapture => {
-                let camera = self.path.as_ref().map_or_else(|| r.controller.camera(), |p| p.at(r.frames as f32));
+                let camera = r.next_camera(self.path.as_ref());
                 let mut rd = crate::vk::renderdoc::Capturer::attach(&r.ctx);
                 if rd.attached() {
                     r.renderer.complete_all()?;
@@ -395,10 +394,7 @@ impl App {
                 log::info!("{}", r.message);
             }
             Action::DumpPasses => {
-                let camera = match &self.path {
-                    Some(p) => p.at(r.frames as f32),
-                    None => r.controller.camera(),
-                };
+                let camera = r.next_camera(self.path.as_ref());
                 let (stats, captured) = r.renderer.render_frame_captured(&camera, true)?;
                 let s = r.renderer.settings().clone();
                 let dir = s.out_dir.clone().unwrap_or_else(|| PathBuf::from(".")).join("passes");
@@ -451,17 +447,17 @@ impl App {
             if (w, h) != (r.renderer.settings().width, r.renderer.settings().height) {
                 let mut s = r.renderer.settings().clone();
                 (s.width, s.height) = (w, h);
-                let refused = match r.renderer.apply_settings(s.clone()) {
-                    Err(e) if s.mode == Mode::Bruteforce => Some(e),
-                    other => other.map(|()| None).with_context(|| format!("resizing to {w}×{h}"))?,
-                };
-                if let Some(e) = refused {
+                match r.renderer.apply_settings(s.clone()) {
+                    Ok(()) => {}
                     // Brute force refuses this many pixel × VPL pairs: fall back to ReSTIR at the
                     // new size rather than close the window.
-                    s.mode = Mode::Restir;
-                    r.renderer.apply_settings(s).with_context(|| format!("resizing to {w}×{h}"))?;
-                    r.message = format!("refused at {w}×{h}: {e:#}; switched to mode restir");
-                    log::warn!("{}", r.message);
+                    Err(e) if s.mode == Mode::Bruteforce => {
+                        s.mode = Mode::Restir;
+                        r.renderer.apply_settings(s).with_context(|| format!("resizing to {w}×{h}"))?;
+                        r.message = format!("refused at {w}×{h}: {e:#}; switched to mode restir");
+                        log::warn!("{}", r.message);
+                    }
+                    Err(e) => return Err(e.context(format!("resizing to {w}×{h}"))),
                 }
                 self.settings = r.renderer.settings().clone();
             }
@@ -531,6 +527,17 @@ impl App {
 }
 
 impl Running {
+    /// The camera of the frame on screen: frame() shows frame k from the path's p.at(k), then
+    /// counts it.
+    fn camera_on_screen(&self, path: Option<&CameraPath>) -> Camera {
+        path.map_or_else(|| self.controller.camera(), |p| p.at(self.frames.saturating_sub(1) as f32))
+    }
+
+    /// The camera of the next frame (what a key that renders one, F4 or F12, renders).
+    fn next_camera(&self, path: Option<&CameraPath>) -> Camera {
+        path.map_or_else(|| self.controller.camera(), |p| p.at(self.frames as f32))
+    }
+
     /// Frames per second as shown, from the third frame on (None before two are timed).
     fn displayed(&self, mode: PresentMode) -> Option<crate::headless::DisplayedFrames> {
         let (from, last) = (self.timed_from?, self.last_shown?);
