@@ -1,6 +1,7 @@
 //! The binding-free VPL and reservoir headers, run on the GPU through shaders/tests/vpl_math.comp:
 //! Yuksel's attenuation limits, no NaN/Inf from a VPL on the shaded point, the reservoir picks
-//! samples with the right probabilities (chi-square), and the pairwise MIS weights sum to one.
+//! samples with the right probabilities (chi-square), the pairwise MIS weights sum to one, and the
+//! random streams of different pixels and frames do not replay each other.
 
 mod common;
 
@@ -40,7 +41,9 @@ fn run(test: u32, count: u32, n: u32, inputs: &[[f32; 4]], vpls: &[GpuVpl], poin
     let vpls_b = Buffer::with_data(&ctx, "test.vpls", &pad(bytemuck::cast_slice(vpls)), usage).unwrap();
     let points_b = Buffer::with_data(&ctx, "test.points", &pad(bytemuck::cast_slice(points)), usage).unwrap();
     let outputs_b = Buffer::with_data(&ctx, "test.outputs", &vec![0u8; count as usize * 16], usage).unwrap();
-    let chosen_b = Buffer::with_data(&ctx, "test.chosen", &vec![0u8; count as usize * 4], usage).unwrap();
+    // Case 4 writes n numbers per invocation.
+    let chosen_len = if test == 4 { count as usize * n as usize } else { count as usize };
+    let chosen_b = Buffer::with_data(&ctx, "test.chosen", &vec![0u8; chosen_len * 4], usage).unwrap();
     for (i, b) in [&inputs_b, &vpls_b, &points_b, &outputs_b, &chosen_b].iter().enumerate() {
         pipeline.set1.write_buffer(i as u32, b).unwrap();
     }
@@ -49,7 +52,7 @@ fn run(test: u32, count: u32, n: u32, inputs: &[[f32; 4]], vpls: &[GpuVpl], poin
     let outputs: Vec<[f32; 4]> = bytemuck::cast_slice(&restir_vpl::vk::buffer::read_back(&ctx, &outputs_b).unwrap()).to_vec();
     let chosen: Vec<u32> = bytemuck::cast_slice(&restir_vpl::vk::buffer::read_back(&ctx, &chosen_b).unwrap()).to_vec();
     assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
-    Run { outputs: outputs[..count as usize].to_vec(), chosen: chosen[..count as usize].to_vec() }
+    Run { outputs: outputs[..count as usize].to_vec(), chosen: chosen[..chosen_len].to_vec() }
 }
 
 fn mode_bits(mode: u32) -> f32 {
@@ -192,4 +195,41 @@ fn pairwise_mis_weights_sum_to_one() {
     for (i, o) in out.outputs.iter().enumerate() {
         assert!((o[0] - 1.0).abs() < 1e-5, "case {i} (k = {}): MIS weights sum to {}", o[1], o[0]);
     }
+}
+
+#[test]
+fn random_streams_of_different_pixels_do_not_overlap() {
+    // 65,536 streams (128 × 128 pixels × 4 frames, seeded as the passes seed them), 64 numbers
+    // each. Two streams that run the same generator cycle from nearby starting points give the same
+    // numbers shifted; every pair of consecutive numbers (64 bits) is looked up in all the others.
+    // With one cycle of 2^32 for all streams (a single LCG increment), a pair of streams overlaps by
+    // 2 or more numbers with probability ~(2 × 64 − 3) / 2^32, so ~62 of the 2.1e9 pairs would
+    // (Poisson: P(none) = e^-62; the generator before per-stream increments gave 88). Independent random 32-bit numbers would give a repeated 64-bit
+    // pair with probability ~(65,536 × 63)² / 2 / 2^64 ≈ 5e-7. So one overlap fails the test.
+    const STREAMS: u32 = 128 * 128 * 4;
+    const LEN: u32 = 64;
+    let out = run(4, STREAMS, LEN, &[], &[], &[], GpuVplParams::default());
+    assert_eq!(out.chosen.len(), (STREAMS * LEN) as usize);
+    let mut seen: std::collections::HashMap<u64, u32> = std::collections::HashMap::with_capacity((STREAMS * LEN) as usize);
+    let mut overlapping: std::collections::BTreeSet<(u32, u32)> = Default::default();
+    for s in 0..STREAMS {
+        let stream = &out.chosen[(s * LEN) as usize..((s + 1) * LEN) as usize];
+        for w in stream.windows(2) {
+            let key = (w[0] as u64) << 32 | w[1] as u64;
+            if let Some(&other) = seen.get(&key) {
+                if other != s {
+                    overlapping.insert((other, s));
+                }
+            } else {
+                seen.insert(key, s);
+            }
+        }
+    }
+    let describe = |s: u32| format!("pixel ({}, {}) frame {}", s % 128, (s / 128) % 128, s / 16384);
+    let examples: Vec<String> = overlapping.iter().take(3).map(|&(a, b)| format!("{} and {}", describe(a), describe(b))).collect();
+    assert!(overlapping.is_empty(), "{} pairs of random streams replay each other's numbers, e.g. {examples:?}", overlapping.len());
+    // And the numbers look uniform: the top bit is set in half of them (4.2M draws, 4 standard errors).
+    let n = out.chosen.len() as f64;
+    let high = out.chosen.iter().filter(|&&v| v >> 31 == 1).count() as f64;
+    assert!((high / n - 0.5).abs() < 4.0 * (0.25 / n).sqrt(), "top bit set in {high} of {n} numbers");
 }

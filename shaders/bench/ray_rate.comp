@@ -32,7 +32,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    uint rng = rng_init(pixel.x, pixel.y, pc.dispatch_index, 0x7261u);
+    Rng rng = rng_init(pixel.x, pixel.y, pc.dispatch_index, 0x7261u);
     rayQueryEXT rq;
     if (pc.mode == RAY_RATE_PRIMARY) {
         vec3 dir = camera_ray_direction(vec2(pixel) + rand2(rng));

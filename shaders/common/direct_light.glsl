@@ -25,7 +25,7 @@ float light_pdf_area(vec3 le, bool double_sided) {
 // sample. `residual_r2` < 0: the light counts whole; otherwise each sample is weighted by Yuksel's
 // residual w(d) = 1 - d^2 G_r(d) for r^2 = residual_r2 (the light the clamped VPLs leave out).
 // Consumes three random numbers whatever the light.
-vec3 next_event(vec3 x, vec3 ng, vec3 ns, vec3 rho, float residual_r2, inout uint rng, inout uint rays) {
+vec3 next_event(vec3 x, vec3 ng, vec3 ns, vec3 rho, float residual_r2, inout Rng rng, inout uint rays) {
     uint li = sample_light_index(rand(rng));
     Light l = lights[li];
     vec2 u = rand2(rng);

@@ -22,7 +22,7 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     vec2 jitter = vec2(0.5);
     if ((frame.flags & FRAME_AA) != 0u) {
-        uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_GBUFFER);
+        Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_GBUFFER);
         jitter = rand2(rng);
     }
     vec3 dir = camera_ray_direction(vec2(pixel) + jitter);

@@ -31,7 +31,7 @@ void main() {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }
-    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_PATHTRACE);
+    Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_PATHTRACE);
     uint rays = 0u;
 
     vec3 radiance = s.emission;

@@ -64,7 +64,7 @@ struct LightSample {
     vec3 power_over_pdf;  // Phi_t / P(t)
 };
 
-LightSample sample_light_point(uint t, inout uint rng) {
+LightSample sample_light_point(uint t, inout Rng rng) {
     Light l = lights[t];
     if ((l.flags & LIGHT_POINT) != 0u) {
         // Isotropic: power 4 pi I; `normal` is a uniform direction, used only to start photons.
@@ -91,7 +91,7 @@ LightSample sample_light_point(uint t, inout uint rng) {
 }
 
 void direct_vpl(uint i) {
-    uint rng = rng_init(i, 0u, seed, SALT_DIRECT);
+    Rng rng = rng_init(i, 0u, seed, SALT_DIRECT);
     float u = min((float(i) + rand(rng)) / float(total), 0.99999994);
     uint t = invert_light_cdf(u);
     LightSample s = sample_light_point(t, rng);
@@ -109,7 +109,7 @@ void direct_vpl(uint i) {
 // The state of one photon path between bounces.
 struct PhotonPath {
     uint index;
-    uint rng;
+    Rng rng;
     uint bounce;   // the bounce whose hit the next ray looks for (1 = first)
     vec3 phi0;
     vec3 phi;

@@ -55,7 +55,7 @@ void main() {
         reservoirs_out[index] = reservoir_empty(1.0);
         return;
     }
-    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_INITIAL);
+    Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_INITIAL);
     ReservoirStream st = stream_begin();
     if (pc.tiles > 0u) {
         uint tile = rand_index(rng, pc.tiles);

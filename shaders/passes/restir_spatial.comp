@@ -66,7 +66,7 @@ void main() {
     // Unbiased reuse evaluates every target the way the reservoirs were built: with visibility
     // when the initial samples were shadow-tested, without otherwise.
     bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
-    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (pc.pass_index << 16));
+    Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (pc.pass_index << 16));
 
     uint wanted = min(pc.neighbours, MAX_SPATIAL_NEIGHBOURS);
     bool canonical_valid = reservoir_valid(rc);

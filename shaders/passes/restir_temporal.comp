@@ -90,7 +90,7 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, out Reserv
         m_h = dh > 0.0 ? mh * ph_yh / dh : 0.0;
     }
 
-    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_TEMPORAL);
+    Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_TEMPORAL);
     ReservoirStream st = stream_begin();
     if (reservoir_valid(rc)) {
         stream_update(st, rc.vpl, m_c * pc_yc * rc.ucw, pc_yc, rand(rng));

@@ -37,7 +37,7 @@ const int MAX_HOPS = 256;
 
 // RIS over the whole VPL set at surface s (uniform source, `candidates` draws, target = lum of the
 // unshadowed contribution) with one shadow ray for the pick: an unbiased estimate of sum_i c_i(s).
-vec3 vpl_estimate(Surface s, VplParams p, inout uint rng, inout uint rays) {
+vec3 vpl_estimate(Surface s, VplParams p, inout Rng rng, inout uint rays) {
     uint m = max(p.candidates, 1u);
     float w_sum = 0.0;
     uint pick = 0u;
@@ -78,7 +78,7 @@ void main() {
     // Later hops see every VPL, whatever the view.
     VplParams all = p;
     all.kind_mask = KIND_MASK_DIRECT | KIND_MASK_INDIRECT;
-    uint rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_COMPENSATE);
+    Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_COMPENSATE);
     uint rays = 0u;
     vec3 added = vec3(0.0);
     vec3 throughput = vec3(1.0);

@@ -31,7 +31,7 @@ void main() {
     if (e >= pc.tiles * PRESAMPLE_TILE_SIZE || pc.params.vpl_count == 0u) {
         return;
     }
-    uint rng = rng_init(e, frame.frame_index, frame.seed, SALT_PRESAMPLE);
+    Rng rng = rng_init(e, frame.frame_index, frame.seed, SALT_PRESAMPLE);
     uint i = rand_index(rng, pc.params.vpl_count);
     if (pc.params.source == 1u) {
         AliasEntry a = vpl_alias[i];

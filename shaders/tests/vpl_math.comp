@@ -5,6 +5,8 @@
 //  2: stream `pc.n` candidates with weights `inputs[j].x` through a reservoir; index -> `chosen[i]`,
 //     and W * target of the chosen one -> `outputs[i].x` (should be sum w)
 //  3: pairwise MIS weights for random confidences/targets: sum over all techniques -> `outputs[i].x`
+//  4: the first `pc.n` numbers of the stream a pass seeds for pixel (i % 128, (i / 128) % 128) in
+//     frame i / 16384 -> `chosen[i * n + j]`
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -42,7 +44,7 @@ void main() {
         vec3 n = points[2u * i + 1u].xyz;
         outputs[i] = vec4(vpl_contribution(vpls[i], x, n, n, vec3(1.0), pc.params), 0.0);
     } else if (pc.test == 2u) {
-        uint rng = rng_init(i, 17u, 0u, pc.seed);
+        Rng rng = rng_init(i, 17u, 0u, pc.seed);
         ReservoirStream s = stream_begin();
         for (uint j = 0u; j < pc.n; ++j) {
             float w = inputs[j].x;
@@ -54,7 +56,7 @@ void main() {
         chosen[i] = r.vpl;
         outputs[i] = vec4(r.ucw * r.target, r.confidence, 0.0, 0.0);
     } else if (pc.test == 3u) {
-        uint rng = rng_init(i, 29u, 0u, pc.seed);
+        Rng rng = rng_init(i, 29u, 0u, pc.seed);
         uint k = 1u + rand_index(rng, 8u);
         float mc = 1.0 + 20.0 * rand(rng);
         float m[8];
@@ -73,5 +75,10 @@ void main() {
             sum += pairwise_canonical_weight(m[j], p[j], mc / float(k), p_c, total);
         }
         outputs[i] = vec4(sum, float(k), 0.0, 0.0);
+    } else if (pc.test == 4u) {
+        Rng rng = rng_init(i % 128u, (i / 128u) % 128u, i / 16384u, pc.seed);
+        for (uint j = 0u; j < pc.n; ++j) {
+            chosen[i * pc.n + j] = rng_next(rng);
+        }
     }
 }
