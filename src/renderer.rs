@@ -538,7 +538,11 @@ impl Renderer {
             check_bruteforce_pairs(settings, vpl_count as u64)?;
         }
         let need_power = mode.uses_reservoirs() && settings.candidate_source == CandidateSource::Power && mode != Mode::Uniform;
-        let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER;
+        // Alias entries are read as RG32UI texels (shaders/common/texel_records.glsl).
+        let alias_buffer = |name: &str, bytes: &[u8]| {
+            let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER | ash::vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+            crate::vk::Buffer::with_data(ctx, name, bytes, usage)?.with_texel_view(crate::passes::ALIAS_TEXEL_FORMAT, 8)
+        };
         let mut total_vpl_lum = 0.0f64;
         let alias = if need_power {
             let vpls = photon_pass.read_vpls(stats)?;
@@ -546,10 +550,10 @@ impl Renderer {
             total_vpl_lum = weights.iter().sum();
             anyhow::ensure!(total_vpl_lum > 0.0, "--candidate-source power: the VPLs carry no power (empty or black scene)");
             let table = crate::lights::alias_table(&weights);
-            crate::vk::Buffer::with_data(ctx, "restir_initial.vpl_alias", bytemuck::cast_slice(&table), usage)?
+            alias_buffer("restir_initial.vpl_alias", bytemuck::cast_slice(&table))?
         } else {
             // The binding is declared by the shader but not read without the power source.
-            crate::vk::Buffer::with_data(ctx, "restir_initial.vpl_alias(unused)", &[0u8; 8], usage)?
+            alias_buffer("restir_initial.vpl_alias(unused)", &[0u8; 8])?
         };
         let mut flags = 0;
         let (yuksel_radius, yuksel_radius_source) = match settings.attenuation {
@@ -616,7 +620,7 @@ impl Renderer {
             let tiles = match &passes.vpl.presample {
                 Some(p) => &p.tiles,
                 // The binding is declared by the shader but not read without presampling.
-                None => &*no_tiles.insert(Buffer::with_data(ctx, "vpl_presample.tiles(unused)", &[0u8; 32], usage)?),
+                None => &*no_tiles.insert(VplPresamplePass::tiles_buffer(ctx, "vpl_presample.tiles(unused)", 32)?),
             };
             passes.vpl.initial = Some(RestirInitialPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
             passes.vpl.shade = Some(VplShadePass::new(ctx, layout, targets, &inputs, &res)?);

@@ -13,19 +13,20 @@ use crate::gpu_types::*;
 use crate::lights::LightSet;
 use crate::scene::Scene;
 use crate::vk::accel::{self, AccelerationStructure, InstanceDesc, MeshRange};
-use crate::vk::pipeline::{accel as accel_binding, storage, uniform};
+use crate::passes::{ALIAS_TEXEL_FORMAT, RECORD_TEXEL_BYTES, RECORD_TEXEL_FORMAT, WORD_TEXEL_FORMAT};
+use crate::vk::pipeline::{accel as accel_binding, storage, texels, uniform};
 use crate::vk::{Binding, Buffer, Context, DescriptorSet};
 
 /// Set 0, declared once for every pass.
 pub const SCENE_BINDINGS: &[Binding] = &[
     accel_binding(0, "tlas"),
-    storage(1, "vertices"),
-    storage(2, "indices"),
-    storage(3, "triangle_materials"),
-    storage(4, "materials"),
-    storage(5, "instances"),
-    storage(6, "lights"),
-    storage(7, "light_alias"),
+    texels(1, "vertices"),
+    texels(2, "indices"),
+    texels(3, "triangle_materials"),
+    texels(4, "materials"),
+    texels(5, "instances"),
+    texels(6, "lights"),
+    texels(7, "light_alias"),
     uniform(8, "frame"),
 ];
 
@@ -33,13 +34,13 @@ pub const SCENE_BINDINGS: &[Binding] = &[
 /// the texels (RGBA8, sRGB-encoded), read by the `textured` shader variants only.
 pub const SCENE_BINDINGS_TEXTURED: &[Binding] = &[
     accel_binding(0, "tlas"),
-    storage(1, "vertices"),
-    storage(2, "indices"),
-    storage(3, "triangle_materials"),
-    storage(4, "materials"),
-    storage(5, "instances"),
-    storage(6, "lights"),
-    storage(7, "light_alias"),
+    texels(1, "vertices"),
+    texels(2, "indices"),
+    texels(3, "triangle_materials"),
+    texels(4, "materials"),
+    texels(5, "instances"),
+    texels(6, "lights"),
+    texels(7, "light_alias"),
     uniform(8, "frame"),
     storage(9, "textures"),
     storage(10, "texels"),
@@ -109,10 +110,14 @@ fn storage_usage() -> vk::BufferUsageFlags {
     vk::BufferUsageFlags::STORAGE_BUFFER
 }
 
+/// A scene buffer the shaders read as texels of `format` (`texel_bytes` each; scene.glsl).
+fn texel_buffer(ctx: &Arc<Context>, name: &str, data: &[u8], format: vk::Format, texel_bytes: u64, extra: vk::BufferUsageFlags) -> Result<Buffer> {
+    Buffer::with_data(ctx, name, data, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | extra)?.with_texel_view(format, texel_bytes)
+}
+
+/// Vertices and indices also feed the BLAS builds.
 fn geometry_usage() -> vk::BufferUsageFlags {
-    vk::BufferUsageFlags::STORAGE_BUFFER
-        | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS
-        | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+    vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
 }
 
 impl SceneGpu {
@@ -180,11 +185,12 @@ impl SceneGpu {
         let emitters = crate::lights::Emitters::from_scene(scene);
         let lights = LightSet::new(&emitters, &[]);
 
-        let vb = Buffer::with_data(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), geometry_usage())?;
-        let ib = Buffer::with_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), geometry_usage())?;
-        let tm = Buffer::with_data(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), storage_usage())?;
-        let mb = Buffer::with_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), storage_usage())?;
-        let inb = Buffer::with_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), storage_usage())?;
+        let none = vk::BufferUsageFlags::empty();
+        let vb = texel_buffer(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, geometry_usage())?;
+        let ib = texel_buffer(ctx, "scene.indices", bytemuck::cast_slice(&indices), WORD_TEXEL_FORMAT, 4, geometry_usage())?;
+        let tm = texel_buffer(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), WORD_TEXEL_FORMAT, 4, none)?;
+        let mb = texel_buffer(ctx, "scene.materials", bytemuck::cast_slice(&materials), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, none)?;
+        let inb = texel_buffer(ctx, "scene.instances", bytemuck::cast_slice(&instances), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, none)?;
         let blas_start = std::time::Instant::now();
         let blases = accel::build_blases(ctx, &vb, std::mem::size_of::<GpuVertex>() as u64, &ib, &ranges)
             .context("building BLASes")?;
@@ -273,8 +279,9 @@ pub struct LightBuffers {
 
 impl LightBuffers {
     pub fn new(ctx: &Arc<Context>, set: LightSet) -> Result<Self> {
-        let lights = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&set.lights), storage_usage())?;
-        let alias = Buffer::with_data(ctx, "scene.light_alias", bytemuck::cast_slice(&set.alias), storage_usage())?;
+        let none = vk::BufferUsageFlags::empty();
+        let lights = texel_buffer(ctx, "scene.lights", bytemuck::cast_slice(&set.lights), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, none)?;
+        let alias = texel_buffer(ctx, "scene.light_alias", bytemuck::cast_slice(&set.alias), ALIAS_TEXEL_FORMAT, 8, none)?;
         Ok(Self { set, lights, alias })
     }
 

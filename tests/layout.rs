@@ -17,12 +17,12 @@
 use std::collections::{BTreeMap, HashMap};
 
 use rspirv::dr::{Instruction, Operand};
-use rspirv::spirv::{Decoration, ExecutionMode, Op, StorageClass};
+use rspirv::spirv::{Decoration, Dim, ExecutionMode, Op, StorageClass};
 
 use restir_vpl::gpu_types::*;
 use restir_vpl::passes::desc::{PassDesc, PushLayout};
 use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, RestirTemporalPass, VplShadePass};
-use restir_vpl::vk::pipeline::{storage, uniform};
+use restir_vpl::vk::pipeline::{storage, texels, uniform};
 use restir_vpl::vk::BindingKind;
 
 /// The parts of a SPIR-V module the checks read.
@@ -288,6 +288,12 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
         };
         let block_name = m.member_names.get(&(pointee, 0)).cloned();
         let accel = m.global(pointee).is_ok_and(|t| t.class.opcode == Op::TypeAccelerationStructureKHR);
+        // A sampled (Sampled = 1) buffer image: `utextureBuffer`, a uniform texel buffer.
+        let texel_buffer = m.global(pointee).is_ok_and(|t| {
+            t.class.opcode == Op::TypeImage
+                && matches!(t.operands.get(1), Some(Operand::Dim(Dim::DimBuffer)))
+                && t.operands.get(5).map(lit_u32) == Some(1)
+        });
         let entry = match class {
             StorageClass::StorageBuffer => (Ok(BindingKind::StorageBuffer), block_name),
             StorageClass::Uniform if m.decorations.contains_key(&(pointee, Decoration::BufferBlock)) => {
@@ -295,6 +301,7 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
             }
             StorageClass::Uniform => (Ok(BindingKind::UniformBuffer), block_name),
             StorageClass::UniformConstant if accel => (Ok(BindingKind::AccelerationStructure), m.names.get(&var).cloned()),
+            StorageClass::UniformConstant if texel_buffer => (Ok(BindingKind::UniformTexelBuffer), m.names.get(&var).cloned()),
             other => (Err(format!("{other:?} variable")), m.names.get(&var).cloned()),
         };
         if shader.insert(binding, (entry.0, entry.1.unwrap_or_default())).is_some() {
@@ -422,6 +429,12 @@ fn a_drifted_binding_table_is_detected() {
     const UNIFORM: PassDesc = GbufferPass::DESC.with_bindings(&[uniform(0, "surfaces")]);
     let uniform = UNIFORM;
     assert_reported(&uniform, "is UniformBuffer in the table, StorageBuffer in the shader");
+    // A texel view declared as a storage buffer (spatial reads its surfaces as texels).
+    const AS_STORAGE: PassDesc = RestirSpatialPass::DESC.with_bindings(&[
+        storage(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"), storage(4, "ray_count"),
+    ]);
+    let as_storage = AS_STORAGE;
+    assert_reported(&as_storage, "binding 0 ('surfaces') is StorageBuffer in the table, UniformTexelBuffer in the shader");
     // A binding on one side only: the table lacks accumulate's last one.
     let short = PassDesc { bindings: &AccumulatePass::DESC.bindings[..5], ..AccumulatePass::DESC };
     assert_reported(&short, "binding 5 ('nonfinite_samples') is in the shader but not in the table");

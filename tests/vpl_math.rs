@@ -1,14 +1,15 @@
 //! The binding-free VPL and reservoir headers, run on the GPU through shaders/tests/vpl_math.comp:
 //! Yuksel's attenuation limits, no NaN/Inf from a VPL on the shaded point, the reservoir picks
 //! samples with the right probabilities (chi-square), the pairwise MIS weights sum to one, and the
-//! random streams of different pixels and frames do not replay each other.
+//! random streams of different pixels and frames do not replay each other. Also: the records read
+//! through texel views (texel_records.glsl) decode to the bytes their structs hold.
 
 mod common;
 
 use ash::vk;
 use restir_vpl::gpu_types::*;
 use restir_vpl::shaders;
-use restir_vpl::vk::pipeline::{storage, DescriptorSet};
+use restir_vpl::vk::pipeline::{storage, texels, DescriptorSet};
 use restir_vpl::vk::{Binding, Buffer, ComputePipeline};
 
 const TABLE: &[Binding] =
@@ -232,4 +233,71 @@ fn random_streams_of_different_pixels_do_not_overlap() {
     let n = out.chosen.len() as f64;
     let high = out.chosen.iter().filter(|&&v| v >> 31 == 1).count() as f64;
     assert!((high / n - 0.5).abs() < 4.0 * (0.25 / n).sqrt(), "top bit set in {high} of {n} numbers");
+}
+
+#[test]
+fn records_read_as_texels_decode_to_their_bytes() {
+    // Each record kind: random finite bit patterns (exponent below all-ones, so no NaN payload can
+    // change on the way) uploaded as bytes, read through a RGBA32UI texel view with the shader's
+    // decoder, stored through a storage buffer of the real struct; the bytes must come back.
+    const TABLE: &[restir_vpl::vk::Binding] = &[
+        texels(0, "records"), storage(1, "out_surfaces"), storage(2, "out_vpls"), storage(3, "out_reservoirs"),
+        storage(4, "out_candidates"), storage(5, "out_vertices"), storage(6, "out_materials"), storage(7, "out_instances"),
+        storage(8, "out_lights"), storage(9, "out_alias"), storage(10, "out_words"),
+    ];
+    #[repr(C)]
+    #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+    struct RecordsPush {
+        kind: u32,
+        count: u32,
+    }
+    let ctx = common::context();
+    let empty = DescriptorSet::new(&ctx, "test.set0", &[]).unwrap();
+    let pipeline = ComputePipeline::new(&ctx, "texel_records", shaders::TESTS_TEXEL_RECORDS, empty.layout, TABLE, 8, [64, 1, 1]).unwrap();
+    let count = 1000u32;
+    use restir_vpl::passes::{ALIAS_TEXEL_FORMAT, RECORD_TEXEL_BYTES, RECORD_TEXEL_FORMAT, WORD_TEXEL_FORMAT};
+    let sizes = [
+        std::mem::size_of::<GpuSurface>(),
+        std::mem::size_of::<GpuVpl>(),
+        std::mem::size_of::<GpuReservoir>(),
+        std::mem::size_of::<GpuVplCandidate>(),
+        std::mem::size_of::<GpuVertex>(),
+        std::mem::size_of::<GpuMaterial>(),
+        std::mem::size_of::<GpuInstance>(),
+        std::mem::size_of::<GpuLight>(),
+        std::mem::size_of::<GpuAliasEntry>(),
+        4,
+    ];
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    for (kind, &size) in sizes.iter().enumerate() {
+        let view = match kind {
+            8 => (ALIAS_TEXEL_FORMAT, 8),
+            9 => (WORD_TEXEL_FORMAT, 4),
+            _ => (RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES),
+        };
+        let words: Vec<u32> = (0..count as usize * size / 4)
+            .map(|_| {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state >> 32) as u32 & 0xbfff_ffff
+            })
+            .collect();
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let records = Buffer::with_data(&ctx, "test.records", bytemuck::cast_slice(&words), usage)
+            .unwrap()
+            .with_texel_view(view.0, view.1)
+            .unwrap();
+        let out = Buffer::with_data(&ctx, "test.decoded", &vec![0u8; words.len() * 4], usage).unwrap();
+        pipeline.set1.write_buffer(0, &records).unwrap();
+        for b in 1..=10 {
+            pipeline.set1.write_buffer(b, &out).unwrap();
+        }
+        let push = RecordsPush { kind: kind as u32, count };
+        ctx.one_shot(|cmd| pipeline.dispatch_1d(cmd, empty.set, bytemuck::bytes_of(&push), count)).unwrap();
+        let back: Vec<u32> = restir_vpl::vk::buffer::read_back_records(&ctx, &out, words.len()).unwrap();
+        let first_bad = words.iter().zip(&back).position(|(a, b)| a != b);
+        assert_eq!(first_bad, None, "record kind {kind} ({size} bytes): word {first_bad:?} differs after the texel round trip");
+    }
+    assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
 }

@@ -27,7 +27,7 @@ float light_pdf_area(vec3 le, bool double_sided) {
 // Consumes three random numbers whatever the light.
 vec3 next_event(vec3 x, vec3 ng, vec3 ns, vec3 rho, float residual_r2, inout Rng rng, inout uint rays) {
     uint li = sample_light_index(rand(rng));
-    Light l = lights[li];
+    Light l = light_texels(lights, li);
     vec2 u = rand2(rng);
     if ((l.flags & LIGHT_POINT) != 0u) {
         // A point light (delta): radiant intensity I, no MIS.

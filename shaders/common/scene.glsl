@@ -7,6 +7,7 @@
 #extension GL_EXT_ray_query : require
 
 #include "types.glsl"
+#include "texel_records.glsl"
 #include "../lib/sampling.glsl"
 #include "../lib/camera.glsl"
 #ifdef SCENE_TEXTURES
@@ -14,16 +15,19 @@
 #endif
 
 layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
-layout(set = 0, binding = 1, std430) readonly buffer VertexBuffer { Vertex vertices[]; };
-layout(set = 0, binding = 2, std430) readonly buffer IndexBuffer { uint indices[]; };
-layout(set = 0, binding = 3, std430) readonly buffer TriangleMaterialBuffer { uint triangle_materials[]; };
-layout(set = 0, binding = 4, std430) readonly buffer MaterialBuffer { Material materials[]; };
-layout(set = 0, binding = 5, std430) readonly buffer InstanceBuffer { Instance instances[]; };
-layout(set = 0, binding = 6, std430) readonly buffer LightBuffer { Light lights[]; };
-layout(set = 0, binding = 7, std430) readonly buffer LightAliasBuffer { AliasEntry light_alias[]; };
+// Geometry, materials, instances and lights are read at per-lane addresses (the hit a lane's ray
+// found, the light it drew), so through texel views (texel_records.glsl says why).
+layout(set = 0, binding = 1) uniform utextureBuffer vertices;  // Vertex, 2 RGBA32UI texels each
+layout(set = 0, binding = 2) uniform utextureBuffer indices;  // R32UI
+layout(set = 0, binding = 3) uniform utextureBuffer triangle_materials;  // R32UI
+layout(set = 0, binding = 4) uniform utextureBuffer materials;  // Material, 2 RGBA32UI texels each
+layout(set = 0, binding = 5) uniform utextureBuffer instances;  // Instance, 9 RGBA32UI texels each
+layout(set = 0, binding = 6) uniform utextureBuffer lights;  // Light, 4 RGBA32UI texels each
+layout(set = 0, binding = 7) uniform utextureBuffer light_alias;  // AliasEntry, RG32UI
 layout(set = 0, binding = 8, std140) uniform FrameBuffer { Frame frame; };
 #ifdef SCENE_TEXTURES
-// Only in the `textured` shader variants, used when the scene has base-colour textures.
+// Only in the `textured` shader variants, used when the scene has base-colour textures. Storage
+// buffers: the texels of all textures together may outgrow a device's maxTexelBufferElements.
 layout(set = 0, binding = 9, std430) readonly buffer TextureBuffer { TextureInfo textures[]; };
 layout(set = 0, binding = 10, std430) readonly buffer TexelBuffer { uint texels[]; };
 #endif
@@ -79,25 +83,24 @@ uint prev_surface_slot(uint index) {
 
 // Reconstructs the hit on triangle `prim` of instance `inst` at barycentrics `bary` (of v1, v2).
 Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
-    // Fields one by one, the matrices only for a transformed instance: on lavapipe every buffer
-    // read at a per-lane address costs a scalar load per lane and word, and the two matrices are
-    // 21 of a hit's ~50 words. With the identity the results are the same bit for bit.
-    uint flags = instances[inst].flags;
+    // The matrices only for a transformed instance: they are 8 of an instance's 9 texels, and with
+    // the identity the results are the same bit for bit.
+    uvec4 header = instance_header_texels(instances, inst);  // first index, vertex, triangle; flags
+    uint flags = header.w;
     bool identity = (flags & INSTANCE_IDENTITY) != 0u;
-    uint first_index = instances[inst].first_index;
-    uint first_vertex = instances[inst].first_vertex;
-    uint i0 = indices[first_index + 3u * prim + 0u] + first_vertex;
-    uint i1 = indices[first_index + 3u * prim + 1u] + first_vertex;
-    uint i2 = indices[first_index + 3u * prim + 2u] + first_vertex;
-    Vertex v0 = vertices[i0];
-    Vertex v1 = vertices[i1];
-    Vertex v2 = vertices[i2];
+    uint first = header.x + 3u * prim;
+    uint i0 = word_texel(indices, first) + header.y;
+    uint i1 = word_texel(indices, first + 1u) + header.y;
+    uint i2 = word_texel(indices, first + 2u) + header.y;
+    Vertex v0 = vertex_texels(vertices, i0);
+    Vertex v1 = vertex_texels(vertices, i1);
+    Vertex v2 = vertex_texels(vertices, i2);
     vec3 b = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
     vec3 p0 = v0.position;
     vec3 p1 = v1.position;
     vec3 p2 = v2.position;
     if (!identity) {
-        mat4 m = instances[inst].world_from_object;
+        mat4 m = instance_matrix_texels(instances, inst, 0u);
         p0 = (m * vec4(p0, 1.0)).xyz;
         p1 = (m * vec4(p1, 1.0)).xyz;
         p2 = (m * vec4(p2, 1.0)).xyz;
@@ -119,7 +122,7 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     if (dot(n_obj, n_obj) > 1e-12) {
         ns = n_obj;
         if (!identity) {
-            ns = mat3(instances[inst].normal_to_world) * n_obj;
+            ns = mat3(instance_matrix_texels(instances, inst, 1u)) * n_obj;
         }
         ns = normalize(ns);
         if (dot(ns, ng) < 0.0) {
@@ -128,7 +131,7 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     }
     h.geometric_normal = ng;
     h.shading_normal = ns;
-    h.material = triangle_materials[instances[inst].first_triangle + prim];
+    h.material = word_texel(triangle_materials, header.z + prim);
     h.instance = inst;
     h.triangle = prim;
 #ifdef SCENE_TEXTURES
@@ -157,7 +160,7 @@ vec3 sample_base_color(uint t, vec2 uv) {
 
 // Diffuse albedo at a hit: baseColorFactor, times the base colour texture where there is one.
 vec3 hit_albedo(Hit h) {
-    Material m = materials[h.material];
+    Material m = material_texels(materials, h.material);
 #ifdef SCENE_TEXTURES
     if (m.texture >= 0) {
         return m.albedo * sample_base_color(uint(m.texture), h.uv);
@@ -203,7 +206,7 @@ bool segment_visible(vec3 from, vec3 to) {
 uint sample_light_index(float u) {
     float u_rest;
     uint slot = alias_slot(u, frame.light_count, u_rest);
-    AliasEntry e = light_alias[slot];
+    AliasEntry e = alias_texels(light_alias, slot);
     return alias_resolve(slot, e.keep, e.alias, u_rest);
 }
 

@@ -42,7 +42,7 @@ void main() {
     Hit hit;
     float t;
     if (trace_closest(frame.camera_position, dir, 1e30, hit, t)) {
-        Material m = materials[hit.material];
+        Material m = material_texels(materials, hit.material);
         s.position = hit.position;
         s.hit_t = t;
         s.shading_normal = hit.shading_normal;

@@ -69,7 +69,7 @@ void main() {
         if (!trace_closest(offset_ray(x, ng, frame.scene_scale), wi, 1e30, hit, t)) {
             break;
         }
-        Material m = materials[hit.material];
+        Material m = material_texels(materials, hit.material);
         bool double_sided = (m.flags & MATERIAL_DOUBLE_SIDED) != 0u;
         if (max3(m.emission) > 0.0 && (hit.front_face || double_sided)) {
             float cos_l = abs(dot(hit.geometric_normal, wi));

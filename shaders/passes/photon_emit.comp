@@ -65,7 +65,7 @@ struct LightSample {
 };
 
 LightSample sample_light_point(uint t, inout Rng rng) {
-    Light l = lights[t];
+    Light l = light_texels(lights, t);
     if ((l.flags & LIGHT_POINT) != 0u) {
         // Isotropic: power 4 pi I; `normal` is a uniform direction, used only to start photons.
         LightSample s;
@@ -95,7 +95,7 @@ void direct_vpl(uint i) {
     float u = min((float(i) + rand(rng)) / float(total), 0.99999994);
     uint t = invert_light_cdf(u);
     LightSample s = sample_light_point(t, rng);
-    bool point = (lights[t].flags & LIGHT_POINT) != 0u;
+    bool point = (light_texels(lights, t).flags & LIGHT_POINT) != 0u;
     Vpl v;
     v.position = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
     v.kind = point ? VPL_DIRECT_POINT : VPL_DIRECT_AREA;
@@ -125,7 +125,7 @@ PhotonPath start_path(uint p) {
     LightSample s = sample_light_point(t, path.rng);
     path.phi0 = s.power_over_pdf;
     path.phi = path.phi0;
-    bool point = (lights[t].flags & LIGHT_POINT) != 0u;
+    bool point = (light_texels(lights, t).flags & LIGHT_POINT) != 0u;
     path.origin = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
     path.dir = point ? s.normal : sample_cosine_hemisphere(s.normal, rand2(path.rng));
     path.bounce = 1u;

@@ -17,16 +17,18 @@
 #include "../common/vpl_target.glsl"
 #include "../lib/random.glsl"
 #include "../restir/reservoir.glsl"
+#include "../common/texel_records.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
-layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
-layout(set = 1, binding = 2, std430) readonly buffer VplAliasBuffer { AliasEntry vpl_alias[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
+layout(set = 1, binding = 2) uniform utextureBuffer vpl_alias;  // AliasEntry, RG32UI
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
-layout(set = 1, binding = 5, std430) readonly buffer Tiles { VplCandidate tiles[]; };
+layout(set = 1, binding = 5) uniform utextureBuffer tiles;  // VplCandidate, 2 texels each
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -49,7 +51,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[surface_slot(index)];
+    Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
     if (s.hit_t < 0.0 || p.vpl_count == 0u || p.candidates == 0u) {
         reservoirs_out[index] = reservoir_empty(1.0);
@@ -62,9 +64,9 @@ void main() {
         uint base = tile * PRESAMPLE_TILE_SIZE;
         uint start = rand_index(rng, PRESAMPLE_TILE_SIZE);
         for (uint j = 0u; j < p.candidates; ++j) {
-            VplCandidate c = tiles[base + ((start + j) & (PRESAMPLE_TILE_SIZE - 1u))];
+            VplCandidate c = candidate_texels(tiles, base + ((start + j) & (PRESAMPLE_TILE_SIZE - 1u)));
             // A per-VPL radius costs one extra read of the full record (off by default).
-            float r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u ? vpls[candidate_index(c)].yuksel_r2 : p.yuksel_r2;
+            float r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = candidate_target(c, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
             offer(st, candidate_index(c), t, c.flux, p, rand(rng));
         }
@@ -72,10 +74,10 @@ void main() {
         for (uint j = 0u; j < p.candidates; ++j) {
             uint i = rand_index(rng, p.vpl_count);
             if (p.source == 1u) {
-                AliasEntry e = vpl_alias[i];
+                AliasEntry e = alias_texels(vpl_alias, i);
                 i = alias_resolve(i, e.keep, e.alias, rand(rng));
             }
-            Vpl v = vpls[i];
+            Vpl v = vpl_texels(vpls, i);
             float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
             offer(st, i, t, v.flux, p, rand(rng));
         }
@@ -85,7 +87,7 @@ void main() {
     uint rays = 0u;
     if (reservoir_valid(r) && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u) {
         rays = 1u;
-        if (!vpl_visible(s, vpls[r.vpl])) {
+        if (!vpl_visible(s, vpl_texels(vpls, r.vpl))) {
             r = reservoir_empty(1.0);
         }
     }

@@ -13,13 +13,15 @@
 #include "../common/vpl_target.glsl"
 #include "../lib/random.glsl"
 #include "../restir/reservoir.glsl"
+#include "../common/texel_records.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
-layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
-layout(set = 1, binding = 2, std430) readonly buffer ReservoirIn { Reservoir src[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
+layout(set = 1, binding = 2) uniform utextureBuffer src;  // Reservoir, 1 texel each
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir dst[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 
@@ -44,7 +46,7 @@ bool pick_neighbour(uvec2 pixel, Surface s, vec2 u, out uint qi) {
         return false;
     }
     qi = uint(q.y) * frame.width + uint(q.x);
-    Surface sq = surfaces[surface_slot(qi)];
+    Surface sq = surface_texels(surfaces, surface_slot(qi));
     return sq.hit_t >= 0.0
         && same_surface(s.shading_normal, s.view_depth, sq.shading_normal, sq.view_depth, pc.normal_threshold, pc.depth_threshold);
 }
@@ -55,8 +57,8 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[surface_slot(index)];
-    Reservoir rc = src[index];
+    Surface s = surface_texels(surfaces, surface_slot(index));
+    Reservoir rc = reservoir_texels(src, index);
     if (s.hit_t < 0.0) {
         dst[index] = rc;
         return;
@@ -85,10 +87,10 @@ void main() {
             if (!found) {
                 continue;
             }
-            Reservoir rn = src[qi];
+            Reservoir rn = reservoir_texels(src, qi);
             m_total += rn.confidence;
             if (reservoir_valid(rn)) {
-                float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, false, rays);
+                float pc_yn = surface_vpl_target(s, vpl_texels(vpls, rn.vpl), p, false, rays);
                 stream_update(st, rn.vpl, rn.confidence * pc_yn * rn.ucw, pc_yn, u);
             }
         }
@@ -121,11 +123,11 @@ void main() {
     float mc = rc.confidence;
     float m_total = mc;
     for (uint j = 0u; j < k; ++j) {
-        m_total += src[nb[j]].confidence;
+        m_total += reservoir_texels(src, nb[j]).confidence;
     }
     Vpl vc;
     if (canonical_valid) {
-        vc = vpls[rc.vpl];
+        vc = vpl_texels(vpls, rc.vpl);
     }
     float m_c_share = mc / float(k);
     float canonical_mis = 0.0;
@@ -133,14 +135,14 @@ void main() {
     ReservoirStream st = stream_begin();
     for (uint j = 0u; j < k; ++j) {
         uint qi = nb[j];
-        Reservoir rn = src[qi];
+        Reservoir rn = reservoir_texels(src, qi);
         float mn = rn.confidence;
-        Surface sq = surfaces[surface_slot(qi)];
+        Surface sq = surface_texels(surfaces, surface_slot(qi));
         // The canonical sample as the neighbour would have produced it.
         float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, visible_targets, rays) : 0.0;
         canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);
         if (reservoir_valid(rn)) {
-            float pc_yn = surface_vpl_target(s, vpls[rn.vpl], p, visible_targets, rays);
+            float pc_yn = surface_vpl_target(s, vpl_texels(vpls, rn.vpl), p, visible_targets, rays);
             float m = pairwise_neighbour_weight(mn, rn.target, m_c_share, pc_yn, m_total);
             stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng));
         }

@@ -19,14 +19,16 @@
 #include "../common/vpl_target.glsl"
 #include "../lib/random.glsl"
 #include "../restir/reservoir.glsl"
+#include "../common/texel_records.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
 // Both halves of the G-buffer ping-pong: surface_slot() and prev_surface_slot() pick them.
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
-layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2, std430) buffer ReservoirCurrent { Reservoir reservoirs[]; };
-layout(set = 1, binding = 3, std430) readonly buffer ReservoirHistory { Reservoir history[]; };
+layout(set = 1, binding = 3) uniform utextureBuffer history;  // Reservoir, 1 texel each
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 
 layout(push_constant) uniform Push {
@@ -55,13 +57,13 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, out Reserv
             return false;  // off screen or behind the previous camera: no history
         }
         prev_index = uint(pq.y) * frame.width + uint(pq.x);
-        Surface sp = surfaces[prev_surface_slot(prev_index)];
+        Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
         if (sp.hit_t < 0.0
             || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, pc.normal_threshold, pc.depth_threshold)) {
             return false;  // disoccluded: another surface (or none) was there
         }
     }
-    Reservoir rh = history[prev_index];
+    Reservoir rh = reservoir_texels(history, prev_index);
     float mc = rc.confidence;
     float mh = min(rh.confidence, pc.mcap * mc);
     if (!(mh > 0.0)) {
@@ -75,14 +77,14 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, out Reserv
     float pc_yc = reservoir_valid(rc) ? rc.target : 0.0;
     float pc_yh = 0.0;
     if (reservoir_valid(rh)) {
-        pc_yh = surface_vpl_target(s, vpls[rh.vpl], p, visible_targets && !same_domain, rays);
+        pc_yh = surface_vpl_target(s, vpl_texels(vpls, rh.vpl), p, visible_targets && !same_domain, rays);
     }
 
     float m_c = mc / (mc + mh);
     float m_h = mh / (mc + mh);
     if (unbiased && !same_domain) {
-        Surface sp = surfaces[prev_surface_slot(prev_index)];
-        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpls[rc.vpl], p, visible_targets, rays) : 0.0;
+        Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
+        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpl_texels(vpls, rc.vpl), p, visible_targets, rays) : 0.0;
         float ph_yh = reservoir_valid(rh) ? rh.target : 0.0;
         float dc = mc * pc_yc + mh * ph_yc;
         float dh = mh * ph_yh + mc * pc_yh;
@@ -114,7 +116,7 @@ void main() {
     bool changed = false;
     Reservoir r = reservoir_empty(0.0);
     if (inside) {
-        Surface s = surfaces[surface_slot(index)];
+        Surface s = surface_texels(surfaces, surface_slot(index));
         if (s.hit_t >= 0.0) {
             changed = temporal_merge(pixel, index, s, reservoirs[index], r, rays);
         }

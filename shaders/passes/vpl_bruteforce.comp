@@ -5,11 +5,14 @@
 #extension GL_GOOGLE_include_directive : require
 
 #include "../common/vpl_target.glsl"
+#include "../common/texel_records.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+// Every invocation reads VPL i in step (one address for all lanes): a storage buffer reads that once.
 layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
 layout(set = 1, binding = 2, std430) buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 3, std430) buffer RayCounter { uint ray_count[]; };
@@ -26,7 +29,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[surface_slot(index)];
+    Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
     if (s.hit_t < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);

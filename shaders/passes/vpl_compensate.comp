@@ -17,12 +17,14 @@
 #include "../common/direct_light.glsl"
 #include "../lib/random.glsl"
 #include "../lib/sampling.glsl"
+#include "../common/texel_records.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
-layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2, std430) buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 3, std430) buffer RayCounter { uint ray_count[]; };
 
@@ -44,7 +46,7 @@ vec3 vpl_estimate(Surface s, VplParams p, inout Rng rng, inout uint rays) {
     float pick_target = 0.0;
     for (uint j = 0u; j < m; ++j) {
         uint i = rand_index(rng, p.vpl_count);
-        float t = vpl_target(vpls[i], s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
+        float t = vpl_target(vpl_texels(vpls, i), s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
         w_sum += t;
         if (t > 0.0 && rand(rng) * w_sum < t) {
             pick = i;
@@ -54,7 +56,7 @@ vec3 vpl_estimate(Surface s, VplParams p, inout Rng rng, inout uint rays) {
     if (!(pick_target > 0.0)) {
         return vec3(0.0);
     }
-    Vpl v = vpls[pick];
+    Vpl v = vpl_texels(vpls, pick);
     rays += 1u;
     if (!vpl_visible(s, v)) {
         return vec3(0.0);
@@ -70,7 +72,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[surface_slot(index)];
+    Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
     if (s.hit_t < 0.0 || p.vpl_count == 0u) {
         return;
@@ -107,7 +109,7 @@ void main() {
         }
         // f cos / pdf = rho for cosine sampling.
         throughput *= s.albedo * (w / q);
-        Material m = materials[hit.material];
+        Material m = material_texels(materials, hit.material);
         bool double_sided = (m.flags & MATERIAL_DOUBLE_SIDED) != 0u;
         Surface y;
         y.position = hit.position;

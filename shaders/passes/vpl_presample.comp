@@ -12,11 +12,13 @@
 #include "../lib/random.glsl"
 #include "../lib/sampling.glsl"
 #include "../restir/vpl.glsl"
+#include "../common/texel_records.glsl"
 
 layout(local_size_x = 64) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer VplBuffer { Vpl vpls[]; };
-layout(set = 1, binding = 1, std430) readonly buffer VplAliasBuffer { AliasEntry vpl_alias[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer vpls;  // Vpl, 3 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpl_alias;  // AliasEntry, RG32UI
 layout(set = 1, binding = 2, std430) writeonly buffer Tiles { VplCandidate tiles[]; };
 
 layout(push_constant) uniform Push {
@@ -34,8 +36,8 @@ void main() {
     Rng rng = rng_init(e, frame.frame_index, frame.seed, SALT_PRESAMPLE);
     uint i = rand_index(rng, pc.params.vpl_count);
     if (pc.params.source == 1u) {
-        AliasEntry a = vpl_alias[i];
+        AliasEntry a = alias_texels(vpl_alias, i);
         i = alias_resolve(i, a.keep, a.alias, rand(rng));
     }
-    tiles[e] = vpl_candidate(vpls[i], i);
+    tiles[e] = vpl_candidate(vpl_texels(vpls, i), i);
 }

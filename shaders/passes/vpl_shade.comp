@@ -7,13 +7,15 @@
 
 #include "../common/vpl_target.glsl"
 #include "../restir/reservoir.glsl"
+#include "../common/texel_records.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
-layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
-layout(set = 1, binding = 2, std430) readonly buffer ReservoirIn { Reservoir reservoirs[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
+layout(set = 1, binding = 2) uniform utextureBuffer reservoirs;  // Reservoir, 1 texel each
 layout(set = 1, binding = 3, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 
@@ -32,7 +34,7 @@ vec3 motion_view(uvec2 pixel, Surface s) {
     if (!previous_pixel(q, pq)) {
         return vec3(motion, -1.0);
     }
-    Surface sp = surfaces[prev_surface_slot(uint(pq.y) * frame.width + uint(pq.x))];
+    Surface sp = surface_texels(surfaces, prev_surface_slot(uint(pq.y) * frame.width + uint(pq.x)));
     if (sp.hit_t < 0.0
         || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, pc.normal_threshold, pc.depth_threshold)) {
         return vec3(motion, -1.0);
@@ -50,13 +52,13 @@ void main() {
         samples[index] = vec4(vec3(uintBitsToFloat(0x7fc00000u)), 1.0);  // tests of --check-finite only
         return;
     }
-    Surface s = surfaces[surface_slot(index)];
+    Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
     if (s.hit_t < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }
-    Reservoir r = reservoirs[index];
+    Reservoir r = reservoir_texels(reservoirs, index);
     bool valid = reservoir_valid(r);
     if (pc.view == SHADE_VIEW_RESERVOIR_W) {
         samples[index] = vec4(vec3(r.ucw), 1.0);
@@ -73,7 +75,7 @@ void main() {
     if (pc.view == SHADE_VIEW_VPL_KIND) {
         vec3 colour = vec3(0.0);
         if (valid) {
-            uint kind = vpls[r.vpl].kind;
+            uint kind = vpl_texels(vpls, r.vpl).kind;
             colour = kind == VPL_INDIRECT ? vec3(1.0, 0.1, 0.05) : kind == VPL_DIRECT_POINT ? vec3(0.1, 0.9, 1.0) : vec3(0.1, 0.25, 1.0);
         }
         samples[index] = vec4(colour, 1.0);
@@ -82,7 +84,7 @@ void main() {
     vec3 radiance = (p.kind_mask & KIND_MASK_DIRECT) != 0u ? s.emission : vec3(0.0);
     uint rays = 0u;
     if (valid) {
-        Vpl v = vpls[r.vpl];
+        Vpl v = vpl_texels(vpls, r.vpl);
         vec3 c = surface_vpl_contribution(s, v, p);
         if (max3(c) > 0.0) {
             bool visible = true;

@@ -10,11 +10,13 @@
 #extension GL_GOOGLE_include_directive : require
 
 #include "../common/scene.glsl"
+#include "../common/texel_records.glsl"
 
 layout(local_size_x = 64) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
-layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2, std430) buffer SphereDepthBuffer { uint sphere_t[]; };
 layout(set = 1, binding = 3, std430) buffer SphereIdBuffer { uint sphere_id[]; };
 layout(set = 1, binding = 4, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
@@ -43,7 +45,7 @@ float ray_sphere(vec3 o, vec3 d, vec3 c, float r) {
 }
 
 void splat(uint v, bool record) {
-    vec3 c = vpls[v].position;
+    vec3 c = vpl_texels(vpls, v).position;
     vec3 rel = c - frame.camera_position;
     float z = dot(rel, frame.camera_forward);
     if (z <= radius) {
@@ -64,7 +66,7 @@ void splat(uint v, bool record) {
             uint i = uint(p.y) * frame.width + uint(p.x);
             vec3 dir = camera_ray_direction(vec2(p) + 0.5);
             float t = ray_sphere(frame.camera_position, dir, c, radius);
-            float surface_t = surfaces[surface_slot(i)].hit_t;
+            float surface_t = surface_texels(surfaces, surface_slot(i)).hit_t;
             if (t <= 0.0 || (surface_t >= 0.0 && t >= surface_t)) {
                 continue;
             }
@@ -92,14 +94,14 @@ void main() {
     } else if (k < pixels) {
         uvec2 p = uvec2(k % frame.width, k / frame.width);
         vec3 dir = camera_ray_direction(vec2(p) + 0.5);
-        Surface s = surfaces[surface_slot(k)];
+        Surface s = surface_texels(surfaces, surface_slot(k));
         vec3 colour = vec3(0.0);
         if (s.hit_t >= 0.0) {
             colour = s.albedo * (0.15 + 0.85 * abs(dot(s.shading_normal, dir))) + min(s.emission, vec3(1.0));
         }
         uint id = sphere_id[k];
         if (sphere_t[k] != NO_HIT && id != 0xFFFFFFFFu) {
-            Vpl v = vpls[id];
+            Vpl v = vpl_texels(vpls, id);
             float t = uintBitsToFloat(sphere_t[k]);
             vec3 n = normalize(frame.camera_position + t * dir - v.position);
             vec3 base = v.kind == VPL_INDIRECT ? vec3(0.9, 0.12, 0.08) : vec3(0.12, 0.3, 0.95);

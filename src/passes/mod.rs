@@ -25,7 +25,7 @@ use anyhow::Result;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use crate::gpu_types::{GpuReservoir, GpuSurface, GpuVplParams, GLSL_CONSTANTS};
+use crate::gpu_types::{GpuReservoir, GpuSurface, GpuVpl, GpuVplCandidate, GpuVplParams, GLSL_CONSTANTS};
 use crate::settings::{RestirSettings, View};
 use crate::vk::pipeline::compute_barrier;
 use crate::vk::{Buffer, Context, GpuTimer};
@@ -97,6 +97,27 @@ pub fn glsl_constants() -> Vec<(&'static str, u32)> {
     GLSL_CONSTANTS.iter().copied().chain(slots).collect()
 }
 
+/// The texel format through which passes read records (surfaces, VPLs, reservoirs, presampled
+/// candidates) at per-pixel addresses: shaders/common/texel_records.glsl decodes them, and says why
+/// they are not read as storage buffers. Every such record is a whole number of these texels.
+pub const RECORD_TEXEL_FORMAT: vk::Format = vk::Format::R32G32B32A32_UINT;
+pub const RECORD_TEXEL_BYTES: u64 = 16;
+/// Alias-table entries (`AliasEntry`, 8 bytes) are read one RG32UI texel each, index lists
+/// (`u32`) one R32UI texel each.
+pub const ALIAS_TEXEL_FORMAT: vk::Format = vk::Format::R32G32_UINT;
+pub const WORD_TEXEL_FORMAT: vk::Format = vk::Format::R32_UINT;
+const _: () = assert!(
+    std::mem::size_of::<GpuSurface>() % 16 == 0
+        && std::mem::size_of::<GpuVpl>() % 16 == 0
+        && std::mem::size_of::<GpuReservoir>() % 16 == 0
+        && std::mem::size_of::<GpuVplCandidate>() % 16 == 0
+        && std::mem::size_of::<crate::gpu_types::GpuVertex>() % 16 == 0
+        && std::mem::size_of::<crate::gpu_types::GpuMaterial>() % 16 == 0
+        && std::mem::size_of::<crate::gpu_types::GpuInstance>() == 9 * 16
+        && std::mem::size_of::<crate::gpu_types::GpuLight>() % 16 == 0
+        && std::mem::size_of::<crate::gpu_types::GpuAliasEntry>() == 8
+);
+
 /// Per-pixel buffers shared between passes.
 pub struct FrameTargets {
     pub width: u32,
@@ -140,11 +161,13 @@ impl FrameTargets {
             | vk::BufferUsageFlags::TRANSFER_SRC
             | vk::BufferUsageFlags::TRANSFER_DST;
         let make = |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, storage, MemoryLocation::GpuOnly);
+        let texel = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
         Ok(Self {
             width,
             height,
             workgroup,
-            surfaces: make("gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64)?,
+            surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64, storage | texel, MemoryLocation::GpuOnly)?
+                .with_texel_view(RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES)?,
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,
             accum_compensation: make("accumulate.compensation", n * 16)?,
@@ -180,11 +203,11 @@ pub struct Reservoirs {
 impl Reservoirs {
     pub fn new(ctx: &Arc<Context>, pixels: u32) -> Result<Self> {
         let bytes = pixels as u64 * std::mem::size_of::<GpuReservoir>() as u64;
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        Ok(Self {
-            a: Buffer::new(ctx, "reservoirs_a", bytes, usage, MemoryLocation::GpuOnly)?,
-            b: Buffer::new(ctx, "reservoirs_b", bytes, usage, MemoryLocation::GpuOnly)?,
-        })
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let make = |name: &str| {
+            Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES)
+        };
+        Ok(Self { a: make("reservoirs_a")?, b: make("reservoirs_b")? })
     }
 
     /// 0: `reservoirs_a`, 1: `reservoirs_b`.

@@ -221,7 +221,9 @@ impl PhotonEmitPass {
         let capacity = settings.indirect + Self::slack(&settings);
         let total = settings.direct as u64 + capacity as u64;
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
-        let vpls = Buffer::new(ctx, "photon_emit.vpls", total * std::mem::size_of::<GpuVpl>() as u64, usage, MemoryLocation::GpuOnly)?;
+        let vpl_bytes = total * std::mem::size_of::<GpuVpl>() as u64;
+        let vpls = Buffer::new(ctx, "photon_emit.vpls", vpl_bytes, usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
+            .with_texel_view(super::RECORD_TEXEL_FORMAT, super::RECORD_TEXEL_BYTES)?;
         let counter = Buffer::new(ctx, "photon_emit.indirect_count", 16, usage, MemoryLocation::GpuOnly)?;
         let mut acc = 0.0f64;
         let mut cdf: Vec<f32> = lights

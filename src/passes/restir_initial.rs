@@ -9,7 +9,7 @@ use ash::vk;
 
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
@@ -32,8 +32,8 @@ impl RestirInitialPass {
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[
-            storage(0, "surfaces"), storage(1, "vpls"), storage(2, "vpl_alias"),
-            storage(3, "reservoirs_out"), storage(4, "ray_count"), storage(5, "tiles"),
+            texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"),
+            storage(3, "reservoirs_out"), storage(4, "ray_count"), texels(5, "tiles"),
         ]);
 
     pub fn new(

@@ -10,7 +10,7 @@ use ash::vk;
 use crate::gpu_types::GpuVplParams;
 use crate::settings::RestirSettings;
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{storage, texels};
 use crate::vk::{ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
@@ -35,7 +35,7 @@ impl RestirSpatialPass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_SPATIAL, [8, 8, 1])
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
-        .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "src"), storage(3, "dst"), storage(4, "ray_count")]);
+        .with_bindings(&[texels(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"), storage(4, "ray_count")]);
 
     pub fn new(
         ctx: &Arc<Context>,

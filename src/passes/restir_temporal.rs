@@ -8,7 +8,7 @@ use ash::vk;
 
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{storage, texels};
 use crate::settings::RestirSettings;
 use crate::vk::{ComputePipeline, Context};
 
@@ -34,7 +34,7 @@ impl RestirTemporalPass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_TEMPORAL, [8, 8, 1])
         .with_push(Push::LAYOUT)
         .with_bindings(&[
-            storage(0, "surfaces"), storage(1, "vpls"), storage(2, "reservoirs"), storage(3, "history"),
+            texels(0, "surfaces"), texels(1, "vpls"), storage(2, "reservoirs"), texels(3, "history"),
             storage(4, "ray_count"),
         ]);
 

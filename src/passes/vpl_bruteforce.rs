@@ -8,7 +8,7 @@ use ash::vk;
 
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
-use crate::vk::pipeline::{compute_barrier, storage};
+use crate::vk::pipeline::{compute_barrier, storage, texels};
 use crate::vk::{ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
@@ -36,7 +36,7 @@ impl VplBruteforcePass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_BRUTEFORCE, [8, 8, 1])
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
-        .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);
+        .with_bindings(&[texels(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);
 
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets, vpls: &VplInputs) -> Result<Self> {
         let buffers = [(0, &targets.surfaces), (1, vpls.vpls), (2, &targets.samples), (3, &targets.ray_counter)];

@@ -10,7 +10,7 @@ use ash::vk;
 
 use crate::gpu_types::GpuVplParams;
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{storage, texels};
 use crate::vk::{ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
@@ -32,7 +32,7 @@ impl VplCompensatePass {
         .with_workgroup_spec()
         .with_textured(shaders::PASSES_VPL_COMPENSATE_TEXTURED)
         .with_push(Push::LAYOUT)
-        .with_bindings(&[storage(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);
+        .with_bindings(&[texels(0, "surfaces"), texels(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);
 
     /// `textured`: the scene set has textures bound (the hit's albedo is sampled).
     pub fn new(

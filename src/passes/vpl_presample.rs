@@ -10,7 +10,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::gpu_types::{GpuVplCandidate, GpuVplParams, PRESAMPLE_MAX_TILES, PRESAMPLE_TILE_SIZE};
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
@@ -35,7 +35,7 @@ impl VplPresamplePass {
     pub const NAME: &'static str = "vpl_presample";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_PRESAMPLE, [64, 1, 1])
         .with_push(Push::LAYOUT)
-        .with_bindings(&[storage(0, "vpls"), storage(1, "vpl_alias"), storage(2, "tiles")]);
+        .with_bindings(&[texels(0, "vpls"), texels(1, "vpl_alias"), storage(2, "tiles")]);
 
     /// Tiles for an image: `PRESAMPLE_MAX_TILES` (RTXDI: 128 tiles of 1024), fewer for images of
     /// fewer 8×8 blocks (a tiny image would spend more on drawing tiles than on reading them).
@@ -46,10 +46,16 @@ impl VplPresamplePass {
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, vpls: &VplInputs, width: u32, height: u32) -> Result<Self> {
         let tile_count = Self::tile_count(width, height);
         let bytes = (tile_count * PRESAMPLE_TILE_SIZE) as u64 * std::mem::size_of::<GpuVplCandidate>() as u64;
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        let tiles = Buffer::new(ctx, "vpl_presample.tiles", bytes, usage, MemoryLocation::GpuOnly)?;
+        let tiles = Self::tiles_buffer(ctx, "vpl_presample.tiles", bytes)?;
         let pipeline = Self::DESC.pipeline(ctx, scene_layout).buffers(&[(0, vpls.vpls), (1, vpls.alias), (2, &tiles)]).build()?;
         Ok(Self { pipeline, tiles, tile_count })
+    }
+
+    /// A tiles buffer of `bytes`: written as storage here, read by `restir_initial` as texels
+    /// (two per candidate; shaders/common/texel_records.glsl says why).
+    pub fn tiles_buffer(ctx: &Arc<Context>, name: &str, bytes: u64) -> Result<Buffer> {
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(super::RECORD_TEXEL_FORMAT, super::RECORD_TEXEL_BYTES)
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams) {

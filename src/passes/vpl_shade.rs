@@ -9,7 +9,7 @@ use ash::vk;
 use crate::gpu_types::{GpuVplParams, SHADE_VIEW_FINAL, SHADE_VIEW_RESERVOIR_M, SHADE_VIEW_RESERVOIR_W, SHADE_VIEW_MOTION, SHADE_VIEW_VPL_KIND};
 use crate::settings::{RestirSettings, View};
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{storage, texels};
 use crate::vk::{ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
@@ -35,7 +35,7 @@ impl VplShadePass {
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[
-            storage(0, "surfaces"), storage(1, "vpls"), storage(2, "reservoirs"),
+            texels(0, "surfaces"), texels(1, "vpls"), texels(2, "reservoirs"),
             storage(3, "samples"), storage(4, "ray_count"),
         ]);
 

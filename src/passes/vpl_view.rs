@@ -9,7 +9,7 @@ use gpu_allocator::MemoryLocation;
 
 use crate::gpu_types::{VPL_VIEW_CLEAR, VPL_VIEW_DEPTH, VPL_VIEW_DRAW, VPL_VIEW_ID};
 use crate::shaders;
-use crate::vk::pipeline::{compute_barrier, storage};
+use crate::vk::pipeline::{compute_barrier, storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
@@ -40,7 +40,7 @@ impl VplViewPass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_VIEW, [64, 1, 1])
         .with_push(Push::LAYOUT)
         .with_bindings(&[
-            storage(0, "surfaces"), storage(1, "vpls"), storage(2, "sphere_t"),
+            texels(0, "surfaces"), texels(1, "vpls"), storage(2, "sphere_t"),
             storage(3, "sphere_id"), storage(4, "samples"),
         ]);
 

@@ -17,6 +17,8 @@ pub struct Buffer {
     pub size: u64,
     pub name: String,
     pub address: Option<vk::DeviceAddress>,
+    /// A view of the whole buffer as texels (`with_texel_view`), for uniform-texel-buffer bindings.
+    pub texel_view: Option<vk::BufferView>,
 }
 
 impl Buffer {
@@ -45,7 +47,28 @@ impl Buffer {
             // SAFETY: the buffer has SHADER_DEVICE_ADDRESS usage and bound memory.
             unsafe { device.get_buffer_device_address(&vk::BufferDeviceAddressInfo::default().buffer(raw)) }
         });
-        Ok(Self { ctx: ctx.clone(), raw, allocation: Some(allocation), size, name: name.to_string(), address })
+        Ok(Self { ctx: ctx.clone(), raw, allocation: Some(allocation), size, name: name.to_string(), address, texel_view: None })
+    }
+
+    /// Adds a view of the whole buffer as texels of `format` (`texel_bytes` each; the buffer needs
+    /// UNIFORM_TEXEL_BUFFER usage), named as the buffer. Fails when the device's
+    /// maxTexelBufferElements is below the buffer's texel count.
+    pub fn with_texel_view(mut self, format: vk::Format, texel_bytes: u64) -> Result<Self> {
+        let texels = self.size / texel_bytes;
+        let limit = u64::from(self.ctx.properties.limits.max_texel_buffer_elements);
+        anyhow::ensure!(
+            texels <= limit,
+            "buffer '{}' holds {texels} texels, more than this device's maxTexelBufferElements ({limit})",
+            self.name
+        );
+        let info = vk::BufferViewCreateInfo::default().buffer(self.raw).format(format).offset(0).range(texels * texel_bytes);
+        // SAFETY: the buffer is alive, was created with texel-buffer usage by the caller, and the
+        // range lies inside it.
+        let view = unsafe { self.ctx.device.create_buffer_view(&info, None) }
+            .with_context(|| format!("vkCreateBufferView '{}'", self.name))?;
+        self.ctx.set_name(view, &self.name);
+        self.texel_view = Some(view);
+        Ok(self)
     }
 
     /// A device-local buffer filled with `data` through a staging copy.
@@ -114,8 +137,14 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
-        // SAFETY: the owner guarantees no pending GPU work uses this buffer (frames are fenced).
-        unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
+        // SAFETY: the owner guarantees no pending GPU work uses this buffer or its view (frames are
+        // fenced); the view goes first.
+        unsafe {
+            if let Some(view) = self.texel_view.take() {
+                self.ctx.device.destroy_buffer_view(view, None);
+            }
+            self.ctx.device.destroy_buffer(self.raw, None);
+        }
         if let Some(a) = self.allocation.take() {
             self.ctx.free(a);
         }

@@ -15,6 +15,8 @@ use super::{Buffer, Context};
 pub enum BindingKind {
     StorageBuffer,
     UniformBuffer,
+    /// A buffer read as typed texels (`usamplerBuffer` + `texelFetch`) through its `texel_view`.
+    UniformTexelBuffer,
     AccelerationStructure,
 }
 
@@ -23,6 +25,7 @@ impl BindingKind {
         match self {
             Self::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
             Self::UniformBuffer => vk::DescriptorType::UNIFORM_BUFFER,
+            Self::UniformTexelBuffer => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
             Self::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
         }
     }
@@ -41,6 +44,9 @@ pub const fn storage(binding: u32, name: &'static str) -> Binding {
 }
 pub const fn uniform(binding: u32, name: &'static str) -> Binding {
     Binding { binding, kind: BindingKind::UniformBuffer, name }
+}
+pub const fn texels(binding: u32, name: &'static str) -> Binding {
+    Binding { binding, kind: BindingKind::UniformTexelBuffer, name }
 }
 pub const fn accel(binding: u32, name: &'static str) -> Binding {
     Binding { binding, kind: BindingKind::AccelerationStructure, name }
@@ -147,11 +153,19 @@ impl DescriptorSet {
         self.row(binding, kind)?;
         anyhow::ensure!(kind != BindingKind::AccelerationStructure, "binding {binding} of '{}' takes an acceleration structure", self.name);
         let info = [buffer.descriptor()];
-        let write = vk::WriteDescriptorSet::default()
-            .dst_set(set)
-            .dst_binding(binding)
-            .descriptor_type(kind.vk())
-            .buffer_info(&info);
+        let views = [buffer.texel_view.unwrap_or_default()];
+        let write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(binding).descriptor_type(kind.vk());
+        let write = if kind == BindingKind::UniformTexelBuffer {
+            anyhow::ensure!(
+                buffer.texel_view.is_some(),
+                "binding {binding} of '{}' reads texels, and buffer '{}' has no texel view",
+                self.name,
+                buffer.name
+            );
+            write.texel_buffer_view(&views)
+        } else {
+            write.buffer_info(&info)
+        };
         // SAFETY: the set and buffer are valid; no command buffer using the set is pending.
         unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
         Ok(())
