@@ -17,34 +17,30 @@ use crate::passes::{ALIAS_TEXEL_FORMAT, RECORD_TEXEL_BYTES, RECORD_TEXEL_FORMAT,
 use crate::vk::pipeline::{accel as accel_binding, storage, texels, uniform};
 use crate::vk::{Binding, Buffer, Context, DescriptorSet};
 
+/// Set 0's rows, then `extra` rows.
+macro_rules! scene_bindings {
+    ($($extra:expr),* $(,)?) => {
+        &[
+            accel_binding(0, "tlas"),
+            texels(1, "vertices"),
+            texels(2, "indices"),
+            texels(3, "triangle_materials"),
+            texels(4, "materials"),
+            texels(5, "instances"),
+            texels(6, "lights"),
+            texels(7, "light_alias"),
+            uniform(8, "frame"),
+            $($extra),*
+        ]
+    };
+}
+
 /// Set 0, declared once for every pass.
-pub const SCENE_BINDINGS: &[Binding] = &[
-    accel_binding(0, "tlas"),
-    texels(1, "vertices"),
-    texels(2, "indices"),
-    texels(3, "triangle_materials"),
-    texels(4, "materials"),
-    texels(5, "instances"),
-    texels(6, "lights"),
-    texels(7, "light_alias"),
-    uniform(8, "frame"),
-];
+pub const SCENE_BINDINGS: &[Binding] = scene_bindings!();
 
 /// Set 0 of scenes drawn with base-colour textures: [`SCENE_BINDINGS`] plus the texture table and
 /// the texels (RGBA8, sRGB-encoded), read by the `textured` shader variants only.
-pub const SCENE_BINDINGS_TEXTURED: &[Binding] = &[
-    accel_binding(0, "tlas"),
-    texels(1, "vertices"),
-    texels(2, "indices"),
-    texels(3, "triangle_materials"),
-    texels(4, "materials"),
-    texels(5, "instances"),
-    texels(6, "lights"),
-    texels(7, "light_alias"),
-    uniform(8, "frame"),
-    storage(9, "textures"),
-    storage(10, "texels"),
-];
+pub const SCENE_BINDINGS_TEXTURED: &[Binding] = scene_bindings!(storage(9, "textures"), storage(10, "texels"));
 
 /// What the renderer needs to know of the scene besides its GPU buffers (kept from the [`Scene`]
 /// it was uploaded from, so that renderers need only the [`SceneGpu`]).

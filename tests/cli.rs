@@ -360,3 +360,21 @@ fn renderdoc_capture_without_renderdoc_says_how_and_goes_on() {
         &["--renderdoc-capture", "frames 0..2"],
     );
 }
+
+#[test]
+fn image_beyond_the_texel_buffer_limit_is_refused_or_rendered_never_a_crash() {
+    // 4096² needs 167,772,160 G-buffer texels and 256 MiB per 16-byte-a-pixel buffer: over
+    // lavapipe's maxTexelBufferElements (2^27) and maxStorageBufferRange (128 MiB), where the
+    // build before the texel views crashed (segfault) instead of saying so. A device with larger
+    // limits renders it (1 frame, path tracer).
+    let out = tempfile::tempdir().unwrap();
+    let o = run(&["--headless", "--mode", "pt", "--width", "4096", "--height", "4096", "--frames", "1", "--out", out.path().to_str().unwrap()]);
+    let err = stderr(&o);
+    assert!(o.status.code().is_some(), "killed by a signal: {err}");
+    assert!(!err.contains("panicked"), "panicked: {err}");
+    if !o.status.success() {
+        for e in ["--width 4096 --height 4096", "buffer limits", "at most"] {
+            assert!(err.contains(e), "the refusal should mention '{e}': {err}");
+        }
+    }
+}

@@ -22,7 +22,7 @@ use rspirv::spirv::{Decoration, Dim, ExecutionMode, Op, StorageClass};
 use restir_vpl::gpu_types::*;
 use restir_vpl::passes::desc::{PassDesc, PushLayout};
 use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, RestirTemporalPass, VplShadePass};
-use restir_vpl::vk::pipeline::{storage, texels, uniform};
+use restir_vpl::vk::pipeline::{storage, storage_texels, texels, uniform};
 use restir_vpl::vk::BindingKind;
 
 /// The parts of a SPIR-V module the checks read.
@@ -288,12 +288,15 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
         };
         let block_name = m.member_names.get(&(pointee, 0)).cloned();
         let accel = m.global(pointee).is_ok_and(|t| t.class.opcode == Op::TypeAccelerationStructureKHR);
-        // A sampled (Sampled = 1) buffer image: `utextureBuffer`, a uniform texel buffer.
-        let texel_buffer = m.global(pointee).is_ok_and(|t| {
-            t.class.opcode == Op::TypeImage
-                && matches!(t.operands.get(1), Some(Operand::Dim(Dim::DimBuffer)))
-                && t.operands.get(5).map(lit_u32) == Some(1)
-        });
+        // A buffer image: sampled (Sampled = 1, `utextureBuffer`) is a uniform texel buffer,
+        // storage (Sampled = 2, `uimageBuffer`) a storage texel buffer.
+        let texel_buffer = |sampled: u32| {
+            m.global(pointee).is_ok_and(|t| {
+                t.class.opcode == Op::TypeImage
+                    && matches!(t.operands.get(1), Some(Operand::Dim(Dim::DimBuffer)))
+                    && t.operands.get(5).map(lit_u32) == Some(sampled)
+            })
+        };
         let entry = match class {
             StorageClass::StorageBuffer => (Ok(BindingKind::StorageBuffer), block_name),
             StorageClass::Uniform if m.decorations.contains_key(&(pointee, Decoration::BufferBlock)) => {
@@ -301,7 +304,8 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
             }
             StorageClass::Uniform => (Ok(BindingKind::UniformBuffer), block_name),
             StorageClass::UniformConstant if accel => (Ok(BindingKind::AccelerationStructure), m.names.get(&var).cloned()),
-            StorageClass::UniformConstant if texel_buffer => (Ok(BindingKind::UniformTexelBuffer), m.names.get(&var).cloned()),
+            StorageClass::UniformConstant if texel_buffer(1) => (Ok(BindingKind::UniformTexelBuffer), m.names.get(&var).cloned()),
+            StorageClass::UniformConstant if texel_buffer(2) => (Ok(BindingKind::StorageTexelBuffer), m.names.get(&var).cloned()),
             other => (Err(format!("{other:?} variable")), m.names.get(&var).cloned()),
         };
         if shader.insert(binding, (entry.0, entry.1.unwrap_or_default())).is_some() {
@@ -417,18 +421,18 @@ fn assert_reported(drifted: &PassDesc, needle: &str) {
 #[test]
 fn a_drifted_binding_table_is_detected() {
     // Binding number: gbuffer's one buffer declared at 1 instead of 0 (missing on both sides).
-    const MOVED: PassDesc = GbufferPass::DESC.with_bindings(&[storage(1, "surfaces")]);
+    const MOVED: PassDesc = GbufferPass::DESC.with_bindings(&[storage_texels(1, "surfaces")]);
     let moved = MOVED;
     assert_reported(&moved, "binding 1 ('surfaces') is in the table but not in the shader");
     assert_reported(&moved, "binding 0 ('surfaces') is in the shader but not in the table");
     // Name.
-    const RENAMED: PassDesc = GbufferPass::DESC.with_bindings(&[storage(0, "surface")]);
+    const RENAMED: PassDesc = GbufferPass::DESC.with_bindings(&[storage_texels(0, "surface")]);
     let renamed = RENAMED;
     assert_reported(&renamed, "binding 0 is 'surface' in the table, 'surfaces' in the shader");
     // Kind.
     const UNIFORM: PassDesc = GbufferPass::DESC.with_bindings(&[uniform(0, "surfaces")]);
     let uniform = UNIFORM;
-    assert_reported(&uniform, "is UniformBuffer in the table, StorageBuffer in the shader");
+    assert_reported(&uniform, "is UniformBuffer in the table, StorageTexelBuffer in the shader");
     // A texel view declared as a storage buffer (spatial reads its surfaces as texels).
     const AS_STORAGE: PassDesc = RestirSpatialPass::DESC.with_bindings(&[
         storage(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"), storage(4, "ray_count"),

@@ -237,7 +237,7 @@ fn random_streams_of_different_pixels_do_not_overlap() {
 
 #[test]
 fn records_read_as_texels_decode_to_their_bytes() {
-    // Each record kind: random finite bit patterns (exponent below all-ones, so no NaN payload can
+    // Each record kind (and the Surface encoder gbuffer writes with): random finite bit patterns (exponent below all-ones, so no NaN payload can
     // change on the way) uploaded as bytes, read through a RGBA32UI texel view with the shader's
     // decoder, stored through a storage buffer of the real struct; the bytes must come back.
     const TABLE: &[restir_vpl::vk::Binding] = &[
@@ -267,6 +267,7 @@ fn records_read_as_texels_decode_to_their_bytes() {
         std::mem::size_of::<GpuLight>(),
         std::mem::size_of::<GpuAliasEntry>(),
         4,
+        std::mem::size_of::<GpuSurface>(),
     ];
     let mut state = 0x2545_f491_4f6c_dd1du64;
     for (kind, &size) in sizes.iter().enumerate() {

@@ -40,6 +40,15 @@ Surface surface_texels(utextureBuffer b, uint i) {
     return s;
 }
 
+// The 5 texels of a Surface, as surface_texels reads them (gbuffer writes them with imageStore).
+void surface_to_texels(Surface s, out uvec4 t[5]) {
+    t[0] = uvec4(floatBitsToUint(s.position), floatBitsToUint(s.hit_t));
+    t[1] = uvec4(floatBitsToUint(s.shading_normal), s.instance);
+    t[2] = uvec4(floatBitsToUint(s.geometric_normal), s.triangle);
+    t[3] = uvec4(floatBitsToUint(s.albedo), s.material);
+    t[4] = uvec4(floatBitsToUint(s.emission), floatBitsToUint(s.view_depth));
+}
+
 Vpl vpl_texels(utextureBuffer b, uint i) {
     uint k = 3u * i;
     uvec4 t0 = texel_at(b, k);

@@ -10,7 +10,10 @@
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-layout(set = 1, binding = 0, std430) writeonly buffer SurfaceBuffer { Surface surfaces[]; };
+// Written as 5 RGBA32UI texels per Surface (texel_records.glsl's layout, which every other pass
+// reads through a texel view): a storage buffer of 160 bytes per pixel (both halves) would pass
+// lavapipe's 128 MiB maxStorageBufferRange from about 840k pixels on (1280×720 did).
+layout(set = 1, binding = 0, rgba32ui) uniform writeonly uimageBuffer surfaces;
 
 const uint SALT_GBUFFER = 0x6762u;
 
@@ -55,5 +58,10 @@ void main() {
         s.emission = emits ? m.emission : vec3(0.0);
         s.view_depth = t * dot(dir, frame.camera_forward);
     }
-    surfaces[surface_slot(index)] = s;
+    uvec4 texels[5];
+    surface_to_texels(s, texels);
+    int k = int(5u * surface_slot(index));
+    for (int j = 0; j < 5; ++j) {
+        imageStore(surfaces, k + j, texels[j]);
+    }
 }

@@ -9,11 +9,13 @@
 #include "../common/direct_light.glsl"
 #include "../lib/random.glsl"
 #include "../lib/brdf.glsl"
+#include "../common/texel_records.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-layout(set = 1, binding = 0, std430) readonly buffer SurfaceBuffer { Surface surfaces[]; };
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
 layout(set = 1, binding = 1, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 2, std430) buffer RayCounter { uint ray_count[]; };
 
@@ -26,7 +28,7 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    Surface s = surfaces[surface_slot(index)];
+    Surface s = surface_texels(surfaces, surface_slot(index));
     if (s.hit_t < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;

@@ -1,7 +1,8 @@
 // Not used by the renderer: decodes records through texel_records.glsl and stores them through
 // storage buffers of the real structs, for tests/vpl_math.rs (the round trip must give the bytes
 // back). `pc.kind` picks the record: 0 Surface, 1 Vpl, 2 Reservoir, 3 VplCandidate, 4 Vertex,
-// 5 Material, 6 Instance, 7 Light (RGBA32UI views), 8 AliasEntry (RG32UI), 9 uint (R32UI).
+// 5 Material, 6 Instance, 7 Light (RGBA32UI views), 8 AliasEntry (RG32UI), 9 uint (R32UI);
+// 10: a Surface decoded and encoded again by surface_to_texels, as words.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -57,7 +58,15 @@ void main() {
         out_lights[i] = light_texels(records, i);
     } else if (pc.kind == 8u) {
         out_alias[i] = alias_texels(records, i);
-    } else {
+    } else if (pc.kind == 9u) {
         out_words[i] = word_texel(records, i);
+    } else {
+        uvec4 t[5];
+        surface_to_texels(surface_texels(records, i), t);
+        for (uint j = 0u; j < 5u; ++j) {
+            for (uint c = 0u; c < 4u; ++c) {
+                out_words[20u * i + 4u * j + c] = t[j][c];
+            }
+        }
     }
 }

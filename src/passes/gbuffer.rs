@@ -6,7 +6,7 @@ use anyhow::Result;
 use ash::vk;
 
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::storage_texels;
 use crate::vk::{ComputePipeline, Context};
 
 use super::desc::PassDesc;
@@ -19,7 +19,7 @@ impl GbufferPass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_GBUFFER, [8, 8, 1])
         .with_workgroup_spec()
         .with_textured(shaders::PASSES_GBUFFER_TEXTURED)
-        .with_bindings(&[storage(0, "surfaces")]);
+        .with_bindings(&[storage_texels(0, "surfaces")]);
 
     /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, textured: bool, targets: &FrameTargets) -> Result<Self> {

@@ -97,9 +97,10 @@ pub fn glsl_constants() -> Vec<(&'static str, u32)> {
     GLSL_CONSTANTS.iter().copied().chain(slots).collect()
 }
 
-/// The texel format through which passes read records (surfaces, VPLs, reservoirs, presampled
-/// candidates) at per-pixel addresses: shaders/common/texel_records.glsl decodes them, and says why
-/// they are not read as storage buffers. Every such record is a whole number of these texels.
+/// The texel format through which passes read records at per-lane addresses (surfaces, VPLs,
+/// reservoirs, presampled candidates; set 0's vertices, materials, instances and lights):
+/// shaders/common/texel_records.glsl decodes them, and says why they are not read as storage
+/// buffers. Every such record is a whole number of these texels.
 pub const RECORD_TEXEL_FORMAT: vk::Format = vk::Format::R32G32B32A32_UINT;
 pub const RECORD_TEXEL_BYTES: u64 = 16;
 /// Alias-table entries (`AliasEntry`, 8 bytes) are read one RG32UI texel each, index lists
@@ -157,6 +158,18 @@ impl FrameTargets {
             limits.max_compute_work_group_invocations
         );
         let n = width as u64 * height as u64;
+        // Per-pixel buffers must fit one descriptor: the G-buffer's two halves (160 bytes a pixel)
+        // are texels (2^27 of them on lavapipe: 13.4M pixels), the others storage buffers of up to
+        // 16 bytes a pixel (lavapipe's 128 MiB maxStorageBufferRange: 8.4M pixels).
+        let max_pixels = (u64::from(limits.max_texel_buffer_elements) * RECORD_TEXEL_BYTES / (2 * std::mem::size_of::<GpuSurface>() as u64))
+            .min(u64::from(limits.max_storage_buffer_range) / 16);
+        anyhow::ensure!(
+            n <= max_pixels,
+            "--width {width} --height {height}: {n} pixels, more than this device's buffer limits allow (at most {max_pixels} \
+             pixels: maxTexelBufferElements {} for the G-buffer, maxStorageBufferRange {} bytes for 16 bytes a pixel)",
+            limits.max_texel_buffer_elements,
+            limits.max_storage_buffer_range
+        );
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_SRC
             | vk::BufferUsageFlags::TRANSFER_DST;
@@ -166,7 +179,7 @@ impl FrameTargets {
             width,
             height,
             workgroup,
-            surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64, storage | texel, MemoryLocation::GpuOnly)?
+            surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64, storage | texel | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
                 .with_texel_view(RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES)?,
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,

@@ -7,7 +7,7 @@ use anyhow::Result;
 use ash::vk;
 
 use crate::shaders;
-use crate::vk::pipeline::storage;
+use crate::vk::pipeline::{storage, texels};
 use crate::vk::{ComputePipeline, Context};
 
 use super::desc::PassDesc;
@@ -20,7 +20,7 @@ impl PathtracePass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_PATHTRACE, [8, 8, 1])
         .with_workgroup_spec()
         .with_textured(shaders::PASSES_PATHTRACE_TEXTURED)
-        .with_bindings(&[storage(0, "surfaces"), storage(1, "samples"), storage(2, "ray_count")]);
+        .with_bindings(&[texels(0, "surfaces"), storage(1, "samples"), storage(2, "ray_count")]);
 
     /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, textured: bool, targets: &FrameTargets) -> Result<Self> {

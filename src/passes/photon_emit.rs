@@ -193,11 +193,13 @@ impl PhotonEmitPass {
             .map(|h| h.size)
             .max()
             .unwrap_or(0);
-        let max_buffer = ctx.properties.limits.max_storage_buffer_range as u64;
+        // Written as a storage buffer, read as texels (passes::RECORD_TEXEL_FORMAT): both limits hold.
+        let limits = &ctx.properties.limits;
+        let max_buffer = (limits.max_storage_buffer_range as u64).min(u64::from(limits.max_texel_buffer_elements) * super::RECORD_TEXEL_BYTES);
         if bytes > heap / 2 || bytes > max_buffer || total > u32::MAX as u64 / 2 {
             bail!(
                 "--vpls-direct {} / --vpls-indirect {}: {total} VPLs need {:.2} GiB, more than this device allows \
-                 (half its {:.2} GiB device-local heap, or its {:.2} GiB storage-buffer limit)",
+                 (half its {:.2} GiB device-local heap, or its {:.2} GiB limit on one buffer, storage or texel)",
                 s.direct,
                 s.indirect,
                 bytes as f64 / (1u64 << 30) as f64,

@@ -15,8 +15,10 @@ use super::{Buffer, Context};
 pub enum BindingKind {
     StorageBuffer,
     UniformBuffer,
-    /// A buffer read as typed texels (`usamplerBuffer` + `texelFetch`) through its `texel_view`.
+    /// A buffer read as typed texels (`utextureBuffer` + `texelFetch`) through its `texel_view`.
     UniformTexelBuffer,
+    /// A buffer written as typed texels (`uimageBuffer` + `imageStore`) through its `texel_view`.
+    StorageTexelBuffer,
     AccelerationStructure,
 }
 
@@ -26,6 +28,7 @@ impl BindingKind {
             Self::StorageBuffer => vk::DescriptorType::STORAGE_BUFFER,
             Self::UniformBuffer => vk::DescriptorType::UNIFORM_BUFFER,
             Self::UniformTexelBuffer => vk::DescriptorType::UNIFORM_TEXEL_BUFFER,
+            Self::StorageTexelBuffer => vk::DescriptorType::STORAGE_TEXEL_BUFFER,
             Self::AccelerationStructure => vk::DescriptorType::ACCELERATION_STRUCTURE_KHR,
         }
     }
@@ -47,6 +50,9 @@ pub const fn uniform(binding: u32, name: &'static str) -> Binding {
 }
 pub const fn texels(binding: u32, name: &'static str) -> Binding {
     Binding { binding, kind: BindingKind::UniformTexelBuffer, name }
+}
+pub const fn storage_texels(binding: u32, name: &'static str) -> Binding {
+    Binding { binding, kind: BindingKind::StorageTexelBuffer, name }
 }
 pub const fn accel(binding: u32, name: &'static str) -> Binding {
     Binding { binding, kind: BindingKind::AccelerationStructure, name }
@@ -155,10 +161,10 @@ impl DescriptorSet {
         let info = [buffer.descriptor()];
         let views = [buffer.texel_view.unwrap_or_default()];
         let write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(binding).descriptor_type(kind.vk());
-        let write = if kind == BindingKind::UniformTexelBuffer {
+        let write = if matches!(kind, BindingKind::UniformTexelBuffer | BindingKind::StorageTexelBuffer) {
             anyhow::ensure!(
                 buffer.texel_view.is_some(),
-                "binding {binding} of '{}' reads texels, and buffer '{}' has no texel view",
+                "binding {binding} of '{}' takes texels, and buffer '{}' has no texel view",
                 self.name,
                 buffer.name
             );
