@@ -949,7 +949,7 @@ impl Renderer {
             }
         }
         let n_slots = RAY_SLOTS.len();
-        let counters: Vec<u32> = bytemuck::cast_slice(&slot.readback.read(0, 4 * (n_slots + 1))?).to_vec();
+        let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (n_slots + 1))?);
         self.state.nonfinite_samples = counters[n_slots] as u64;
         let primary = if gbuffer_ran { self.parts.targets.pixels() as u64 } else { 0 };
         let mut rays_by_pass = vec![("gbuffer", primary)];
