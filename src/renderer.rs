@@ -540,8 +540,7 @@ impl Renderer {
         let need_power = mode.uses_reservoirs() && settings.candidate_source == CandidateSource::Power && mode != Mode::Uniform;
         // Alias entries are read as RG32UI texels (shaders/common/texel_records.glsl).
         let alias_buffer = |name: &str, bytes: &[u8]| {
-            let usage = ash::vk::BufferUsageFlags::STORAGE_BUFFER | ash::vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
-            crate::vk::Buffer::with_data(ctx, name, bytes, usage)?.with_texel_view(crate::passes::ALIAS_TEXEL_FORMAT, 8)
+            crate::vk::Buffer::with_texel_data(ctx, name, bytes, crate::passes::ALIAS_TEXELS, ash::vk::BufferUsageFlags::STORAGE_BUFFER)
         };
         let mut total_vpl_lum = 0.0f64;
         let alias = if need_power {

@@ -13,7 +13,7 @@ use crate::gpu_types::*;
 use crate::lights::LightSet;
 use crate::scene::Scene;
 use crate::vk::accel::{self, AccelerationStructure, InstanceDesc, MeshRange};
-use crate::passes::{ALIAS_TEXEL_FORMAT, RECORD_TEXEL_BYTES, RECORD_TEXEL_FORMAT, WORD_TEXEL_FORMAT};
+use crate::passes::{ALIAS_TEXELS, RECORD_TEXELS, WORD_TEXELS};
 use crate::vk::pipeline::{accel as accel_binding, storage, texels, uniform};
 use crate::vk::{Binding, Buffer, Context, DescriptorSet};
 
@@ -106,11 +106,6 @@ fn storage_usage() -> vk::BufferUsageFlags {
     vk::BufferUsageFlags::STORAGE_BUFFER
 }
 
-/// A scene buffer the shaders read as texels of `format` (`texel_bytes` each; scene.glsl).
-fn texel_buffer(ctx: &Arc<Context>, name: &str, data: &[u8], format: vk::Format, texel_bytes: u64, extra: vk::BufferUsageFlags) -> Result<Buffer> {
-    Buffer::with_data(ctx, name, data, vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | extra)?.with_texel_view(format, texel_bytes)
-}
-
 /// Vertices and indices also feed the BLAS builds.
 fn geometry_usage() -> vk::BufferUsageFlags {
     vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS | vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
@@ -182,11 +177,11 @@ impl SceneGpu {
         let lights = LightSet::new(&emitters, &[]);
 
         let none = vk::BufferUsageFlags::empty();
-        let vb = texel_buffer(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, geometry_usage())?;
-        let ib = texel_buffer(ctx, "scene.indices", bytemuck::cast_slice(&indices), WORD_TEXEL_FORMAT, 4, geometry_usage())?;
-        let tm = texel_buffer(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), WORD_TEXEL_FORMAT, 4, none)?;
-        let mb = texel_buffer(ctx, "scene.materials", bytemuck::cast_slice(&materials), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, none)?;
-        let inb = texel_buffer(ctx, "scene.instances", bytemuck::cast_slice(&instances), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, none)?;
+        let vb = Buffer::with_texel_data(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), RECORD_TEXELS, geometry_usage())?;
+        let ib = Buffer::with_texel_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), WORD_TEXELS, geometry_usage())?;
+        let tm = Buffer::with_texel_data(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), WORD_TEXELS, none)?;
+        let mb = Buffer::with_texel_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), RECORD_TEXELS, none)?;
+        let inb = Buffer::with_texel_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), RECORD_TEXELS, none)?;
         let blas_start = std::time::Instant::now();
         let blases = accel::build_blases(ctx, &vb, std::mem::size_of::<GpuVertex>() as u64, &ib, &ranges)
             .context("building BLASes")?;
@@ -276,8 +271,8 @@ pub struct LightBuffers {
 impl LightBuffers {
     pub fn new(ctx: &Arc<Context>, set: LightSet) -> Result<Self> {
         let none = vk::BufferUsageFlags::empty();
-        let lights = texel_buffer(ctx, "scene.lights", bytemuck::cast_slice(&set.lights), RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES, none)?;
-        let alias = texel_buffer(ctx, "scene.light_alias", bytemuck::cast_slice(&set.alias), ALIAS_TEXEL_FORMAT, 8, none)?;
+        let lights = Buffer::with_texel_data(ctx, "scene.lights", bytemuck::cast_slice(&set.lights), RECORD_TEXELS, none)?;
+        let alias = Buffer::with_texel_data(ctx, "scene.light_alias", bytemuck::cast_slice(&set.alias), ALIAS_TEXELS, none)?;
         Ok(Self { set, lights, alias })
     }
 

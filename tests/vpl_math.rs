@@ -255,7 +255,7 @@ fn records_read_as_texels_decode_to_their_bytes() {
     let empty = DescriptorSet::new(&ctx, "test.set0", &[]).unwrap();
     let pipeline = ComputePipeline::new(&ctx, "texel_records", shaders::TESTS_TEXEL_RECORDS, empty.layout, TABLE, 8, [64, 1, 1]).unwrap();
     let count = 1000u32;
-    use restir_vpl::passes::{ALIAS_TEXEL_FORMAT, RECORD_TEXEL_BYTES, RECORD_TEXEL_FORMAT, WORD_TEXEL_FORMAT};
+    use restir_vpl::passes::{ALIAS_TEXELS, RECORD_TEXELS, WORD_TEXELS};
     let sizes = [
         std::mem::size_of::<GpuSurface>(),
         std::mem::size_of::<GpuVpl>(),
@@ -272,9 +272,9 @@ fn records_read_as_texels_decode_to_their_bytes() {
     let mut state = 0x2545_f491_4f6c_dd1du64;
     for (kind, &size) in sizes.iter().enumerate() {
         let view = match kind {
-            8 => (ALIAS_TEXEL_FORMAT, 8),
-            9 => (WORD_TEXEL_FORMAT, 4),
-            _ => (RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES),
+            8 => ALIAS_TEXELS,
+            9 => WORD_TEXELS,
+            _ => RECORD_TEXELS,
         };
         let words: Vec<u32> = (0..count as usize * size / 4)
             .map(|_| {
@@ -285,10 +285,7 @@ fn records_read_as_texels_decode_to_their_bytes() {
             })
             .collect();
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        let records = Buffer::with_data(&ctx, "test.records", bytemuck::cast_slice(&words), usage)
-            .unwrap()
-            .with_texel_view(view.0, view.1)
-            .unwrap();
+        let records = Buffer::with_texel_data(&ctx, "test.records", bytemuck::cast_slice(&words), view, usage).unwrap();
         let out = Buffer::with_data(&ctx, "test.decoded", &vec![0u8; words.len() * 4], usage).unwrap();
         pipeline.set1.write_buffer(0, &records).unwrap();
         for b in 1..=10 {

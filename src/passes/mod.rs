@@ -28,7 +28,7 @@ use gpu_allocator::MemoryLocation;
 use crate::gpu_types::{GpuReservoir, GpuSurface, GpuVpl, GpuVplCandidate, GpuVplParams, GLSL_CONSTANTS};
 use crate::settings::{RestirSettings, View};
 use crate::vk::pipeline::compute_barrier;
-use crate::vk::{Buffer, Context, GpuTimer};
+use crate::vk::{Buffer, Context, GpuTimer, TexelFormat};
 
 pub use accumulate::AccumulatePass;
 pub use desc::PassDesc;
@@ -101,12 +101,11 @@ pub fn glsl_constants() -> Vec<(&'static str, u32)> {
 /// reservoirs, presampled candidates; set 0's vertices, materials, instances and lights):
 /// shaders/common/texel_records.glsl decodes them, and says why they are not read as storage
 /// buffers. Every such record is a whole number of these texels.
-pub const RECORD_TEXEL_FORMAT: vk::Format = vk::Format::R32G32B32A32_UINT;
-pub const RECORD_TEXEL_BYTES: u64 = 16;
+pub const RECORD_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32G32B32A32_UINT, bytes: 16 };
 /// Alias-table entries (`AliasEntry`, 8 bytes) are read one RG32UI texel each, index lists
 /// (`u32`) one R32UI texel each.
-pub const ALIAS_TEXEL_FORMAT: vk::Format = vk::Format::R32G32_UINT;
-pub const WORD_TEXEL_FORMAT: vk::Format = vk::Format::R32_UINT;
+pub const ALIAS_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32G32_UINT, bytes: 8 };
+pub const WORD_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32_UINT, bytes: 4 };
 const _: () = assert!(
     std::mem::size_of::<GpuSurface>() % 16 == 0
         && std::mem::size_of::<GpuVpl>() % 16 == 0
@@ -161,7 +160,7 @@ impl FrameTargets {
         // Per-pixel buffers must fit one descriptor: the G-buffer's two halves (160 bytes a pixel)
         // are texels (2^27 of them on lavapipe: 13.4M pixels), the others storage buffers of up to
         // 16 bytes a pixel (lavapipe's 128 MiB maxStorageBufferRange: 8.4M pixels).
-        let max_pixels = (u64::from(limits.max_texel_buffer_elements) * RECORD_TEXEL_BYTES / (2 * std::mem::size_of::<GpuSurface>() as u64))
+        let max_pixels = (u64::from(limits.max_texel_buffer_elements) * RECORD_TEXELS.bytes / (2 * std::mem::size_of::<GpuSurface>() as u64))
             .min(u64::from(limits.max_storage_buffer_range) / 16);
         anyhow::ensure!(
             n <= max_pixels,
@@ -180,7 +179,7 @@ impl FrameTargets {
             height,
             workgroup,
             surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64, storage | texel | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
-                .with_texel_view(RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES)?,
+                .with_texel_view(RECORD_TEXELS)?,
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,
             accum_compensation: make("accumulate.compensation", n * 16)?,
@@ -218,7 +217,7 @@ impl Reservoirs {
         let bytes = pixels as u64 * std::mem::size_of::<GpuReservoir>() as u64;
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let make = |name: &str| {
-            Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(RECORD_TEXEL_FORMAT, RECORD_TEXEL_BYTES)
+            Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(RECORD_TEXELS)
         };
         Ok(Self { a: make("reservoirs_a")?, b: make("reservoirs_b")? })
     }

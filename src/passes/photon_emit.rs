@@ -193,9 +193,9 @@ impl PhotonEmitPass {
             .map(|h| h.size)
             .max()
             .unwrap_or(0);
-        // Written as a storage buffer, read as texels (passes::RECORD_TEXEL_FORMAT): both limits hold.
+        // Written as a storage buffer, read as texels (passes::RECORD_TEXELS): both limits hold.
         let limits = &ctx.properties.limits;
-        let max_buffer = (limits.max_storage_buffer_range as u64).min(u64::from(limits.max_texel_buffer_elements) * super::RECORD_TEXEL_BYTES);
+        let max_buffer = (limits.max_storage_buffer_range as u64).min(u64::from(limits.max_texel_buffer_elements) * super::RECORD_TEXELS.bytes);
         if bytes > heap / 2 || bytes > max_buffer || total > u32::MAX as u64 / 2 {
             bail!(
                 "--vpls-direct {} / --vpls-indirect {}: {total} VPLs need {:.2} GiB, more than this device allows \
@@ -225,7 +225,7 @@ impl PhotonEmitPass {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
         let vpl_bytes = total * std::mem::size_of::<GpuVpl>() as u64;
         let vpls = Buffer::new(ctx, "photon_emit.vpls", vpl_bytes, usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
-            .with_texel_view(super::RECORD_TEXEL_FORMAT, super::RECORD_TEXEL_BYTES)?;
+            .with_texel_view(super::RECORD_TEXELS)?;
         let counter = Buffer::new(ctx, "photon_emit.indirect_count", 16, usage, MemoryLocation::GpuOnly)?;
         let mut acc = 0.0f64;
         let mut cdf: Vec<f32> = lights

@@ -55,7 +55,7 @@ impl VplPresamplePass {
     /// (two per candidate; shaders/common/texel_records.glsl says why).
     pub fn tiles_buffer(ctx: &Arc<Context>, name: &str, bytes: u64) -> Result<Buffer> {
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(super::RECORD_TEXEL_FORMAT, super::RECORD_TEXEL_BYTES)
+        Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(super::RECORD_TEXELS)
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams) {

@@ -10,6 +10,13 @@ use gpu_allocator::MemoryLocation;
 
 use super::Context;
 
+/// How a buffer's texel view reads it: the Vulkan format and one texel's size in bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TexelFormat {
+    pub format: vk::Format,
+    pub bytes: u64,
+}
+
 pub struct Buffer {
     ctx: Arc<Context>,
     pub raw: vk::Buffer,
@@ -17,7 +24,7 @@ pub struct Buffer {
     pub size: u64,
     pub name: String,
     pub address: Option<vk::DeviceAddress>,
-    /// A view of the whole buffer as texels (`with_texel_view`), for uniform-texel-buffer bindings.
+    /// A view of the whole buffer as texels (`with_texel_view`), for texel-buffer bindings.
     pub texel_view: Option<vk::BufferView>,
 }
 
@@ -50,10 +57,17 @@ impl Buffer {
         Ok(Self { ctx: ctx.clone(), raw, allocation: Some(allocation), size, name: name.to_string(), address, texel_view: None })
     }
 
-    /// Adds a view of the whole buffer as texels of `format` (`texel_bytes` each; the buffer needs
-    /// UNIFORM_TEXEL_BUFFER usage), named as the buffer. Fails when the device's
+    /// A device-local buffer filled with `data` and read as texels of `texels` (`with_data` with
+    /// UNIFORM_TEXEL_BUFFER added to `usage`, then `with_texel_view`).
+    pub fn with_texel_data(ctx: &Arc<Context>, name: &str, data: &[u8], texels: TexelFormat, usage: vk::BufferUsageFlags) -> Result<Self> {
+        Self::with_data(ctx, name, data, usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?.with_texel_view(texels)
+    }
+
+    /// Adds a view of the whole buffer as texels of `texels` (the buffer needs UNIFORM_ or
+    /// STORAGE_TEXEL_BUFFER usage), named as the buffer. Fails when the device's
     /// maxTexelBufferElements is below the buffer's texel count.
-    pub fn with_texel_view(mut self, format: vk::Format, texel_bytes: u64) -> Result<Self> {
+    pub fn with_texel_view(mut self, texels_format: TexelFormat) -> Result<Self> {
+        let TexelFormat { format, bytes: texel_bytes } = texels_format;
         let texels = self.size / texel_bytes;
         let limit = u64::from(self.ctx.properties.limits.max_texel_buffer_elements);
         anyhow::ensure!(

@@ -10,7 +10,7 @@ pub mod pipeline_cache;
 pub mod renderdoc;
 pub mod timer;
 
-pub use buffer::Buffer;
+pub use buffer::{Buffer, TexelFormat};
 pub use image::Image;
 pub use context::{WindowHandles, Presentation, Context, ContextOptions, DeviceReport, NoRayQueryDevice};
 pub use pipeline::{Binding, BindingKind, ComputePipeline, DescriptorSet};
