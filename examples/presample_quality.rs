@@ -33,7 +33,7 @@ fn main() -> anyhow::Result<()> {
     let variants = arg(5, "ris:on,ris:off,restir:on,restir:off");
     let seeds: u32 = arg(6, "6").parse()?;
     let ctx = Arc::new(Context::new(&Default::default())?);
-    let scene = Arc::new(SceneGpu::new(&ctx, &Scene::load(std::path::Path::new(&scene_path))?, true)?);
+    let scene = Arc::new(SceneGpu::new(&ctx, &Scene::load(std::path::Path::new(&scene_path))?, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES)?);
     let base = RenderSettings { scene: scene_path.clone().into(), width: w, height: h, ..Default::default() };
     let reference = {
         let s = RenderSettings { mode: Mode::Ris, presample: false, seed: 999, frames: ref_frames, ..base.clone() };

@@ -71,6 +71,10 @@ pub struct SceneSummary {
     pub path: String,
     pub triangles: usize,
     pub instances: usize,
+    /// Instances merged into one world-space mesh (`--merge-blas`; 0 when not merged), and BLASes
+    /// built in all.
+    pub merged_instances: usize,
+    pub blases: usize,
     pub meshes: usize,
     pub materials: usize,
     /// Lights drawn: area-light triangles and point lights, the added ones included.
@@ -100,7 +104,7 @@ pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
     let start = Instant::now();
     let scene = Scene::load(&settings.scene)?;
     let ctx = Arc::new(Context::new(&ContextOptions { validate: settings.validate, device_index: settings.device_index, ..Default::default() })?);
-    let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures).context("uploading the scene")?);
+    let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas).context("uploading the scene")?);
     run_with(ctx, scene, settings, start)
 }
 
@@ -123,10 +127,12 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     };
     let camera = camera_at(0);
     log::info!(
-        "device: {}\ncamera: {camera:?}\nscene: {} triangles, {} instances, {} lights, built in {:.1} ms",
+        "device: {}\ncamera: {camera:?}\nscene: {} triangles, {} instances ({} merged into one mesh, {} BLASes), {} lights, built in {:.1} ms",
         ctx.report,
         scene.triangle_count,
         scene.instance_count,
+        scene.merged_instances,
+        scene.blas_count,
         scene.lights.lights.len(),
         scene.build_ms
     );
@@ -250,6 +256,8 @@ pub fn finish_run(
             path: info.path.display().to_string(),
             triangles: scene.triangle_count,
             instances: scene.instance_count,
+            merged_instances: scene.merged_instances,
+            blases: scene.blas_count,
             meshes: info.meshes,
             materials: info.materials,
             area_lights: renderer.lights().lights.len(),

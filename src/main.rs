@@ -205,6 +205,11 @@ struct RenderArgs {
     /// never compiles the texture path).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.textures))]
     textures: Toggle,
+    /// A scene of at most N triangles has its instances merged into one world-space mesh: one BLAS,
+    /// one TLAS instance, no instance transforms in traversal. 0: never (one BLAS per mesh, one
+    /// TLAS instance per glTF node). The same image up to float rounding.
+    #[arg(long, value_name = "N", default_value_t = DEFAULTS.merge_blas)]
+    merge_blas: u32,
     /// Vulkan device index (see --list-devices).
     #[arg(long)]
     device: Option<usize>,
@@ -548,6 +553,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         yuksel_spacings: cli.yuksel_spacings,
         yuksel_knn: cli.yuksel_knn,
         textures: cli.textures.on(),
+        merge_blas: cli.merge_blas,
         compensate: cli.compensate,
     })
 }
@@ -917,7 +923,7 @@ fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::C
         device_index: settings.device_index,
         ..Default::default()
     })?);
-    let gpu = restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, settings.textures)?;
+    let gpu = restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas)?;
     Ok((ctx, std::sync::Arc::new(gpu)))
 }
 

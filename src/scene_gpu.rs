@@ -12,7 +12,8 @@ use glam::{Mat3, Mat4};
 use crate::gpu_types::*;
 use crate::lights::LightSet;
 use crate::scene::Scene;
-use crate::vk::accel::{self, AccelerationStructure, InstanceDesc, MeshRange};
+use crate::vk::accel::{self, InstanceDesc, MeshRange, SceneAccel};
+use crate::vk::leaf_order::{self, Aabb};
 use crate::passes::{ALIAS_TEXELS, RECORD_TEXELS, WORD_TEXELS};
 use crate::vk::pipeline::{accel as accel_binding, storage, texels, uniform};
 use crate::vk::{Binding, Buffer, Context, DescriptorSet};
@@ -86,10 +87,12 @@ pub struct SceneGpu {
     /// `build_ms`).
     pub blas_ms: f64,
     pub tlas_ms: f64,
+    /// Instances merged into one world-space mesh ([`Scene::merged`]; 0 when not merged) and
+    /// BLASes built.
+    pub merged_instances: usize,
+    pub blas_count: usize,
     // Kept alive for the descriptors.
-    tlas: AccelerationStructure,
-    _tlas_instances: Buffer,
-    _blases: Vec<AccelerationStructure>,
+    accel: SceneAccel,
     /// (binding, buffer) of every set-0 buffer but the frame constants.
     buffers: Vec<(u32, Buffer)>,
 }
@@ -113,16 +116,25 @@ fn geometry_usage() -> vk::BufferUsageFlags {
 
 impl SceneGpu {
     /// Uploads `scene`; with `textures` false (or a scene without textures) nothing texture-related
-    /// is created and materials keep their base colour factor only.
-    pub fn new(ctx: &Arc<Context>, scene: &Scene, textures: bool) -> Result<Self> {
+    /// is created and materials keep their base colour factor only. A scene of at most `merge_blas`
+    /// triangles has its instances merged into one world-space mesh with one BLAS (`--merge-blas`,
+    /// [`Scene::merged`]); every mesh's triangles and the TLAS's instances are handed to the builds
+    /// in [`leaf_order::midpoint_split_order`].
+    pub fn new(ctx: &Arc<Context>, scene: &Scene, textures: bool, merge_blas: u32) -> Result<Self> {
         let textured = textures && scene.materials.iter().any(|m| m.base_color_texture.is_some());
         let start = std::time::Instant::now();
+        // What the rays see: a small scene's instances merged into one world-space mesh.
+        let merge = scene.instances.len() > 1 && scene.triangle_count() <= merge_blas as usize;
+        let merged_scene = merge.then(|| scene.merged());
+        let traced = merged_scene.as_ref().unwrap_or(scene);
+        let merged_instances = if merge { scene.instances.len() } else { 0 };
         let mut vertices: Vec<GpuVertex> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
         let mut triangle_materials: Vec<u32> = Vec::new();
         let mut ranges = Vec::new();
         let mut mesh_first_triangle = Vec::new();
-        for mesh in &scene.meshes {
+        let mut mesh_bounds = Vec::new();
+        for mesh in &traced.meshes {
             let range = MeshRange {
                 first_vertex: vertices.len() as u32,
                 vertex_count: mesh.positions.len() as u32,
@@ -139,8 +151,17 @@ impl SceneGpu {
                     v: uv.y,
                 });
             }
-            indices.extend_from_slice(&mesh.indices);
-            triangle_materials.extend_from_slice(&mesh.triangle_materials);
+            // Triangles in the order that makes a non-sorting BVH builder's splits spatial
+            // (leaf_order.rs); materials follow their triangles.
+            let bounds: Vec<Aabb> = (0..mesh.triangle_count())
+                .map(|t| mesh.triangle(t).map_or(Aabb::EMPTY, |p| Aabb::of_points(&p)))
+                .collect();
+            for t in leaf_order::midpoint_split_order(&bounds) {
+                let t = t as usize;
+                indices.extend_from_slice(&mesh.indices[3 * t..3 * t + 3]);
+                triangle_materials.push(mesh.triangle_materials[t]);
+            }
+            mesh_bounds.push(bounds.into_iter().fold(Aabb::EMPTY, Aabb::grow));
             ranges.push((mesh.name.clone(), range));
         }
         let materials: Vec<GpuMaterial> = scene
@@ -156,23 +177,29 @@ impl SceneGpu {
                 flags: if m.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
             })
             .collect();
-        let mut instances = Vec::new();
-        let mut descs = Vec::new();
-        for inst in &scene.instances {
-            let m = &ranges[inst.mesh].1;
-            let t: Mat4 = inst.transform;
-            let normal = Mat4::from_mat3(Mat3::from_mat4(t).inverse().transpose());
-            instances.push(GpuInstance {
-                world_from_object: t.to_cols_array(),
-                normal_to_world: normal.to_cols_array(),
-                first_index: m.first_index,
-                first_vertex: m.first_vertex,
-                first_triangle: mesh_first_triangle[inst.mesh],
-                flags: instance_flags(t),
-            });
-            let r = t.transpose().to_cols_array(); // rows of t
-            descs.push(InstanceDesc { mesh: inst.mesh, transform: r[..12].try_into().expect("12 of 16") });
-        }
+        let descs: Vec<InstanceDesc> = traced
+            .instances
+            .iter()
+            .map(|inst| {
+                let r = inst.transform.transpose().to_cols_array(); // rows of the transform
+                InstanceDesc { mesh: inst.mesh, transform: r[..12].try_into().expect("12 of 16") }
+            })
+            .collect();
+        let instance_bounds: Vec<Aabb> = traced
+            .instances
+            .iter()
+            .map(|inst| {
+                let b = mesh_bounds[inst.mesh];
+                let corners: Vec<glam::Vec3> = (0..8)
+                    .map(|c| {
+                        let pick = |bit: u32, lo: f32, hi: f32| if c & bit == 0 { lo } else { hi };
+                        let p = glam::Vec3::new(pick(1, b.min.x, b.max.x), pick(2, b.min.y, b.max.y), pick(4, b.min.z, b.max.z));
+                        inst.transform.transform_point3(p)
+                    })
+                    .collect();
+                Aabb::of_points(&corners)
+            })
+            .collect();
         let emitters = crate::lights::Emitters::from_scene(scene);
         let lights = LightSet::new(&emitters, &[]);
 
@@ -181,14 +208,34 @@ impl SceneGpu {
         let ib = Buffer::with_texel_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), WORD_TEXELS, geometry_usage())?;
         let tm = Buffer::with_texel_data(ctx, "scene.triangle_materials", bytemuck::cast_slice(&triangle_materials), WORD_TEXELS, none)?;
         let mb = Buffer::with_texel_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), RECORD_TEXELS, none)?;
+        let accel = accel::build_scene(
+            ctx,
+            &vb,
+            std::mem::size_of::<GpuVertex>() as u64,
+            &ib,
+            &ranges,
+            &descs,
+            &instance_bounds,
+        )
+        .context("building the acceleration structures")?;
+        let instances: Vec<GpuInstance> = traced
+            .instances
+            .iter()
+            .map(|inst| {
+                let m = &ranges[inst.mesh].1;
+                let t: Mat4 = inst.transform;
+                let normal = Mat4::from_mat3(Mat3::from_mat4(t).inverse().transpose());
+                GpuInstance {
+                    world_from_object: t.to_cols_array(),
+                    normal_to_world: normal.to_cols_array(),
+                    first_index: m.first_index,
+                    first_vertex: m.first_vertex,
+                    first_triangle: mesh_first_triangle[inst.mesh],
+                    flags: instance_flags(t),
+                }
+            })
+            .collect();
         let inb = Buffer::with_texel_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), RECORD_TEXELS, none)?;
-        let blas_start = std::time::Instant::now();
-        let blases = accel::build_blases(ctx, &vb, std::mem::size_of::<GpuVertex>() as u64, &ib, &ranges)
-            .context("building BLASes")?;
-        let blas_ms = blas_start.elapsed().as_secs_f64() * 1e3;
-        let tlas_start = std::time::Instant::now();
-        let (tlas, tlas_instances) = accel::build_tlas(ctx, &blases, &descs).context("building the TLAS")?;
-        let tlas_ms = tlas_start.elapsed().as_secs_f64() * 1e3;
 
         let mut buffers = vec![(1, vb), (2, ib), (3, tm), (4, mb), (5, inb)];
         let (mut texture_count, mut texel_bytes) = (0, 0);
@@ -235,11 +282,11 @@ impl SceneGpu {
             texture_count,
             texel_bytes,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
-            blas_ms,
-            tlas_ms,
-            tlas,
-            _tlas_instances: tlas_instances,
-            _blases: blases,
+            blas_ms: accel.blas_ms,
+            tlas_ms: accel.tlas_ms,
+            merged_instances,
+            blas_count: accel.blas_count,
+            accel,
             buffers,
         })
     }
@@ -248,7 +295,7 @@ impl SceneGpu {
     /// geometry, materials and textures. The lights (bindings 6 and 7, see [`LightBuffers`]) and
     /// the frame constants (binding 8) belong to the renderer, which may add lights.
     pub fn write_set(&self, set: &DescriptorSet) -> Result<()> {
-        set.write_accel(0, self.tlas.raw)?;
+        set.write_accel(0, self.accel.tlas.raw)?;
         for (binding, buffer) in &self.buffers {
             set.write_buffer(*binding, buffer)?;
         }

@@ -375,6 +375,11 @@ pub struct RenderSettings {
     pub yuksel_knn: Option<u32>,
     /// Sample base-colour textures (off: base colour factors only, untextured shader variants).
     pub textures: bool,
+    /// `--merge-blas N`: a scene of at most N triangles has its instances merged into one
+    /// world-space mesh with one BLAS (`Scene::merged`); 0: never, one BLAS per mesh. The same
+    /// image up to float rounding of the transformed vertices.
+    #[serde(default = "default_merge_blas")]
+    pub merge_blas: u32,
     /// `--compensate`: add back the energy Yuksel's clamp removes (Kollig & Keller 2004), so a
     /// VPL mode converges to the path tracer for any radius (the `vpl_compensate` pass).
     #[serde(default)]
@@ -423,9 +428,14 @@ impl Default for RenderSettings {
             yuksel_spacings: None,
             yuksel_knn: None,
             textures: true,
+            merge_blas: default_merge_blas(),
             compensate: false,
         }
     }
+}
+
+fn default_merge_blas() -> u32 {
+    crate::vk::accel::MERGE_MAX_TRIANGLES
 }
 
 fn default_presample() -> bool {

@@ -94,7 +94,7 @@ fn wedge_room() -> Scene {
 fn check_scene(label: &str, scene: &Scene, radius: f32) {
     let ctx = common::context();
     let validate = common::validate();
-    let gpu = Arc::new(SceneGpu::new(&ctx, scene, true).expect("scene uploads"));
+    let gpu = Arc::new(SceneGpu::new(&ctx, scene, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES).expect("scene uploads"));
     // Path depth unbounded on both sides (Russian roulette only; photons up to 64 bounces): the
     // compensation's recursion has no depth limit, so against a path tracer cut at 8 bounces it
     // would add the light of longer paths (+1% in the wedge room, albedo 0.75).

@@ -114,7 +114,7 @@ fn texture_variants_are_used_only_when_needed() {
     for (scene, upload_textures, textures, want) in
         [(&textured, true, true, true), (&textured, false, false, false), (&textured, true, false, false), (&cornell, true, true, false)]
     {
-        let gpu = std::sync::Arc::new(restir_vpl::scene_gpu::SceneGpu::new(&ctx, scene, upload_textures).unwrap());
+        let gpu = std::sync::Arc::new(restir_vpl::scene_gpu::SceneGpu::new(&ctx, scene, upload_textures, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES).unwrap());
         assert_eq!(gpu.texture_count, if upload_textures && scene.textures.len() == 1 { 1 } else { 0 });
         for mode in [Mode::Pt, Mode::Uniform] {
             let settings =

@@ -28,7 +28,7 @@ const BLOCK: u32 = 12;
 /// The Cornell box, uploaded once per test and shared by its renderers.
 fn cornell(ctx: &Arc<Context>) -> Arc<SceneGpu> {
     let scene = Scene::load(&common::repo_path("scenes/cornell_box.gltf")).expect("Cornell box loads");
-    Arc::new(SceneGpu::new(ctx, &scene, true).expect("scene uploads"))
+    Arc::new(SceneGpu::new(ctx, &scene, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES).expect("scene uploads"))
 }
 
 fn settings(mode: Mode, w: u32, h: u32, direct: u32, indirect: u32) -> RenderSettings {

@@ -17,7 +17,7 @@ use crate::vk::{Context, ContextOptions};
 /// A context without validation on `device` and `scene` uploaded to it (textures on).
 pub fn upload(scene: &Scene, device: Option<usize>) -> Result<(Arc<Context>, Arc<SceneGpu>)> {
     let ctx = Arc::new(Context::new(&ContextOptions { validate: false, device_index: device, ..Default::default() })?);
-    let gpu = Arc::new(SceneGpu::new(&ctx, scene, true)?);
+    let gpu = Arc::new(SceneGpu::new(&ctx, scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES)?);
     Ok((ctx, gpu))
 }
 

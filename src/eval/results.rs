@@ -255,7 +255,7 @@ impl SceneSpec {
     /// Loads and uploads the scene once; every mode and reference of a study renders from it.
     pub fn upload(&self, ctx: &Arc<Context>) -> Result<Arc<SceneGpu>> {
         let scene = Scene::load(&self.path)?;
-        Ok(Arc::new(SceneGpu::new(ctx, &scene, true).context("uploading the scene")?))
+        Ok(Arc::new(SceneGpu::new(ctx, &scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES).context("uploading the scene")?))
     }
 
     /// The settings every mode of a study starts from: this scene at this size, the study's VPL

@@ -108,7 +108,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
         }
     };
     let cornell = Scene::load(&opts.cornell)?;
-    let cornell_gpu = Arc::new(SceneGpu::new(ctx, &cornell, true).context("uploading the Cornell box")?);
+    let cornell_gpu = Arc::new(SceneGpu::new(ctx, &cornell, true, crate::vk::accel::MERGE_MAX_TRIANGLES).context("uploading the Cornell box")?);
 
     for &n in &opts.vpl_counts {
         let settings = base(&opts.cornell, opts.size, n);
@@ -129,7 +129,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ScalingOptions, log: &mut dyn FnMut(String
     for &(rings, segments) in &opts.spheres {
         let scene = dense_scene(rings, segments)?;
         let t = scene.triangle_count() as f64;
-        let gpu = Arc::new(SceneGpu::new(ctx, &scene, true).with_context(|| format!("uploading a sphere of {t} triangles"))?);
+        let gpu = Arc::new(SceneGpu::new(ctx, &scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES).with_context(|| format!("uploading a sphere of {t} triangles"))?);
         points.push(ScalingPoint { sweep: "triangles", x: t, what: "blas build".into(), ms: gpu.blas_ms });
         points.push(ScalingPoint { sweep: "triangles", x: t, what: "tlas build".into(), ms: gpu.tlas_ms });
         let settings = base(&scene.path, opts.size, opts.vpls);

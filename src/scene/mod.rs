@@ -8,6 +8,7 @@
 mod base64;
 pub mod generate;
 mod load;
+mod merge;
 
 #[cfg(test)]
 mod tests;

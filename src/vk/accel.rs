@@ -1,4 +1,4 @@
-//! Acceleration structures: one BLAS per mesh, one TLAS over the node instances, built once.
+//! Acceleration structures, built once: one BLAS per mesh, one TLAS over the instances.
 
 use std::sync::Arc;
 
@@ -6,7 +6,7 @@ use anyhow::{Context as _, Result};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use super::{Buffer, Context};
+use super::{leaf_order, Buffer, Context};
 
 pub struct AccelerationStructure {
     ctx: Arc<Context>,
@@ -29,14 +29,6 @@ pub struct MeshRange {
     pub vertex_count: u32,
     pub first_index: u32,
     pub index_count: u32,
-}
-
-/// One TLAS instance.
-#[derive(Clone, Copy, Debug)]
-pub struct InstanceDesc {
-    pub mesh: usize,
-    /// Row-major 3×4 world-from-object transform.
-    pub transform: [f32; 12],
 }
 
 fn align_up(x: u64, a: u64) -> u64 {
@@ -109,54 +101,121 @@ fn build(
     Ok(AccelerationStructure { ctx: ctx.clone(), raw, buffer, address })
 }
 
-/// Builds one BLAS per mesh over the global vertex buffer (`GpuVertex`, position first) and index
-/// buffer (indices local to each mesh).
-pub fn build_blases(
+/// One instance of a mesh in the scene.
+#[derive(Clone, Copy, Debug)]
+pub struct InstanceDesc {
+    pub mesh: usize,
+    /// Row-major 3×4 world-from-object transform.
+    pub transform: [f32; 12],
+}
+
+/// The scene's acceleration structures.
+pub struct SceneAccel {
+    pub tlas: AccelerationStructure,
+    /// BLASes built (one per mesh some instance uses).
+    pub blas_count: usize,
+    /// Wall ms of the BLAS builds and of the TLAS build (each waits for its submission).
+    pub blas_ms: f64,
+    pub tlas_ms: f64,
+    // Kept alive for the TLAS.
+    _blases: Vec<AccelerationStructure>,
+    _tlas_instances: Buffer,
+}
+
+/// A scene of at most this many triangles has its instances merged into one world-space mesh
+/// before the BLASes are built (`Scene::merged`, `--merge-blas`): one BVH, no instance transforms.
+/// On lavapipe that made the Cornell box's (32 triangles) photon pass 0.8× as long; it made the
+/// living room's (13,556) and the open box's (76,662) camera passes slower, since the driver's
+/// equal-count splits then mix the room's large walls with the furniture. See README,
+/// "Acceleration structures on lavapipe".
+pub const MERGE_MAX_TRIANGLES: u32 = 1024;
+
+fn triangles<'a>(
+    vertices: &Buffer,
+    vertex_stride: u64,
+    indices: &Buffer,
+    m: &MeshRange,
+) -> vk::AccelerationStructureGeometryKHR<'a> {
+    let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
+        .vertex_format(vk::Format::R32G32B32_SFLOAT)
+        .vertex_data(vk::DeviceOrHostAddressConstKHR {
+            device_address: vertices.address() + m.first_vertex as u64 * vertex_stride,
+        })
+        .vertex_stride(vertex_stride)
+        .max_vertex(m.vertex_count.saturating_sub(1))
+        .index_type(vk::IndexType::UINT32)
+        .index_data(vk::DeviceOrHostAddressConstKHR { device_address: indices.address() + m.first_index as u64 * 4 });
+    vk::AccelerationStructureGeometryKHR::default()
+        .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
+        .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
+        .flags(vk::GeometryFlagsKHR::OPAQUE)
+}
+
+/// Builds one BLAS per mesh that an instance uses, over the global vertex buffer (`GpuVertex`,
+/// position first) and index buffer (indices local to each mesh), and the TLAS over the instances;
+/// instance i has `instanceCustomIndex` i. The instances are handed to the TLAS build in
+/// [`leaf_order::midpoint_split_order`] of their world bounds `instance_bounds` (the order only
+/// matters to a driver that does not sort, as lavapipe; see there).
+pub fn build_scene(
     ctx: &Arc<Context>,
     vertices: &Buffer,
     vertex_stride: u64,
     indices: &Buffer,
     meshes: &[(String, MeshRange)],
-) -> Result<Vec<AccelerationStructure>> {
-    meshes
-        .iter()
-        .map(|(name, m)| {
-            let triangles = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
-                .vertex_format(vk::Format::R32G32B32_SFLOAT)
-                .vertex_data(vk::DeviceOrHostAddressConstKHR {
-                    device_address: vertices.address() + m.first_vertex as u64 * vertex_stride,
-                })
-                .vertex_stride(vertex_stride)
-                .max_vertex(m.vertex_count.saturating_sub(1))
-                .index_type(vk::IndexType::UINT32)
-                .index_data(vk::DeviceOrHostAddressConstKHR { device_address: indices.address() + m.first_index as u64 * 4 });
-            let geometry = vk::AccelerationStructureGeometryKHR::default()
-                .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
-                .geometry(vk::AccelerationStructureGeometryDataKHR { triangles })
-                .flags(vk::GeometryFlagsKHR::OPAQUE);
-            build(ctx, &format!("blas.{name}"), vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, m.index_count / 3)
+    instances: &[InstanceDesc],
+    instance_bounds: &[leaf_order::Aabb],
+) -> Result<SceneAccel> {
+    let blas_start = std::time::Instant::now();
+    let mut blases = Vec::new();
+    let mut mesh_blas: Vec<Option<usize>> = vec![None; meshes.len()];
+    for inst in instances {
+        if mesh_blas[inst.mesh].is_none() {
+            let (name, m) = &meshes[inst.mesh];
+            let geometry = triangles(vertices, vertex_stride, indices, m);
+            blases.push(
+                build(ctx, &format!("blas.{name}"), vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, geometry, m.index_count / 3)
+                    .with_context(|| format!("building the BLAS of mesh '{name}'"))?,
+            );
+            mesh_blas[inst.mesh] = Some(blases.len() - 1);
+        }
+    }
+    let blas_ms = blas_start.elapsed().as_secs_f64() * 1e3;
+    let tlas_start = std::time::Instant::now();
+    let tlas_instances: Vec<(usize, u32, [f32; 12])> = leaf_order::midpoint_split_order(instance_bounds)
+        .into_iter()
+        .map(|i| {
+            let inst = &instances[i as usize];
+            (mesh_blas[inst.mesh].expect("every instance's mesh has a BLAS (built above)"), i, inst.transform)
         })
-        .collect()
+        .collect();
+    let (tlas, tlas_buffer) = build_tlas(ctx, &blases, &tlas_instances).context("building the TLAS")?;
+    Ok(SceneAccel {
+        tlas,
+        blas_count: blases.len(),
+        blas_ms,
+        tlas_ms: tlas_start.elapsed().as_secs_f64() * 1e3,
+        _blases: blases,
+        _tlas_instances: tlas_buffer,
+    })
 }
 
-/// Builds the TLAS; instance i has `instanceCustomIndex` i.
-pub fn build_tlas(
+/// Builds the TLAS over (BLAS, custom index, row-major 3×4 transform) instances.
+fn build_tlas(
     ctx: &Arc<Context>,
     blases: &[AccelerationStructure],
-    instances: &[InstanceDesc],
+    instances: &[(usize, u32, [f32; 12])],
 ) -> Result<(AccelerationStructure, Buffer)> {
     let raw: Vec<vk::AccelerationStructureInstanceKHR> = instances
         .iter()
-        .enumerate()
-        .map(|(i, inst)| vk::AccelerationStructureInstanceKHR {
-            transform: vk::TransformMatrixKHR { matrix: inst.transform },
-            instance_custom_index_and_mask: vk::Packed24_8::new(i as u32, 0xff),
+        .map(|&(blas, custom_index, transform)| vk::AccelerationStructureInstanceKHR {
+            transform: vk::TransformMatrixKHR { matrix: transform },
+            instance_custom_index_and_mask: vk::Packed24_8::new(custom_index, 0xff),
             instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
                 0,
                 vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() as u8,
             ),
             acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
-                device_handle: blases[inst.mesh].address,
+                device_handle: blases[blas].address,
             },
         })
         .collect();

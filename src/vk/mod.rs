@@ -2,6 +2,7 @@
 //! binding tables, GPU timers.
 
 pub mod accel;
+pub mod leaf_order;
 pub mod buffer;
 pub mod context;
 pub mod image;

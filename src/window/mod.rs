@@ -173,7 +173,7 @@ impl App {
             window: Some(handles),
         })?);
         let scene_cpu = self.scene.take().context("the scene was already uploaded")?;
-        let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures).context("uploading the scene")?);
+        let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures, s.merge_blas).context("uploading the scene")?);
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, None)?;
         // The render size follows the window.

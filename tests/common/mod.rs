@@ -28,7 +28,7 @@ pub fn context() -> Arc<Context> {
 
 /// Uploads `scene` to `ctx` (textures as `settings` says).
 pub fn upload(ctx: &Arc<Context>, scene: &Scene, settings: &RenderSettings) -> Arc<SceneGpu> {
-    Arc::new(SceneGpu::new(ctx, scene, settings.textures).expect("scene uploads"))
+    Arc::new(SceneGpu::new(ctx, scene, settings.textures, settings.merge_blas).expect("scene uploads"))
 }
 
 /// Renders `scene` with `settings`; asserts no validation errors and finite output.
