@@ -4,27 +4,12 @@
 //!
 //! `cargo run --release --example bvh_order`
 //!
-//! The cost is Σ over the tree's internal nodes of their half surface area over the root's: the
-//! expected number of nodes a ray through the scene's box visits, up to a constant (the measure a
-//! SAH builder minimises). lavapipe splits the array it is given at its middle index, recursively
-//! (`lvp_acceleration_structure.c`); `tree_cost` builds exactly that tree.
+//! The cost is `leaf_order::lavapipe_tree_cost` over the root's half area: Σ over the internal
+//! nodes of the tree lavapipe builds (`lvp_acceleration_structure.c` splits the array it is given
+//! at its middle index, recursively) of their half surface area, the expected number of nodes a
+//! ray through the scene's box visits, up to a constant (the measure a SAH builder minimises).
 
-use restir_vpl::vk::leaf_order::{midpoint_split_order, Aabb};
-
-fn tree_cost(bounds: &[Aabb], order: &[u32]) -> f64 {
-    fn node(bounds: &[Aabb], order: &[u32], first: usize, last: usize, cost: &mut f64) -> Aabb {
-        if first == last {
-            return bounds[order[first] as usize];
-        }
-        let split = (first + last) / 2;
-        let b = node(bounds, order, first, split, cost).grow(node(bounds, order, split + 1, last, cost));
-        *cost += b.half_area() as f64;
-        b
-    }
-    let mut c = 0.0;
-    node(bounds, order, 0, order.len() - 1, &mut c);
-    c
-}
+use restir_vpl::vk::leaf_order::{lavapipe_tree_cost, midpoint_split_order, Aabb};
 
 fn main() -> anyhow::Result<()> {
     println!("| scene | triangles | cost, file order | cost, midpoint_split_order | order time |");
@@ -44,8 +29,8 @@ fn main() -> anyhow::Result<()> {
         println!(
             "| {name} | {} | {:.1} | {:.1} | {ms:.1} ms |",
             bounds.len(),
-            tree_cost(&bounds, &file_order) / root,
-            tree_cost(&bounds, &ordered) / root
+            lavapipe_tree_cost(&bounds, &file_order) / root,
+            lavapipe_tree_cost(&bounds, &ordered) / root
         );
     }
     Ok(())
