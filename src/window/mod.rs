@@ -480,8 +480,12 @@ impl App {
         match r.presenter.show(&r.ctx, &r.swapchain, &mut r.renderer, &camera, ui)? {
             Shown::Yes => {}
             Shown::YesRecreate => r.resize_pending = true,
-            Shown::OutOfDate => {
-                r.resize_pending = true;
+            shown @ (Shown::OutOfDate | Shown::NotReady) => {
+                if matches!(shown, Shown::OutOfDate) {
+                    r.resize_pending = true;
+                } else {
+                    log::debug!("no swapchain image within {} ms: frame skipped", ACQUIRE_TIMEOUT_NS / 1_000_000);
+                }
                 // The overlay's input was taken by prepare(): apply its edit even so.
                 if let Some(e) = edit {
                     self.change(&e.what, |s| *s = e.settings)?;
@@ -582,7 +586,14 @@ enum Shown {
     YesRecreate,
     /// Not shown: the swapchain no longer matches the window; recreate it.
     OutOfDate,
+    /// Not shown: no swapchain image came within ACQUIRE_TIMEOUT (a hidden or minimised window
+    /// on some presentation engines); the event loop goes on, so the window still answers input.
+    NotReady,
 }
+
+/// How long `show` waits for a swapchain image before skipping the frame (instead of blocking the
+/// event loop, and with it Esc, for as long as the presentation engine holds every image).
+const ACQUIRE_TIMEOUT_NS: u64 = 1_000_000_000;
 
 /// Per frame in flight: the command buffer that copies the preview to the swapchain image, its
 /// fence and the semaphore the image acquisition signals; plus the staging image the preview is
@@ -649,10 +660,13 @@ impl Presenter {
         // SAFETY: the fence belongs to this slot's last present submission.
         unsafe { d.wait_for_fences(&[self.fences[f]], true, u64::MAX) }.context("waiting for a present slot")?;
         // SAFETY: valid swapchain; the semaphore is unsignalled (its last wait has completed).
-        let acquired = unsafe { p.swapchain_loader.acquire_next_image(swapchain.raw, u64::MAX, self.acquired[f], vk::Fence::null()) };
+        let acquired =
+            unsafe { p.swapchain_loader.acquire_next_image(swapchain.raw, ACQUIRE_TIMEOUT_NS, self.acquired[f], vk::Fence::null()) };
         let image_index = match acquired {
             Ok((i, _suboptimal)) => i,
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => return Ok(Shown::OutOfDate),
+            // Nothing was acquired and the semaphore stays unsignalled: the slot is reusable.
+            Err(vk::Result::TIMEOUT | vk::Result::NOT_READY) => return Ok(Shown::NotReady),
             Err(e) => return Err(e).context("vkAcquireNextImageKHR"),
         };
         renderer.submit_frame(camera, true)?;
