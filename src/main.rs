@@ -142,8 +142,15 @@ struct RenderArgs {
     /// faster).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.presample))]
     presample: Toggle,
+    /// ReSTIR's passes fused in pairs (restir_initial_temporal, restir_spatial_shade), as Bevy
+    /// Solari runs them: the same image, fewer dispatches. Frames whose pass outputs are dumped or
+    /// checked, and the reservoir views, run the passes apart. Off by default: on lavapipe it pays
+    /// on the Cornell box only (README, "Pass fusion").
+    #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.fuse_passes))]
+    fuse_passes: Toggle,
     /// Workgroup WxH of the per-pixel passes (gbuffer, pathtrace, restir_initial, restir_spatial,
-    /// vpl_shade, vpl_compensate, vpl_bruteforce; restir_temporal stays 8x8). Same image for any
+    /// restir_spatial_shade, vpl_shade, vpl_compensate, vpl_bruteforce; restir_temporal and
+    /// restir_initial_temporal stay 8x8). Same image for any
     /// size; `bench --workgroups` measures them.
     #[arg(long, value_parser = Workgroup::parse, default_value_t = Workgroup(restir_vpl::settings::DEFAULT_WORKGROUP))]
     workgroup: Workgroup,
@@ -255,6 +262,10 @@ enum Command {
         /// window while flying: the G-buffer and the temporal reprojection run every frame.
         #[arg(long, requires = "modes")]
         moving: bool,
+        /// With --modes: instead of the usual cases, uniform and ReSTIR (biased, unbiased) with its
+        /// passes apart and fused (--fuse-passes off / on), interleaved in one run.
+        #[arg(long, requires = "modes")]
+        fusion: bool,
         /// Instead: GPU ms of every per-pixel pass of ReSTIR and the path tracer at seven workgroup
         /// shapes (--workgroup; 8x8 default, 4x4 … 64x1), interleaved frame by frame, with the
         /// ratio to 8x8. Default size 1280×720.
@@ -535,6 +546,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         candidates: cli.candidates,
         candidate_source: cli.candidate_source,
         presample: cli.presample.on(),
+        fuse_passes: cli.fuse_passes.on(),
         workgroup: cli.workgroup.0,
         restir: RestirSettings {
             temporal: cli.temporal.on(),
@@ -601,7 +613,7 @@ fn real_main(cli: Cli) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, fusion, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
         check_counts(&[("--runs", *runs)], checkpoints.as_deref())?;
@@ -727,7 +739,7 @@ fn real_main(cli: Cli) -> Result<()> {
             } else {
                 vec![(1280, 720), (1280, 1280)]
             };
-            let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device, *moving)?;
+            let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device, *moving, *fusion)?;
             print!("{}", restir_vpl::eval::bench::modes_markdown(&rows));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
@@ -832,7 +844,7 @@ fn real_main(cli: Cli) -> Result<()> {
     println!("GPU ms per pass (median / min / max), rays per pixel per frame (mean):");
     for (name, t) in &s.pass_ms {
         let rays = s.rays_per_pixel_by_pass.get(name).map(|r| format!("{:>8.2} rays/px", r.mean)).unwrap_or_default();
-        println!("  {name:<16} {:>9.2} {:>9.2} {:>9.2} {rays}", t.median, t.min, t.max);
+        println!("  {name:<24} {:>9.2} {:>9.2} {:>9.2} {rays}", t.median, t.min, t.max);
     }
     println!(
         "ms per frame: {:.2} GPU, {:.2} wall (median); total {:.2} s",

@@ -21,8 +21,8 @@ use crate::gpu_types::{
 };
 use crate::output::TimingStats;
 use crate::passes::{
-    FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirInitialPass, RestirSpatialPass,
-    RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_SLOTS,
+    FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirInitialPass, RestirInitialTemporalPass,
+    RestirSpatialPass, RestirSpatialShadePass, RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_SLOTS,
 };
 use crate::lights::{LightSet, PointEmitter};
 use crate::scene_gpu::{LightBuffers, SceneGpu};
@@ -315,6 +315,7 @@ fn dispatch_output<'a>(
     Some(match d.name {
         GbufferPass::NAME => ("surfaces", CaptureKind::Surfaces, &targets.surfaces, surface_half as u64 * pixels * CaptureKind::Surfaces.bytes_per_pixel()),
         PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplCompensatePass::NAME | VplViewPass::NAME => ("samples", CaptureKind::Rgba, &targets.samples, 0),
+        // (The fused passes never run in a captured frame: FramePlan splits them.)
         RestirInitialPass::NAME | RestirTemporalPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
         // Spatial pass j reads buffer(current ^ (j & 1)) and writes the other one.
         RestirSpatialPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(1 - (current ^ (d.repeat as usize & 1))), 0),
@@ -626,9 +627,15 @@ impl Renderer {
             if mode == Mode::Restir {
                 if r.temporal {
                     passes.vpl.temporal = Some(RestirTemporalPass::new(ctx, layout, targets, &inputs, &res)?);
+                    if settings.fuse_passes {
+                        passes.vpl.initial_temporal = Some(RestirInitialTemporalPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
+                    }
                 }
                 if r.spatial_passes > 0 && r.spatial_neighbours > 0 {
                     passes.vpl.spatial = Some(RestirSpatialPass::new(ctx, layout, targets, &inputs, &res)?);
+                    if settings.fuse_passes {
+                        passes.vpl.spatial_shade = Some(RestirSpatialShadePass::new(ctx, layout, targets, &inputs, &res)?);
+                    }
                 }
             }
             reservoirs = Some(res);
@@ -658,8 +665,9 @@ impl Renderer {
         })
     }
 
-    /// What the next frame will run. `preview`: also run the tonemap pass.
-    fn plan(&self, preview: bool) -> FramePlan {
+    /// What the next frame will run. `preview`: also run the tonemap pass; `capture`: the frame's
+    /// pass outputs are captured, so no fused pass hides one.
+    fn plan(&self, preview: bool, capture: bool) -> FramePlan {
         let s = &self.settings;
         let st = &self.state;
         let mode = s.mode;
@@ -704,7 +712,7 @@ impl Renderer {
             }
             None => VplFrame::default(),
         };
-        FramePlan {
+        let mut plan = FramePlan {
             gbuffer,
             pathtrace: shading(mode == Mode::Pt, "mode is not pt"),
             vpl_bruteforce: shading(mode == Mode::Bruteforce, "mode is not bruteforce"),
@@ -720,10 +728,12 @@ impl Renderer {
                 r.temporal && st.history_valid,
                 if !r.temporal { "--temporal off" } else if st.frame_index == 0 { "no history before the first frame" } else { "no history: settings or lights changed" },
             ),
+            restir_initial_temporal: Step::Skip("decided by fuse()"),
             restir_spatial: restir_step(
                 r.spatial_passes > 0 && r.spatial_neighbours > 0,
                 "--spatial-passes 0 or --spatial-neighbours 0",
             ),
+            restir_spatial_shade: Step::Skip("decided by fuse()"),
             vpl_shade: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             vpl_compensate: match self.parts.vpl.as_ref().map(|v| v.compensate.1) {
                 _ if !s.compensate => Step::Skip("no --compensate"),
@@ -739,6 +749,46 @@ impl Renderer {
             tonemap: if preview { Step::Run } else { Step::Skip("no preview needed this frame") },
             reset_accumulation: st.accumulated == 0,
             vpl,
+        };
+        self.fuse(&mut plan, capture);
+        plan
+    }
+
+    /// `--fuse-passes`: where both passes of a pair run this frame, one fused dispatch replaces
+    /// them (same functions, same random streams), unless the frame's pass outputs are captured
+    /// (`--dump-passes`, `--check-finite`, the window's F4) or the view reads vpl_shade's reservoir
+    /// views.
+    fn fuse(&self, plan: &mut FramePlan, capture: bool) {
+        let vpl = &self.parts.passes.vpl;
+        let apart = if !self.settings.fuse_passes {
+            Some("--fuse-passes off")
+        } else if capture {
+            Some("pass outputs captured this frame")
+        } else {
+            None
+        };
+        plan.restir_initial_temporal = match apart {
+            Some(why) => Step::Skip(why),
+            None if vpl.initial_temporal.is_none() => Step::Skip("mode is not restir or --temporal off"),
+            None if plan.restir_temporal != Step::Run => Step::Skip("restir_temporal does not run this frame"),
+            None => Step::Run,
+        };
+        if plan.restir_initial_temporal == Step::Run {
+            plan.restir_initial = Step::Skip("fused into restir_initial_temporal");
+            plan.restir_temporal = Step::Skip("fused into restir_initial_temporal");
+        }
+        plan.restir_spatial_shade = match apart {
+            Some(why) => Step::Skip(why),
+            None if vpl.spatial_shade.is_none() => Step::Skip("mode is not restir or no spatial reuse"),
+            None if plan.restir_spatial != Step::Run || plan.vpl_shade != Step::Run => Step::Skip("restir_spatial or vpl_shade does not run this frame"),
+            None if plan.vpl.view.shows_reservoirs() => Step::Skip("vpl_shade draws the reservoir view"),
+            None => Step::Run,
+        };
+        if plan.restir_spatial_shade == Step::Run {
+            plan.vpl_shade = Step::Skip("fused into restir_spatial_shade");
+            if plan.vpl.restir.spatial_passes == 1 {
+                plan.restir_spatial = Step::Skip("fused into restir_spatial_shade");
+            }
         }
     }
 
@@ -835,7 +885,7 @@ impl Renderer {
             self.state.accumulated = 0;
         }
         self.camera = Some(*camera);
-        let plan = self.plan(preview);
+        let plan = self.plan(preview, capture);
         if self.state.frame_index == 0 {
             log::info!("frame {} passes:\n{}", self.state.frame_index, plan.describe());
         }
@@ -916,7 +966,7 @@ impl Renderer {
             st.gbuffer_valid = true;
         }
         st.surface_half = halves.0;
-        if plan.vpl_shade == Step::Run {
+        if plan.shades_reservoirs() {
             // The final reservoirs become the next frame's history; the other buffer is free.
             st.current_reservoirs = 1 - plan.vpl.final_buffer(plan.spatial_passes());
             st.history_valid = true;

@@ -354,10 +354,19 @@ pub struct RenderSettings {
     /// buffer.
     #[serde(default = "default_presample")]
     pub presample: bool,
+    /// ReSTIR's passes fused in pairs, as Bevy Solari runs them: `restir_initial_temporal`
+    /// (initial RIS + temporal merge) and `restir_spatial_shade` (last spatial merge + shading),
+    /// each one dispatch with the same functions and random streams as the two passes it replaces
+    /// (the same image, bit for bit). A frame whose pass outputs are captured (`--dump-passes`,
+    /// `--check-finite`) and the reservoir views run the passes apart. Off by default: on lavapipe
+    /// it saves 4–9 % of a ReSTIR frame on the Cornell box but costs up to 7 % of an unbiased one
+    /// on the two heavier scenes (README, "Pass fusion").
+    #[serde(default = "default_fuse_passes")]
+    pub fuse_passes: bool,
     /// Workgroup (x, y) of the per-pixel passes whose shaders take it as specialisation constants
-    /// (gbuffer, pathtrace, restir_initial, restir_spatial, vpl_shade, vpl_compensate,
-    /// vpl_bruteforce); restir_temporal stays 8×8 (its boiling filter averages over the
-    /// workgroup). `--workgroup WxH`; `bench --workgroups` measures the choice.
+    /// (gbuffer, pathtrace, restir_initial, restir_spatial, restir_spatial_shade, vpl_shade,
+    /// vpl_compensate, vpl_bruteforce); restir_temporal and restir_initial_temporal stay 8×8 (the
+    /// boiling filter averages over the workgroup). `--workgroup WxH`; `bench --workgroups` measures the choice.
     #[serde(default = "default_workgroup")]
     pub workgroup: [u32; 2],
     pub restir: RestirSettings,
@@ -421,6 +430,7 @@ impl Default for RenderSettings {
             candidates: 32,
             candidate_source: CandidateSource::Uniform,
             presample: default_presample(),
+            fuse_passes: default_fuse_passes(),
             workgroup: default_workgroup(),
             restir: RestirSettings::default(),
             attenuation: Attenuation::Yuksel,
@@ -440,6 +450,10 @@ fn default_merge_blas() -> u32 {
 
 fn default_presample() -> bool {
     true
+}
+
+fn default_fuse_passes() -> bool {
+    false
 }
 
 /// 8×8: a 64-invocation workgroup (a warp or wavefront pair on GPUs; eight 8-lane SIMD steps on

@@ -252,17 +252,20 @@ fn vpl_mode_flag_errors() {
 fn restir_summary_reports_rays_per_pass() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
-    let o = run(&[
+    let args = [
         "--headless", "--mode", "restir", "--bias", "unbiased", "--initial-visibility", "on", "--width", "24", "--height", "24",
         "--frames", "3", "--vpls-direct", "100", "--vpls-indirect", "200", "--out", out, "--verbose",
-    ]);
+    ];
+    // Passes apart (the default): the four ReSTIR passes.
+    let o = run(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     for pass in ["restir_initial", "restir_temporal", "restir_spatial", "vpl_shade"] {
         assert!(err.contains(&format!("  {pass}")), "pass list lacks {pass}: {err}");
     }
-    assert!(err.contains("pathtrace        skip (mode is not pt)"), "{err}");
-    assert!(err.contains("vpl_presample    run"), "presampling is on by default: {err}");
+    assert!(err.contains("pathtrace                skip (mode is not pt)"), "{err}");
+    assert!(err.contains("vpl_presample            run"), "presampling is on by default: {err}");
+    assert!(err.contains("restir_spatial_shade     skip (--fuse-passes off)"), "{err}");
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
     let by_pass = &summary["rays_per_pixel_by_pass"];
     // Unbiased reuse with visibility in the targets: rays in the initial and spatial passes,
@@ -272,6 +275,28 @@ fn restir_summary_reports_rays_per_pass() {
     assert!(by_pass.get("vpl_shade").is_none(), "{by_pass}");
     assert_eq!(summary["vpl"]["unbiased_reuse"], true);
     assert!(summary["vpl"]["yuksel_radius"].as_f64().unwrap() > 0.0);
+
+    // Fused: frame 0 has no history, so restir_initial runs alone and the last
+    // spatial pass is fused with the shading; from frame 1 restir_initial_temporal runs (its rays:
+    // the initial visibility test, and the temporal merge's).
+    let o = run(&[&args[..], &["--fuse-passes", "on"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    for line in [
+        "restir_initial           run",
+        "restir_initial_temporal  skip (restir_temporal does not run this frame)",
+        "restir_spatial           skip (fused into restir_spatial_shade)",
+        "restir_spatial_shade     run",
+        "vpl_shade                skip (fused into restir_spatial_shade)",
+    ] {
+        assert!(err.contains(line), "frame 0's pass list lacks '{line}': {err}");
+    }
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    let by_pass = &summary["rays_per_pixel_by_pass"];
+    assert!(by_pass["restir_initial_temporal"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
+    assert!(by_pass["restir_spatial_shade"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
+    assert_eq!(summary["pass_ms"]["restir_initial_temporal"]["count"], 2, "frames 1 and 2: {summary}");
+    assert!(by_pass.get("vpl_shade").is_none() && by_pass.get("restir_spatial").is_none(), "{by_pass}");
 }
 
 #[test]
@@ -281,13 +306,13 @@ fn presample_off_skips_the_pass_and_says_why() {
     let common = ["--headless", "--width", "16", "--height", "16", "--frames", "1", "--vpls-direct", "50", "--vpls-indirect", "50", "--verbose", "--out", out];
     let o = run(&[&common[..], &["--mode", "ris", "--presample", "off"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("vpl_presample    skip (--presample off)"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("vpl_presample            skip (--presample off)"), "{}", stderr(&o));
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["vpl"]["presample"], false);
     assert!(summary["vpl"]["spatial_radius_px"].is_null(), "RIS has no spatial reuse: {summary}");
     let o = run(&[&common[..], &["--mode", "uniform"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("vpl_presample    skip (uniform sampling reads one VPL per pixel)"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("vpl_presample            skip (uniform sampling reads one VPL per pixel)"), "{}", stderr(&o));
     let o = run(&[&common[..], &["--mode", "ris", "--presample", "maybe"]].concat());
     assert!(!o.status.success() && stderr(&o).contains("--presample"), "{}", stderr(&o));
 }

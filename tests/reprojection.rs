@@ -15,6 +15,7 @@ use std::sync::Arc;
 use common::*;
 use glam::Vec3;
 use restir_vpl::camera::{Camera, CameraPath};
+use restir_vpl::passes::Step;
 use restir_vpl::renderer::Renderer;
 use restir_vpl::scene::generate::{closed_box, GltfBuilder};
 use restir_vpl::scene::Scene;
@@ -280,6 +281,50 @@ fn unbiased_restir_stays_unbiased_along_a_camera_path() {
         eprintln!("block {b}: restir {mean:.5} ± {se:.5}, brute force {:.5}, diff {:+.2} SE", truth_blocks[b], diff / se);
         assert!(se > 0.0, "block {b}: no variance across runs (are the seeds used?)");
         assert!(diff.abs() <= 4.0 * se, "block {b}: ReSTIR {mean} vs brute force {} ({:.1} standard errors)", truth_blocks[b], diff / se);
+    }
+    assert_no_validation_errors(&ctx);
+}
+
+/// `--fuse-passes`: restir_initial_temporal and restir_spatial_shade run the same functions with
+/// the same random streams as the passes they replace, so along a camera path (reprojection,
+/// disocclusions, two spatial passes, visibility rays, the boiling filter) the displayed frame is
+/// bit-identical with the passes apart. The last frame's plan shows which ran.
+#[test]
+fn fused_passes_render_the_same_frames_as_passes_apart() {
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let path = CameraPath::load(&repo_path("scenes/cornell_box.path.json")).unwrap();
+    let base = RenderSettings { mode: Mode::Restir, vpls_direct: 800, vpls_indirect: 800, ..small(40, 32, 1) };
+    let ctx = context();
+    let gpu = upload(&ctx, &scene, &base);
+    let cases = [
+        RestirSettings { bias: Bias::Biased, spatial_passes: 2, ..Default::default() },
+        RestirSettings { bias: Bias::Unbiased, initial_visibility: Some(true), ..Default::default() },
+        RestirSettings { bias: Bias::Unbiased, boiling_filter: 0.2, spatial_passes: 3, ..Default::default() },
+    ];
+    for restir in cases {
+        let frames = |fuse_passes: bool| {
+            let settings = RenderSettings { restir, fuse_passes, ..base.clone() };
+            let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).unwrap();
+            let mut shown = Vec::new();
+            for f in 0..4u32 {
+                r.render_frame(&path.at(4.0 * f as f32), false).unwrap();
+                shown.push(r.read_mean().unwrap());
+            }
+            (shown, r.last_plan().unwrap().clone())
+        };
+        let (apart, plan_apart) = frames(false);
+        let (fused, plan_fused) = frames(true);
+        assert_eq!(plan_apart.restir_initial_temporal, Step::Skip("--fuse-passes off"));
+        assert_eq!(plan_apart.vpl_shade, Step::Run);
+        assert_eq!(plan_fused.restir_initial_temporal, Step::Run, "{restir:?}");
+        assert_eq!(plan_fused.restir_spatial_shade, Step::Run, "{restir:?}");
+        assert_eq!((&plan_fused.restir_initial, &plan_fused.vpl_shade), (&Step::Skip("fused into restir_initial_temporal"), &Step::Skip("fused into restir_spatial_shade")));
+        assert_eq!(plan_fused.restir_spatial == Step::Run, restir.spatial_passes > 1, "{restir:?}");
+        for (f, (a, b)) in apart.iter().zip(&fused).enumerate() {
+            assert_all_finite(b, "fused frame");
+            assert!(a.iter().any(|p| p[0] > 0.0), "frame {f} is lit");
+            assert!(a == b, "{restir:?}: frame {f} differs between passes apart and fused");
+        }
     }
     assert_no_validation_errors(&ctx);
 }

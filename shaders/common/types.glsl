@@ -130,6 +130,8 @@ const uint RAYS_SPATIAL = 3u;
 const uint RAYS_SHADE = 4u;
 const uint RAYS_BRUTEFORCE = 5u;
 const uint RAYS_COMPENSATE = 6u;
+const uint RAYS_INITIAL_TEMPORAL = 7u;
+const uint RAYS_SPATIAL_SHADE = 8u;
 
 const uint RESERVOIR_EMPTY = 0xFFFFFFFFu;
 

@@ -1,13 +1,10 @@
-// vpl_shade: the pixel's estimate from its final reservoir: Le + c_y(x) W, with a shadow ray for
-// y (none in unbiased ReSTIR with visibility in the targets, where a sample with positive target
-// at x is visible from x). Also
-// writes the reservoir debug views. Shared by the uniform, ris and restir modes.
+// vpl_shade: the pixel's estimate from its final reservoir (vpl_shade.glsl says how). Also writes
+// the reservoir debug views. Shared by the uniform, ris and restir modes; restir_spatial_shade
+// runs the same estimate fused with the last spatial pass.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
-#include "../common/vpl_target.glsl"
-#include "../restir/reservoir.glsl"
-#include "../common/texel_records.glsl"
+#include "vpl_shade.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
@@ -81,23 +78,8 @@ void main() {
         samples[index] = vec4(colour, 1.0);
         return;
     }
-    vec3 radiance = (p.kind_mask & KIND_MASK_DIRECT) != 0u ? s.emission : vec3(0.0);
     uint rays = 0u;
-    if (valid) {
-        Vpl v = vpl_texels(vpls, r.vpl);
-        vec3 c = surface_vpl_contribution(s, v, p);
-        if (max3(c) > 0.0) {
-            bool visible = true;
-            bool visible_targets = (p.flags & VPL_FLAG_UNBIASED) != 0u && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
-            if (!visible_targets) {
-                rays = 1u;
-                visible = vpl_visible(s, v);
-            }
-            if (visible) {
-                radiance += c * r.ucw;
-            }
-        }
-    }
+    vec3 radiance = shade_estimate(s, r, p, vpls, rays);
     samples[index] = vec4(radiance, 1.0);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_SHADE], rays);

@@ -237,7 +237,9 @@ pub fn mode_cases() -> Vec<(&'static str, crate::settings::Mode, crate::settings
 /// interleaved across modes so the ratios share the machine's state. `moving`: the camera follows
 /// the path committed beside the scene (`<scene>.path.json`, see [`moving_camera`]) and every frame
 /// is displayed alone (progressive off), as in the window while flying; otherwise the camera stands
-/// still at the scene's own and the G-buffer is traced once.
+/// still at the scene's own and the G-buffer is traced once. `fusion`: [`fusion_cases`] instead of
+/// [`mode_cases`].
+#[allow(clippy::too_many_arguments)]
 pub fn modes(
     scene_path: &std::path::Path,
     sizes: &[(u32, u32)],
@@ -246,6 +248,7 @@ pub fn modes(
     frames: u32,
     device: Option<usize>,
     moving: bool,
+    fusion: bool,
 ) -> Result<Vec<ModeBench>> {
     let path = if moving {
         let file = crate::eval::motion::path_file(scene_path);
@@ -265,9 +268,27 @@ pub fn modes(
             progressive: !moving,
             ..Default::default()
         };
-        out.extend(time_modes(&ctx, &scene, &base, &mode_cases(), frames, path.as_ref())?);
+        if fusion {
+            out.extend(time_settings(&ctx, &scene, &fusion_cases(&base), frames, path.as_ref())?);
+        } else {
+            out.extend(time_modes(&ctx, &scene, &base, &mode_cases(), frames, path.as_ref())?);
+        }
     }
     Ok(out)
+}
+
+/// `bench --modes --fusion`: uniform, then biased and unbiased ReSTIR with their passes apart and
+/// fused (`--fuse-passes off` / `on`), with `base`'s other settings.
+pub fn fusion_cases(base: &RenderSettings) -> Vec<(String, RenderSettings)> {
+    use crate::settings::{Bias, Mode, RestirSettings};
+    let mut cases = vec![("uniform".to_string(), RenderSettings { mode: Mode::Uniform, ..base.clone() })];
+    for (name, bias) in [("biased", Bias::Biased), ("unbiased", Bias::Unbiased)] {
+        for (how, fuse_passes) in [("passes apart", false), ("fused", true)] {
+            let restir = RestirSettings { bias, initial_visibility: Some(false), ..Default::default() };
+            cases.push((format!("restir {name}, {how}"), RenderSettings { mode: Mode::Restir, restir, fuse_passes, ..base.clone() }));
+        }
+    }
+    cases
 }
 
 /// The camera of timed frame `f` (0-based) on `path`: path frame f + 1, going back and forth

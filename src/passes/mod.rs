@@ -10,7 +10,9 @@ pub mod gbuffer;
 pub mod pathtrace;
 pub mod photon_emit;
 pub mod restir_initial;
+pub mod restir_initial_temporal;
 pub mod restir_spatial;
+pub mod restir_spatial_shade;
 pub mod restir_temporal;
 pub mod tonemap;
 pub mod vpl_bruteforce;
@@ -36,7 +38,9 @@ pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
 pub use photon_emit::{PhotonEmitPass, PhotonStats};
 pub use restir_initial::RestirInitialPass;
+pub use restir_initial_temporal::RestirInitialTemporalPass;
 pub use restir_spatial::RestirSpatialPass;
+pub use restir_spatial_shade::RestirSpatialShadePass;
 pub use restir_temporal::RestirTemporalPass;
 pub use tonemap::TonemapPass;
 pub use vpl_bruteforce::VplBruteforcePass;
@@ -54,7 +58,9 @@ pub const ALL_PASSES: &[&PassDesc] = &[
     &VplPresamplePass::DESC,
     &RestirInitialPass::DESC,
     &RestirTemporalPass::DESC,
+    &RestirInitialTemporalPass::DESC,
     &RestirSpatialPass::DESC,
+    &RestirSpatialShadePass::DESC,
     &VplShadePass::DESC,
     &VplCompensatePass::DESC,
     &VplViewPass::DESC,
@@ -69,7 +75,7 @@ pub fn all_pass_descs() -> Vec<&'static PassDesc> {
 
 /// Slots of `FrameTargets::ray_counter`: (the pass that traced them, the slot's `RAYS_*` constant
 /// in shaders/common/types.glsl, whose value is the index here).
-pub const RAY_SLOT_NAMES: [(&str, &str); 7] = [
+pub const RAY_SLOT_NAMES: [(&str, &str); 9] = [
     (PathtracePass::NAME, "RAYS_PATHTRACE"),
     (RestirInitialPass::NAME, "RAYS_INITIAL"),
     (RestirTemporalPass::NAME, "RAYS_TEMPORAL"),
@@ -77,6 +83,8 @@ pub const RAY_SLOT_NAMES: [(&str, &str); 7] = [
     (VplShadePass::NAME, "RAYS_SHADE"),
     (VplBruteforcePass::NAME, "RAYS_BRUTEFORCE"),
     (VplCompensatePass::NAME, "RAYS_COMPENSATE"),
+    (RestirInitialTemporalPass::NAME, "RAYS_INITIAL_TEMPORAL"),
+    (RestirSpatialShadePass::NAME, "RAYS_SPATIAL_SHADE"),
 ];
 
 /// The pass of each slot of `FrameTargets::ray_counter` (from [`RAY_SLOT_NAMES`]).
@@ -248,7 +256,12 @@ pub struct FramePlan {
     pub vpl_presample: Step,
     pub restir_initial: Step,
     pub restir_temporal: Step,
+    /// `restir_initial` + `restir_temporal` in one dispatch (then both of those skip).
+    pub restir_initial_temporal: Step,
+    /// Runs `spatial_passes - 1` times when `restir_spatial_shade` runs the last one.
     pub restir_spatial: Step,
+    /// The last spatial pass + `vpl_shade` in one dispatch (then `vpl_shade` skips).
+    pub restir_spatial_shade: Step,
     pub vpl_shade: Step,
     pub vpl_compensate: Step,
     pub vpl_view: Step,
@@ -291,7 +304,9 @@ impl FramePlan {
             (VplPresamplePass::NAME, &self.vpl_presample),
             (RestirInitialPass::NAME, &self.restir_initial),
             (RestirTemporalPass::NAME, &self.restir_temporal),
+            (RestirInitialTemporalPass::NAME, &self.restir_initial_temporal),
             (RestirSpatialPass::NAME, &self.restir_spatial),
+            (RestirSpatialShadePass::NAME, &self.restir_spatial_shade),
             (VplShadePass::NAME, &self.vpl_shade),
             (VplCompensatePass::NAME, &self.vpl_compensate),
             (VplViewPass::NAME, &self.vpl_view),
@@ -300,9 +315,15 @@ impl FramePlan {
         ]
     }
 
-    /// Spatial dispatches this frame.
+    /// Whether the frame shades from the reservoirs (`vpl_shade`, or fused in
+    /// `restir_spatial_shade`): then its final reservoirs are the next frame's history.
+    pub fn shades_reservoirs(&self) -> bool {
+        self.vpl_shade == Step::Run || self.restir_spatial_shade == Step::Run
+    }
+
+    /// Spatial merges this frame (`restir_spatial` dispatches, and `restir_spatial_shade`'s).
     pub fn spatial_passes(&self) -> u32 {
-        if self.restir_spatial == Step::Run {
+        if self.restir_spatial == Step::Run || self.restir_spatial_shade == Step::Run {
             self.vpl.restir.spatial_passes
         } else {
             0
@@ -315,10 +336,11 @@ impl FramePlan {
             .iter()
             .map(|(name, step)| match step {
                 Step::Run if *name == RestirSpatialPass::NAME => {
-                    format!("  {name:<16} run ×{}", self.spatial_passes())
+                    let fused = u32::from(self.restir_spatial_shade == Step::Run);
+                    format!("  {name:<24} run ×{}", self.spatial_passes() - fused)
                 }
-                Step::Run => format!("  {name:<16} run"),
-                Step::Skip(why) => format!("  {name:<16} skip ({why})"),
+                Step::Run => format!("  {name:<24} run"),
+                Step::Skip(why) => format!("  {name:<24} skip ({why})"),
             })
             .collect::<Vec<_>>()
             .join("\n")
@@ -333,7 +355,11 @@ pub struct VplPasses {
     pub presample: Option<VplPresamplePass>,
     pub initial: Option<RestirInitialPass>,
     pub temporal: Option<RestirTemporalPass>,
+    /// Only with `--fuse-passes on` (and a temporal pass).
+    pub initial_temporal: Option<RestirInitialTemporalPass>,
     pub spatial: Option<RestirSpatialPass>,
+    /// Only with `--fuse-passes on` (and a spatial pass).
+    pub spatial_shade: Option<RestirSpatialShadePass>,
     pub shade: Option<VplShadePass>,
     /// Only with `--compensate`.
     pub compensate: Option<VplCompensatePass>,
@@ -397,7 +423,8 @@ impl Passes {
         scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
 
         // VPL modes: brute force, or (presample ->) initial RIS -> temporal -> spatial ×n -> shade;
-        // then compensate.
+        // then compensate. With --fuse-passes: initial + temporal in one dispatch, and the last
+        // spatial pass + shade in one (FramePlan says which run).
         let v = &plan.vpl;
         let p = &v.params;
         if let Some(pass) = &self.vpl.bruteforce {
@@ -420,15 +447,30 @@ impl Passes {
                 pass.record(cmd, scene_set, p, &v.restir, v.current, w, h)
             });
         }
+        if let Some(pass) = &self.vpl.initial_temporal {
+            scoped(ctx, cmd, timer, after, 0, &plan.restir_initial_temporal, RestirInitialTemporalPass::NAME, |cmd| {
+                pass.record(cmd, scene_set, p, tiles, &v.restir, v.current, w, h)
+            });
+        }
+        // Spatial merge j reads buffer current ^ (j & 1); the last one is fused with the shading
+        // when restir_spatial_shade runs.
+        let spatial = plan.spatial_passes();
+        let fused_last = u32::from(plan.restir_spatial_shade == Step::Run);
         if let Some(pass) = &self.vpl.spatial {
-            for j in 0..plan.spatial_passes() {
+            for j in 0..spatial - fused_last {
                 scoped(ctx, cmd, timer, after, j, &plan.restir_spatial, RestirSpatialPass::NAME, |cmd| {
                     pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
                 });
             }
         }
+        if let (Some(pass), 1) = (&self.vpl.spatial_shade, fused_last) {
+            let j = spatial - 1;
+            scoped(ctx, cmd, timer, after, 0, &plan.restir_spatial_shade, RestirSpatialShadePass::NAME, |cmd| {
+                pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
+            });
+        }
         if let Some(pass) = &self.vpl.shade {
-            let reservoir = v.final_buffer(plan.spatial_passes());
+            let reservoir = v.final_buffer(spatial);
             scoped(ctx, cmd, timer, after, 0, &plan.vpl_shade, VplShadePass::NAME, |cmd| {
                 pass.record(cmd, scene_set, p, v.view, &v.restir, reservoir, w, h)
             });

@@ -1,0 +1,61 @@
+// restir_initial_temporal: restir_initial and restir_temporal in one dispatch (as Bevy Solari's
+// ReSTIR DI does): the pixel's initial reservoir is built in registers and merged with its history
+// at once, so the surface is read once and the initial reservoirs never go through memory. The
+// same functions and random streams as the two passes (restir_initial.glsl, restir_temporal.glsl),
+// so the same estimator. Used when both would run and nothing needs the initial reservoirs on
+// their own (--fuse-passes on, off by default; not in a --dump-passes or --check-finite frame).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "restir_initial.glsl"
+#include "restir_temporal.glsl"
+
+// Fixed 8x8: the boiling filter reduces over 64 invocations.
+layout(local_size_x = 8, local_size_y = 8) in;
+
+// Both halves of the G-buffer ping-pong: surface_slot() and prev_surface_slot() pick them.
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
+layout(set = 1, binding = 2) uniform utextureBuffer vpl_alias;  // AliasEntry, RG32UI
+layout(set = 1, binding = 3) uniform utextureBuffer tiles;  // VplCandidate, 2 texels each
+layout(set = 1, binding = 4) uniform utextureBuffer history;  // Reservoir, 1 texel each
+layout(set = 1, binding = 5, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
+layout(set = 1, binding = 6, std430) buffer RayCounter { uint ray_count[]; };
+
+layout(push_constant) uniform Push {
+    VplParams params;
+    uint tiles;  // presampled tiles to read (0: draw from the VPL buffer)
+    float mcap;
+    float normal_threshold;
+    float depth_threshold;
+    float boiling_strength;  // 0: off
+} pc;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    bool inside = pixel.x < frame.width && pixel.y < frame.height;
+    uint index = inside ? pixel.y * frame.width + pixel.x : 0u;
+    uint rays = 0u;
+    // Outside the image: an empty reservoir for the boiling filter's reduction.
+    Reservoir r = reservoir_empty(0.0);
+    if (inside) {
+        Surface s = surface_texels(surfaces, surface_slot(index));
+        Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
+        r = initial;
+        if (s.hit_t >= 0.0) {
+            TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
+            temporal_merge(pixel, index, s, initial, pc.params, t, surfaces, vpls, history, r, rays);
+        }
+    }
+    // Uniform control flow: every invocation of the workgroup takes part in the reduction.
+    if (pc.boiling_strength > 0.0 && boiling_filter_rejects(r, pc.boiling_strength) && inside) {
+        r = reservoir_empty(r.confidence);
+    }
+    if (inside) {
+        reservoirs_out[index] = r;
+    }
+    if (rays > 0u) {
+        atomicAdd(ray_count[RAYS_INITIAL_TEMPORAL], rays);
+    }
+}

@@ -1,0 +1,55 @@
+// restir_spatial_shade: the last restir_spatial pass and vpl_shade in one dispatch (as Bevy
+// Solari's ReSTIR DI does): the merged reservoir is written for the next frame's temporal reuse
+// and shaded at once, so the surface is read once and the final reservoirs are not read back. The
+// same functions and random streams as the two passes (restir_spatial.glsl, vpl_shade.glsl), so
+// the same estimator. Used when both would run, the view is the shaded image and nothing needs
+// the last spatial pass's reservoirs on their own (no --dump-passes or --check-finite frame;
+// --fuse-passes on, off by default).
+#version 460
+#extension GL_GOOGLE_include_directive : require
+
+#include "restir_spatial.glsl"
+#include "vpl_shade.glsl"
+
+// 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
+layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
+
+// Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
+layout(set = 1, binding = 2) uniform utextureBuffer src;  // Reservoir, 1 texel each
+layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir dst[]; };
+layout(set = 1, binding = 4, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
+layout(set = 1, binding = 5, std430) buffer RayCounter { uint ray_count[]; };
+
+layout(push_constant) uniform Push {
+    VplParams params;
+    uint neighbours;
+    float radius;
+    float normal_threshold;
+    float depth_threshold;
+    uint pass_index;
+} pc;
+
+void main() {
+    uvec2 pixel = gl_GlobalInvocationID.xy;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
+    Surface s = surface_texels(surfaces, surface_slot(index));
+    Reservoir rc = reservoir_texels(src, index);
+    if (s.hit_t < 0.0) {
+        dst[index] = rc;
+        samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
+        return;
+    }
+    uint rays = 0u;
+    SpatialReuse sr = SpatialReuse(pc.neighbours, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
+    Reservoir r = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, rays);
+    dst[index] = r;
+    samples[index] = vec4(shade_estimate(s, r, pc.params, vpls, rays), 1.0);
+    if (rays > 0u) {
+        atomicAdd(ray_count[RAYS_SPATIAL_SHADE], rays);
+    }
+}

@@ -1,0 +1,128 @@
+// restir_temporal's per-pixel work, shared by restir_temporal.comp and restir_initial_temporal.comp
+// (which fuses it with the initial RIS). Binding-free apart from the boiling filter's workgroup
+// scratch: the .comp files declare the bindings and pass their resources in.
+//
+// Merges this frame's initial reservoir (canonical) with the previous frame's
+// final reservoir at the reprojected pixel: where this pixel's surface point appeared in the
+// previous camera (identity for a still camera). History is rejected when that point was off
+// screen, behind the previous camera, or covered by another surface there (normal and depth tests,
+// as in spatial reuse): a disocclusion. The history's confidence is capped at mcap times the
+// canonical's. Targets are evaluated at this frame's pixel.
+//  - biased: confidence weights M_k / sum M, targets without visibility;
+//  - unbiased: the generalised balance heuristic over the two techniques (Lin et al. 2022): the
+//    history's technique is evaluated on the previous frame's surface at the reprojected pixel,
+//    with targets that include visibility when the initial samples were shadow-tested. When the
+//    G-buffer was not traced again this frame (still camera, no jitter) both techniques have the
+//    same target, so the heuristic reduces to confidence weights and the history's sample is known
+//    visible (its target there was positive).
+// With --boiling-filter S > 0, RTXDI's boiling filter then drops reservoirs whose weight sum is
+// more than 10/S - 9 times the mean non-zero weight sum of their 8x8 workgroup (biased).
+#ifndef RESTIR_TEMPORAL_GLSL
+#define RESTIR_TEMPORAL_GLSL
+
+#include "../common/vpl_target.glsl"
+#include "../lib/random.glsl"
+#include "../restir/reservoir.glsl"
+#include "../common/texel_records.glsl"
+
+const uint SALT_TEMPORAL = 0x746du;
+
+// restir_temporal's settings (its push constants, less the VPL parameters).
+struct TemporalReuse {
+    float mcap;
+    float normal_threshold;
+    float depth_threshold;
+};
+
+// The temporal merge of pixel `index` (surface `s`, a hit): true (with `result`) when it changes
+// the canonical reservoir `rc`; false when there is no history to merge (result = rc).
+// `surfaces`: both halves of the G-buffer ping-pong; `history`: the previous frame's final
+// reservoirs.
+bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams p, TemporalReuse t, utextureBuffer surfaces,
+                    utextureBuffer vpls, utextureBuffer history, out Reservoir result, inout uint rays) {
+    result = rc;
+    bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
+
+    // The reprojected pixel and its previous surface.
+    uint prev_index = index;
+    if (!same_domain) {
+        vec3 q = project_to_previous_frame(s.position);
+        ivec2 pq;
+        if (!previous_pixel(q, pq)) {
+            return false;  // off screen or behind the previous camera: no history
+        }
+        prev_index = uint(pq.y) * frame.width + uint(pq.x);
+        Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
+        if (sp.hit_t < 0.0
+            || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, t.normal_threshold, t.depth_threshold)) {
+            return false;  // disoccluded: another surface (or none) was there
+        }
+    }
+    Reservoir rh = reservoir_texels(history, prev_index);
+    float mc = rc.confidence;
+    float mh = min(rh.confidence, t.mcap * mc);
+    if (!(mh > 0.0)) {
+        return false;
+    }
+    bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
+    bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
+
+    // Targets at this pixel: the canonical's was computed here; the history's sample is evaluated
+    // here (visible for sure when unbiased and the surface point is the same).
+    float pc_yc = reservoir_valid(rc) ? rc.target : 0.0;
+    float pc_yh = 0.0;
+    if (reservoir_valid(rh)) {
+        pc_yh = surface_vpl_target(s, vpl_texels(vpls, rh.vpl), p, visible_targets && !same_domain, rays);
+    }
+
+    float m_c = mc / (mc + mh);
+    float m_h = mh / (mc + mh);
+    if (unbiased && !same_domain) {
+        Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
+        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpl_texels(vpls, rc.vpl), p, visible_targets, rays) : 0.0;
+        float ph_yh = reservoir_valid(rh) ? rh.target : 0.0;
+        float dc = mc * pc_yc + mh * ph_yc;
+        float dh = mh * ph_yh + mc * pc_yh;
+        m_c = dc > 0.0 ? mc * pc_yc / dc : 0.0;
+        m_h = dh > 0.0 ? mh * ph_yh / dh : 0.0;
+    }
+
+    Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_TEMPORAL);
+    ReservoirStream st = stream_begin();
+    if (reservoir_valid(rc)) {
+        stream_update(st, rc.vpl, m_c * pc_yc * rc.ucw, pc_yc, rand(rng));
+    }
+    if (reservoir_valid(rh)) {
+        stream_update(st, rh.vpl, m_h * pc_yh * rh.ucw, pc_yh, rand(rng));
+    }
+    st.confidence = mc + mh;
+    result = stream_finish(st);
+    return true;
+}
+
+// The boiling filter's workgroup reduction: 8x8 invocations (the passes that include this file
+// have that fixed workgroup).
+shared float group_w[64];
+shared uint group_n[64];
+
+// Whether RTXDI's boiling filter drops reservoir `r` (weight sum compared with the mean non-zero
+// weight sum of the workgroup). Every invocation of the workgroup must call it (barriers), with
+// an empty reservoir outside the image.
+bool boiling_filter_rejects(Reservoir r, float strength) {
+    float w = reservoir_valid(r) ? r.ucw * r.target : 0.0;
+    uint lid = gl_LocalInvocationIndex;
+    group_w[lid] = w;
+    group_n[lid] = w > 0.0 ? 1u : 0u;
+    barrier();
+    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
+        if (lid < stride) {
+            group_w[lid] += group_w[lid + stride];
+            group_n[lid] += group_n[lid + stride];
+        }
+        barrier();
+    }
+    float mean = group_n[0] > 0u ? group_w[0] / float(group_n[0]) : 0.0;
+    return boiling_rejects(w, mean, strength);
+}
+
+#endif

@@ -1,0 +1,87 @@
+//! `restir_initial_temporal`: `restir_initial` and `restir_temporal` fused into one dispatch
+//! (shaders/passes/restir_initial_temporal.comp), as Bevy Solari runs ReSTIR DI: the same
+//! functions and random streams, so the same estimator, without the initial reservoirs' trip
+//! through memory or a second read of the surface. The frame plan uses it when both passes would
+//! run and no frame capture needs the initial reservoirs (`--fuse-passes`).
+
+use std::sync::Arc;
+
+use anyhow::Result;
+use ash::vk;
+
+use crate::gpu_types::GpuVplParams;
+use crate::settings::RestirSettings;
+use crate::shaders;
+use crate::vk::pipeline::{storage, texels};
+use crate::vk::{Buffer, ComputePipeline, Context};
+
+use super::desc::{push_constants, PassDesc};
+use super::{FrameTargets, Reservoirs, VplInputs};
+
+push_constants! {
+    struct Push {
+        params: GpuVplParams,
+        /// Presampled tiles to read (`vpl_presample`); 0: draw from the VPL buffer.
+        tiles: u32,
+        mcap: f32,
+        normal_threshold: f32,
+        depth_threshold: f32,
+        /// RTXDI's boiling filter strength (0: off).
+        boiling_strength: f32,
+    }
+}
+
+/// Set-1 variant v writes this frame's reservoirs to `reservoirs.buffer(v)` and reads the history
+/// from the other one.
+pub struct RestirInitialTemporalPass { pipeline: ComputePipeline }
+
+impl RestirInitialTemporalPass {
+    pub const NAME: &'static str = "restir_initial_temporal";
+    /// Fixed 8×8 (as `restir_temporal`): the boiling filter reduces over 64 invocations.
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_INITIAL_TEMPORAL, [8, 8, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[
+            texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"), texels(3, "tiles"),
+            texels(4, "history"), storage(5, "reservoirs_out"), storage(6, "ray_count"),
+        ]);
+
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene_layout: vk::DescriptorSetLayout,
+        targets: &FrameTargets,
+        vpls: &VplInputs,
+        reservoirs: &Reservoirs,
+        tiles: &Buffer,
+    ) -> Result<Self> {
+        let pipeline = Self::DESC
+            .pipeline(ctx, scene_layout)
+            .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (3, tiles), (6, &targets.ray_counter)])
+            .ping_pong(reservoirs, 5, Some(4))
+            .build()?;
+        Ok(Self { pipeline })
+    }
+
+    /// `tiles`: the presampled tiles to read (0: none); `current`: the reservoir buffer written.
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &self,
+        cmd: vk::CommandBuffer,
+        scene_set: vk::DescriptorSet,
+        params: &GpuVplParams,
+        tiles: u32,
+        restir: &RestirSettings,
+        current: usize,
+        w: u32,
+        h: u32,
+    ) {
+        let push = Push {
+            params: *params,
+            tiles,
+            mcap: restir.mcap,
+            normal_threshold: restir.normal_threshold,
+            depth_threshold: restir.depth_threshold,
+            boiling_strength: restir.boiling_filter,
+        };
+        self.pipeline.dispatch_2d_variant(cmd, current, scene_set, bytemuck::bytes_of(&push), w, h);
+    }
+}
