@@ -26,15 +26,16 @@ impl PushLayout {
 }
 
 /// Declares a pass's push-constant struct (`#[repr(C)]`, `Pod`) and its [`PushLayout`] as the
-/// associated const `LAYOUT`, generated from the fields by `offset_of!`.
+/// associated const `LAYOUT`, generated from the fields by `offset_of!`. A visibility before
+/// `struct` applies to the struct, its fields and `LAYOUT` (a fused pass sharing a pass's block).
 macro_rules! push_constants {
-    ($(#[$m:meta])* struct $name:ident { $( $(#[$fm:meta])* $f:ident : $t:ty ),* $(,)? }) => {
+    ($(#[$m:meta])* $vis:vis struct $name:ident { $( $(#[$fm:meta])* $f:ident : $t:ty ),* $(,)? }) => {
         $(#[$m])*
         #[repr(C)]
         #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-        struct $name { $( $(#[$fm])* $f: $t ),* }
+        $vis struct $name { $( $(#[$fm])* $vis $f: $t ),* }
         impl $name {
-            const LAYOUT: $crate::passes::desc::PushLayout = $crate::passes::desc::PushLayout {
+            $vis const LAYOUT: $crate::passes::desc::PushLayout = $crate::passes::desc::PushLayout {
                 size: std::mem::size_of::<$name>(),
                 fields: &[ $( (stringify!($f), std::mem::offset_of!($name, $f)) ),* ],
             };

@@ -17,13 +17,28 @@ use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, Reservoirs, VplInputs};
 
 push_constants! {
-    struct Push {
+    /// Also `restir_spatial_shade`'s push constants (the same block).
+    pub(super) struct Push {
         params: GpuVplParams,
         neighbours: u32,
         radius: f32,
         normal_threshold: f32,
         depth_threshold: f32,
         pass_index: u32,
+    }
+}
+
+impl Push {
+    /// Spatial pass `pass_index`'s constants at image width `w`.
+    pub(super) fn new(params: &GpuVplParams, restir: &RestirSettings, pass_index: u32, w: u32) -> Self {
+        Self {
+            params: *params,
+            neighbours: restir.spatial_neighbours,
+            radius: restir.spatial_radius_px(w),
+            normal_threshold: restir.normal_threshold,
+            depth_threshold: restir.depth_threshold,
+            pass_index,
+        }
     }
 }
 
@@ -65,14 +80,7 @@ impl RestirSpatialPass {
         w: u32,
         h: u32,
     ) {
-        let push = Push {
-            params: *params,
-            neighbours: restir.spatial_neighbours,
-            radius: restir.spatial_radius_px(w),
-            normal_threshold: restir.normal_threshold,
-            depth_threshold: restir.depth_threshold,
-            pass_index,
-        };
+        let push = Push::new(params, restir, pass_index, w);
         self.pipeline.dispatch_2d_variant(cmd, src, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }

@@ -15,19 +15,9 @@ use crate::shaders;
 use crate::vk::pipeline::{storage, texels};
 use crate::vk::{ComputePipeline, Context};
 
-use super::desc::{push_constants, PassDesc};
+use super::desc::PassDesc;
+use super::restir_spatial::Push;
 use super::{FrameTargets, Reservoirs, VplInputs};
-
-push_constants! {
-    struct Push {
-        params: GpuVplParams,
-        neighbours: u32,
-        radius: f32,
-        normal_threshold: f32,
-        depth_threshold: f32,
-        pass_index: u32,
-    }
-}
 
 /// Set-1 variant v reads `reservoirs.buffer(v)` and writes the other one (then shades it).
 pub struct RestirSpatialShadePass { pipeline: ComputePipeline }
@@ -71,14 +61,7 @@ impl RestirSpatialShadePass {
         w: u32,
         h: u32,
     ) {
-        let push = Push {
-            params: *params,
-            neighbours: restir.spatial_neighbours,
-            radius: restir.spatial_radius_px(w),
-            normal_threshold: restir.normal_threshold,
-            depth_threshold: restir.depth_threshold,
-            pass_index,
-        };
+        let push = Push::new(params, restir, pass_index, w);
         self.pipeline.dispatch_2d_variant(cmd, src, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }
