@@ -330,14 +330,19 @@ impl FramePlan {
         }
     }
 
+    /// `restir_spatial` dispatches this frame: every spatial merge but the one
+    /// `restir_spatial_shade` runs, when it runs.
+    pub fn restir_spatial_dispatches(&self) -> u32 {
+        self.spatial_passes() - u32::from(self.restir_spatial_shade == Step::Run)
+    }
+
     /// One line per pass: `run` or `skip (why)`.
     pub fn describe(&self) -> String {
         self.steps()
             .iter()
             .map(|(name, step)| match step {
                 Step::Run if *name == RestirSpatialPass::NAME => {
-                    let fused = u32::from(self.restir_spatial_shade == Step::Run);
-                    format!("  {name:<24} run ×{}", self.spatial_passes() - fused)
+                    format!("  {name:<24} run ×{}", self.restir_spatial_dispatches())
                 }
                 Step::Run => format!("  {name:<24} run"),
                 Step::Skip(why) => format!("  {name:<24} skip ({why})"),
@@ -455,17 +460,16 @@ impl Passes {
         // Spatial merge j reads buffer current ^ (j & 1); the last one is fused with the shading
         // when restir_spatial_shade runs.
         let spatial = plan.spatial_passes();
-        let fused_last = u32::from(plan.restir_spatial_shade == Step::Run);
         if let Some(pass) = &self.vpl.spatial {
-            for j in 0..spatial - fused_last {
+            for j in 0..plan.restir_spatial_dispatches() {
                 scoped(ctx, cmd, timer, after, j, &plan.restir_spatial, RestirSpatialPass::NAME, |cmd| {
                     pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
                 });
             }
         }
-        if let (Some(pass), 1) = (&self.vpl.spatial_shade, fused_last) {
-            let j = spatial - 1;
+        if let Some(pass) = &self.vpl.spatial_shade {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_spatial_shade, RestirSpatialShadePass::NAME, |cmd| {
+                let j = spatial - 1;
                 pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
             });
         }
