@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context as _, Result};
 use serde::Serialize;
 
-use crate::gpu_types::{GpuReservoir, GpuSurface, RESERVOIR_EMPTY};
+use crate::gpu_types::{GpuReservoir, GpuSurface, GpuSurfaceTexels, RESERVOIR_EMPTY};
 use crate::output::{write_exr, write_png, RgbImage};
 use crate::passes::{all_pass_descs, FramePlan, Step};
 use crate::renderer::{CaptureKind, Captured, FrameStats};
@@ -68,14 +68,21 @@ fn hash_colour(v: u32) -> [f32; 3] {
     [(h & 255) as f32 / 255.0, ((h >> 8) & 255) as f32 / 255.0, ((h >> 16) & 255) as f32 / 255.0]
 }
 
+/// The G-buffer's packed records (a `CaptureKind::Surfaces` capture's bytes), decoded as the
+/// passes decode them.
+pub fn decode_surfaces(bytes: &[u8]) -> Vec<GpuSurface> {
+    // Copied out as records: a byte vector has no alignment to cast in place.
+    let packed: Vec<GpuSurfaceTexels> = bytemuck::pod_collect_to_vec(bytes);
+    packed.iter().map(GpuSurfaceTexels::decode).collect()
+}
+
 /// The images a captured output decodes into.
 pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
     let n = (width * height) as usize;
     let img = |pixels: Vec<[f32; 3]>| RgbImage { width, height, pixels };
     match c.kind {
         CaptureKind::Surfaces => {
-            // Copied out as records: a byte vector has no alignment to cast in place.
-            let s: Vec<GpuSurface> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuSurface>()]);
+            let s: Vec<GpuSurface> = decode_surfaces(&c.bytes[..n * std::mem::size_of::<GpuSurfaceTexels>()]);
             let ids = |s: &GpuSurface| if s.hit_t < 0.0 { [0.0; 3] } else { hash_colour(s.instance.wrapping_mul(65_599) ^ s.triangle) };
             vec![
                 Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| s.position).collect()) },
@@ -119,7 +126,7 @@ pub fn nonfinite_pixels(c: &Captured, pixels: usize) -> Vec<usize> {
     let bpp = c.kind.bytes_per_pixel() as usize;
     // Which 4-byte words of a pixel's record are floats (the rest are ids).
     let float_word = |w: usize| match c.kind {
-        CaptureKind::Surfaces => !matches!(w, 7 | 11 | 15), // instance, triangle, material
+        CaptureKind::Surfaces => GpuSurfaceTexels::is_float_word(w),
         CaptureKind::Reservoirs => w != 0,                  // vpl index
         CaptureKind::Rgba => true,
         CaptureKind::Rgba8 => false,

@@ -126,7 +126,8 @@ gpu_struct! {
 }
 
 gpu_struct! {
-    /// The primary-hit record written by the `gbuffer` pass, one per pixel.
+    /// The primary-hit record of one pixel, as the passes decode it from the G-buffer (stored
+    /// packed: [`GpuSurfaceTexels`]).
     pub struct GpuSurface as "Surface" (80) {
     /// World-space hit position.
     pub position: [f32; 3],
@@ -331,6 +332,59 @@ pub const PHOTON_EMIT_SCALE: u32 = 2;
 /// Most neighbours one `restir_spatial` pass merges (a fixed-size array in the shader).
 pub const MAX_SPATIAL_NEIGHBOURS: u32 = 32;
 
+/// RGBA32UI texels per pixel in the G-buffer: a [`GpuSurface`] packed by `surface_to_texels`
+/// (shaders/common/texel_records.glsl) with its normals octahedral, 64 bytes instead of 80. On
+/// lavapipe each texel store costs ~7 ms of a 1280×720 frame (README, Performance), so the
+/// G-buffer stores as few as hold the surface.
+pub const SURFACE_TEXELS: u32 = 4;
+
+/// One pixel's G-buffer record as stored: `position, hit_t | albedo, oct(shading_normal) |
+/// emission, oct(geometric_normal) | instance, triangle, material, view_depth`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct GpuSurfaceTexels {
+    pub words: [u32; 16],
+}
+const _: () = assert!(size_of::<GpuSurfaceTexels>() == SURFACE_TEXELS as usize * 16);
+
+impl GpuSurfaceTexels {
+    /// The surface as `surface_texels` decodes it on the GPU (normals up to float rounding).
+    pub fn decode(&self) -> GpuSurface {
+        let w = &self.words;
+        let f = |i: usize| f32::from_bits(w[i]);
+        GpuSurface {
+            position: [f(0), f(1), f(2)],
+            hit_t: f(3),
+            shading_normal: oct_decode(w[7]),
+            instance: w[12],
+            geometric_normal: oct_decode(w[11]),
+            triangle: w[13],
+            albedo: [f(4), f(5), f(6)],
+            material: w[14],
+            emission: [f(8), f(9), f(10)],
+            view_depth: f(15),
+        }
+    }
+
+    /// Whether word `w` of the record holds a float (the others hold ids and normal codes).
+    pub fn is_float_word(w: usize) -> bool {
+        !matches!(w, 7 | 11 | 12 | 13 | 14)
+    }
+}
+
+/// `oct_decode` of shaders/lib/packing.glsl: the unit vector of an octahedral code (two snorm16,
+/// x in the low half).
+pub fn oct_decode(code: u32) -> [f32; 3] {
+    let snorm = |h: u32| ((h as u16 as i16) as f32 / 32767.0).clamp(-1.0, 1.0);
+    let (ex, ey) = (snorm(code & 0xffff), snorm(code >> 16));
+    let mut n = [ex, ey, 1.0 - ex.abs() - ey.abs()];
+    let t = (-n[2]).max(0.0);
+    n[0] += if n[0] >= 0.0 { -t } else { t };
+    n[1] += if n[1] >= 0.0 { -t } else { t };
+    let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+    [n[0] / len, n[1] / len, n[2] / len]
+}
+
 /// (name, value) of every constant above, listed by name once.
 macro_rules! glsl_constants {
     ($($name:ident),* $(,)?) => { &[ $( (stringify!($name), $name) ),* ] };
@@ -372,6 +426,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     PHOTON_EMIT_PATHS,
     PHOTON_EMIT_SCALE,
     MAX_SPATIAL_NEIGHBOURS,
+    SURFACE_TEXELS,
     CANDIDATE_INDEX_BITS,
     PRESAMPLE_TILE_SIZE,
     PRESAMPLE_MAX_TILES,

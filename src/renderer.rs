@@ -255,7 +255,7 @@ pub struct Renderer {
 /// What a captured pass output holds, per pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CaptureKind {
-    /// `GpuSurface`.
+    /// `GpuSurfaceTexels` (the G-buffer's packed record; `decode` gives the `GpuSurface`).
     Surfaces,
     /// RGBA f32 (samples, the running mean).
     Rgba,
@@ -268,7 +268,7 @@ pub enum CaptureKind {
 impl CaptureKind {
     pub fn bytes_per_pixel(self) -> u64 {
         match self {
-            CaptureKind::Surfaces => std::mem::size_of::<crate::gpu_types::GpuSurface>() as u64,
+            CaptureKind::Surfaces => std::mem::size_of::<crate::gpu_types::GpuSurfaceTexels>() as u64,
             CaptureKind::Rgba => 16,
             CaptureKind::Reservoirs => std::mem::size_of::<crate::gpu_types::GpuReservoir>() as u64,
             CaptureKind::Rgba8 => 4,

@@ -139,7 +139,7 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     // Surfaces: frame 0's G-buffer; the final reservoirs: the last reservoir output before
     // vpl_shade; the samples: vpl_shade's.
     let surfaces_bytes = &first.iter().find(|c| c.kind == CaptureKind::Surfaces).unwrap().bytes;
-    let surfaces: &[GpuSurface] = bytemuck::cast_slice(surfaces_bytes);
+    let surfaces: &[GpuSurface] = &restir_vpl::dump::decode_surfaces(surfaces_bytes);
     let shade = captured.iter().position(|c| c.pass == "vpl_shade").unwrap();
     let finals = captured[..shade].iter().rev().find(|c| c.kind == CaptureKind::Reservoirs).unwrap();
     assert_eq!(finals.pass, "restir_spatial");

@@ -237,9 +237,13 @@ fn random_streams_of_different_pixels_do_not_overlap() {
 
 #[test]
 fn records_read_as_texels_decode_to_their_bytes() {
-    // Each record kind (and the Surface encoder gbuffer writes with): random finite bit patterns (exponent below all-ones, so no NaN payload can
+    // Each record kind: random finite bit patterns (exponent below all-ones, so no NaN payload can
     // change on the way) uploaded as bytes, read through a RGBA32UI texel view with the shader's
-    // decoder, stored through a storage buffer of the real struct; the bytes must come back.
+    // decoder, stored through a storage buffer of the real struct; the bytes must come back. The
+    // G-buffer's Surface is stored packed (octahedral normals): kind 0 must decode as
+    // GpuSurfaceTexels::decode does on the CPU (dumps use it), kind 10 (decoded, then encoded again
+    // by surface_to_texels, gbuffer's encoder) must give back every word but the normal codes,
+    // whose normals must come back.
     const TABLE: &[restir_vpl::vk::Binding] = &[
         texels(0, "records"), storage(1, "out_surfaces"), storage(2, "out_vpls"), storage(3, "out_reservoirs"),
         storage(4, "out_candidates"), storage(5, "out_vertices"), storage(6, "out_materials"), storage(7, "out_instances"),
@@ -257,7 +261,7 @@ fn records_read_as_texels_decode_to_their_bytes() {
     let count = 1000u32;
     use restir_vpl::passes::{ALIAS_TEXELS, RECORD_TEXELS, WORD_TEXELS};
     let sizes = [
-        std::mem::size_of::<GpuSurface>(),
+        std::mem::size_of::<GpuSurfaceTexels>(),
         std::mem::size_of::<GpuVpl>(),
         std::mem::size_of::<GpuReservoir>(),
         std::mem::size_of::<GpuVplCandidate>(),
@@ -267,7 +271,7 @@ fn records_read_as_texels_decode_to_their_bytes() {
         std::mem::size_of::<GpuLight>(),
         std::mem::size_of::<GpuAliasEntry>(),
         4,
-        std::mem::size_of::<GpuSurface>(),
+        std::mem::size_of::<GpuSurfaceTexels>(),
     ];
     let mut state = 0x2545_f491_4f6c_dd1du64;
     for (kind, &size) in sizes.iter().enumerate() {
@@ -286,14 +290,43 @@ fn records_read_as_texels_decode_to_their_bytes() {
             .collect();
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let records = Buffer::with_texel_data(&ctx, "test.records", bytemuck::cast_slice(&words), view, usage).unwrap();
-        let out = Buffer::with_data(&ctx, "test.decoded", &vec![0u8; words.len() * 4], usage).unwrap();
+        let out_bytes = if kind == 0 { count as usize * std::mem::size_of::<GpuSurface>() } else { words.len() * 4 };
+        let out = Buffer::with_data(&ctx, "test.decoded", &vec![0u8; out_bytes], usage).unwrap();
         pipeline.set1.write_buffer(0, &records).unwrap();
         for b in 1..=10 {
             pipeline.set1.write_buffer(b, &out).unwrap();
         }
         let push = RecordsPush { kind: kind as u32, count };
         ctx.one_shot(|cmd| pipeline.dispatch_1d(cmd, empty.set, bytemuck::bytes_of(&push), count)).unwrap();
+        let packed: Vec<GpuSurfaceTexels> = if kind == 0 || kind == 10 { bytemuck::pod_collect_to_vec(bytemuck::cast_slice::<u32, u8>(&words)) } else { vec![] };
+        let close = |a: [f32; 3], b: [f32; 3]| (0..3).all(|c| (a[c] - b[c]).abs() <= 1e-6);
+        if kind == 0 {
+            let back: Vec<GpuSurface> = restir_vpl::vk::buffer::read_back_records(&ctx, &out, count as usize).unwrap();
+            for (i, (p, g)) in packed.iter().zip(&back).enumerate() {
+                let c = p.decode();
+                let exact = |s: &GpuSurface| (s.position, s.hit_t, s.albedo, s.emission, s.instance, s.triangle, s.material, s.view_depth);
+                let (a, b) = (exact(&c), exact(g));
+                assert!(
+                    a.0.map(f32::to_bits) == b.0.map(f32::to_bits) && a.1.to_bits() == b.1.to_bits() && a.2.map(f32::to_bits) == b.2.map(f32::to_bits)
+                        && a.3.map(f32::to_bits) == b.3.map(f32::to_bits) && (a.4, a.5, a.6) == (b.4, b.5, b.6) && a.7.to_bits() == b.7.to_bits(),
+                    "surface {i}: the GPU decoded {g:?}, the CPU {c:?}"
+                );
+                assert!(close(c.shading_normal, g.shading_normal) && close(c.geometric_normal, g.geometric_normal), "surface {i}: normals {g:?} vs {c:?}");
+            }
+            continue;
+        }
         let back: Vec<u32> = restir_vpl::vk::buffer::read_back_records(&ctx, &out, words.len()).unwrap();
+        if kind == 10 {
+            let again: Vec<GpuSurfaceTexels> = bytemuck::pod_collect_to_vec(bytemuck::cast_slice::<u32, u8>(&back));
+            for (i, (p, q)) in packed.iter().zip(&again).enumerate() {
+                let first_bad = (0..16).find(|&w| w != 7 && w != 11 && p.words[w] != q.words[w]);
+                assert_eq!(first_bad, None, "surface {i}: word {first_bad:?} differs after decoding and encoding again");
+                let (a, b) = (p.decode(), q.decode());
+                let near = |x: [f32; 3], y: [f32; 3]| (0..3).all(|c| (x[c] - y[c]).abs() <= 1e-4);
+                assert!(near(a.shading_normal, b.shading_normal) && near(a.geometric_normal, b.geometric_normal), "surface {i}: normals {a:?} vs {b:?}");
+            }
+            continue;
+        }
         let first_bad = words.iter().zip(&back).position(|(a, b)| a != b);
         assert_eq!(first_bad, None, "record kind {kind} ({size} bytes): word {first_bad:?} differs after the texel round trip");
     }

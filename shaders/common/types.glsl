@@ -173,6 +173,8 @@ const uint PHOTON_EMIT_PATHS = 1u;
 const uint PHOTON_EMIT_SCALE = 2u;
 // restir_spatial: most neighbours per pass (the settings refuse more).
 const uint MAX_SPATIAL_NEIGHBOURS = 32u;
+// RGBA32UI texels per pixel in the G-buffer (texel_records.glsl packs a Surface into them).
+const uint SURFACE_TEXELS = 4u;
 // VplCandidate: index bits of `vpl_kind` (the kind above); vpl_presample tiles.
 const uint CANDIDATE_INDEX_BITS = 30u;
 const uint PRESAMPLE_TILE_SIZE = 1024u;

@@ -10,9 +10,9 @@
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-// Written as 5 RGBA32UI texels per Surface (texel_records.glsl's layout, which every other pass
-// reads through a texel view): a storage buffer of 160 bytes per pixel (both halves) would pass
-// lavapipe's 128 MiB maxStorageBufferRange from about 840k pixels on (1280×720 did).
+// Written as SURFACE_TEXELS RGBA32UI texels per Surface (texel_records.glsl's packed layout, which
+// every other pass reads through a texel view): a storage buffer of the G-buffer's two halves would
+// pass lavapipe's 128 MiB maxStorageBufferRange from about 1M pixels on.
 layout(set = 1, binding = 0, rgba32ui) uniform writeonly uimageBuffer surfaces;
 
 const uint SALT_GBUFFER = 0x6762u;
@@ -58,10 +58,10 @@ void main() {
         s.emission = emits ? m.emission : vec3(0.0);
         s.view_depth = t * dot(dir, frame.camera_forward);
     }
-    uvec4 texels[5];
+    uvec4 texels[SURFACE_TEXELS];
     surface_to_texels(s, texels);
-    int k = int(5u * surface_slot(index));
-    for (int j = 0; j < 5; ++j) {
+    int k = int(SURFACE_TEXELS * surface_slot(index));
+    for (int j = 0; j < int(SURFACE_TEXELS); ++j) {
         imageStore(surfaces, k + j, texels[j]);
     }
 }

@@ -2,7 +2,8 @@
 // storage buffers of the real structs, for tests/vpl_math.rs (the round trip must give the bytes
 // back). `pc.kind` picks the record: 0 Surface, 1 Vpl, 2 Reservoir, 3 VplCandidate, 4 Vertex,
 // 5 Material, 6 Instance, 7 Light (RGBA32UI views), 8 AliasEntry (RG32UI), 9 uint (R32UI);
-// 10: a Surface decoded and encoded again by surface_to_texels, as words.
+// 10: a Surface decoded and encoded again by surface_to_texels, as words (kind 0 reads the
+// G-buffer's packed record, SURFACE_TEXELS texels).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -61,11 +62,11 @@ void main() {
     } else if (pc.kind == 9u) {
         out_words[i] = word_texel(records, i);
     } else {
-        uvec4 t[5];
+        uvec4 t[SURFACE_TEXELS];
         surface_to_texels(surface_texels(records, i), t);
-        for (uint j = 0u; j < 5u; ++j) {
+        for (uint j = 0u; j < SURFACE_TEXELS; ++j) {
             for (uint c = 0u; c < 4u; ++c) {
-                out_words[20u * i + 4u * j + c] = t[j][c];
+                out_words[4u * SURFACE_TEXELS * i + 4u * j + c] = t[j][c];
             }
         }
     }

@@ -27,7 +27,7 @@ use anyhow::Result;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use crate::gpu_types::{GpuReservoir, GpuSurface, GpuVpl, GpuVplCandidate, GpuVplParams, GLSL_CONSTANTS};
+use crate::gpu_types::{GpuReservoir, GpuSurfaceTexels, GpuVpl, GpuVplCandidate, GpuVplParams, GLSL_CONSTANTS};
 use crate::settings::{RestirSettings, View};
 use crate::vk::pipeline::compute_barrier;
 use crate::vk::{Buffer, Context, GpuTimer, TexelFormat};
@@ -115,7 +115,7 @@ pub const RECORD_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32G32B
 pub const ALIAS_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32G32_UINT, bytes: 8 };
 pub const WORD_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32_UINT, bytes: 4 };
 const _: () = assert!(
-    std::mem::size_of::<GpuSurface>() % 16 == 0
+    std::mem::size_of::<GpuSurfaceTexels>() % 16 == 0
         && std::mem::size_of::<GpuVpl>() % 16 == 0
         && std::mem::size_of::<GpuReservoir>() % 16 == 0
         && std::mem::size_of::<GpuVplCandidate>() % 16 == 0
@@ -165,10 +165,10 @@ impl FrameTargets {
             limits.max_compute_work_group_invocations
         );
         let n = width as u64 * height as u64;
-        // Per-pixel buffers must fit one descriptor: the G-buffer's two halves (160 bytes a pixel)
-        // are texels (2^27 of them on lavapipe: 13.4M pixels), the others storage buffers of up to
+        // Per-pixel buffers must fit one descriptor: the G-buffer's two halves (128 bytes a pixel)
+        // are texels (2^27 of them on lavapipe: 16.8M pixels), the others storage buffers of up to
         // 16 bytes a pixel (lavapipe's 128 MiB maxStorageBufferRange: 8.4M pixels).
-        let max_pixels = (u64::from(limits.max_texel_buffer_elements) * RECORD_TEXELS.bytes / (2 * std::mem::size_of::<GpuSurface>() as u64))
+        let max_pixels = (u64::from(limits.max_texel_buffer_elements) * RECORD_TEXELS.bytes / (2 * std::mem::size_of::<GpuSurfaceTexels>() as u64))
             .min(u64::from(limits.max_storage_buffer_range) / 16);
         anyhow::ensure!(
             n <= max_pixels,
@@ -186,7 +186,7 @@ impl FrameTargets {
             width,
             height,
             workgroup,
-            surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurface>() as u64, storage | texel | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
+            surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurfaceTexels>() as u64, storage | texel | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
                 .with_texel_view(RECORD_TEXELS)?,
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,
