@@ -334,9 +334,15 @@ pub const MAX_SPATIAL_NEIGHBOURS: u32 = 32;
 
 /// RGBA32UI texels per pixel in the G-buffer: a [`GpuSurface`] packed by `surface_to_texels`
 /// (shaders/common/texel_records.glsl) with its normals octahedral, 64 bytes instead of 80. On
-/// lavapipe each texel store costs ~7 ms of a 1280×720 frame (README, Performance), so the
-/// G-buffer stores as few as hold the surface.
+/// lavapipe each 16-byte store costs several milliseconds of a 1280×720 frame (README,
+/// Performance), so the G-buffer stores as few as hold the surface.
 pub const SURFACE_TEXELS: u32 = 4;
+
+/// Storage-buffer bindings the `gbuffer` pass writes the G-buffer through, each covering an equal
+/// run of records (one binding may not span the whole buffer: lavapipe's maxStorageBufferRange is
+/// 128 MiB, the two halves of a 1280×720 G-buffer 113 MiB, of 3840×2160 1 GiB). On lavapipe a
+/// storage-buffer store costs a fraction of an `imageStore` to a texel buffer (README, Performance).
+pub const GBUFFER_CHUNKS: u32 = 8;
 
 /// One pixel's G-buffer record as stored: `position, hit_t | albedo, oct(shading_normal) |
 /// emission, oct(geometric_normal) | instance, triangle, material, view_depth`.
@@ -427,6 +433,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     PHOTON_EMIT_SCALE,
     MAX_SPATIAL_NEIGHBOURS,
     SURFACE_TEXELS,
+    GBUFFER_CHUNKS,
     CANDIDATE_INDEX_BITS,
     PRESAMPLE_TILE_SIZE,
     PRESAMPLE_MAX_TILES,

@@ -311,9 +311,13 @@ fn dispatch_output<'a>(
     surface_half: u32,
 ) -> Option<(&'static str, CaptureKind, &'a Buffer, u64)> {
     use crate::passes::*;
-    let pixels = targets.pixels() as u64;
     Some(match d.name {
-        GbufferPass::NAME => ("surfaces", CaptureKind::Surfaces, &targets.surfaces, surface_half as u64 * pixels * CaptureKind::Surfaces.bytes_per_pixel()),
+        GbufferPass::NAME => (
+            "surfaces",
+            CaptureKind::Surfaces,
+            &targets.surfaces,
+            u64::from(surface_half) * u64::from(targets.surface_half_records) * CaptureKind::Surfaces.bytes_per_pixel(),
+        ),
         PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplCompensatePass::NAME | VplViewPass::NAME => ("samples", CaptureKind::Rgba, &targets.samples, 0),
         // (The fused passes never run in a captured frame: FramePlan splits them.)
         RestirInitialPass::NAME | RestirTemporalPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
@@ -796,7 +800,6 @@ impl Renderer {
     /// the G-buffer ping-pong.
     fn frame_constants(&self, camera: &Camera, prev: &Camera, halves: (u32, u32)) -> GpuFrame {
         let s = &self.settings;
-        let pixels = self.parts.targets.pixels();
         GpuFrame {
             camera_position: camera.position.to_array(),
             tan_half_fov: (camera.yfov * 0.5).tan(),
@@ -817,8 +820,8 @@ impl Renderer {
             scene_scale: self.scene.info.scale,
             debug_poison: self.debug_poison,
             accumulated_frames: self.state.accumulated + 1,
-            surface_offset: halves.0 * pixels,
-            prev_surface_offset: halves.1 * pixels,
+            surface_offset: halves.0 * self.parts.targets.surface_half_records,
+            prev_surface_offset: halves.1 * self.parts.targets.surface_half_records,
             prev_camera_position: prev.position.to_array(),
             prev_tan_half_fov: (prev.yfov * 0.5).tan(),
             prev_camera_right: prev.right.to_array(),

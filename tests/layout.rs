@@ -21,7 +21,7 @@ use rspirv::spirv::{Decoration, Dim, ExecutionMode, Op, StorageClass};
 
 use restir_vpl::gpu_types::*;
 use restir_vpl::passes::desc::{PassDesc, PushLayout};
-use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, RestirTemporalPass, VplShadePass};
+use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, RestirTemporalPass, TonemapPass, VplShadePass};
 use restir_vpl::vk::pipeline::{storage, storage_texels, texels, uniform};
 use restir_vpl::vk::BindingKind;
 
@@ -420,19 +420,24 @@ fn assert_reported(drifted: &PassDesc, needle: &str) {
 
 #[test]
 fn a_drifted_binding_table_is_detected() {
-    // Binding number: gbuffer's one buffer declared at 1 instead of 0 (missing on both sides).
-    const MOVED: PassDesc = GbufferPass::DESC.with_bindings(&[storage_texels(1, "surfaces")]);
+    // Binding number: tonemap's second buffer declared at 2 instead of 1 (missing on both sides).
+    const MOVED: PassDesc = TonemapPass::DESC.with_bindings(&[storage(0, "means"), storage(2, "preview")]);
     let moved = MOVED;
-    assert_reported(&moved, "binding 1 ('surfaces') is in the table but not in the shader");
-    assert_reported(&moved, "binding 0 ('surfaces') is in the shader but not in the table");
+    assert_reported(&moved, "binding 2 ('preview') is in the table but not in the shader");
+    assert_reported(&moved, "binding 1 ('preview') is in the shader but not in the table");
     // Name.
-    const RENAMED: PassDesc = GbufferPass::DESC.with_bindings(&[storage_texels(0, "surface")]);
+    const RENAMED: PassDesc = TonemapPass::DESC.with_bindings(&[storage(0, "mean"), storage(1, "preview")]);
     let renamed = RENAMED;
-    assert_reported(&renamed, "binding 0 is 'surface' in the table, 'surfaces' in the shader");
+    assert_reported(&renamed, "binding 0 is 'mean' in the table, 'means' in the shader");
     // Kind.
-    const UNIFORM: PassDesc = GbufferPass::DESC.with_bindings(&[uniform(0, "surfaces")]);
+    const UNIFORM: PassDesc = TonemapPass::DESC.with_bindings(&[uniform(0, "means"), storage(1, "preview")]);
     let uniform = UNIFORM;
-    assert_reported(&uniform, "is UniformBuffer in the table, StorageTexelBuffer in the shader");
+    assert_reported(&uniform, "is UniformBuffer in the table, StorageBuffer in the shader");
+    // A storage buffer declared as a storage texel buffer (gbuffer writes through storage buffers).
+    let mut chunks = GbufferPass::DESC.bindings.to_vec();
+    chunks[3] = storage_texels(3, "surfaces_chunk3");
+    let as_texels = PassDesc { bindings: chunks.leak(), ..GbufferPass::DESC };
+    assert_reported(&as_texels, "binding 3 ('surfaces_chunk3') is StorageTexelBuffer in the table, StorageBuffer in the shader");
     // A texel view declared as a storage buffer (spatial reads its surfaces as texels).
     const AS_STORAGE: PassDesc = RestirSpatialPass::DESC.with_bindings(&[
         storage(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"), storage(4, "ray_count"),
@@ -443,7 +448,7 @@ fn a_drifted_binding_table_is_detected() {
     let short = PassDesc { bindings: &AccumulatePass::DESC.bindings[..5], ..AccumulatePass::DESC };
     assert_reported(&short, "binding 5 ('nonfinite_samples') is in the shader but not in the table");
     // Also checked in the textured variant.
-    assert_reported(&moved, "gbuffer (textured)");
+    assert_reported(&as_texels, "gbuffer (textured): binding 3 ('surfaces_chunk3') is StorageTexelBuffer");
 }
 
 #[test]
@@ -465,7 +470,7 @@ fn a_drifted_push_layout_is_detected() {
     // Push constants on one side only.
     let none = PassDesc { push: PushLayout::NONE, ..VplShadePass::DESC };
     assert_reported(&none, "push member 0 is 'params' at 0 in the shader, absent in Rust");
-    let phantom = PassDesc { push: VplShadePass::DESC.push, ..GbufferPass::DESC };
+    let phantom = PassDesc { push: VplShadePass::DESC.push, ..TonemapPass::DESC };
     assert_reported(&phantom, "push constants, the shader none");
 }
 

@@ -23,9 +23,10 @@ uvec4 texel_at(utextureBuffer b, uint texel) {
 
 // A Surface is stored as SURFACE_TEXELS texels with its two normals octahedral (packing.glsl,
 // ~3e-5 rad): position, hit_t | albedo, oct(shading normal) | emission, oct(geometric normal) |
-// instance, triangle, material, view_depth. Four stores per pixel in gbuffer instead of five (on
-// lavapipe each costs ~7 ms of a 1280×720 frame, a tenth of the Cornell box's G-buffer pass), and
-// a target evaluation at a surface reads three texels (position, albedo and both normals).
+// instance, triangle, material, view_depth. Four 16-byte stores per pixel in gbuffer instead of
+// five (on lavapipe each cost ~7 ms of a 1280×720 frame as an imageStore, less through the storage
+// buffers gbuffer now writes with), and a target evaluation at a surface reads three texels
+// (position, albedo and both normals).
 Surface surface_texels(utextureBuffer b, uint i) {
     uint k = SURFACE_TEXELS * i;
     uvec4 t0 = texel_at(b, k);

@@ -175,6 +175,8 @@ const uint PHOTON_EMIT_SCALE = 2u;
 const uint MAX_SPATIAL_NEIGHBOURS = 32u;
 // RGBA32UI texels per pixel in the G-buffer (texel_records.glsl packs a Surface into them).
 const uint SURFACE_TEXELS = 4u;
+// Storage-buffer bindings gbuffer writes the G-buffer through (each an equal run of records).
+const uint GBUFFER_CHUNKS = 8u;
 // VplCandidate: index bits of `vpl_kind` (the kind above); vpl_presample tiles.
 const uint CANDIDATE_INDEX_BITS = 30u;
 const uint PRESAMPLE_TILE_SIZE = 1024u;

@@ -10,10 +10,42 @@
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
-// Written as SURFACE_TEXELS RGBA32UI texels per Surface (texel_records.glsl's packed layout, which
-// every other pass reads through a texel view): a storage buffer of the G-buffer's two halves would
-// pass lavapipe's 128 MiB maxStorageBufferRange from about 1M pixels on.
-layout(set = 1, binding = 0, rgba32ui) uniform writeonly uimageBuffer surfaces;
+// Written as SURFACE_TEXELS uvec4 per Surface (texel_records.glsl's packed layout, which every
+// other pass reads through the buffer's texel view) through GBUFFER_CHUNKS storage buffers, each
+// bound to pc.chunk_records consecutive records of the one G-buffer buffer: a single binding of
+// both halves would pass lavapipe's 128 MiB maxStorageBufferRange from about 1M pixels on. Storage
+// buffers, not imageStore to a storage texel buffer: on lavapipe the G-buffer pass took ~0.6x the
+// time with them (README, Performance).
+layout(set = 1, binding = 0, std430) writeonly buffer Chunk0 { uvec4 surfaces_chunk0[]; };
+layout(set = 1, binding = 1, std430) writeonly buffer Chunk1 { uvec4 surfaces_chunk1[]; };
+layout(set = 1, binding = 2, std430) writeonly buffer Chunk2 { uvec4 surfaces_chunk2[]; };
+layout(set = 1, binding = 3, std430) writeonly buffer Chunk3 { uvec4 surfaces_chunk3[]; };
+layout(set = 1, binding = 4, std430) writeonly buffer Chunk4 { uvec4 surfaces_chunk4[]; };
+layout(set = 1, binding = 5, std430) writeonly buffer Chunk5 { uvec4 surfaces_chunk5[]; };
+layout(set = 1, binding = 6, std430) writeonly buffer Chunk6 { uvec4 surfaces_chunk6[]; };
+layout(set = 1, binding = 7, std430) writeonly buffer Chunk7 { uvec4 surfaces_chunk7[]; };
+
+layout(push_constant) uniform Push {
+    uint chunk_records;  // records per chunk binding (a multiple of 4: 256-byte aligned offsets)
+} pc;
+
+// Stores the record of G-buffer slot `slot` (surface_slot) through the binding that covers it.
+void store_record(uint slot, uvec4 t[SURFACE_TEXELS]) {
+    uint c = slot / pc.chunk_records;
+    uint k = SURFACE_TEXELS * (slot - c * pc.chunk_records);
+    for (uint j = 0u; j < SURFACE_TEXELS; ++j) {
+        switch (c) {
+        case 0u: surfaces_chunk0[k + j] = t[j]; break;
+        case 1u: surfaces_chunk1[k + j] = t[j]; break;
+        case 2u: surfaces_chunk2[k + j] = t[j]; break;
+        case 3u: surfaces_chunk3[k + j] = t[j]; break;
+        case 4u: surfaces_chunk4[k + j] = t[j]; break;
+        case 5u: surfaces_chunk5[k + j] = t[j]; break;
+        case 6u: surfaces_chunk6[k + j] = t[j]; break;
+        default: surfaces_chunk7[k + j] = t[j]; break;
+        }
+    }
+}
 
 const uint SALT_GBUFFER = 0x6762u;
 
@@ -60,8 +92,5 @@ void main() {
     }
     uvec4 texels[SURFACE_TEXELS];
     surface_to_texels(s, texels);
-    int k = int(SURFACE_TEXELS * surface_slot(index));
-    for (int j = 0; j < int(SURFACE_TEXELS); ++j) {
-        imageStore(surfaces, k + j, texels[j]);
-    }
+    store_record(surface_slot(index), texels);
 }

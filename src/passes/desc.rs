@@ -106,7 +106,7 @@ impl PassDesc {
 
     /// Starts building the pass's pipeline on `scene_layout` (set 0).
     pub fn pipeline<'a>(&'a self, ctx: &'a Arc<Context>, scene_layout: vk::DescriptorSetLayout) -> PipelineBuilder<'a> {
-        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, workgroup: None, shared: Vec::new(), per_variant: Vec::new() }
+        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, workgroup: None, shared: Vec::new(), per_variant: Vec::new(), ranges: Vec::new() }
     }
 }
 
@@ -121,6 +121,8 @@ pub struct PipelineBuilder<'a> {
     shared: Vec<(u32, &'a Buffer)>,
     /// Empty: one set-1 variant.
     per_variant: Vec<Vec<(u32, &'a Buffer)>>,
+    /// (binding, buffer, byte offset, byte range): storage bindings of part of a buffer.
+    ranges: Vec<(u32, &'a Buffer, u64, u64)>,
 }
 
 impl<'a> PipelineBuilder<'a> {
@@ -140,6 +142,13 @@ impl<'a> PipelineBuilder<'a> {
     /// (binding, buffer) pairs bound in every set-1 variant.
     pub fn buffers(mut self, buffers: &[(u32, &'a Buffer)]) -> Self {
         self.shared.extend_from_slice(buffers);
+        self
+    }
+
+    /// (binding, buffer, byte offset, byte range) storage bindings of part of a buffer, in every
+    /// set-1 variant.
+    pub fn buffer_ranges(mut self, ranges: &[(u32, &'a Buffer, u64, u64)]) -> Self {
+        self.ranges.extend_from_slice(ranges);
         self
     }
 
@@ -165,7 +174,8 @@ impl<'a> PipelineBuilder<'a> {
         for v in 0..variants {
             let own = self.per_variant.get(v).map(Vec::as_slice).unwrap_or_default();
             for row in d.bindings {
-                let times = self.shared.iter().chain(own).filter(|(b, _)| *b == row.binding).count();
+                let times = self.shared.iter().chain(own).filter(|(b, _)| *b == row.binding).count()
+                    + self.ranges.iter().filter(|r| r.0 == row.binding).count();
                 ensure!(times == 1, "pass '{}': binding {} ('{}') of variant {v} is bound {times} times", d.name, row.binding, row.name);
             }
         }
@@ -191,6 +201,9 @@ impl<'a> PipelineBuilder<'a> {
         )?;
         for &(binding, buffer) in &self.shared {
             pipeline.set1.write_buffer(binding, buffer)?;
+        }
+        for &(binding, buffer, offset, range) in &self.ranges {
+            pipeline.set1.write_buffer_range(binding, buffer, offset, range)?;
         }
         for (v, own) in self.per_variant.iter().enumerate() {
             for &(binding, buffer) in own {

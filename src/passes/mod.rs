@@ -27,7 +27,7 @@ use anyhow::Result;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use crate::gpu_types::{GpuReservoir, GpuSurfaceTexels, GpuVpl, GpuVplCandidate, GpuVplParams, GLSL_CONSTANTS};
+use crate::gpu_types::{GpuReservoir, GpuSurfaceTexels, GpuVpl, GpuVplCandidate, GpuVplParams, GBUFFER_CHUNKS, GLSL_CONSTANTS};
 use crate::settings::{RestirSettings, View};
 use crate::vk::pipeline::compute_barrier;
 use crate::vk::{Buffer, Context, GpuTimer, TexelFormat};
@@ -132,9 +132,15 @@ pub struct FrameTargets {
     pub height: u32,
     /// How the per-pixel passes tile the image: their workgroup (x, y) (`--workgroup`).
     pub workgroup: [u32; 2],
-    /// `GpuSurface` per pixel (gbuffer output), twice: a ping-pong of this frame's and the previous
-    /// frame's G-buffer (`GpuFrame::surface_offset`, `prev_surface_offset`), for reprojection.
+    /// `GpuSurfaceTexels` per pixel (gbuffer output), twice: a ping-pong of this frame's and the
+    /// previous frame's G-buffer, each half `surface_half_records` records from its start
+    /// (`GpuFrame::surface_offset`, `prev_surface_offset`), for reprojection.
     pub surfaces: Buffer,
+    /// Records per G-buffer half: the pixel count rounded up to a multiple of 16, so that the
+    /// `GBUFFER_CHUNKS` storage-buffer ranges `gbuffer` writes through start 256-byte aligned.
+    pub surface_half_records: u32,
+    /// Records per chunk binding: 2 * `surface_half_records` / `GBUFFER_CHUNKS`.
+    pub surface_chunk_records: u32,
     /// This frame's radiance estimate per pixel (vec4).
     pub samples: Buffer,
     pub accum_sum: Buffer,
@@ -168,8 +174,16 @@ impl FrameTargets {
         // Per-pixel buffers must fit one descriptor: the G-buffer's two halves (128 bytes a pixel)
         // are texels (2^27 of them on lavapipe: 16.8M pixels), the others storage buffers of up to
         // 16 bytes a pixel (lavapipe's 128 MiB maxStorageBufferRange: 8.4M pixels).
-        let max_pixels = (u64::from(limits.max_texel_buffer_elements) * RECORD_TEXELS.bytes / (2 * std::mem::size_of::<GpuSurfaceTexels>() as u64))
-            .min(u64::from(limits.max_storage_buffer_range) / 16);
+        // The G-buffer is written through GBUFFER_CHUNKS storage-buffer ranges of equal size, so a
+        // range holds 2 * 64 / 8 = 16 bytes a pixel, as the other per-pixel buffers do; the pixel
+        // count is rounded down to the 16-pixel granule a half is rounded up to.
+        let granule = 16u64;
+        let record = std::mem::size_of::<GpuSurfaceTexels>() as u64;
+        let max_pixels = (u64::from(limits.max_texel_buffer_elements) * RECORD_TEXELS.bytes / (2 * record))
+            .min(u64::from(limits.max_storage_buffer_range) * u64::from(GBUFFER_CHUNKS) / (2 * record))
+            .min(u64::from(limits.max_storage_buffer_range) / 16)
+            / granule
+            * granule;
         anyhow::ensure!(
             n <= max_pixels,
             "--width {width} --height {height}: {n} pixels, more than this device's buffer limits allow (at most {max_pixels} \
@@ -182,12 +196,16 @@ impl FrameTargets {
             | vk::BufferUsageFlags::TRANSFER_DST;
         let make = |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, storage, MemoryLocation::GpuOnly);
         let texel = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
+        let half_records = n.div_ceil(granule) * granule;
+        let chunk_records = 2 * half_records / u64::from(GBUFFER_CHUNKS);
         Ok(Self {
             width,
             height,
             workgroup,
-            surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * n * std::mem::size_of::<GpuSurfaceTexels>() as u64, storage | texel | vk::BufferUsageFlags::STORAGE_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
+            surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * half_records * record, storage | texel, MemoryLocation::GpuOnly)?
                 .with_texel_view(RECORD_TEXELS)?,
+            surface_half_records: u32::try_from(half_records).expect("bounded by max_pixels"),
+            surface_chunk_records: u32::try_from(chunk_records).expect("bounded by max_pixels"),
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,
             accum_compensation: make("accumulate.compensation", n * 16)?,

@@ -144,6 +144,43 @@ impl DescriptorSet {
         Ok(())
     }
 
+    /// Points storage-buffer `binding` of every variant at `range` bytes of `buffer` from `offset`
+    /// (a multiple of the device's `minStorageBufferOffsetAlignment`).
+    pub fn write_buffer_range(&self, binding: u32, buffer: &Buffer, offset: u64, range: u64) -> Result<()> {
+        let kind = self.row_kind(binding)?;
+        anyhow::ensure!(kind == BindingKind::StorageBuffer, "binding {binding} of '{}' is not a storage buffer", self.name);
+        let limits = &self.ctx.properties.limits;
+        anyhow::ensure!(
+            offset % limits.min_storage_buffer_offset_alignment.max(1) == 0 && range <= u64::from(limits.max_storage_buffer_range) && offset + range <= buffer.size,
+            "binding {binding} of '{}': bytes {offset}..{} of buffer '{}' ({} bytes) do not make a storage-buffer range on this device (alignment {}, at most {} bytes)",
+            self.name,
+            offset + range,
+            buffer.name,
+            buffer.size,
+            limits.min_storage_buffer_offset_alignment,
+            limits.max_storage_buffer_range
+        );
+        let info = [vk::DescriptorBufferInfo::default().buffer(buffer.raw).offset(offset).range(range)];
+        for &set in &self.variants {
+            let write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(binding).descriptor_type(kind.vk()).buffer_info(&info);
+            // SAFETY: the set and buffer are valid; no command buffer using the set is pending.
+            unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
+        }
+        Ok(())
+    }
+
+    /// The kind of `binding` in this set's table.
+    fn row_kind(&self, binding: u32) -> Result<BindingKind> {
+        let kind = self
+            .table
+            .iter()
+            .find(|b| b.binding == binding)
+            .map(|b| b.kind)
+            .with_context(|| format!("set '{}' has no binding {binding}", self.name))?;
+        self.row(binding, kind)?;
+        Ok(kind)
+    }
+
     /// Points `binding` of variant `variant` at a buffer.
     pub fn write_buffer_in(&self, variant: usize, binding: u32, buffer: &Buffer) -> Result<()> {
         let set = *self
