@@ -47,7 +47,7 @@ Surface surface_texels(utextureBuffer b, uint i) {
     return s;
 }
 
-// The texels of a Surface, as surface_texels reads them (gbuffer writes them with imageStore).
+// The texels of a Surface, as surface_texels reads them (gbuffer stores them through storage buffers).
 void surface_to_texels(Surface s, out uvec4 t[SURFACE_TEXELS]) {
     t[0] = uvec4(floatBitsToUint(s.position), floatBitsToUint(s.hit_t));
     t[1] = uvec4(floatBitsToUint(s.albedo), oct_encode(s.shading_normal));

@@ -147,8 +147,8 @@ impl DescriptorSet {
     /// Points storage-buffer `binding` of every variant at `range` bytes of `buffer` from `offset`
     /// (a multiple of the device's `minStorageBufferOffsetAlignment`).
     pub fn write_buffer_range(&self, binding: u32, buffer: &Buffer, offset: u64, range: u64) -> Result<()> {
-        let kind = self.row_kind(binding)?;
-        anyhow::ensure!(kind == BindingKind::StorageBuffer, "binding {binding} of '{}' is not a storage buffer", self.name);
+        let kind = BindingKind::StorageBuffer;
+        self.row(binding, kind)?;
         let limits = &self.ctx.properties.limits;
         anyhow::ensure!(
             offset % limits.min_storage_buffer_offset_alignment.max(1) == 0 && range <= u64::from(limits.max_storage_buffer_range) && offset + range <= buffer.size,
@@ -167,18 +167,6 @@ impl DescriptorSet {
             unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
         }
         Ok(())
-    }
-
-    /// The kind of `binding` in this set's table.
-    fn row_kind(&self, binding: u32) -> Result<BindingKind> {
-        let kind = self
-            .table
-            .iter()
-            .find(|b| b.binding == binding)
-            .map(|b| b.kind)
-            .with_context(|| format!("set '{}' has no binding {binding}", self.name))?;
-        self.row(binding, kind)?;
-        Ok(kind)
     }
 
     /// Points `binding` of variant `variant` at a buffer.
