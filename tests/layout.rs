@@ -575,3 +575,11 @@ fn a_drifted_constant_is_detected() {
     let float = format!("{header}\nconst float PI = 3.14159;\n");
     assert!(constant_mismatches(&float, &rust).iter().any(|m| m.contains("const float PI")));
 }
+
+/// Devices are refused (with the reason in their report) unless a shader stage may see as many
+/// storage buffers as the hungriest pass declares with a textured scene's set 0; the constant the
+/// device check uses must be that count.
+#[test]
+fn the_device_check_asks_for_the_storage_buffers_a_pass_uses() {
+    assert_eq!(passes::storage_buffers_per_stage(), restir_vpl::vk::context::REQUIRED_STORAGE_BUFFERS_PER_STAGE);
+}

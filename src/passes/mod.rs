@@ -512,6 +512,14 @@ impl Passes {
     }
 }
 
+/// The most storage buffers one pass's shader stage sees: set 0 of a textured scene plus the pass's
+/// own set 1 (`gbuffer`'s chunk bindings). A device must allow at least this many per stage
+/// (`crate::vk::context::REQUIRED_STORAGE_BUFFERS_PER_STAGE`, checked when devices are inspected).
+pub fn storage_buffers_per_stage() -> u32 {
+    let count = |t: &[crate::vk::Binding]| t.iter().filter(|b| b.kind == crate::vk::BindingKind::StorageBuffer).count() as u32;
+    count(crate::scene_gpu::SCENE_BINDINGS_TEXTURED) + ALL_PASSES.iter().map(|d| count(d.bindings)).max().unwrap_or(0)
+}
+
 /// One dispatch of a pass as the frame records it: the pass's name and, for a pass dispatched
 /// several times in a frame (`restir_spatial` ×P), which time (0-based).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -192,6 +192,10 @@ const REQUIRED_EXTENSIONS: [&CStr; 3] = [
     ash::khr::deferred_host_operations::NAME,
 ];
 
+/// Storage buffers a shader stage must be able to see (`maxPerStageDescriptorStorageBuffers`;
+/// Vulkan guarantees only 4): `passes::storage_buffers_per_stage()`, which a test keeps equal.
+pub const REQUIRED_STORAGE_BUFFERS_PER_STAGE: u32 = 10;
+
 /// Inspects one physical device.
 fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (DeviceReport, u32) {
     // SAFETY: `pd` comes from `enumerate_physical_devices` of this instance.
@@ -238,6 +242,10 @@ fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (D
         if has_ext(ash::khr::ray_query::NAME) && frq.ray_query == 0 {
             missing.push("feature rayQuery".into());
         }
+    }
+    let per_stage = props.limits.max_per_stage_descriptor_storage_buffers;
+    if per_stage < REQUIRED_STORAGE_BUFFERS_PER_STAGE {
+        missing.push(format!("{REQUIRED_STORAGE_BUFFERS_PER_STAGE} storage buffers per shader stage (has {per_stage})"));
     }
     // SAFETY: as above.
     let families = unsafe { instance.get_physical_device_queue_family_properties(pd) };
