@@ -14,7 +14,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id 
 // other pass reads through the buffer's texel view) through GBUFFER_CHUNKS storage buffers, each
 // bound to pc.chunk_records consecutive records of the one G-buffer buffer: a single binding of
 // both halves would pass lavapipe's 128 MiB maxStorageBufferRange from about 1M pixels on. Storage
-// buffers, not imageStore to a storage texel buffer: on lavapipe the G-buffer pass took ~0.6x the
+// buffers, not imageStore to a storage texel buffer: on lavapipe the G-buffer pass took ~0.7x the
 // time with them (README, Performance).
 layout(set = 1, binding = 0, std430) writeonly buffer Chunk0 { uvec4 surfaces_chunk0[]; };
 layout(set = 1, binding = 1, std430) writeonly buffer Chunk1 { uvec4 surfaces_chunk1[]; };
