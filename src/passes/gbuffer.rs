@@ -16,7 +16,7 @@ use super::FrameTargets;
 
 push_constants! {
     struct Push {
-        /// Records per chunk binding (`FrameTargets::surface_chunk_records`).
+        /// Records per chunk binding (`FrameTargets::surface_chunk_records()`).
         chunk_records: u32,
     }
 }
@@ -40,11 +40,12 @@ impl GbufferPass {
 
     /// `textured`: the scene set has textures bound (see `SceneGpu::textured`).
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, textured: bool, targets: &FrameTargets) -> Result<Self> {
-        let chunk_bytes = u64::from(targets.surface_chunk_records) * std::mem::size_of::<GpuSurfaceTexels>() as u64;
+        let chunk_records = targets.surface_chunk_records();
+        let chunk_bytes = u64::from(chunk_records) * std::mem::size_of::<GpuSurfaceTexels>() as u64;
         let ranges: Vec<_> = (0..GBUFFER_CHUNKS).map(|c| (c, &targets.surfaces, u64::from(c) * chunk_bytes, chunk_bytes)).collect();
         let pipeline =
             Self::DESC.pipeline(ctx, scene_layout).workgroup(targets.workgroup).textured(textured).buffer_ranges(&ranges).build()?;
-        Ok(Self { pipeline, chunk_records: targets.surface_chunk_records })
+        Ok(Self { pipeline, chunk_records })
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, width: u32, height: u32) {

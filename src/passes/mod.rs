@@ -139,8 +139,6 @@ pub struct FrameTargets {
     /// Records per G-buffer half: the pixel count rounded up to a multiple of 16, so that the
     /// `GBUFFER_CHUNKS` storage-buffer ranges `gbuffer` writes through start 256-byte aligned.
     pub surface_half_records: u32,
-    /// Records per chunk binding: 2 * `surface_half_records` / `GBUFFER_CHUNKS`.
-    pub surface_chunk_records: u32,
     /// This frame's radiance estimate per pixel (vec4).
     pub samples: Buffer,
     pub accum_sum: Buffer,
@@ -197,7 +195,6 @@ impl FrameTargets {
         let make = |name: &str, bytes: u64| Buffer::new(ctx, name, bytes, storage, MemoryLocation::GpuOnly);
         let texel = vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER;
         let half_records = n.div_ceil(granule) * granule;
-        let chunk_records = 2 * half_records / u64::from(GBUFFER_CHUNKS);
         Ok(Self {
             width,
             height,
@@ -205,7 +202,6 @@ impl FrameTargets {
             surfaces: Buffer::new(ctx, "gbuffer.surfaces", 2 * half_records * record, storage | texel, MemoryLocation::GpuOnly)?
                 .with_texel_view(RECORD_TEXELS)?,
             surface_half_records: u32::try_from(half_records).expect("bounded by max_pixels"),
-            surface_chunk_records: u32::try_from(chunk_records).expect("bounded by max_pixels"),
             samples: make("frame.samples", n * 16)?,
             accum_sum: make("accumulate.sum", n * 16)?,
             accum_compensation: make("accumulate.compensation", n * 16)?,
@@ -219,6 +215,12 @@ impl FrameTargets {
 
     pub fn pixels(&self) -> u32 {
         self.width * self.height
+    }
+
+    /// Records per storage-buffer range `gbuffer` writes the G-buffer through: an equal share of
+    /// both halves (a multiple of 4 records, so each range starts 256-byte aligned).
+    pub fn surface_chunk_records(&self) -> u32 {
+        2 * self.surface_half_records / GBUFFER_CHUNKS
     }
 }
 

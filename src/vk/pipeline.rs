@@ -160,17 +160,21 @@ impl DescriptorSet {
             limits.min_storage_buffer_offset_alignment,
             limits.max_storage_buffer_range
         );
-        let info = [vk::DescriptorBufferInfo::default().buffer(buffer.raw).offset(offset).range(range)];
-        for &set in &self.variants {
-            let write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(binding).descriptor_type(kind.vk()).buffer_info(&info);
-            // SAFETY: the set and buffer are valid; no command buffer using the set is pending.
-            unsafe { self.ctx.device.update_descriptor_sets(&[write], &[]) };
+        let info = vk::DescriptorBufferInfo::default().buffer(buffer.raw).offset(offset).range(range);
+        for v in 0..self.variants.len() {
+            self.write_in(v, binding, buffer, info)?;
         }
         Ok(())
     }
 
     /// Points `binding` of variant `variant` at a buffer.
     pub fn write_buffer_in(&self, variant: usize, binding: u32, buffer: &Buffer) -> Result<()> {
+        self.write_in(variant, binding, buffer, buffer.descriptor())
+    }
+
+    /// Points `binding` of variant `variant` at `info`'s part of `buffer` (a buffer binding), or at
+    /// its texel view (a texel binding).
+    fn write_in(&self, variant: usize, binding: u32, buffer: &Buffer, info: vk::DescriptorBufferInfo) -> Result<()> {
         let set = *self
             .variants
             .get(variant)
@@ -181,9 +185,8 @@ impl DescriptorSet {
             .find(|b| b.binding == binding)
             .map(|b| b.kind)
             .with_context(|| format!("set '{}' has no binding {binding}", self.name))?;
-        self.row(binding, kind)?;
         anyhow::ensure!(kind != BindingKind::AccelerationStructure, "binding {binding} of '{}' takes an acceleration structure", self.name);
-        let info = [buffer.descriptor()];
+        let info = [info];
         let views = [buffer.texel_view.unwrap_or_default()];
         let write = vk::WriteDescriptorSet::default().dst_set(set).dst_binding(binding).descriptor_type(kind.vk());
         let write = if matches!(kind, BindingKind::UniformTexelBuffer | BindingKind::StorageTexelBuffer) {
