@@ -15,7 +15,7 @@ layout(local_size_x = 8, local_size_y = 8) in;
 
 // Both halves of the G-buffer ping-pong: surface_slot() and prev_surface_slot() pick them.
 // Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
-layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFACE_TEXELS (4) texels each
 layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2) uniform utextureBuffer vpl_alias;  // AliasEntry, RG32UI
 layout(set = 1, binding = 3) uniform utextureBuffer tiles;  // VplCandidate, 2 texels each

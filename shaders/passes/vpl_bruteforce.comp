@@ -11,7 +11,7 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
 
 // Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
-layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, 5 texels each
+layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFACE_TEXELS (4) texels each
 // Every invocation reads VPL i in step (one address for all lanes): a storage buffer reads that once.
 layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
 layout(set = 1, binding = 2, std430) buffer SampleBuffer { vec4 samples[]; };
