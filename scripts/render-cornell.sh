@@ -4,6 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
+# setup.sh may have installed Rust into ~/.cargo without touching the shell profiles.
+export PATH="$HOME/.cargo/bin:$PATH"
 cargo build --release --quiet
 exec ./target/release/restir-vpl --headless --scene scenes/cornell_box.gltf --mode restir \
   --frames 20 --width 512 --height 512 --out out/cornell "$@"

@@ -5,6 +5,7 @@
 #     Debian 12, only when no such driver is present)
 #   - the Khronos validation layer (vulkan-validationlayers)
 #   - a C/C++ compiler for the glslang crate's build
+#   - Rust (stable, through rustup) when no toolchain as new as Cargo.toml's rust-version is found
 # With --test (the test command) also what the tests drive: Xvfb and xdotool for the window tests,
 # headless Chromium for the pass inspector page (the main job never pulls a browser).
 # The main job does not pull these.
@@ -89,10 +90,29 @@ if [ "$mesa_ok" = 0 ] && [ "$vendor_icd" = 0 ]; then
   fi
 fi
 
-# Rust toolchain.
-if ! command -v cargo >/dev/null 2>&1; then
-  if [ -x "$HOME/.cargo/bin/cargo" ]; then :; else
-    log "cargo not found: install Rust (https://rustup.rs) and re-run"; exit 1
+# Rust toolchain: the one on PATH or in ~/.cargo/bin when it is new enough for Cargo.toml's
+# rust-version, else a stable toolchain through rustup (into ~/.cargo, without touching shell
+# profiles; the scripts put ~/.cargo/bin on PATH themselves). Debian's own rustc is too old.
+need_rust=$(sed -n 's/^rust-version *= *"\([0-9.]*\)".*/\1/p' "$(dirname "$0")/../Cargo.toml")
+export PATH="$HOME/.cargo/bin:$PATH"
+rust_ok() {
+  command -v cargo >/dev/null 2>&1 && command -v rustc >/dev/null 2>&1 || return 1
+  local have
+  have=$(rustc --version | awk '{print $2}')
+  dpkg --compare-versions "${have%%-*}" ge "${need_rust:-0}"
+}
+if ! rust_ok; then
+  if command -v rustup >/dev/null 2>&1; then
+    log "rustc older than $need_rust: rustup toolchain install stable"
+    { rustup toolchain install stable --profile minimal >/dev/null && rustup default stable >/dev/null; } \
+      || log "rustup could not install the stable toolchain (above)"
+  else
+    for p in curl ca-certificates; do have_pkg "$p" || apt_install "$p"; done
+    log "installing Rust (stable, minimal profile) through rustup into ~/.cargo"
+    curl --proto '=https' --tlsv1.2 -sSf https://sh.rustup.rs \
+      | sh -s -- -y --profile minimal --default-toolchain stable --no-modify-path >/dev/null \
+      || log "rustup's installer failed (above)"
   fi
+  rust_ok || { log "could not get a Rust toolchain >= $need_rust (https://rustup.rs): install one and re-run"; exit 1; }
 fi
 exit 0

@@ -259,7 +259,7 @@ gpu_struct! {
 pub const CANDIDATE_INDEX_BITS: u32 = 30;
 /// VPLs per presampled tile (a power of two: the candidate loop wraps with a mask).
 pub const PRESAMPLE_TILE_SIZE: u32 = 1024;
-/// Most tiles `vpl_presample` fills per frame (fewer for small images: one per workgroup).
+/// Most tiles `vpl_presample` fills per frame (fewer for small images: one per 8×8 block of pixels).
 pub const PRESAMPLE_MAX_TILES: u32 = 128;
 
 /// `GpuReservoir::vpl` of an empty reservoir.

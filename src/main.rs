@@ -304,16 +304,17 @@ enum Command {
         /// exponent beside the expected one. Writes --out/scaling.md and scaling.csv.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion", "rays", "radius"])]
         scaling: bool,
-        /// With --curves or --motion: a smoke test (tiny images, few frames and VPLs).
+        /// With --curves, --motion, --radius or --scaling: a smoke test (tiny images, few frames and VPLs).
         #[arg(long)]
         quick: bool,
-        /// With --curves or --motion: output directory.
+        /// With --curves, --motion, --radius or --scaling: output directory.
         #[arg(long, default_value = "bench-out")]
         out: PathBuf,
         /// With --curves: checkpoints (accumulated frames), comma separated [default: 1,2,5,10,20].
         #[arg(long, value_delimiter = ',', requires = "curves")]
         checkpoints: Option<Vec<u32>>,
-        /// With --curves or --motion: independent runs averaged [default: 3 for --curves, 2 for --motion].
+        /// With --curves, --motion or --radius: independent runs averaged [default: 3 for --curves, 2 for
+        /// --motion and --radius].
         #[arg(long)]
         runs: Option<u32>,
     },

@@ -277,9 +277,9 @@ pub struct CameraOverride {
 }
 
 /// The default Yuksel radius in mean VPL spacings √(A / (π N)). Chosen from `bench --radius`
-/// (docs/radius.md): on the three scenes 8× keeps the clamp's darkening to 0.4–1.5 % while it cuts
-/// the share of squared error in the worst 0.1 % of pixels from 31–88 % (1×) to 12–27 % and the
-/// RMSE at t = 1 and t = 20 on every scene; larger multiples darken more (16×: 1–3 %).
+/// (docs/radius.md): on the three scenes 8× keeps the clamp's darkening to 0.3–1.6 % while it cuts
+/// the share of squared error in the worst 0.1 % of pixels from 27–44 % (1×) to 6–22 % and the
+/// RMSE at t = 1 and t = 20 on every scene; larger multiples darken more (16×: 0.9–3.2 %).
 /// `--compensate` removes the darkening for any radius.
 pub const DEFAULT_RADIUS_SPACINGS: f32 = 8.0;
 /// Most nearest VPLs `--yuksel-knn` may ask for.

@@ -388,8 +388,9 @@ fn renderdoc_capture_without_renderdoc_says_how_and_goes_on() {
 
 #[test]
 fn image_beyond_the_texel_buffer_limit_is_refused_or_rendered_never_a_crash() {
-    // 4096² needs 167,772,160 G-buffer texels and 256 MiB per 16-byte-a-pixel buffer: over
-    // lavapipe's maxTexelBufferElements (2^27) and maxStorageBufferRange (128 MiB), where the
+    // 4096² needs 134,217,728 G-buffer texels (2 halves × 4 texels a pixel), exactly lavapipe's
+    // maxTexelBufferElements (2^27), and 256 MiB per 16-byte-a-pixel buffer, over its
+    // maxStorageBufferRange (128 MiB), where the
     // build before the texel views crashed (segfault) instead of saying so. A device with larger
     // limits renders it (1 frame, path tracer).
     let out = tempfile::tempdir().unwrap();
@@ -409,7 +410,7 @@ fn a_1280x720_frame_of_every_mode_stays_within_the_device_limits() {
     // The tests render 64–256 px, but buffer ranges grow with the image: at 1280×720 the G-buffer
     // (147 MB) bound as a storage buffer broke lavapipe's 128 MiB maxStorageBufferRange, a
     // validation error in every run at that size (the benchmark size) that small images
-    // never showed. One frame per mode (few VPLs, so it stays quick) under the validation layer.
+    // never showed. Two frames per mode (few VPLs, so it stays quick) under the validation layer.
     if !validate() {
         eprintln!("no validation layer: only checking that the runs succeed");
     }
