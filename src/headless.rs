@@ -119,8 +119,9 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     if let Some(dir) = &settings.out_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
     }
+    // Read before the renderer's set-up (photons, pipelines), so that a bad file fails at once.
+    let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
     let mut renderer = Renderer::new(ctx.clone(), scene.clone(), settings.clone())?;
-    let path = settings.camera_path.as_deref().map(CameraPath::load).transpose()?;
     let camera_at = |f: u32| match &path {
         Some(p) => p.at(f as f32),
         None => Camera::initial(&scene.info, settings.camera.as_ref()),

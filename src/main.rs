@@ -361,9 +361,12 @@ enum Command {
         /// Partial references.
         #[arg(required = true, value_name = "REF.exr")]
         inputs: Vec<PathBuf>,
-        /// Merged reference to write.
+        /// Merged reference to write (a new file unless --overwrite).
         #[arg(long, value_name = "C.exr")]
         out: PathBuf,
+        /// Replace --out when it exists (never one of the inputs).
+        #[arg(long)]
+        overwrite: bool,
     },
     /// Render a reference: a long accumulation (--mode pt for the ground truth; bruteforce or ris
     /// for the VPL answer) written as EXR with its frame range and settings in the header.
@@ -576,8 +579,8 @@ fn real_main(cli: Cli) -> Result<()> {
         let opts = restir_vpl::eval::compare::CompareOptions { flip: !*no_flip, exposure: *exposure, ppd: *ppd };
         return restir_vpl::eval::compare::run_cli(test, reference, &opts, error_image.as_deref(), json.as_deref());
     }
-    if let Some(Command::MergeReferences { inputs, out }) = &cli.command {
-        return restir_vpl::eval::reference::run_merge_cli(inputs, out);
+    if let Some(Command::MergeReferences { inputs, out, overwrite }) = &cli.command {
+        return restir_vpl::eval::reference::run_merge_cli(inputs, out, *overwrite);
     }
     if let Some(Command::Reference { render, out, first_frame, resume }) = &cli.command {
         let settings = settings_from(render, None)?;

@@ -609,7 +609,7 @@ impl RenderSettings {
         }
         if let Some(radius) = r.spatial_radius {
             if !(radius >= 1.0 && radius.is_finite()) {
-                bail!("--spatial-radius {radius}: must be at least 1 pixel");
+                bail!("--spatial-radius {radius}: must be a finite number of pixels, at least 1");
             }
         }
         if r.spatial_passes > 8 {
@@ -623,7 +623,7 @@ impl RenderSettings {
         }
         if let Some(y) = self.yuksel_radius {
             if !(y > 0.0 && y.is_finite()) {
-                bail!("--yuksel-radius {y}: must be a positive number (scene units)");
+                bail!("--yuksel-radius {y}: must be a positive finite number (scene units)");
             }
             if self.attenuation != Attenuation::Yuksel {
                 bail!("--yuksel-radius is only used with --attenuation yuksel");
@@ -631,7 +631,7 @@ impl RenderSettings {
         }
         if let Some(m) = self.yuksel_spacings {
             if !(m > 0.0 && m.is_finite()) {
-                bail!("--yuksel-spacings {m}: must be a positive number (a multiple of the VPL spacing)");
+                bail!("--yuksel-spacings {m}: must be a positive finite number (a multiple of the VPL spacing)");
             }
         }
         if let Some(k) = self.yuksel_knn {
@@ -660,7 +660,7 @@ impl RenderSettings {
         }
         if let Some(r) = self.vpl_radius {
             if !(r > 0.0 && r.is_finite()) {
-                bail!("--vpl-radius {r}: must be a positive number (scene units)");
+                bail!("--vpl-radius {r}: must be a positive finite number (scene units)");
             }
         }
         if self.camera.is_some() && self.camera_path.is_some() {

@@ -76,7 +76,8 @@ fn missing_scene_file() {
 fn scene_that_is_not_a_file() {
     assert_fails(&["--headless", "--scene", "/dev/zero", "--frames", "1"], &["/dev/zero", "not a regular file"]);
     assert_fails(&["--headless", "--scene", "/tmp", "--frames", "1"], &["/tmp", "directory"]);
-    assert_fails(&["--headless", "--camera-path", "/dev/zero", "--frames", "1"], &["/dev/zero", "not a regular file"]);
+    assert_fails(&["--headless", "--camera-path", "/dev/zero", "--frames", "1"], &["--camera-path", "/dev/zero", "not a regular file"]);
+    assert_fails(&["--headless", "--camera-path", "/nonexistent/path.json", "--frames", "1"], &["--camera-path", "/nonexistent/path.json"]);
 }
 
 #[test]

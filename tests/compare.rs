@@ -246,6 +246,25 @@ fn cli_size_mismatch() {
     assert!(err.contains("4x4") && err.contains("5x4") && !err.contains("panicked"), "{err}");
 }
 
+#[test]
+fn flip_pixels_per_degree_outside_its_range_are_refused_and_its_ends_give_finite_flip() {
+    let b = scene(32, 24);
+    let a = image(32, 24, |x, y| if (x / 8 + y / 8) % 2 == 0 { [1.0, 0.2, 0.2] } else { b.pixels[(y * 32 + x) as usize] });
+    let (lo, hi) = (*restir_vpl::eval::compare::PPD_RANGE.start(), *restir_vpl::eval::compare::PPD_RANGE.end());
+    for ppd in [lo, hi] {
+        let f = compare(&a, &b, &CompareOptions { ppd, ..CompareOptions::default() }).unwrap().flip.unwrap();
+        assert!(f.is_finite() && (0.0..=1.0).contains(&f), "ppd {ppd}: FLIP {f}");
+    }
+    // 1e-20 gave FLIP NaN with exit 0 before the range check.
+    for bad in ["1e-20", "0.5", "20000", "inf"] {
+        let dir = tempfile::tempdir().unwrap();
+        let (pa, pb) = (save(dir.path(), "a.exr", &a), save(dir.path(), "b.exr", &b));
+        let o = run(&["compare", &pa, &pb, "--ppd", bad]);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.contains("--ppd") && !err.contains("panicked"), "--ppd {bad}: {err}");
+    }
+}
+
 /// `cargo test --release --test compare -- --ignored --nocapture flip_timing`: FLIP's cost at 1280×720.
 #[test]
 #[ignore]

@@ -164,6 +164,22 @@ fn cli_merge_references() {
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("a.exr") && err.contains("overlap") && !err.contains("panicked"), "{err}");
+
+    // An existing --out is replaced only with --overwrite.
+    let merge_into_c = |extra: &[&str]| {
+        let (a, b, c) = (pa.display().to_string(), pb.display().to_string(), pc.display().to_string());
+        let mut args = vec!["merge-references", &a, &b, "--out", &c];
+        args.extend_from_slice(extra);
+        Command::new(bin).args(&args).output().unwrap()
+    };
+    let before = std::fs::read(&pc).unwrap();
+    let o = merge_into_c(&[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("c.exr") && err.contains("--overwrite") && !err.contains("panicked"), "{err}");
+    assert_eq!(std::fs::read(&pc).unwrap(), before, "the existing reference is untouched");
+    let o = merge_into_c(&["--overwrite"]);
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(read_reference(&pc).unwrap().1.frames, 8);
 }
 
 /// A part with a NaN or Inf pixel is refused (it would spread into the merge, which `compare`

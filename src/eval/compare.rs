@@ -261,12 +261,17 @@ pub fn to_srgb8(img: &RgbImage, exposure_ev: f32) -> Vec<u8> {
     out
 }
 
+/// FLIP's pixels per degree accepted: below one pixel per degree a pixel spans more than the
+/// eye's acuity can be modelled with (FLIP's filters degenerate and give NaN from ~1e-19 on), and
+/// above 10,000 its filters outgrow any image.
+pub const PPD_RANGE: std::ops::RangeInclusive<f32> = 1.0..=10_000.0;
+
 /// Per-pixel LDR-ꟻLIP error in [0, 1] of test `a` against reference `b`, both through
 /// [`to_srgb8`] with `exposure_ev`; row-major, row 0 at the top.
 pub fn flip_error_map(a: &RgbImage, b: &RgbImage, exposure_ev: f32, ppd: f32) -> Result<Vec<f32>> {
     check_sizes(a, b)?;
-    if !(ppd.is_finite() && ppd > 0.0) {
-        bail!("FLIP pixels per degree must be a positive number, not {ppd}");
+    if !PPD_RANGE.contains(&ppd) {
+        bail!("FLIP pixels per degree must lie in [{}, {}], not {ppd}", PPD_RANGE.start(), PPD_RANGE.end());
     }
     if !exposure_ev.is_finite() {
         bail!("exposure must be a finite number, not {exposure_ev}");
@@ -347,8 +352,8 @@ pub fn run_cli(
     if !opts.exposure.is_finite() {
         bail!("--exposure must be a finite number");
     }
-    if !(opts.ppd.is_finite() && opts.ppd > 0.0) {
-        bail!("--ppd must be a positive number");
+    if !PPD_RANGE.contains(&opts.ppd) {
+        bail!("--ppd must lie in [{}, {}] pixels per degree (67, the default, is FLIP's standard viewing set-up), not {}", PPD_RANGE.start(), PPD_RANGE.end(), opts.ppd);
     }
     let a = crate::output::read_exr(a_path).context("test image")?;
     let b = crate::output::read_exr(b_path).context("reference")?;

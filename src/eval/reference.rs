@@ -311,7 +311,7 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
 
 /// The `restir-vpl merge-references` command: merges `inputs` into `out` and prints the result's
 /// frame count and ranges.
-pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path) -> Result<()> {
+pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path, overwrite: bool) -> Result<()> {
     // Writing over one of the parts would lose its frames if anything went wrong after the write.
     let same_file = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
     if let Some(p) = inputs.iter().find(|p| same_file(p, out)) {
@@ -323,6 +323,11 @@ pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path) -> Result<()> {
     }
     let labels: Vec<String> = inputs.iter().map(|p| p.display().to_string()).collect();
     let (img, meta) = merge_labelled(&parts, &labels)?;
+    // A reference holds hours of frames: as `reference` does without --resume, never replace one
+    // unasked.
+    if !overwrite && out.symlink_metadata().is_ok() {
+        bail!("--out {}: exists; pass --overwrite to replace it, or write the merge to a new file", out.display());
+    }
     write_reference(out, &img, &meta)?;
     for (p, (_, m)) in inputs.iter().zip(&parts) {
         println!("  {}: {}", p.display(), m.describe_frames());
@@ -455,7 +460,7 @@ pub fn render_reference(
     let first = u32::try_from(first_frame)
         .ok()
         .filter(|f| f.checked_add(frames).is_some())
-        .with_context(|| format!("--first-frame {first_frame}: frame indices must stay below 2^32"))?;
+        .with_context(|| format!("--first-frame {first_frame} with --frames {frames}: the range's end (first frame + frames) must stay below 2^32"))?;
     let hash = file_hash(&settings.scene)?;
     let config = reference_config(settings, &hash)?;
     let camera = Camera::initial(&scene.info, settings.camera.as_ref());

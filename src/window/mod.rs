@@ -55,7 +55,7 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     let start = Instant::now();
     let scene = Scene::load(&settings.scene)?;
     let reference = opts.reference.as_deref().map(overlay::Reference::load).transpose()?;
-    let path = settings.camera_path.as_deref().map(CameraPath::load).transpose()?;
+    let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
     let event_loop = EventLoop::new().map_err(|e| NoDisplay(e.to_string().trim_end_matches('.').to_string()))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { settings, opts, scene: Some(scene), reference, path, running: None, error: None, summary: None, start };
