@@ -2,9 +2,9 @@
 //! itself and reads accessors with explicit bounds checks, so malformed input yields an
 //! error instead of a panic.
 
-use super::{base64, Camera, Instance, Material, Mesh, PointLight, Scene, Texture};
+use super::{area_and_normal, base64, Camera, Instance, Material, Mesh, PointLight, Scene, Texture};
 use anyhow::{anyhow, bail, Context, Result};
-use glam::{Mat4, Vec2, Vec3, Vec4};
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::khr_lights_punctual::Kind as LightKind;
 use gltf::mesh::{Mode, Semantic};
@@ -38,13 +38,13 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
     let buffers = load_buffers(&doc, base_dir, blob)?;
     let mut warnings = Vec::new();
 
-    let nodes = traverse(&doc, &mut warnings);
+    let nodes = traverse(&doc, &mut warnings)?;
 
     // Materials: all glTF materials, the default one appended below if needed.
     let mut materials: Vec<Material> = doc
         .materials()
         .map(|m| convert_material(&m, &mut warnings))
-        .collect();
+        .collect::<Result<_>>()?;
     let textures = load_textures(&doc, &buffers, base_dir, &mut materials, &mut warnings)?;
     let default_material = materials.len() as u32;
     let mut uses_default = false;
@@ -60,6 +60,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         let mesh = load_mesh(
             gltf_mesh,
             &buffers,
+            &materials,
             default_material,
             &mut uses_default,
             &mut warnings,
@@ -81,6 +82,12 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
             .unwrap_or_else(|| format!("node{}", node.index()));
         if let Some(m) = node.mesh() {
             if let Some(&mesh) = mesh_map.get(&m.index()) {
+                if Mat3::from_mat4(*world) == Mat3::ZERO {
+                    // A zero scale is how glTF exporters hide a node: it has no surface to render.
+                    warnings.push(format!("node '{node_name}' (mesh '{}'): scaled to nothing (zero scale), skipped", meshes[mesh].name));
+                    continue;
+                }
+                check_mesh_transform(world, &meshes[mesh], &node_name)?;
                 instances.push(Instance {
                     name: node_name.clone(),
                     mesh,
@@ -97,6 +104,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
                 gltf::camera::Projection::Perspective(p) if camera.is_none() => {
                     let yfov = p.yfov();
                     if yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI {
+                        check_camera_transform(world, &node_name, &name)?;
                         camera = Some(Camera {
                             name,
                             transform: *world,
@@ -120,12 +128,20 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
                 .map(str::to_owned)
                 .unwrap_or_else(|| node_name.clone());
             match light.kind() {
-                LightKind::Point => point_lights.push(PointLight {
-                    name,
-                    position: world.transform_point3(Vec3::ZERO),
-                    color: Vec3::from_array(light.color()),
-                    intensity: light.intensity(),
-                }),
+                LightKind::Point => {
+                    let position = world.transform_point3(Vec3::ZERO);
+                    if !position.is_finite() {
+                        bail!(
+                            "point light '{name}' (node '{node_name}'): degenerate transform (non-finite world position {position})"
+                        );
+                    }
+                    point_lights.push(PointLight {
+                        name,
+                        position,
+                        color: Vec3::from_array(light.color()),
+                        intensity: light.intensity(),
+                    })
+                }
                 LightKind::Directional => {
                     warnings.push(format!("directional light '{name}' not supported, ignored"))
                 }
@@ -141,6 +157,8 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         }
     }
 
+    // Warnings are printed away from the load (in the run's summary): name the file in each.
+    let warnings = warnings.into_iter().map(|w| format!("{label}: {w}")).collect();
     let scene = Scene {
         path: label.into(),
         meshes,
@@ -154,8 +172,157 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
     if scene.triangle_count() == 0 {
         bail!("no triangles in scene");
     }
+    check_emitter_areas(&scene)?;
     check_light_power(&scene)?;
     Ok(scene)
+}
+
+/// Formats float components as `[-1, -1, -1, 1]` (exponent notation for huge or tiny values).
+fn fmt_floats(v: &[f32]) -> String {
+    let parts: Vec<String> = v
+        .iter()
+        .map(|&x| {
+            let a = x.abs();
+            if a.is_finite() && a != 0.0 && !(1e-4..1e6).contains(&a) {
+                format!("{x:e}")
+            } else {
+                format!("{x}")
+            }
+        })
+        .collect();
+    format!("[{}]", parts.join(", "))
+}
+
+/// A node's local matrix. TRS rotations are normalised first: the gltf crate builds the matrix
+/// from the quaternion as written, so a non-unit one scales and shears and a zero one silently
+/// becomes the identity. glTF requires unit quaternions; a zero or non-finite one is an error,
+/// one off unit length by more than f32 rounding is normalised (with a warning beyond 1e-3).
+fn local_matrix(node: &gltf::Node, warnings: &mut Vec<String>) -> Result<Mat4> {
+    use gltf::scene::Transform;
+    let transform = match node.transform() {
+        Transform::Decomposed { translation, rotation, scale } => {
+            let len = rotation.iter().map(|&c| f64::from(c).powi(2)).sum::<f64>().sqrt();
+            if !(len > 0.0 && len.is_finite()) {
+                bail!(
+                    "node '{}': rotation quaternion {} has length {len}; glTF requires a unit quaternion \
+                     (a zero or non-finite one is no rotation)",
+                    node_label(node),
+                    fmt_floats(&rotation)
+                );
+            }
+            let rotation = if (len - 1.0).abs() > 1e-6 {
+                if (len - 1.0).abs() > 1e-3 {
+                    warnings.push(format!(
+                        "node '{}': rotation quaternion {} has length {}, not 1; normalised",
+                        node_label(node),
+                        fmt_floats(&rotation),
+                        len as f32
+                    ));
+                }
+                rotation.map(|c| (f64::from(c) / len) as f32)
+            } else {
+                rotation
+            };
+            Transform::Decomposed { translation, rotation, scale }
+        }
+        matrix => matrix,
+    };
+    Ok(Mat4::from_cols_array_2d(&transform.matrix()))
+}
+
+/// The node's name, or `node{index}`.
+fn node_label(node: &gltf::Node) -> String {
+    node.name()
+        .map(str::to_owned)
+        .unwrap_or_else(|| format!("node{}", node.index()))
+}
+
+/// The camera the renderer derives from `world` ([`crate::camera::Camera::from_transform`]) must
+/// have a finite orthonormal basis: a zero or non-finite matrix, a scale so small that the axes'
+/// squared lengths underflow f32, or parallel -Z and +Y axes give NaN directions and a black image.
+fn check_camera_transform(world: &Mat4, node_name: &str, camera_name: &str) -> Result<()> {
+    let c = crate::camera::Camera::from_transform(*world, 1.0, "scene camera");
+    let unit = |v: Vec3| v.is_finite() && (v.length() - 1.0).abs() < 1e-3;
+    if c.position.is_finite() && unit(c.forward) && unit(c.right) && unit(c.up) {
+        return Ok(());
+    }
+    let what = if camera_name == node_name {
+        format!("camera node '{node_name}'")
+    } else {
+        format!("camera node '{node_name}' (camera '{camera_name}')")
+    };
+    bail!(
+        "{what}: degenerate transform (non-finite or zero-length basis): its world matrix has columns {}, {}, {}, {}; \
+         a camera needs a finite transform whose local -Z and +Y axes are non-zero and not parallel",
+        fmt_floats(&world.x_axis.to_array()),
+        fmt_floats(&world.y_axis.to_array()),
+        fmt_floats(&world.z_axis.to_array()),
+        fmt_floats(&world.w_axis.to_array())
+    )
+}
+
+/// A mesh node's world transform must be finite and invertible (the renderer transforms normals
+/// with its inverse transpose, which is NaN for a zero scale or matrix) and must keep the mesh's
+/// finite vertices finite.
+fn check_mesh_transform(world: &Mat4, mesh: &Mesh, node_name: &str) -> Result<()> {
+    let what = format!("node '{node_name}' (mesh '{}')", mesh.name);
+    if !world.is_finite() {
+        bail!(
+            "{what}: degenerate transform (non-finite world matrix, columns {}, {}, {}, {})",
+            fmt_floats(&world.x_axis.to_array()),
+            fmt_floats(&world.y_axis.to_array()),
+            fmt_floats(&world.z_axis.to_array()),
+            fmt_floats(&world.w_axis.to_array())
+        );
+    }
+    // As the renderer inverts it: in f32 (a determinant overflowing f32 gives a zero inverse,
+    // which is finite; one underflowing to zero, an infinite one).
+    let linear = Mat3::from_mat4(*world);
+    if linear.determinant() == 0.0 || !linear.inverse().is_finite() {
+        let det = linear.as_dmat3().determinant();
+        let det = if det == 0.0 { "0".to_string() } else { format!("{det:.3e}") };
+        bail!(
+            "{what}: degenerate transform (its world matrix cannot be inverted in 32-bit floats, determinant {det}: \
+             a zero, tiny or huge scale, or a zero matrix); the renderer cannot transform its normals"
+        );
+    }
+    if let Some(p) = mesh
+        .positions
+        .iter()
+        .find(|p| p.is_finite() && !world.transform_point3(**p).is_finite())
+    {
+        bail!(
+            "{what}: the world transform takes vertex {p} to a non-finite position (beyond 32-bit floats); scale the scene down"
+        );
+    }
+    Ok(())
+}
+
+/// Every emissive triangle's world-space area must fit f32 (`EmissiveTriangle::area`), else the
+/// light would be dropped from the light set without a word.
+fn check_emitter_areas(scene: &Scene) -> Result<()> {
+    for inst in &scene.instances {
+        let Some(mesh) = scene.meshes.get(inst.mesh) else {
+            continue;
+        };
+        for (t, &mat) in mesh.triangle_materials.iter().enumerate() {
+            if !scene.materials.get(mat as usize).is_some_and(Material::is_emissive) {
+                continue;
+            }
+            let Some(p) = mesh.triangle(t) else { continue };
+            let (area, _) = area_and_normal(p.map(|v| inst.transform.transform_point3(v)));
+            if area.is_finite() && (area as f32).is_infinite() {
+                bail!(
+                    "mesh '{}' (node '{}'): emissive triangle {t} has a world-space area of {area:.3e}, more than \
+                     a 32-bit float holds ({:.1e}); scale the scene down",
+                    mesh.name,
+                    inst.name,
+                    f32::MAX
+                );
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The most power (W, per channel) the lights may emit together. Fluxes, photon weights and
@@ -203,9 +370,22 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
             );
         }
     }
-    let gltf = gltf::Gltf::from_slice_without_validation(bytes)
-        .map_err(|e| anyhow!("malformed glTF: {e}"))?;
+    let gltf = match gltf::Gltf::from_slice_without_validation(bytes) {
+        Ok(gltf) => gltf,
+        Err(e) => {
+            // A glTF 1.0 file fails the 2.0 schema: say which version it is rather than why.
+            if let Ok(json) = serde_json::from_slice::<serde_json::Value>(bytes) {
+                match &json["asset"]["version"] {
+                    serde_json::Value::String(v) => check_version(v, None)?,
+                    serde_json::Value::Number(v) => check_version(&v.to_string(), None)?,
+                    _ => {}
+                }
+            }
+            bail!("malformed glTF: {e}");
+        }
+    };
     let root = gltf.document.as_json();
+    check_version(&root.asset.version, root.asset.min_version.as_deref())?;
     precheck(root)?;
 
     use gltf::json::validation::Validate;
@@ -217,6 +397,21 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
         bail!("invalid glTF: {}", errors.join("; "));
     }
     Ok((gltf.document, gltf.blob))
+}
+
+/// Only glTF 2.x is read: glTF 1.0 (and any other major version) is a different format, and an
+/// asset whose minVersion is above 2.0 needs features this loader lacks.
+fn check_version(version: &str, min_version: Option<&str>) -> Result<()> {
+    let major = version.split('.').next().and_then(|m| m.parse::<u32>().ok());
+    if major != Some(2) {
+        bail!("asset.version '{version}' is not supported: only glTF 2.x (major version 2) is read");
+    }
+    if let Some(min) = min_version {
+        if min != "2.0" {
+            bail!("asset.minVersion '{min}' is not supported: only glTF 2.0 features are read");
+        }
+    }
+    Ok(())
 }
 
 /// Checks done before the gltf crate's validation, which indexes the POSITION accessor
@@ -327,7 +522,10 @@ fn percent_decode(uri: &str) -> Result<String> {
 
 /// Depth-first traversal of the chosen scene (default scene, else scene 0, else all root
 /// nodes), returning each reachable node once with its world transform.
-fn traverse<'a>(doc: &'a Document, warnings: &mut Vec<String>) -> Vec<(gltf::Node<'a>, Mat4)> {
+fn traverse<'a>(
+    doc: &'a Document,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<(gltf::Node<'a>, Mat4)>> {
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         None => {
@@ -362,7 +560,7 @@ fn traverse<'a>(doc: &'a Document, warnings: &mut Vec<String>) -> Vec<(gltf::Nod
             continue;
         }
         *seen = true;
-        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local_matrix(&node, warnings)?;
         stack.extend(
             node.children()
                 .collect::<Vec<_>>()
@@ -372,15 +570,24 @@ fn traverse<'a>(doc: &'a Document, warnings: &mut Vec<String>) -> Vec<(gltf::Nod
         );
         out.push((node, world));
     }
-    out
+    Ok(out)
 }
 
-fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Material {
+fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Material> {
     let name = m
         .name()
         .map(str::to_owned)
         .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
     let pbr = m.pbr_metallic_roughness();
+    // glTF 2.0 restricts each component to [0, 1]; outside it the albedo gives negative or
+    // amplified (up to non-finite) radiance.
+    let base_color = pbr.base_color_factor();
+    if !base_color.iter().all(|c| (0.0..=1.0).contains(c)) {
+        bail!(
+            "material '{name}': baseColorFactor {} must lie in [0, 1]",
+            fmt_floats(&base_color)
+        );
+    }
     let mut emission = Vec3::from_array(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
     if !emission.is_finite() || emission.min_element() < 0.0 {
         warnings.push(format!(
@@ -388,14 +595,14 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Material 
         ));
         emission = Vec3::ZERO;
     }
-    Material {
-        base_color: Vec4::from_array(pbr.base_color_factor()),
+    Ok(Material {
+        base_color: Vec4::from_array(base_color),
         emission,
         double_sided: m.double_sided(),
         // Filled in by `load_textures`.
         base_color_texture: None,
         name,
-    }
+    })
 }
 
 /// Largest texture accepted (texels), so a corrupt header cannot ask for gigabytes.
@@ -480,6 +687,7 @@ fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path
 fn load_mesh(
     mesh: &gltf::Mesh,
     buffers: &[Vec<u8>],
+    materials: &[Material],
     default_material: u32,
     uses_default: &mut bool,
     warnings: &mut Vec<String>,
@@ -548,7 +756,19 @@ fn load_mesh(
                     }
                 }
             }
-            None => vec![Vec2::ZERO; n],
+            None => {
+                // As for the other texture features the renderer lacks: a warning, not an error.
+                if let Some(m) = prim.material().index().and_then(|i| materials.get(i)) {
+                    if m.base_color_texture.is_some() {
+                        warnings.push(format!(
+                            "{what}: material '{}' has a base colour texture but the primitive has no TEXCOORD_0; \
+                             the texture is sampled at uv (0, 0)",
+                            m.name
+                        ));
+                    }
+                }
+                vec![Vec2::ZERO; n]
+            }
         };
         if uvs.len() != n {
             bail!(

@@ -17,12 +17,21 @@ impl Scene {
         for inst in &self.instances {
             let Some(mesh) = self.meshes.get(inst.mesh) else { continue };
             let t: Mat4 = inst.transform;
-            let normal_matrix = Mat3::from_mat4(t).inverse().transpose();
+            let linear = Mat3::from_mat4(t);
+            let normal_matrix = linear.inverse().transpose();
+            // In f32 the determinant of a scale beyond ~7e12 overflows (the inverse is then zero)
+            // and one below ~1e-13 underflows (Inf): such instances take f64 and unit normals.
+            let normal_matrix_f64 = (!(linear.determinant().is_normal() && normal_matrix.is_finite()))
+                .then(|| linear.as_dmat3().inverse().transpose());
             let base = merged.positions.len() as u32;
             merged.positions.extend(mesh.positions.iter().map(|&p| t.transform_point3(p)));
             merged.normals.extend(mesh.normals.iter().map(|&n| {
                 // A missing normal (zero) stays zero: the renderer then uses the flat normal.
-                if n == Vec3::ZERO { n } else { normal_matrix * n }
+                match normal_matrix_f64 {
+                    _ if n == Vec3::ZERO => n,
+                    None => normal_matrix * n,
+                    Some(m) => (m * n.as_dvec3()).normalize_or_zero().as_vec3(),
+                }
             }));
             merged.normals.resize(merged.positions.len(), Vec3::ZERO);
             merged.uvs.extend_from_slice(&mesh.uvs);

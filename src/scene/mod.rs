@@ -218,7 +218,7 @@ impl Scene {
                         inst.transform.transform_point3(b),
                         inst.transform.transform_point3(c),
                     );
-                    let x = 0.5 * (b - a).cross(c - a).length() as f64;
+                    let (x, _) = area_and_normal([a, b, c]);
                     if x.is_finite() {
                         area += x;
                     }
@@ -266,13 +266,14 @@ impl Scene {
                 }
                 let Some(p) = mesh.triangle(t) else { continue };
                 let p = p.map(|v| inst.transform.transform_point3(v));
-                let cross = (p[1] - p[0]).cross(p[2] - p[0]);
-                let len = cross.length();
-                let area = 0.5 * len;
+                let (area, normal) = area_and_normal(p);
+                // Zero (or below f32's smallest) area: degenerate. Beyond f32::MAX: the loader
+                // refuses such a scene (`check_emitter_areas`), so nothing is dropped silently.
+                let area = area as f32;
                 if !(area > 0.0 && area.is_finite()) {
                     continue;
                 }
-                let normal = if flip { -cross / len } else { cross / len };
+                let normal = if flip { -normal } else { normal };
                 out.push(EmissiveTriangle {
                     p,
                     emission: material.emission,
@@ -286,4 +287,16 @@ impl Scene {
         }
         out
     }
+}
+
+/// Area and unit normal (counter-clockwise winding) of the triangle `p`, computed in f64: in f32
+/// the cross product of edges longer than ~1e19 (or its squared length, beyond ~1.8e19 m²)
+/// overflows to Inf, and normalising it gives NaN. The area is 0 and the normal zero for a
+/// degenerate triangle; the area is NaN or Inf only for non-finite vertices.
+pub(crate) fn area_and_normal(p: [Vec3; 3]) -> (f64, Vec3) {
+    let [a, b, c] = p.map(|v| v.as_dvec3());
+    let cross = (b - a).cross(c - a);
+    let len = cross.length();
+    let normal = if len > 0.0 && len.is_finite() { (cross / len).as_vec3() } else { Vec3::ZERO };
+    (0.5 * len, normal)
 }

@@ -1493,3 +1493,247 @@ fn builder_textures_and_uvs() {
         assert!(plain.get(key).is_none());
     }
 }
+
+// ---------------------------------------------------------------- input validation
+
+/// The Cornell box as JSON, for editing.
+fn cornell_doc() -> Value {
+    serde_json::from_str(&cornell_box_gltf()).unwrap()
+}
+
+/// Index of the Cornell box's node called `name`.
+fn cornell_node(doc: &Value, name: &str) -> usize {
+    doc["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .position(|n| n["name"] == json!(name))
+        .unwrap_or_else(|| panic!("no node {name}"))
+}
+
+/// A camera node whose transform leaves no finite basis (zero scale, a scale whose squares
+/// underflow f32, a zero matrix) rendered a black image with exit 0: now an error naming the
+/// file and the node. A zero rotation quaternion was taken as the identity: now an error too;
+/// a non-unit one is normalised.
+#[test]
+fn degenerate_camera_transform_is_an_error() {
+    let cam = cornell_node(&cornell_doc(), "camera");
+    for (key, value) in [
+        ("scale", json!([0.0, 0.0, 0.0])),
+        ("scale", json!([1e-30, 1e-30, 1e-30])),
+        ("scale", json!([1.0, 1.0, 0.0])),
+        ("matrix", json!([0.0f32; 16].to_vec())),
+    ] {
+        let mut doc = cornell_doc();
+        if key == "matrix" {
+            let node = doc["nodes"][cam].as_object_mut().unwrap();
+            node.remove("rotation");
+            node.remove("translation");
+        }
+        doc["nodes"][cam][key] = value.clone();
+        let err = load_err(&doc);
+        assert_contains(
+            &err,
+            &["test.gltf: camera node 'camera'", "degenerate transform", "non-finite or zero-length basis"],
+        );
+        assert!(!err.contains("NaN"), "{key} {value}: {err}");
+    }
+    // A parent's degenerate transform counts too.
+    let mut doc = cornell_doc();
+    doc["nodes"].as_array_mut().unwrap().push(json!({ "name": "rig", "scale": [0.0, 0.0, 0.0], "children": [cam] }));
+    let rig = doc["nodes"].as_array().unwrap().len() - 1;
+    doc["scenes"][0]["nodes"].as_array_mut().unwrap().retain(|n| n != &json!(cam));
+    doc["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(rig));
+    assert_contains(&load_err(&doc), &["camera node 'camera'", "degenerate transform"]);
+
+    let mut doc = cornell_doc();
+    doc["nodes"][cam]["rotation"] = json!([0.0, 0.0, 0.0, 0.0]);
+    assert_contains(
+        &load_err(&doc),
+        &["test.gltf: node 'camera': rotation quaternion [0, 0, 0, 0] has length 0", "unit quaternion"],
+    );
+
+    // A non-unit quaternion is normalised: the same camera as the unit one.
+    let expected = cornell().camera.unwrap().transform;
+    let mut doc = cornell_doc();
+    doc["nodes"][cam]["rotation"] = json!([0.0, 3.0, 0.0, 0.0]);
+    let s = load_value(&doc).unwrap();
+    assert!(s.camera.unwrap().transform.abs_diff_eq(expected, EPS));
+    assert_contains(&s.warnings.join("\n"), &["test.gltf: node 'camera': rotation quaternion [0, 3, 0, 0] has length 3", "normalised"]);
+    doc["nodes"][cam]["rotation"] = json!([0.0, 1.0000001, 0.0, 0.0]);
+    let s = load_value(&doc).unwrap();
+    assert!(s.camera.unwrap().transform.abs_diff_eq(expected, EPS));
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}
+
+/// The same degenerate transforms on a mesh node (NaN normals on the GPU) and one that takes
+/// finite vertices to Inf are errors naming the node and the mesh; non-finite positions in the
+/// file stay a warning, which now names the file.
+#[test]
+fn degenerate_mesh_transform_is_an_error() {
+    let floor = cornell_node(&cornell_doc(), "floor");
+    // A zero scale (or matrix) is how exporters hide a node: skipped with a warning.
+    for (key, value) in [("scale", json!([0.0, 0.0, 0.0])), ("matrix", json!([0.0f32; 16].to_vec()))] {
+        let mut doc = cornell_doc();
+        doc["nodes"][floor][key] = value;
+        let s = load_value(&doc).unwrap();
+        assert_contains(&s.warnings.join("\n"), &["test.gltf: node 'floor' (mesh 'floor'): scaled to nothing (zero scale), skipped"]);
+        assert!(s.instances.iter().all(|i| i.name != "floor"), "the hidden floor is not rendered");
+    }
+    // Anything else that cannot be inverted is an error.
+    for (key, value) in [("scale", json!([1e-30, 1e-30, 1e-30])), ("scale", json!([1.0, 0.0, 1.0]))] {
+        let mut doc = cornell_doc();
+        doc["nodes"][floor][key] = value;
+        assert_contains(
+            &load_err(&doc),
+            &["test.gltf: node 'floor' (mesh 'floor')", "degenerate transform", "cannot be inverted"],
+        );
+    }
+    let mut doc = cornell_doc();
+    doc["nodes"][floor]["scale"] = json!([1e38, 1.0, 1.0]);
+    doc["nodes"][floor]["translation"] = json!([3e38, 0.0, 0.0]);
+    assert_contains(&load_err(&doc), &["test.gltf: node 'floor' (mesh 'floor')", "non-finite position"]);
+
+    let mut doc = triangle_doc();
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_owned();
+    let mut bin = base64::decode(uri.split_once(";base64,").unwrap().1).unwrap();
+    let pos = doc["meshes"][0]["primitives"][0]["attributes"]["POSITION"].as_u64().unwrap() as usize;
+    let view = doc["accessors"][pos]["bufferView"].as_u64().unwrap() as usize;
+    let offset = doc["bufferViews"][view]["byteOffset"].as_u64().unwrap_or(0)
+        + doc["accessors"][pos]["byteOffset"].as_u64().unwrap_or(0);
+    bin[offset as usize..offset as usize + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+    doc["buffers"][0]["uri"] = json!(format!("data:application/octet-stream;base64,{}", base64::encode(&bin)));
+    let s = load_value(&doc).unwrap();
+    assert_contains(&s.warnings.join("\n"), &["test.gltf: mesh 'tri' primitive 0: non-finite vertex positions"]);
+    assert!(s.emissive_triangles().is_empty());
+}
+
+/// glTF 2.0 restricts baseColorFactor to [0, 1]: [-1, …] gave negative radiance, 1e30 non-finite
+/// samples.
+#[test]
+fn base_color_factor_outside_unit_range_is_an_error() {
+    for (factor, shown) in [
+        (json!([-1.0, -1.0, -1.0, 1.0]), "[-1, -1, -1, 1]"),
+        (json!([5.0, 5.0, 5.0, 1.0]), "[5, 5, 5, 1]"),
+        (json!([1e30, 1e30, 1e30, 1.0]), "[1e30, 1e30, 1e30, 1]"),
+        (json!([0.5, 0.5, 0.5, 1.5]), "[0.5, 0.5, 0.5, 1.5]"),
+        (json!([1e39, 0.5, 0.5, 1.0]), "[inf, 0.5, 0.5, 1]"),
+    ] {
+        let mut doc = cornell_doc();
+        doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = factor;
+        let err = load_err(&doc);
+        assert!(
+            err == format!("test.gltf: material 'white': baseColorFactor {shown} must lie in [0, 1]"),
+            "{err}"
+        );
+    }
+    let mut doc = cornell_doc();
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.0, 0.0, 0.0, 0.0]);
+    doc["materials"][1]["pbrMetallicRoughness"]["baseColorFactor"] = json!([1.0, 1.0, 1.0, 1.0]);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.materials[1].base_color, glam::Vec4::ONE);
+}
+
+/// A light scaled by 1e14 (or a whole scene by 1e11) overflowed the f32 cross product of its
+/// edges: the area was Inf and the light silently left out. Areas and normals are now computed in
+/// f64; an area beyond f32 is an error naming the mesh.
+#[test]
+fn large_scale_scenes_keep_their_lights() {
+    let base = cornell();
+    let base_light = base.emissive_triangles();
+    assert_eq!(base_light.len(), 2);
+
+    let light = cornell_node(&cornell_doc(), "light");
+    let mut doc = cornell_doc();
+    doc["nodes"][light]["scale"] = json!([1e14, 1e14, 1e14]);
+    let s = load_value(&doc).unwrap();
+    let tris = s.emissive_triangles();
+    assert_eq!(tris.len(), 2);
+    for (t, b) in tris.iter().zip(&base_light) {
+        assert!((t.area / (b.area * 1e28) - 1.0).abs() < 1e-4, "{} vs {}", t.area, b.area);
+        assert!(t.normal.abs_diff_eq(b.normal, EPS), "{}", t.normal);
+    }
+
+    let mut doc = cornell_doc();
+    for node in doc["nodes"].as_array_mut().unwrap() {
+        node["scale"] = json!([1e11, 1e11, 1e11]);
+    }
+    let s = load_value(&doc).unwrap();
+    let tris = s.emissive_triangles();
+    assert_eq!(tris.len(), 2);
+    assert!((tris[0].area / (base_light[0].area * 1e22) - 1.0).abs() < 1e-4);
+    let ratio = s.surface_area() / (base.surface_area() * 1e22);
+    assert!((ratio - 1.0).abs() < 1e-4, "surface area ratio {ratio}");
+
+    // Beyond 1.8e19 the transform's f32 inverse (the renderer's normal matrix) is NaN.
+    let mut doc = cornell_doc();
+    doc["nodes"][light]["scale"] = json!([1e21, 1e21, 1e21]);
+    assert_contains(&load_err(&doc), &["test.gltf: node 'light' (mesh 'light')", "degenerate transform", "huge scale"]);
+
+    // An emitter whose vertices are huge in the file: its area does not fit f32.
+    let mut b = GltfBuilder::new();
+    let m = b.material("hot", [0.5; 3], [1e-30; 3], false);
+    let mesh = b.mesh("huge", &[[0.0; 3], [1e20, 0.0, 0.0], [0.0, 1e20, 0.0]], None, &[0, 1, 2], m);
+    b.node("huge_node", mesh, [0.0; 3]);
+    assert_contains(
+        &load_err(&serde_json::from_str(&b.to_json_string()).unwrap()),
+        &["test.gltf: mesh 'huge' (node 'huge_node'): emissive triangle 0 has a world-space area of 5.000e39", "32-bit float"],
+    );
+}
+
+/// Merging a scene whose instance transform's determinant overflows f32 keeps unit normals
+/// (the f32 inverse was zero).
+#[test]
+fn large_scale_merge_keeps_normals() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [0.0; 3], false);
+    let pos = [[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let mesh = b.mesh("tri", &pos, Some(&[[0.0, 0.0, 1.0]; 3]), &[0, 1, 2], m);
+    b.node_matrix("big", mesh, Mat4::from_scale(Vec3::new(1e14, 1e14, -1e14)).to_cols_array());
+    b.node("plain", mesh, [0.0; 3]);
+    let s = load_str(&b.to_json_string()).unwrap();
+    let merged = s.merged();
+    let normals = &merged.meshes.last().unwrap().normals;
+    assert!(normals[..3].iter().all(|n| n.abs_diff_eq(Vec3::NEG_Z, EPS)), "{normals:?}");
+    assert!(normals[3..].iter().all(|n| *n == Vec3::Z), "{normals:?}");
+}
+
+/// glTF 1.0 (and any other major version) is a different format.
+#[test]
+fn asset_version_other_than_2_is_an_error() {
+    for version in ["1.0", "3.0", "two"] {
+        let mut doc = cornell_doc();
+        doc["asset"]["version"] = json!(version);
+        assert_contains(
+            &load_err(&doc),
+            &[&format!("test.gltf: asset.version '{version}' is not supported"), "glTF 2.x"],
+        );
+    }
+    // A real glTF 1.0 file fails the 2.0 schema first: the version is still what is reported.
+    let v1 = json!({ "asset": { "version": "1.0" }, "meshes": { "m": { "primitives": [] } } });
+    assert_contains(&load_err(&v1), &["asset.version '1.0' is not supported"]);
+    let mut doc = cornell_doc();
+    doc["asset"]["minVersion"] = json!("2.1");
+    assert_contains(&load_err(&doc), &["asset.minVersion '2.1' is not supported"]);
+    doc["asset"]["version"] = json!("2.1");
+    doc["asset"]["minVersion"] = json!("2.0");
+    assert!(load_value(&doc).is_ok());
+}
+
+/// A base colour texture on a primitive without TEXCOORD_0 is sampled at uv (0, 0): a warning,
+/// like the other texture features the renderer lacks.
+#[test]
+fn texture_without_texcoords_warns() {
+    let mut doc = triangle_doc();
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
+    doc["textures"] = json!([{ "source": 0 }]);
+    doc["images"] = json!([{ "uri": png_data_uri(1, 1, &[1, 2, 3, 255]) }]);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.materials[0].base_color_texture, Some(0));
+    assert_contains(
+        &s.warnings.join("\n"),
+        &["test.gltf: mesh 'tri' primitive 0: material 'glow' has a base colour texture but the primitive has no \
+           TEXCOORD_0; the texture is sampled at uv (0, 0)"],
+    );
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+}
