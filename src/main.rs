@@ -4,7 +4,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{bail, Result};
-use clap::Parser;
+use clap::{Args as _, CommandFactory as _, FromArgMatches as _, Parser};
 use glam::Vec3;
 
 use std::sync::LazyLock;
@@ -574,7 +574,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
     })
 }
 
-fn real_main(cli: Cli) -> Result<()> {
+fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     if let Some(Command::Compare { test, reference, exposure, no_flip, ppd, error_image, json }) = &cli.command {
         let opts = restir_vpl::eval::compare::CompareOptions { flip: !*no_flip, exposure: *exposure, ppd: *ppd };
         return restir_vpl::eval::compare::run_cli(test, reference, &opts, error_image.as_deref(), json.as_deref());
@@ -585,6 +585,7 @@ fn real_main(cli: Cli) -> Result<()> {
     if let Some(Command::Reference { render, out, first_frame, resume }) = &cli.command {
         let settings = settings_from(render, None)?;
         settings.validate()?;
+        warn_unused_flags(&settings, given);
         return reference_main(&settings, out, *first_frame, *resume);
     }
     if let Some(Command::Results { out, scale, quick, runs, pt_frames, vpl_frames, checkpoints, no_flip, no_motion, device }) =
@@ -798,6 +799,7 @@ fn real_main(cli: Cli) -> Result<()> {
         bail!("--reference shows a split screen in the window; headless runs compare with `restir-vpl compare`");
     }
     let summary = if cli.headless {
+        warn_unused_flags(&settings, given);
         restir_vpl::run(&settings)?.summary
     } else {
         let opts = restir_vpl::window::WindowOptions {
@@ -959,10 +961,34 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
     Ok(())
 }
 
+/// The render flags given on the command line (clap ids, as `RenderSettings::unused_flags` takes
+/// them), of the main command or of `reference`; none for the other subcommands.
+fn given_render_flags(matches: &clap::ArgMatches) -> Vec<String> {
+    let m = match matches.subcommand() {
+        Some(("reference", sub)) => sub,
+        Some(_) => return Vec::new(),
+        None => matches,
+    };
+    RenderArgs::augment_args(clap::Command::new("render"))
+        .get_arguments()
+        .map(|a| a.get_id().as_str().to_string())
+        .filter(|id| m.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
+        .collect()
+}
+
+fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
+    let given: Vec<&str> = given.iter().map(String::as_str).collect();
+    for w in settings.unused_flags(&given) {
+        log::warn!("{w}");
+    }
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
+    let given = given_render_flags(&matches);
     restir_vpl::logger::init(cli.render.verbose);
-    match real_main(cli) {
+    match real_main(cli, &given) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");

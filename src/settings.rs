@@ -492,6 +492,43 @@ pub const MAX_PHOTON_BOUNCES: u32 = 1024;
 
 impl RenderSettings {
     /// Whether this run needs the VPL set (and so the photon pass).
+    /// Of the command-line flags `given` (clap ids: the field names of the CLI's render arguments,
+    /// e.g. "spatial_neighbours"), those that this run never reads, each with why: e.g.
+    /// `--candidates` in `--mode pt`. A headless run or a reference warns about them (a value that
+    /// silently does nothing misleads a measurement); the window does not, since a key may switch
+    /// it to a mode that reads them.
+    pub fn unused_flags(&self, given: &[&str]) -> Vec<String> {
+        let flag = |id: &str| format!("--{}", id.replace('_', "-"));
+        let mode = self.mode.name();
+        let mut out = Vec::new();
+        for &id in given {
+            let why = match id {
+                "max_bounces" if self.mode != Mode::Pt => {
+                    format!("it sets the path tracer's depth, and --mode {mode} shades with VPLs (their paths: --photon-max-bounces)")
+                }
+                "vpls_direct" | "vpls_indirect" | "no_gi" | "photon_min_bounces" | "photon_max_bounces" if !self.needs_vpls() => {
+                    "it shapes the VPL set, and --mode pt traces no VPLs".to_string()
+                }
+                "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" if !self.mode.uses_vpls() => {
+                    "it shapes how VPLs shade, and --mode pt does not shade with VPLs".to_string()
+                }
+                "candidates" | "candidate_source" | "presample" if !matches!(self.mode, Mode::Ris | Mode::Restir) => {
+                    format!("it sets the RIS candidates of --mode ris and restir, not of --mode {mode}")
+                }
+                "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
+                | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes"
+                    if self.mode != Mode::Restir =>
+                {
+                    format!("it sets ReSTIR's reuse, and --mode {mode} reuses no reservoirs")
+                }
+                "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
+                _ => continue,
+            };
+            out.push(format!("{} has no effect here: {why}", flag(id)));
+        }
+        out
+    }
+
     pub fn needs_vpls(&self) -> bool {
         self.dump_vpls.is_some() || self.view == View::Vpls || self.mode.uses_vpls()
     }
@@ -691,6 +728,28 @@ impl RenderSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn flags_a_mode_never_reads_are_named_with_why() {
+        let with_mode = |mode| RenderSettings { mode, ..RenderSettings::default() };
+        let named = |s: &RenderSettings, given: &[&str]| -> Vec<String> {
+            s.unused_flags(given).iter().map(|w| w.split(' ').next().unwrap().to_string()).collect()
+        };
+        let pt = with_mode(Mode::Pt);
+        assert_eq!(
+            named(&pt, &["max_bounces", "candidates", "spatial_neighbours", "vpls_direct", "compensate", "width", "seed"]),
+            ["--candidates", "--spatial-neighbours", "--vpls-direct", "--compensate"]
+        );
+        // --dump-vpls makes pt trace the VPLs: their flags are read then.
+        let pt_dump = RenderSettings { dump_vpls: Some("v.ply".into()), ..pt.clone() };
+        assert!(named(&pt_dump, &["vpls_direct", "photon_max_bounces"]).is_empty());
+        let restir = with_mode(Mode::Restir);
+        assert_eq!(named(&restir, &["max_bounces", "candidates", "spatial_neighbours", "mcap", "vpl_radius"]), ["--max-bounces", "--vpl-radius"]);
+        assert_eq!(named(&with_mode(Mode::Uniform), &["candidates", "presample", "mcap"]), ["--candidates", "--presample", "--mcap"]);
+        assert_eq!(named(&with_mode(Mode::Ris), &["candidates", "initial_visibility", "fuse_passes"]), ["--initial-visibility", "--fuse-passes"]);
+        let w = pt.unused_flags(&["candidates"]);
+        assert!(w[0].contains("no effect") && w[0].contains("--mode ris and restir"), "{w:?}");
+    }
 
     #[test]
     fn default_radius_rule_names_its_multiple() {

@@ -146,6 +146,32 @@ fn bad_flags() {
     assert_fails(&["--headless", "--device", "99", "--frames", "1", "--width", "8", "--height", "8"], &["--device 99"]);
 }
 
+/// A flag the mode never reads is named in a warning (the table in `RenderSettings::unused_flags`
+/// uses clap's ids: a renamed flag would drop out of it silently, which this catches).
+#[test]
+fn flags_the_mode_never_reads_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = run(&[
+        "--headless", "--mode", "pt", "--frames", "1", "--width", "16", "--height", "16", "--candidates", "8",
+        "--spatial-neighbours", "4", "--photon-max-bounces", "3", "--attenuation", "yuksel", "--max-bounces", "2",
+        "--out", &out.display().to_string(),
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    for f in ["--candidates", "--spatial-neighbours", "--photon-max-bounces", "--attenuation"] {
+        assert!(err.contains(&format!("{f} has no effect here")), "{f}: {err}");
+    }
+    assert!(!err.contains("--max-bounces has no effect"), "pt reads --max-bounces: {err}");
+    let o = run(&[
+        "--headless", "--mode", "restir", "--frames", "1", "--width", "16", "--height", "16", "--vpls-direct", "500",
+        "--vpls-indirect", "500", "--spatial-neighbours", "4", "--max-bounces", "2", "--out", &out.display().to_string(),
+    ]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("--max-bounces has no effect here") && !err.contains("--spatial-neighbours has no effect"), "{err}");
+}
+
 #[test]
 fn scene_without_emitters_renders_black_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();
