@@ -135,6 +135,14 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
                             "point light '{name}' (node '{node_name}'): degenerate transform (non-finite world position {position})"
                         );
                     }
+                    let (color, intensity) = (light.color(), light.intensity());
+                    if !(color.iter().all(|c| c.is_finite() && *c >= 0.0) && intensity.is_finite() && intensity >= 0.0) {
+                        bail!(
+                            "point light '{name}': color {} and intensity {intensity} must be finite and non-negative \
+                             (a negative channel emits negative light)",
+                            fmt_floats(&color)
+                        );
+                    }
                     point_lights.push(PointLight {
                         name,
                         position,

@@ -642,6 +642,13 @@ fn light_power_beyond_32_bit_fluxes_is_an_error() {
     assert_contains(&err, &["point light 'bulb'", "32-bit"]);
     let err = load_err(&scene_with(1.0, 1e36));
     assert_contains(&err, &["emissive triangle", "32-bit"]);
+    // A negative channel passed the power check (its brightest channel) and emitted negative light.
+    let mut doc = scene_with(1.0, 1.0);
+    doc["extensions"]["KHR_lights_punctual"]["lights"][0]["color"] = json!([1.0, -1.0, 1.0]);
+    assert_contains(&load_err(&doc), &["point light 'bulb'", "color [1, -1, 1]", "non-negative"]);
+    let mut doc = scene_with(1.0, 1.0);
+    doc["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = json!(-2.0);
+    assert_contains(&load_err(&doc), &["point light 'bulb'", "intensity -2"]);
 }
 
 #[test]
