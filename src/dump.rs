@@ -235,6 +235,34 @@ fn workgroups(local: [u32; 3], width: u32, height: u32) -> [u32; 3] {
     }
 }
 
+/// Removes `fdir` if it is a frame dump of an earlier run (it holds our manifest.json), so that a
+/// new dump never mixes its files with another configuration's.
+fn remove_dumped_frame(fdir: &Path) -> Result<()> {
+    if fdir.join("manifest.json").is_file() {
+        std::fs::remove_dir_all(fdir).with_context(|| format!("--dump-passes: removing the earlier dump {}", fdir.display()))?;
+    }
+    Ok(())
+}
+
+/// Removes an earlier run's frame dumps (`frame_NNNN/` with a manifest), inspector page and VPL
+/// file from `dir` (`--out/passes`), before a run that dumps: its page then shows this run alone.
+pub fn remove_earlier_dumps(dir: &Path) -> Result<()> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Ok(()); // no earlier dump
+    };
+    for entry in entries {
+        let entry = entry.with_context(|| format!("--dump-passes: reading {}", dir.display()))?;
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with("frame_") {
+            remove_dumped_frame(&entry.path())?;
+        } else if name == "index.html" || name == "vpls.ply" {
+            std::fs::remove_file(entry.path()).with_context(|| format!("--dump-passes: removing the earlier {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
+}
+
 /// Writes one frame's dump under `dir/frame_NNNN/` and returns its manifest (also written there as
 /// manifest.json). `variance`: the accumulation's per-pixel variance after the frame.
 #[allow(clippy::too_many_arguments)]
@@ -250,11 +278,16 @@ pub fn write_frame(
     variance: Option<Vec<[f32; 3]>>,
 ) -> Result<DumpedFrame> {
     let fdir = dir.join(format!("frame_{frame:04}"));
+    remove_dumped_frame(&fdir)?;
     std::fs::create_dir_all(&fdir).with_context(|| format!("--dump-passes: creating {}", fdir.display()))?;
     let descs = all_pass_descs();
     let pixels = (width * height).max(1) as f64;
     let mut passes = Vec::new();
     let mut values = Vec::new();
+    // The dispatch's position in the frame: the plan is the frame's order, and a pass that ran
+    // was dispatched once per capture of it (restir_spatial ×P), or once if it writes no
+    // per-pixel output (vpl_presample).
+    let mut next_dispatch = 0usize;
     for (name, step) in plan.steps() {
         let desc = descs.iter().find(|d| d.name == name);
         let common = |position, repeat, status, why| PassEntry {
@@ -275,16 +308,29 @@ pub fn write_frame(
             // A pass without a per-pixel output (vpl_presample writes VPL tiles): listed as run,
             // with its time and why there is no image.
             Step::Run if !captured.iter().any(|c| c.pass == name) => {
-                let mut e = common(None, 0, "run", Some("no per-pixel output (it writes the frame's presampled VPL tiles)"));
+                let mut e = common(Some(next_dispatch), 0, "run", Some("no per-pixel output (it writes the frame's presampled VPL tiles)"));
+                next_dispatch += 1;
+                if name == crate::passes::VplPresamplePass::NAME {
+                    // One invocation per tile entry.
+                    let entries = crate::passes::VplPresamplePass::tile_count(width, height) * crate::gpu_types::PRESAMPLE_TILE_SIZE;
+                    e.workgroups = desc.map(|d| [entries.div_ceil(d.local_size_with(settings.workgroup)[0]), 1, 1]);
+                }
                 e.gpu_ms = stats_of_frame.pass_ms.iter().find(|(n, _)| *n == name).map(|p| p.1);
                 passes.push(e);
             }
             Step::Run => {
                 for c in captured.iter().filter(|c| c.pass == name) {
-                    let mut e = common(Some(c.position), c.repeat, "run", None);
+                    let position = next_dispatch;
+                    next_dispatch += 1;
+                    let mut e = common(Some(position), c.repeat, "run", None);
                     e.workgroups = desc.map(|d| workgroups(d.local_size_with(settings.workgroup), width, height));
-                    e.gpu_ms = stats_of_frame.pass_ms.iter().find(|(n, _)| *n == name).map(|p| p.1);
-                    e.rays_per_pixel = stats_of_frame.rays_by_pass.iter().find(|(n, _)| *n == name).map(|p| p.1 as f64 / pixels);
+                    // This dispatch's own time; rays are counted per pass, so a pass dispatched
+                    // several times (restir_spatial ×P) has its rays only in the frame's total.
+                    e.gpu_ms = stats_of_frame.dispatch_ms.iter().filter(|(n, _)| *n == name).nth(c.repeat as usize).map(|p| p.1);
+                    let repeated = captured.iter().filter(|x| x.pass == name).count() > 1;
+                    if !repeated {
+                        e.rays_per_pixel = stats_of_frame.rays_by_pass.iter().find(|(n, _)| *n == name).map(|p| p.1 as f64 / pixels);
+                    }
                     let mut decoded = decode(c, width, height);
                     if c.buffer == "mean" {
                         if let Some(v) = &variance {
@@ -292,7 +338,7 @@ pub fn write_frame(
                         }
                     }
                     for d in &decoded {
-                        let file = format!("{:02}_{}__{}.exr", c.position, dump_name(c), d.what);
+                        let file = format!("{position:02}_{}__{}.exr", dump_name(c), d.what);
                         write_exr(&fdir.join(&file), width, height, &d.image.pixels)?;
                         write_png(&fdir.join(file.replace(".exr", ".png")), width, height, &thumbnail(d))?;
                         e.outputs.push(stats(file.clone(), c.buffer, d));
@@ -449,6 +495,9 @@ const INSPECTOR_SCRIPT: &str = r#"
 function big(img){
   const z=document.getElementById('zoom'), zi=document.getElementById('zimg');
   zi.src=img.src; zi.dataset.frame=img.dataset.frame; z.style.display='block';
+  // Enlarged to fill the view (a 64-px image too), in whole pixels' proportions.
+  const f=FRAMES.find(f=>String(f.frame)===img.dataset.frame);
+  if(f){const s=Math.min(innerWidth*0.7/f.w, innerHeight*0.85/f.h); zi.style.width=(f.w*s)+'px'; zi.style.height=(f.h*s)+'px';}
   document.getElementById('readout').textContent=img.dataset.file;
 }
 document.getElementById('zimg').addEventListener('mousemove',e=>{

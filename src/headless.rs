@@ -145,6 +145,9 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     }
     let progress = Progress::new(settings.progress, settings.frames as u64);
     let dump = settings.dump_passes_selection()?;
+    if let (Some(_), Some(dir)) = (&dump, &settings.out_dir) {
+        crate::dump::remove_earlier_dumps(&dir.join("passes"))?;
+    }
     let mut dumped = Vec::new();
     let mut renderdoc = settings.renderdoc_capture.map(|_| crate::vk::renderdoc::Capturer::attach(&ctx));
     if let Some(rd) = &renderdoc {

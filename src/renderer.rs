@@ -36,6 +36,8 @@ pub struct FrameStats {
     /// (pass, GPU ms) in recording order; a pass dispatched several times (restir_spatial ×n)
     /// appears once with the sum.
     pub pass_ms: Vec<(&'static str, f64)>,
+    /// (pass, GPU ms) of every dispatch in recording order: a repeated pass once per dispatch.
+    pub dispatch_ms: Vec<(&'static str, f64)>,
     /// Rays traced this frame (primary + sampling passes).
     pub rays: u64,
     /// Rays per tracing pass this frame (primary rays under "gbuffer").
@@ -771,10 +773,14 @@ impl Renderer {
         } else {
             None
         };
+        // The reasons in the order a reader asks them: could the pair run at all, does it run this
+        // frame, and only then why it runs apart.
+        let restir = self.settings.mode == Mode::Restir;
         plan.restir_initial_temporal = match apart {
+            _ if !restir || !plan.vpl.restir.temporal => Step::Skip("mode is not restir or --temporal off"),
+            _ if plan.restir_temporal != Step::Run => Step::Skip("restir_temporal does not run this frame"),
             Some(why) => Step::Skip(why),
             None if vpl.initial_temporal.is_none() => Step::Skip("mode is not restir or --temporal off"),
-            None if plan.restir_temporal != Step::Run => Step::Skip("restir_temporal does not run this frame"),
             None => Step::Run,
         };
         if plan.restir_initial_temporal == Step::Run {
@@ -782,10 +788,11 @@ impl Renderer {
             plan.restir_temporal = Step::Skip("fused into restir_initial_temporal");
         }
         plan.restir_spatial_shade = match apart {
+            _ if !restir || plan.vpl.restir.spatial_passes == 0 => Step::Skip("mode is not restir or no spatial reuse"),
+            _ if plan.restir_spatial != Step::Run || plan.vpl_shade != Step::Run => Step::Skip("restir_spatial or vpl_shade does not run this frame"),
+            _ if plan.vpl.view.shows_reservoirs() => Step::Skip("vpl_shade draws the reservoir view"),
             Some(why) => Step::Skip(why),
             None if vpl.spatial_shade.is_none() => Step::Skip("mode is not restir or no spatial reuse"),
-            None if plan.restir_spatial != Step::Run || plan.vpl_shade != Step::Run => Step::Skip("restir_spatial or vpl_shade does not run this frame"),
-            None if plan.vpl.view.shows_reservoirs() => Step::Skip("vpl_shade draws the reservoir view"),
             None => Step::Run,
         };
         if plan.restir_spatial_shade == Step::Run {
@@ -889,7 +896,9 @@ impl Renderer {
         }
         self.camera = Some(*camera);
         let plan = self.plan(preview, capture);
-        if self.state.frame_index == 0 {
+        // --verbose: the first frame's passes and the last one's (a still camera's later frames
+        // skip the G-buffer and run the temporal pass).
+        if self.state.frame_index == 0 || u64::from(self.state.frame_index) + 1 == u64::from(self.settings.frames) {
             log::info!("frame {} passes:\n{}", self.state.frame_index, plan.describe());
         }
         // A traced G-buffer goes to the other half: the previous frame's surfaces stay readable.
@@ -993,8 +1002,9 @@ impl Renderer {
         // SAFETY: the fence belongs to this slot's last submission.
         unsafe { self.ctx.device.wait_for_fences(&[slot.fence], true, u64::MAX) }
             .context("waiting for the frame (device lost?)")?;
+        let dispatch_ms = slot.timer.collect()?;
         let mut pass_ms: Vec<(&'static str, f64)> = Vec::new();
-        for (name, ms) in slot.timer.collect()? {
+        for &(name, ms) in &dispatch_ms {
             match pass_ms.iter_mut().find(|(n, _)| *n == name) {
                 Some(entry) => entry.1 += ms,
                 None => pass_ms.push((name, ms)),
@@ -1011,7 +1021,7 @@ impl Renderer {
             }
         }
         let rays = rays_by_pass.iter().map(|r| r.1).sum();
-        let stats = FrameStats { pass_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 };
+        let stats = FrameStats { pass_ms, dispatch_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 };
         self.log.push(&stats);
         self.last_stats = stats.clone();
         Ok(stats)

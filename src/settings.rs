@@ -590,7 +590,12 @@ impl RenderSettings {
         // (--frames 0 is reported below, under its own name.)
         if let (Some(crate::dump::FrameSelection::List(frames)), true) = (&dump, self.frames > 0) {
             if let Some(n) = frames.iter().find(|&&n| n >= self.frames) {
-                bail!("--dump-passes {n}: the run renders frames 0..{} (--frames {}), so nothing would be dumped", self.frames.saturating_sub(1), self.frames);
+                bail!(
+                    "--dump-passes {}: frame {n} is beyond the run's frames 0..{} (--frames {})",
+                    self.dump_passes.as_deref().unwrap_or_default(),
+                    self.frames.saturating_sub(1),
+                    self.frames
+                );
             }
         }
         if self.width == 0 || self.width > MAX_IMAGE_SIDE {

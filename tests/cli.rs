@@ -123,6 +123,8 @@ fn bad_flags() {
     assert_fails(&["--headless", "--eye", "1e30,0,0", "--target", "0,0,0"], &["--eye", "distance"]);
     assert_fails(&["--headless", "--mode", "restir", "--photon-max-bounces", "4294967295"], &["--photon-max-bounces 4294967295"]);
     assert_fails(&["--headless", "--frames", "1", "--out", "/tmp", "--dump-passes", "5"], &["--dump-passes 5", "--frames 1"]);
+    // A selection partly in range names the frame that is not (it said "nothing would be dumped").
+    assert_fails(&["--headless", "--frames", "3", "--out", "/tmp", "--dump-passes", "0,5"], &["--dump-passes 0,5: frame 5 is beyond", "--frames 3"]);
     assert_fails(&["--headless", "--frames", "0", "--out", "/tmp", "--dump-passes", "0"], &["--frames 0"]);
     // A negative value for an unsigned flag names the flag and the value (clap took "-5" for an
     // unknown flag before allow_negative_numbers), in subcommands too.

@@ -45,6 +45,11 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
         let passes = m["passes"].as_array().unwrap();
         let ran: Vec<&str> = passes.iter().filter(|p| p["status"] == "run").map(|p| p["pass"].as_str().unwrap()).collect();
         assert_eq!(ran, expect, "frame {frame}: the passes that ran, in order");
+        // A skip names why the pass could not run before why it runs apart: in frame 0 there is
+        // no temporal pass to fuse, whether or not --fuse-passes is on.
+        let why = |name: &str| passes.iter().find(|p| p["pass"] == name).unwrap()["why"].as_str().unwrap().to_string();
+        let fused_why = if frame == 0 { "restir_temporal does not run this frame" } else { "--fuse-passes off" };
+        assert_eq!(why("restir_initial_temporal"), fused_why, "frame {frame}");
         // Every pass of the plan is listed, the skipped ones with a reason: every pass but
         // photon_emit (run once before the first frame), one spatial pass.
         assert_eq!(passes.len(), restir_vpl::passes::ALL_PASSES.len() - 1, "{m}");
@@ -55,6 +60,8 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
             }
             assert!(p["gpu_ms"].as_f64().unwrap() >= 0.0 && !p["bindings"].as_array().unwrap().is_empty(), "{p}");
             let outputs = p["outputs"].as_array().unwrap();
+            // Every dispatch has its position in the frame, vpl_presample too (it had none).
+            assert!(p["position"].as_u64().is_some(), "{p}");
             if p["pass"] == "vpl_presample" {
                 // Its output is a tile list, not an image: no outputs, and it says so.
                 assert!(outputs.is_empty() && p["why"].as_str().unwrap().contains("tiles"), "{p}");
@@ -77,11 +84,34 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
     }
     assert!(!dir.path().join("passes/frame_0001").exists(), "frame 1 was not asked for");
     let html = std::fs::read_to_string(dir.path().join("passes/index.html")).unwrap();
-    for needle in ["frame 0", "frame 2", "restir_temporal", "skipped: no history before the first frame", "frame_0002/01_restir_temporal__w.png", "const FRAMES"] {
+    for needle in ["frame 0", "frame 2", "restir_temporal", "skipped: no history before the first frame", "frame_0002/02_restir_temporal__w.png", "const FRAMES"] {
         assert!(html.contains(needle), "index.html lacks {needle:?}");
     }
     assert!(!html.contains("http://") && !html.contains("https://"), "the page must not reach the network");
     assert!(dir.path().join("passes/vpls.ply").exists());
+
+    // A second dump into the same --out replaces the first: no frame of the restir run is left
+    // to mix with it (frame 2 stayed, and frame 0 held both runs' files).
+    let o = bin().args(SMALL).args(["3", "--mode", "uniform", "--frames", "1", "--dump-passes", "0", "--out", out]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!dir.path().join("passes/frame_0002").exists(), "the earlier run's frame 2 is removed");
+    let left: Vec<String> = std::fs::read_dir(dir.path().join("passes/frame_0000")).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert!(left.iter().all(|f| !f.contains("restir_temporal") && !f.contains("restir_spatial")), "{left:?}");
+
+    // A pass dispatched twice: each dispatch has its own position and time (they summed the
+    // frame's before), and no per-dispatch ray count (rays are counted per pass).
+    let sdir = tempfile::tempdir().unwrap();
+    let o = bin().args(SMALL).args(["3", "--mode", "restir", "--frames", "1", "--spatial-passes", "2", "--dump-passes", "0", "--out", sdir.path().to_str().unwrap()]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(sdir.path().join("passes/frame_0000/manifest.json")).unwrap()).unwrap();
+    let spatial: Vec<&serde_json::Value> = m["passes"].as_array().unwrap().iter().filter(|p| p["pass"] == "restir_spatial").collect();
+    assert_eq!(spatial.len(), 2, "{m}");
+    assert_eq!(spatial[1]["position"].as_u64().unwrap(), spatial[0]["position"].as_u64().unwrap() + 1);
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(sdir.path().join("summary.json")).unwrap()).unwrap();
+    let total = summary["pass_ms"]["restir_spatial"]["mean"].as_f64().unwrap();
+    let (a, b) = (spatial[0]["gpu_ms"].as_f64().unwrap(), spatial[1]["gpu_ms"].as_f64().unwrap());
+    assert!(a > 0.0 && b > 0.0 && (a + b - total).abs() <= 1e-6 * total.max(1.0), "dispatches {a} + {b} against the frame's {total}");
+    assert!(spatial.iter().all(|p| p["rays_per_pixel"].is_null()), "{m}");
 
     // With --compensate, vpl_compensate runs after vpl_shade and its dumped samples hold the
     // shaded estimate plus what it added (never less: compensation adds light).
@@ -93,8 +123,8 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
     let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(fdir.join("manifest.json")).unwrap()).unwrap();
     let ran: Vec<&str> = m["passes"].as_array().unwrap().iter().filter(|p| p["status"] == "run").map(|p| p["pass"].as_str().unwrap()).collect();
     assert_eq!(ran, ["gbuffer", "vpl_presample", "restir_initial", "vpl_shade", "vpl_compensate", "accumulate", "tonemap"]);
-    let shaded = restir_vpl::output::read_exr(&fdir.join("02_vpl_shade__samples.exr")).unwrap();
-    let compensated = restir_vpl::output::read_exr(&fdir.join("03_vpl_compensate__samples.exr")).unwrap();
+    let shaded = restir_vpl::output::read_exr(&fdir.join("03_vpl_shade__samples.exr")).unwrap();
+    let compensated = restir_vpl::output::read_exr(&fdir.join("04_vpl_compensate__samples.exr")).unwrap();
     let (mut more, mut less) = (0, 0);
     for (a, b) in shaded.pixels.iter().zip(&compensated.pixels) {
         for c in 0..3 {
