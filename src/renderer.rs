@@ -491,6 +491,17 @@ impl Renderer {
     /// device to be idle first (a caller's own work on the renderer's buffers included).
     pub fn apply_settings(&mut self, settings: RenderSettings) -> Result<()> {
         settings.validate()?;
+        // A change of nothing, or of the exposure alone (applied by tonemap to the accumulated
+        // mean), keeps the passes and the accumulation: dragging the exposure slider restarted it.
+        let as_value = |s: &RenderSettings| {
+            let mut v = serde_json::to_value(s).expect("settings serialise");
+            v["exposure"] = serde_json::Value::Null;
+            v
+        };
+        if as_value(&settings) == as_value(&self.settings) {
+            self.settings.exposure = settings.exposure;
+            return Ok(());
+        }
         self.complete_all()?;
         // SAFETY: waiting for idle before pipelines and buffers in use are replaced.
         unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;

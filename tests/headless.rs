@@ -147,3 +147,32 @@ fn merged_scene_renders_the_instanced_image() {
     let m = differing(&other_seed, &instanced);
     assert!(m * 10 > merged.mean.len(), "another seed changes only {m} pixels");
 }
+
+/// A settings change that changes nothing, or only the exposure (tonemap applies it to the
+/// accumulated mean), keeps the accumulation; any other change starts it again. Dragging the
+/// window's exposure slider used to restart it at every step.
+#[test]
+fn exposure_changes_keep_the_accumulation_and_other_changes_restart_it() {
+    use restir_vpl::camera::Camera;
+    use restir_vpl::renderer::Renderer;
+    let ctx = context();
+    let scene = cornell();
+    let settings = RenderSettings { vpls_direct: 500, vpls_indirect: 500, ..small(32, 32, 1) };
+    let gpu = upload(&ctx, &scene, &settings);
+    let camera = Camera::initial(&gpu.info, None);
+    let mut r = Renderer::new(ctx.clone(), gpu, settings.clone()).unwrap();
+    for _ in 0..3 {
+        r.render_frame(&camera, false).unwrap();
+    }
+    assert_eq!(r.accumulated(), 3);
+    let mean_before = r.read_mean().unwrap();
+    r.apply_settings(RenderSettings { exposure: 2.0, ..settings.clone() }).unwrap();
+    r.apply_settings(RenderSettings { exposure: 2.0, ..settings.clone() }).unwrap();
+    assert_eq!((r.accumulated(), r.settings().exposure), (3, 2.0), "exposure alone keeps the accumulation");
+    assert_eq!(r.read_mean().unwrap(), mean_before, "and the accumulated mean (exposure is tonemap's)");
+    r.render_frame(&camera, false).unwrap();
+    assert_eq!(r.accumulated(), 4);
+    r.apply_settings(RenderSettings { exposure: 2.0, candidates: 8, ..settings }).unwrap();
+    r.render_frame(&camera, false).unwrap();
+    assert_eq!(r.accumulated(), 1, "another change starts again");
+}

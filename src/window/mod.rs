@@ -102,6 +102,8 @@ struct Running {
     looking: bool,
     cursor: Option<(f64, f64)>,
     last_frame: Instant,
+    /// The next frame's interval is not a frame time (after a freeze or a step).
+    timing_restarts: bool,
     /// The clock of key events and camera updates.
     clock: Instant,
     last_title: Instant,
@@ -203,6 +205,7 @@ impl App {
             looking: false,
             cursor: None,
             last_frame: Instant::now(),
+            timing_restarts: false,
             clock: Instant::now(),
             last_title: Instant::now(),
             smoothed_ms: 0.0,
@@ -276,12 +279,18 @@ impl App {
         Ok(())
     }
 
-    /// Applies a settings change; a refused one (e.g. brute force over the pair limit) leaves
+    /// Applies a settings change (one that changes nothing, or only the exposure, keeps the
+    /// accumulation: `Renderer::apply_settings`); a refused one (e.g. brute force over the pair limit) leaves
     /// everything as it was and says why.
     fn change(&mut self, what: &str, edit: impl FnOnce(&mut RenderSettings)) -> Result<()> {
         let r = self.running.as_mut().expect("called while running");
         let mut s = r.renderer.settings().clone();
         edit(&mut s);
+        if let Some(why) = interactive_bruteforce_refusal(&s, r.renderer.photon_stats(), &r.ctx.report.kind) {
+            r.message = format!("refused: {why}");
+            log::warn!("{what}: refused: {why}");
+            return Ok(());
+        }
         match r.renderer.apply_settings(s.clone()) {
             Ok(()) => {
                 self.settings = s;
@@ -377,8 +386,14 @@ impl App {
             }
             Action::HomeCamera => r.controller.go_home(),
             Action::ToggleOverlay => r.overlay = !r.overlay,
-            Action::Freeze => r.frozen = !r.frozen,
-            Action::Step => r.step = r.frozen,
+            Action::Freeze => {
+                r.frozen = !r.frozen;
+                r.timing_restarts = true; // the frozen time is no frame's
+            }
+            Action::Step => {
+                r.step = r.frozen;
+                r.timing_restarts = true;
+            }
             Action::RenderDocCapture => {
                 let camera = r.next_camera(self.path.as_ref());
                 let mut rd = crate::vk::renderdoc::Capturer::attach(&r.ctx);
@@ -400,8 +415,16 @@ impl App {
                 let dir = s.out_dir.clone().unwrap_or_else(|| PathBuf::from(".")).join("passes");
                 let plan = r.renderer.last_plan().context("a frame was just recorded")?.clone();
                 let variance = Some(r.renderer.read_variance()?);
+                let vpls = r.renderer.read_vpls()?;
                 let written = crate::dump::write_frame(&dir, r.frames, s.width, s.height, &s, &plan, &stats, &captured, variance)
-                    .and_then(|frame| crate::dump::write_inspector(&dir, &[frame]));
+                    .and_then(|frame| crate::dump::write_inspector(&dir, &[frame]))
+                    .and_then(|page| {
+                        // The VPLs beside the page, as a headless dump writes them.
+                        if let Some(v) = &vpls {
+                            crate::ply::write_vpls(&dir.join("vpls.ply"), v)?;
+                        }
+                        Ok(page)
+                    });
                 r.message = match written {
                     Ok(page) => format!("passes written: {}", page.display()),
                     Err(e) => format!("writing the passes failed: {e:#}"),
@@ -499,8 +522,12 @@ impl App {
             r.timed_from = Some(shown);
         }
         r.last_shown = Some(shown);
-        let ms = dt as f64 * 1e3;
-        r.smoothed_ms = if r.frames <= 2 { ms } else { 0.9 * r.smoothed_ms + 0.1 * ms };
+        // A frame after a freeze or a step took as long as the GPU took (the wait was the user's);
+        // otherwise a time-weighted average over the last ~0.5 s, so that after a switch to a
+        // slower mode the figure follows within a frame or two instead of lagging for ten frames.
+        let ms = if std::mem::take(&mut r.timing_restarts) { r.renderer.last_stats().gpu_ms() } else { dt as f64 * 1e3 };
+        let weight = 1.0 - (-ms / 500.0).exp();
+        r.smoothed_ms = if r.frames <= 2 { ms } else { r.smoothed_ms + weight * (ms - r.smoothed_ms) };
         if now.duration_since(r.last_title).as_secs_f64() > 0.25 {
             r.last_title = now;
             let s = r.renderer.settings();
@@ -512,7 +539,11 @@ impl App {
                 1e3 / r.smoothed_ms.max(1e-3),
                 gpu,
                 r.renderer.accumulated(),
-                if s.view != View::Final { format!(" · view {}", s.view.name()) } else { String::new() },
+                if s.view != View::Final && !r.message.contains(&format!("view {}", s.view.name())) {
+                    format!(" · view {}", s.view.name())
+                } else {
+                    String::new()
+                },
                 if r.message.is_empty() { String::new() } else { format!(" · {}", r.message) },
             ));
         }
@@ -759,4 +790,36 @@ impl Drop for Presenter {
             }
         }
     }
+}
+
+/// Most pixel × VPL pairs (shadow rays) a brute-force frame may have in the window, by device
+/// kind: a frame is one dispatch, and the window answers no key until it ends. lavapipe traces
+/// ~18M such rays a second on the 2-core reference machine (1.7 s for 320×240 × 400 VPLs), so
+/// 1e8 is ~5 s a frame there; a GPU with RT cores traces ~1e9 a second or more. Headless runs keep
+/// the larger `MAX_BRUTEFORCE_PAIRS`.
+pub const WINDOW_BRUTEFORCE_PAIRS_CPU: u64 = 100_000_000;
+pub const WINDOW_BRUTEFORCE_PAIRS_GPU: u64 = 2_000_000_000;
+
+/// Why the window refuses brute force for `s` (None: it does not). Pressing 5 at 320×240 with the
+/// default 200k VPLs froze the window for ~14 minutes a frame on lavapipe.
+pub fn interactive_bruteforce_refusal(s: &RenderSettings, photons: Option<&crate::passes::PhotonStats>, device_kind: &str) -> Option<String> {
+    if s.mode != crate::settings::Mode::Bruteforce {
+        return None;
+    }
+    // The traced set's count, or (none traced yet: the path tracer) the counts asked for.
+    let asked = s.vpls_direct as u64 + if s.gi { s.vpls_indirect as u64 } else { 0 };
+    let vpls = photons.map_or(asked, |p| crate::passes::PhotonEmitPass::vpl_count(p) as u64);
+    let pairs = s.width as u64 * s.height as u64 * vpls;
+    let limit = if device_kind == "CPU" { WINDOW_BRUTEFORCE_PAIRS_CPU } else { WINDOW_BRUTEFORCE_PAIRS_GPU };
+    (pairs > limit).then(|| {
+        format!(
+            "brute force: {}×{} pixels × {vpls} VPLs = {pairs:.2e} shadow rays a frame, over the window's {limit:.0e} on a {device_kind} \
+             device (the window would not answer for the whole frame); start with fewer VPLs (--vpls-direct/--vpls-indirect), \
+             use a smaller window, or run it --headless",
+            s.width,
+            s.height,
+            pairs = pairs as f64,
+            limit = limit as f64
+        )
+    })
 }
