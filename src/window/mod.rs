@@ -239,6 +239,10 @@ impl App {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
                 let down = event.state == ElementState::Pressed;
                 let t = r.clock.elapsed().as_secs_f64();
+                let moves = matches!(code, KeyCode::KeyW | KeyCode::KeyS | KeyCode::KeyA | KeyCode::KeyD | KeyCode::Space | KeyCode::ControlLeft);
+                if moves && down && self.path.is_some() {
+                    r.message = FOLLOWS_PATH.to_string();
+                }
                 let c = &mut r.controller;
                 match code {
                     KeyCode::KeyW => c.key(MoveKey::Forward, down, t),
@@ -328,8 +332,12 @@ impl App {
             }
             Action::MoreCandidates | Action::FewerCandidates => {
                 let c = r.renderer.settings().candidates;
-                let c = if action == Action::MoreCandidates { (c * 2).min(1024) } else { (c / 2).max(1) };
-                self.change(&format!("{c} RIS candidates"), |s| s.candidates = c)?
+                let next = if action == Action::MoreCandidates { (c * 2).min(1024) } else { (c / 2).max(1) };
+                if next == c {
+                    r.message = format!("{c} RIS candidates: the {} there is", if c == 1 { "fewest" } else { "most" });
+                } else {
+                    self.change(&format!("{next} RIS candidates"), |s| s.candidates = next)?
+                }
             }
             Action::ToggleProgressive => {
                 let p = !r.renderer.settings().progressive;
@@ -374,6 +382,7 @@ impl App {
                     Err(e) => format!("saving the camera to {} failed: {e}", file.display()),
                 };
             }
+            Action::LoadCamera | Action::HomeCamera if self.path.is_some() => r.message = FOLLOWS_PATH.to_string(),
             Action::LoadCamera => {
                 let file = camera_file(&self.settings);
                 match CameraPath::load(&file) {
@@ -823,3 +832,6 @@ pub fn interactive_bruteforce_refusal(s: &RenderSettings, photons: Option<&crate
         )
     })
 }
+
+/// What the movement keys, Home and I answer while `--camera-path` drives the camera.
+const FOLLOWS_PATH: &str = "the camera follows --camera-path: movement keys, Home and I are off";
