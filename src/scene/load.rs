@@ -180,8 +180,9 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
     if scene.triangle_count() == 0 {
         bail!("no triangles in scene");
     }
-    check_emitter_areas(&scene)?;
-    check_light_power(&scene)?;
+    let emitters = scene.emissive_triangles();
+    check_emitter_areas(&scene, &emitters)?;
+    check_light_power(&scene, &emitters)?;
     Ok(scene)
 }
 
@@ -199,6 +200,11 @@ fn fmt_floats(v: &[f32]) -> String {
         })
         .collect();
     format!("[{}]", parts.join(", "))
+}
+
+/// A matrix's four columns as `[..], [..], [..], [..]` (`fmt_floats` each).
+fn fmt_columns(m: &Mat4) -> String {
+    m.to_cols_array_2d().iter().map(|c| fmt_floats(c)).collect::<Vec<_>>().join(", ")
 }
 
 /// A node's local matrix. TRS rotations are normalised first: the gltf crate builds the matrix
@@ -260,12 +266,9 @@ fn check_camera_transform(world: &Mat4, node_name: &str, camera_name: &str) -> R
         format!("camera node '{node_name}' (camera '{camera_name}')")
     };
     bail!(
-        "{what}: degenerate transform (non-finite or zero-length basis): its world matrix has columns {}, {}, {}, {}; \
+        "{what}: degenerate transform (non-finite or zero-length basis): its world matrix has columns {}; \
          a camera needs a finite transform whose local -Z and +Y axes are non-zero and not parallel",
-        fmt_floats(&world.x_axis.to_array()),
-        fmt_floats(&world.y_axis.to_array()),
-        fmt_floats(&world.z_axis.to_array()),
-        fmt_floats(&world.w_axis.to_array())
+        fmt_columns(world)
     )
 }
 
@@ -276,11 +279,8 @@ fn check_mesh_transform(world: &Mat4, mesh: &Mesh, node_name: &str) -> Result<()
     let what = format!("node '{node_name}' (mesh '{}')", mesh.name);
     if !world.is_finite() {
         bail!(
-            "{what}: degenerate transform (non-finite world matrix, columns {}, {}, {}, {})",
-            fmt_floats(&world.x_axis.to_array()),
-            fmt_floats(&world.y_axis.to_array()),
-            fmt_floats(&world.z_axis.to_array()),
-            fmt_floats(&world.w_axis.to_array())
+            "{what}: degenerate transform (non-finite world matrix, columns {})",
+            fmt_columns(world)
         );
     }
     // As the renderer inverts it: in f32 (a determinant overflowing f32 gives a zero inverse,
@@ -308,29 +308,20 @@ fn check_mesh_transform(world: &Mat4, mesh: &Mesh, node_name: &str) -> Result<()
 
 /// Every emissive triangle's world-space area must fit f32 (`EmissiveTriangle::area`), else the
 /// light would be dropped from the light set without a word.
-fn check_emitter_areas(scene: &Scene) -> Result<()> {
-    for inst in &scene.instances {
-        let Some(mesh) = scene.meshes.get(inst.mesh) else {
-            continue;
-        };
-        for (t, &mat) in mesh.triangle_materials.iter().enumerate() {
-            if !scene.materials.get(mat as usize).is_some_and(Material::is_emissive) {
-                continue;
-            }
-            let Some(p) = mesh.triangle(t) else { continue };
-            let (area, _) = area_and_normal(p.map(|v| inst.transform.transform_point3(v)));
-            if area.is_finite() && (area as f32).is_infinite() {
-                bail!(
-                    "mesh '{}' (node '{}'): emissive triangle {t} has a world-space area of {area:.3e}, more than \
-                     a 32-bit float holds ({:.1e}); scale the scene down",
-                    mesh.name,
-                    inst.name,
-                    f32::MAX
-                );
-            }
-        }
-    }
-    Ok(())
+fn check_emitter_areas(scene: &Scene, emitters: &[super::EmissiveTriangle]) -> Result<()> {
+    let Some(t) = emitters.iter().find(|t| t.area.is_infinite()) else {
+        return Ok(());
+    };
+    let inst = &scene.instances[t.instance as usize];
+    let (area, _) = area_and_normal(t.p);
+    bail!(
+        "mesh '{}' (node '{}'): emissive triangle {} has a world-space area of {area:.3e}, more than a 32-bit float \
+         holds ({:.1e}); scale the scene down",
+        scene.meshes[inst.mesh].name,
+        inst.name,
+        t.triangle,
+        f32::MAX
+    )
 }
 
 /// The most power (W, per channel) the lights may emit together. Fluxes, photon weights and
@@ -339,14 +330,14 @@ fn check_emitter_areas(scene: &Scene) -> Result<()> {
 /// magnitude for those products and is 4 orders above the Sun (3.8e26 W).
 pub const MAX_LIGHT_POWER: f64 = 1e30;
 
-fn check_light_power(scene: &Scene) -> Result<()> {
+fn check_light_power(scene: &Scene, emitters: &[super::EmissiveTriangle]) -> Result<()> {
     use std::f64::consts::PI;
     let mut lights: Vec<(f64, String)> = scene
         .point_lights
         .iter()
         .map(|l| (4.0 * PI * (l.color * l.intensity).max_element() as f64, format!("point light '{}'", l.name)))
         .collect();
-    lights.extend(scene.emissive_triangles().iter().map(|t| {
+    lights.extend(emitters.iter().map(|t| {
         let sides = if t.double_sided { 2.0 } else { 1.0 };
         (sides * PI * t.emission.max_element() as f64 * t.area as f64, format!("an emissive triangle of instance {}", t.instance))
     }));

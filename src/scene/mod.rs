@@ -249,7 +249,8 @@ impl Scene {
         }
     }
 
-    /// Every instanced triangle with an emissive material and positive world-space area.
+    /// Every instanced triangle with an emissive material and positive world-space area (+Inf where
+    /// the area does not fit f32: the loader refuses such a scene, `check_emitter_areas`).
     pub fn emissive_triangles(&self) -> Vec<EmissiveTriangle> {
         let mut out = Vec::new();
         for (ii, inst) in self.instances.iter().enumerate() {
@@ -267,10 +268,10 @@ impl Scene {
                 let Some(p) = mesh.triangle(t) else { continue };
                 let p = p.map(|v| inst.transform.transform_point3(v));
                 let (area, normal) = area_and_normal(p);
-                // Zero (or below f32's smallest) area: degenerate. Beyond f32::MAX: the loader
-                // refuses such a scene (`check_emitter_areas`), so nothing is dropped silently.
+                // Zero (or below f32's smallest) area: degenerate; NaN: non-finite vertices. Beyond
+                // f32::MAX it is kept as +Inf for the loader to refuse, so nothing is dropped silently.
                 let area = area as f32;
-                if !(area > 0.0 && area.is_finite()) {
+                if !(area > 0.0) {
                     continue;
                 }
                 let normal = if flip { -normal } else { normal };
