@@ -303,11 +303,14 @@ pub fn write_frame(
             rays_per_pixel: None,
             outputs: Vec::new(),
         };
+        // The time of dispatch `repeat` of this pass.
+        let dispatch_ms = |repeat: u32| stats_of_frame.dispatch_ms.iter().filter(|(n, _)| *n == name).nth(repeat as usize).map(|p| p.1);
+        let captures = captured.iter().filter(|c| c.pass == name).count();
         match step {
             Step::Skip(why) => passes.push(common(None, 0, "skipped", Some(*why))),
             // A pass without a per-pixel output (vpl_presample writes VPL tiles): listed as run,
             // with its time and why there is no image.
-            Step::Run if !captured.iter().any(|c| c.pass == name) => {
+            Step::Run if captures == 0 => {
                 let mut e = common(Some(next_dispatch), 0, "run", Some("no per-pixel output (it writes the frame's presampled VPL tiles)"));
                 next_dispatch += 1;
                 if name == crate::passes::VplPresamplePass::NAME {
@@ -315,7 +318,7 @@ pub fn write_frame(
                     let entries = crate::passes::VplPresamplePass::tile_count(width, height) * crate::gpu_types::PRESAMPLE_TILE_SIZE;
                     e.workgroups = desc.map(|d| [entries.div_ceil(d.local_size_with(settings.workgroup)[0]), 1, 1]);
                 }
-                e.gpu_ms = stats_of_frame.pass_ms.iter().find(|(n, _)| *n == name).map(|p| p.1);
+                e.gpu_ms = dispatch_ms(0);
                 passes.push(e);
             }
             Step::Run => {
@@ -326,9 +329,8 @@ pub fn write_frame(
                     e.workgroups = desc.map(|d| workgroups(d.local_size_with(settings.workgroup), width, height));
                     // This dispatch's own time; rays are counted per pass, so a pass dispatched
                     // several times (restir_spatial ×P) has its rays only in the frame's total.
-                    e.gpu_ms = stats_of_frame.dispatch_ms.iter().filter(|(n, _)| *n == name).nth(c.repeat as usize).map(|p| p.1);
-                    let repeated = captured.iter().filter(|x| x.pass == name).count() > 1;
-                    if !repeated {
+                    e.gpu_ms = dispatch_ms(c.repeat);
+                    if captures == 1 {
                         e.rays_per_pixel = stats_of_frame.rays_by_pass.iter().find(|(n, _)| *n == name).map(|p| p.1 as f64 / pixels);
                     }
                     let mut decoded = decode(c, width, height);

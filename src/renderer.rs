@@ -33,10 +33,8 @@ use crate::vk::{Buffer, Context, DescriptorSet, GpuTimer};
 /// Statistics of one rendered frame.
 #[derive(Clone, Debug, Default)]
 pub struct FrameStats {
-    /// (pass, GPU ms) in recording order; a pass dispatched several times (restir_spatial ×n)
-    /// appears once with the sum.
-    pub pass_ms: Vec<(&'static str, f64)>,
-    /// (pass, GPU ms) of every dispatch in recording order: a repeated pass once per dispatch.
+    /// (pass, GPU ms) of every dispatch in recording order: a repeated pass once per dispatch
+    /// ([`FrameStats::pass_ms`] sums them per pass).
     pub dispatch_ms: Vec<(&'static str, f64)>,
     /// Rays traced this frame (primary + sampling passes).
     pub rays: u64,
@@ -49,7 +47,20 @@ pub struct FrameStats {
 impl FrameStats {
     /// GPU time of the frame: the sum of its pass scopes.
     pub fn gpu_ms(&self) -> f64 {
-        self.pass_ms.iter().map(|p| p.1).sum()
+        self.dispatch_ms.iter().map(|p| p.1).sum()
+    }
+
+    /// (pass, GPU ms) in recording order; a pass dispatched several times (restir_spatial ×n)
+    /// appears once with the sum.
+    pub fn pass_ms(&self) -> Vec<(&'static str, f64)> {
+        let mut out: Vec<(&'static str, f64)> = Vec::new();
+        for &(name, ms) in &self.dispatch_ms {
+            match out.iter_mut().find(|(n, _)| *n == name) {
+                Some(entry) => entry.1 += ms,
+                None => out.push((name, ms)),
+            }
+        }
+        out
     }
 }
 
@@ -73,8 +84,8 @@ impl FrameLog {
         self.gpu_ms.push(s.gpu_ms());
         self.wall_ms.push(s.wall_ms);
         self.rays.push(s.rays);
-        for (name, ms) in &s.pass_ms {
-            self.pass_ms.entry(name).or_default().push(*ms);
+        for (name, ms) in s.pass_ms() {
+            self.pass_ms.entry(name).or_default().push(ms);
         }
         for (name, n) in &s.rays_by_pass {
             self.pass_rays.entry(name).or_default().push(*n);
@@ -169,7 +180,7 @@ pub const MAX_BRUTEFORCE_PAIRS: u64 = 20_000_000_000;
 /// Refuses a brute-force frame of more than [`MAX_BRUTEFORCE_PAIRS`] pixel × VPL pairs, naming
 /// the flags that change it.
 fn check_bruteforce_pairs(settings: &RenderSettings, vpls: u64) -> Result<()> {
-    let pairs = settings.width as u64 * settings.height as u64 * vpls;
+    let pairs = bruteforce_pairs(settings, vpls);
     anyhow::ensure!(
         pairs <= MAX_BRUTEFORCE_PAIRS,
         "--mode bruteforce: {}×{} pixels × {vpls} VPLs = {pairs} shadow rays per frame, over the limit of \
@@ -178,6 +189,11 @@ fn check_bruteforce_pairs(settings: &RenderSettings, vpls: u64) -> Result<()> {
         settings.height
     );
     Ok(())
+}
+
+/// Pixel × VPL pairs (shadow rays) of one brute-force frame of `settings` over `vpls` VPLs.
+pub fn bruteforce_pairs(settings: &RenderSettings, vpls: u64) -> u64 {
+    u64::from(settings.width) * u64::from(settings.height) * vpls
 }
 
 /// Frames that may be recorded while earlier ones still run on the GPU.
@@ -493,12 +509,7 @@ impl Renderer {
         settings.validate()?;
         // A change of nothing, or of the exposure alone (applied by tonemap to the accumulated
         // mean), keeps the passes and the accumulation: dragging the exposure slider restarted it.
-        let as_value = |s: &RenderSettings| {
-            let mut v = serde_json::to_value(s).expect("settings serialise");
-            v["exposure"] = serde_json::Value::Null;
-            v
-        };
-        if as_value(&settings) == as_value(&self.settings) {
+        if (RenderSettings { exposure: self.settings.exposure, ..settings.clone() }) == self.settings {
             self.settings.exposure = settings.exposure;
             return Ok(());
         }
@@ -1014,13 +1025,6 @@ impl Renderer {
         unsafe { self.ctx.device.wait_for_fences(&[slot.fence], true, u64::MAX) }
             .context("waiting for the frame (device lost?)")?;
         let dispatch_ms = slot.timer.collect()?;
-        let mut pass_ms: Vec<(&'static str, f64)> = Vec::new();
-        for &(name, ms) in &dispatch_ms {
-            match pass_ms.iter_mut().find(|(n, _)| *n == name) {
-                Some(entry) => entry.1 += ms,
-                None => pass_ms.push((name, ms)),
-            }
-        }
         let n_slots = RAY_SLOTS.len();
         let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (n_slots + 1))?);
         self.state.nonfinite_samples = counters[n_slots] as u64;
@@ -1032,7 +1036,7 @@ impl Renderer {
             }
         }
         let rays = rays_by_pass.iter().map(|r| r.1).sum();
-        let stats = FrameStats { pass_ms, dispatch_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 };
+        let stats = FrameStats { dispatch_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 };
         self.log.push(&stats);
         self.last_stats = stats.clone();
         Ok(stats)

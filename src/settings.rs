@@ -156,7 +156,7 @@ named_enum! {
 }
 
 /// The ReSTIR settings.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RestirSettings {
     pub temporal: bool,
     /// Temporal history confidence cap, in multiples of the current frame's.
@@ -267,7 +267,7 @@ pub struct PhotonSettings {
 }
 
 /// A camera given on the command line; replaces the scene's camera.
-#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CameraOverride {
     pub eye: Vec3,
     pub target: Vec3,
@@ -296,7 +296,7 @@ pub fn radius_rule_text(multiple: f32, knn: Option<u32>) -> String {
     }
 }
 
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RenderSettings {
     pub scene: PathBuf,
     pub mode: Mode,

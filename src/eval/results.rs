@@ -168,8 +168,8 @@ pub fn curves(
                 cum[i].1 += s.wall_ms;
                 frame_gpu[i].push(gpu);
                 frame_wall[i].push(s.wall_ms);
-                for (name, ms) in &s.pass_ms {
-                    pass_ms[i].entry(name.to_string()).or_default().push(*ms);
+                for (name, ms) in s.pass_ms() {
+                    pass_ms[i].entry(name.to_string()).or_default().push(ms);
                 }
                 rays[i].push(s.rays as f64 / r.pixels() as f64);
             }

@@ -239,20 +239,24 @@ impl App {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
                 let down = event.state == ElementState::Pressed;
                 let t = r.clock.elapsed().as_secs_f64();
-                let moves = matches!(code, KeyCode::KeyW | KeyCode::KeyS | KeyCode::KeyA | KeyCode::KeyD | KeyCode::Space | KeyCode::ControlLeft);
-                if moves && down && self.path.is_some() {
-                    r.message = FOLLOWS_PATH.to_string();
-                }
-                let c = &mut r.controller;
-                match code {
-                    KeyCode::KeyW => c.key(MoveKey::Forward, down, t),
-                    KeyCode::KeyS => c.key(MoveKey::Back, down, t),
-                    KeyCode::KeyA => c.key(MoveKey::Left, down, t),
-                    KeyCode::KeyD => c.key(MoveKey::Right, down, t),
-                    KeyCode::Space => c.key(MoveKey::Up, down, t),
-                    KeyCode::ControlLeft => c.key(MoveKey::Down, down, t),
-                    KeyCode::ShiftLeft | KeyCode::ShiftRight => c.set_fast(down),
-                    _ => {
+                let movement = match code {
+                    KeyCode::KeyW => Some(MoveKey::Forward),
+                    KeyCode::KeyS => Some(MoveKey::Back),
+                    KeyCode::KeyA => Some(MoveKey::Left),
+                    KeyCode::KeyD => Some(MoveKey::Right),
+                    KeyCode::Space => Some(MoveKey::Up),
+                    KeyCode::ControlLeft => Some(MoveKey::Down),
+                    _ => None,
+                };
+                match (movement, code) {
+                    (Some(key), _) => {
+                        if down && self.path.is_some() {
+                            r.message = FOLLOWS_PATH.to_string();
+                        }
+                        r.controller.key(key, down, t);
+                    }
+                    (None, KeyCode::ShiftLeft | KeyCode::ShiftRight) => r.controller.set_fast(down),
+                    (None, _) => {
                         if down && !event.repeat {
                             if let Some(action) = actions::action_for(code) {
                                 self.act(event_loop, action)?;
@@ -816,9 +820,9 @@ pub fn interactive_bruteforce_refusal(s: &RenderSettings, photons: Option<&crate
         return None;
     }
     // The traced set's count, or (none traced yet: the path tracer) the counts asked for.
-    let asked = s.vpls_direct as u64 + if s.gi { s.vpls_indirect as u64 } else { 0 };
-    let vpls = photons.map_or(asked, |p| crate::passes::PhotonEmitPass::vpl_count(p) as u64);
-    let pairs = s.width as u64 * s.height as u64 * vpls;
+    let asked = s.photon_settings();
+    let vpls = photons.map_or(u64::from(asked.direct) + u64::from(asked.indirect), |p| u64::from(crate::passes::PhotonEmitPass::vpl_count(p)));
+    let pairs = crate::renderer::bruteforce_pairs(s, vpls);
     let limit = if device_kind == "CPU" { WINDOW_BRUTEFORCE_PAIRS_CPU } else { WINDOW_BRUTEFORCE_PAIRS_GPU };
     (pairs > limit).then(|| {
         format!(

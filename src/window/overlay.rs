@@ -375,7 +375,7 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
         }
         egui::CollapsingHeader::new("passes (GPU ms, rays/px)").default_open(true).show(ui, |ui| {
             egui::Grid::new("passes").striped(true).show(ui, |ui| {
-                for (name, ms) in &stats.pass_ms {
+                for (name, ms) in &stats.pass_ms() {
                     ui.monospace(*name);
                     ui.monospace(format!("{ms:8.3}"));
                     let rays = stats.rays_by_pass.iter().find(|(n, _)| n == name).map(|(_, r)| *r).unwrap_or(0);
