@@ -45,10 +45,14 @@ bool pick_neighbour(uvec2 pixel, Surface s, vec2 u, SpatialReuse sr, utextureBuf
         && same_surface(s.shading_normal, s.view_depth, sq.shading_normal, sq.view_depth, sr.normal_threshold, sr.depth_threshold);
 }
 
-// The spatial merge of `pixel` (surface `s`, a hit; canonical reservoir `rc`) with the reservoirs
-// in `src`. Adds the shadow rays it traced to `rays`.
-Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplParams p, SpatialReuse sr, utextureBuffer surfaces,
-                        utextureBuffer vpls, utextureBuffer src, inout uint rays) {
+// The spatial merge of `pixel` (surface `s`, a hit; canonical reservoir `rc`, its sample record
+// `yc`) with the reservoirs in `src` (their sample records in `src_position` and `src_flux`). `y`:
+// the result's record. The samples are evaluated from their records, so no VPL is read here (but
+// a per-VPL radius: sample_vpl). Adds the shadow rays it traced to `rays`.
+Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplCandidate yc, VplParams p, SpatialReuse sr, utextureBuffer surfaces,
+                        utextureBuffer vpls, utextureBuffer src, utextureBuffer src_position, utextureBuffer src_flux,
+                        out VplCandidate y, inout uint rays) {
+    y = yc;
     bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
     // Unbiased reuse evaluates every target the way the reservoirs were built: with visibility
     // when the initial samples were shadow-tested, without otherwise.
@@ -74,12 +78,15 @@ Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplParams p, Spati
             Reservoir rn = reservoir_texels(src, qi);
             m_total += rn.confidence;
             if (reservoir_valid(rn)) {
-                float pc_yn = surface_vpl_target(s, vpl_texels(vpls, rn.vpl), p, false, rays);
-                stream_update(st, rn.vpl, rn.confidence * pc_yn * rn.ucw, pc_yn, u);
+                VplCandidate yn = sample_texels(src_position, src_flux, qi);
+                float pc_yn = surface_vpl_target(s, sample_vpl(yn, p, vpls), p, false, rays);
+                if (stream_update(st, rn.vpl, rn.confidence * pc_yn * rn.ucw, pc_yn, u)) {
+                    y = yn;
+                }
             }
         }
-        if (canonical_valid) {
-            stream_update(st, rc.vpl, rc.confidence * pc_yc * rc.ucw, pc_yc, rand(rng));
+        if (canonical_valid && stream_update(st, rc.vpl, rc.confidence * pc_yc * rc.ucw, pc_yc, rand(rng))) {
+            y = yc;
         }
         st.w_sum /= m_total;
         st.confidence = m_total;
@@ -109,7 +116,7 @@ Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplParams p, Spati
     }
     Vpl vc;
     if (canonical_valid) {
-        vc = vpl_texels(vpls, rc.vpl);
+        vc = sample_vpl(yc, p, vpls);
     }
     float m_c_share = mc / float(k);
     float canonical_mis = 0.0;
@@ -124,13 +131,16 @@ Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplParams p, Spati
         float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, visible_targets, rays) : 0.0;
         canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);
         if (reservoir_valid(rn)) {
-            float pc_yn = surface_vpl_target(s, vpl_texels(vpls, rn.vpl), p, visible_targets, rays);
+            VplCandidate yn = sample_texels(src_position, src_flux, qi);
+            float pc_yn = surface_vpl_target(s, sample_vpl(yn, p, vpls), p, visible_targets, rays);
             float m = pairwise_neighbour_weight(mn, rn.target, m_c_share, pc_yn, m_total);
-            stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng));
+            if (stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng))) {
+                y = yn;
+            }
         }
     }
-    if (canonical_valid) {
-        stream_update(st, rc.vpl, canonical_mis * pc_yc * rc.ucw, pc_yc, rand(rng));
+    if (canonical_valid && stream_update(st, rc.vpl, canonical_mis * pc_yc * rc.ucw, pc_yc, rand(rng))) {
+        y = yc;
     }
     st.confidence = m_total;
     return stream_finish(st);
