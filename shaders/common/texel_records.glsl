@@ -80,36 +80,15 @@ Reservoir reservoir_texels(utextureBuffer b, uint i) {
     return r;
 }
 
-// A VplCandidate is two texels: (position, vpl_kind) and (flux, normal_oct).
-VplCandidate candidate_from_texels(uvec4 t0, uvec4 t1) {
+VplCandidate candidate_texels(utextureBuffer b, uint i) {
+    uvec4 t0 = texel_at(b, 2u * i);
+    uvec4 t1 = texel_at(b, 2u * i + 1u);
     VplCandidate c;
     c.position = uintBitsToFloat(t0.xyz);
     c.vpl_kind = t0.w;
     c.flux = uintBitsToFloat(t1.xyz);
     c.normal_oct = t1.w;
     return c;
-}
-
-void candidate_to_texels(VplCandidate c, out uvec4 t0, out uvec4 t1) {
-    t0 = uvec4(floatBitsToUint(c.position), c.vpl_kind);
-    t1 = uvec4(floatBitsToUint(c.flux), c.normal_oct);
-}
-
-// vpl_presample's tiles: a candidate's two texels side by side.
-VplCandidate candidate_texels(utextureBuffer b, uint i) {
-    return candidate_from_texels(texel_at(b, 2u * i), texel_at(b, 2u * i + 1u));
-}
-
-// A reservoir's sample record (its VPL's VplCandidate, so that reuse and shading evaluate the
-// sample without reading the VPL buffer at random): kept beside the reservoir buffer in two
-// per-pixel planes of one texel each, `position_plane` and `flux_plane`.
-VplCandidate sample_texels(utextureBuffer position_plane, utextureBuffer flux_plane, uint i) {
-    return candidate_from_texels(texel_at(position_plane, i), texel_at(flux_plane, i));
-}
-
-// The record of an empty reservoir (never evaluated: readers test reservoir_valid first).
-VplCandidate no_sample() {
-    return VplCandidate(vec3(0.0), 0u, vec3(0.0), 0u);
 }
 
 Vertex vertex_texels(utextureBuffer b, uint i) {

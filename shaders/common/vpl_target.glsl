@@ -7,23 +7,11 @@
 
 #include "scene.glsl"
 #include "../restir/vpl.glsl"
-#include "texel_records.glsl"
 
 // Shadow ray from the surface (offset along its geometric normal) to the VPL (already offset off
 // its own surface by the photon pass).
-bool point_visible(Surface s, vec3 y) {
-    return segment_visible(offset_ray(s.position, s.geometric_normal, frame.scene_scale), y);
-}
-
 bool vpl_visible(Surface s, Vpl v) {
-    return point_visible(s, v.position);
-}
-
-// The VPL of a reservoir's sample record. The record has no room for a per-VPL radius: with
-// VPL_FLAG_PER_VPL_RADIUS (off by default) it is read from the VPL's full record in `vpls`.
-Vpl sample_vpl(VplCandidate c, VplParams p, utextureBuffer vpls) {
-    float r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
-    return candidate_vpl(c, r2);
+    return segment_visible(offset_ray(s.position, s.geometric_normal, frame.scene_scale), v.position);
 }
 
 vec3 surface_vpl_contribution(Surface s, Vpl v, VplParams p) {

@@ -16,9 +16,6 @@ layout(set = 1, binding = 2) uniform utextureBuffer vpl_alias;  // AliasEntry, R
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 layout(set = 1, binding = 5) uniform utextureBuffer tiles;  // VplCandidate, 2 texels each
-// The reservoirs' sample records (texel_records.glsl, sample_texels), one texel per pixel each.
-layout(set = 1, binding = 6, std430) writeonly buffer SamplePositionOut { uvec4 sample_position_out[]; };
-layout(set = 1, binding = 7, std430) writeonly buffer SampleFluxOut { uvec4 sample_flux_out[]; };
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -33,9 +30,7 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     Surface s = surface_texels(surfaces, surface_slot(index));
     uint rays = 0u;
-    VplCandidate y;
-    reservoirs_out[index] = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, y, rays);
-    candidate_to_texels(y, sample_position_out[index], sample_flux_out[index]);
+    reservoirs_out[index] = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_INITIAL], rays);
     }

@@ -26,20 +26,18 @@
 const uint SALT_INITIAL = 0x7269u;
 
 // Streams candidate VPL `i` (target t, flux Phi) into the reservoir with the RIS weight
-// t / (M p(i)), p the source pdf: 1/N, or lum(Phi) / sum lum for the power source. True when it
-// became the chosen sample.
-bool initial_offer(inout ReservoirStream st, uint i, float t, vec3 flux, VplParams p, float u) {
+// t / (M p(i)), p the source pdf: 1/N, or lum(Phi) / sum lum for the power source.
+void initial_offer(inout ReservoirStream st, uint i, float t, vec3 flux, VplParams p, float u) {
     float source_pdf = p.source == 1u ? luminance(flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
     float w = source_pdf > 0.0 ? t * (1.0 / float(p.candidates)) / source_pdf : 0.0;
-    return stream_update(st, i, w, t, u);
+    stream_update(st, i, w, t, u);
 }
 
 // The initial reservoir of `pixel`, whose surface is `s` (a hit or not). `tile_count`: presampled
-// tiles in `tiles` (0: draw from `vpls`, through `vpl_alias` for the power source). `y`: the
-// chosen VPL's record (sample_texels). Adds the shadow rays it traced to `rays`.
+// tiles in `tiles` (0: draw from `vpls`, through `vpl_alias` for the power source). Adds the
+// shadow rays it traced to `rays`.
 Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count, utextureBuffer vpls, utextureBuffer vpl_alias,
-                            utextureBuffer tiles, out VplCandidate y, inout uint rays) {
-    y = no_sample();
+                            utextureBuffer tiles, inout uint rays) {
     if (s.hit_t < 0.0 || p.vpl_count == 0u || p.candidates == 0u) {
         return reservoir_empty(1.0);
     }
@@ -54,9 +52,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             // A per-VPL radius costs one extra read of the full record (off by default).
             float r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = candidate_target(c, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            if (initial_offer(st, candidate_index(c), t, c.flux, p, rand(rng))) {
-                y = c;
-            }
+            initial_offer(st, candidate_index(c), t, c.flux, p, rand(rng));
         }
     } else {
         for (uint j = 0u; j < p.candidates; ++j) {
@@ -67,16 +63,14 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             }
             Vpl v = vpl_texels(vpls, i);
             float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            if (initial_offer(st, i, t, v.flux, p, rand(rng))) {
-                y = vpl_candidate(v, i);
-            }
+            initial_offer(st, i, t, v.flux, p, rand(rng));
         }
     }
     st.confidence = 1.0;
     Reservoir r = stream_finish(st);
     if (reservoir_valid(r) && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u) {
         rays += 1u;
-        if (!point_visible(s, y.position)) {
+        if (!vpl_visible(s, vpl_texels(vpls, r.vpl))) {
             r = reservoir_empty(1.0);
         }
     }

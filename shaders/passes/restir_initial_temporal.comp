@@ -22,11 +22,6 @@ layout(set = 1, binding = 3) uniform utextureBuffer tiles;  // VplCandidate, 2 t
 layout(set = 1, binding = 4) uniform utextureBuffer history;  // Reservoir, 1 texel each
 layout(set = 1, binding = 5, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
 layout(set = 1, binding = 6, std430) buffer RayCounter { uint ray_count[]; };
-// The sample records (texel_records.glsl, sample_texels): the history's and the output's.
-layout(set = 1, binding = 7) uniform utextureBuffer history_position;
-layout(set = 1, binding = 8) uniform utextureBuffer history_flux;
-layout(set = 1, binding = 9, std430) writeonly buffer SamplePositionOut { uvec4 sample_position_out[]; };
-layout(set = 1, binding = 10, std430) writeonly buffer SampleFluxOut { uvec4 sample_flux_out[]; };
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -44,20 +39,13 @@ void main() {
     uint rays = 0u;
     // Outside the image: an empty reservoir for the boiling filter's reduction.
     Reservoir r = reservoir_empty(0.0);
-    VplCandidate y = no_sample();
     if (inside) {
         Surface s = surface_texels(surfaces, surface_slot(index));
-        Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, y, rays);
+        Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
         r = initial;
         if (s.hit_t >= 0.0) {
             TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
-            VplCandidate yh;
-            bool took_history;
-            temporal_merge(pixel, index, s, initial, y, pc.params, t, surfaces, vpls, history, history_position, history_flux, r, yh,
-                           took_history, rays);
-            if (took_history) {
-                y = yh;
-            }
+            temporal_merge(pixel, index, s, initial, pc.params, t, surfaces, vpls, history, r, rays);
         }
     }
     // Uniform control flow: every invocation of the workgroup takes part in the reduction.
@@ -66,7 +54,6 @@ void main() {
     }
     if (inside) {
         reservoirs_out[index] = r;
-        candidate_to_texels(y, sample_position_out[index], sample_flux_out[index]);
     }
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_INITIAL_TEMPORAL], rays);

@@ -15,11 +15,6 @@ layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2) uniform utextureBuffer src;  // Reservoir, 1 texel each
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir dst[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
-// The sample records (texel_records.glsl, sample_texels): src's and dst's.
-layout(set = 1, binding = 5) uniform utextureBuffer src_position;
-layout(set = 1, binding = 6) uniform utextureBuffer src_flux;
-layout(set = 1, binding = 7, std430) writeonly buffer DstPosition { uvec4 dst_position[]; };
-layout(set = 1, binding = 8, std430) writeonly buffer DstFlux { uvec4 dst_flux[]; };
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -38,17 +33,13 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     Surface s = surface_texels(surfaces, surface_slot(index));
     Reservoir rc = reservoir_texels(src, index);
-    VplCandidate yc = sample_texels(src_position, src_flux, index);
     if (s.hit_t < 0.0) {
         dst[index] = rc;
-        candidate_to_texels(yc, dst_position[index], dst_flux[index]);
         return;
     }
     uint rays = 0u;
     SpatialReuse sr = SpatialReuse(pc.neighbours, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
-    VplCandidate y;
-    dst[index] = spatial_merge(pixel, s, rc, yc, pc.params, sr, surfaces, vpls, src, src_position, src_flux, y, rays);
-    candidate_to_texels(y, dst_position[index], dst_flux[index]);
+    dst[index] = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, rays);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_SPATIAL], rays);
     }

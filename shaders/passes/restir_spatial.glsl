@@ -45,14 +45,10 @@ bool pick_neighbour(uvec2 pixel, Surface s, vec2 u, SpatialReuse sr, utextureBuf
         && same_surface(s.shading_normal, s.view_depth, sq.shading_normal, sq.view_depth, sr.normal_threshold, sr.depth_threshold);
 }
 
-// The spatial merge of `pixel` (surface `s`, a hit; canonical reservoir `rc`, its sample record
-// `yc`) with the reservoirs in `src` (their sample records in `src_position` and `src_flux`). `y`:
-// the result's record. The samples are evaluated from their records, so no VPL is read here (but
-// a per-VPL radius: sample_vpl). Adds the shadow rays it traced to `rays`.
-Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplCandidate yc, VplParams p, SpatialReuse sr, utextureBuffer surfaces,
-                        utextureBuffer vpls, utextureBuffer src, utextureBuffer src_position, utextureBuffer src_flux,
-                        out VplCandidate y, inout uint rays) {
-    y = yc;
+// The spatial merge of `pixel` (surface `s`, a hit; canonical reservoir `rc`) with the reservoirs
+// in `src`. Adds the shadow rays it traced to `rays`.
+Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplParams p, SpatialReuse sr, utextureBuffer surfaces,
+                        utextureBuffer vpls, utextureBuffer src, inout uint rays) {
     bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
     // Unbiased reuse evaluates every target the way the reservoirs were built: with visibility
     // when the initial samples were shadow-tested, without otherwise.
@@ -78,15 +74,12 @@ Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplCandidate yc, V
             Reservoir rn = reservoir_texels(src, qi);
             m_total += rn.confidence;
             if (reservoir_valid(rn)) {
-                VplCandidate yn = sample_texels(src_position, src_flux, qi);
-                float pc_yn = surface_vpl_target(s, sample_vpl(yn, p, vpls), p, false, rays);
-                if (stream_update(st, rn.vpl, rn.confidence * pc_yn * rn.ucw, pc_yn, u)) {
-                    y = yn;
-                }
+                float pc_yn = surface_vpl_target(s, vpl_texels(vpls, rn.vpl), p, false, rays);
+                stream_update(st, rn.vpl, rn.confidence * pc_yn * rn.ucw, pc_yn, u);
             }
         }
-        if (canonical_valid && stream_update(st, rc.vpl, rc.confidence * pc_yc * rc.ucw, pc_yc, rand(rng))) {
-            y = yc;
+        if (canonical_valid) {
+            stream_update(st, rc.vpl, rc.confidence * pc_yc * rc.ucw, pc_yc, rand(rng));
         }
         st.w_sum /= m_total;
         st.confidence = m_total;
@@ -116,7 +109,7 @@ Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplCandidate yc, V
     }
     Vpl vc;
     if (canonical_valid) {
-        vc = sample_vpl(yc, p, vpls);
+        vc = vpl_texels(vpls, rc.vpl);
     }
     float m_c_share = mc / float(k);
     float canonical_mis = 0.0;
@@ -131,16 +124,13 @@ Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplCandidate yc, V
         float pn_yc = canonical_valid ? surface_vpl_target(sq, vc, p, visible_targets, rays) : 0.0;
         canonical_mis += pairwise_canonical_weight(mn, pn_yc, m_c_share, pc_yc, m_total);
         if (reservoir_valid(rn)) {
-            VplCandidate yn = sample_texels(src_position, src_flux, qi);
-            float pc_yn = surface_vpl_target(s, sample_vpl(yn, p, vpls), p, visible_targets, rays);
+            float pc_yn = surface_vpl_target(s, vpl_texels(vpls, rn.vpl), p, visible_targets, rays);
             float m = pairwise_neighbour_weight(mn, rn.target, m_c_share, pc_yn, m_total);
-            if (stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng))) {
-                y = yn;
-            }
+            stream_update(st, rn.vpl, m * pc_yn * rn.ucw, pc_yn, rand(rng));
         }
     }
-    if (canonical_valid && stream_update(st, rc.vpl, canonical_mis * pc_yc * rc.ucw, pc_yc, rand(rng))) {
-        y = yc;
+    if (canonical_valid) {
+        stream_update(st, rc.vpl, canonical_mis * pc_yc * rc.ucw, pc_yc, rand(rng));
     }
     st.confidence = m_total;
     return stream_finish(st);

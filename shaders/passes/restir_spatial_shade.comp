@@ -21,11 +21,6 @@ layout(set = 1, binding = 2) uniform utextureBuffer src;  // Reservoir, 1 texel 
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir dst[]; };
 layout(set = 1, binding = 4, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 5, std430) buffer RayCounter { uint ray_count[]; };
-// The sample records (texel_records.glsl, sample_texels): src's and dst's.
-layout(set = 1, binding = 6) uniform utextureBuffer src_position;
-layout(set = 1, binding = 7) uniform utextureBuffer src_flux;
-layout(set = 1, binding = 8, std430) writeonly buffer DstPosition { uvec4 dst_position[]; };
-layout(set = 1, binding = 9, std430) writeonly buffer DstFlux { uvec4 dst_flux[]; };
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -44,20 +39,16 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     Surface s = surface_texels(surfaces, surface_slot(index));
     Reservoir rc = reservoir_texels(src, index);
-    VplCandidate yc = sample_texels(src_position, src_flux, index);
     if (s.hit_t < 0.0) {
         dst[index] = rc;
-        candidate_to_texels(yc, dst_position[index], dst_flux[index]);
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }
     uint rays = 0u;
     SpatialReuse sr = SpatialReuse(pc.neighbours, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
-    VplCandidate y;
-    Reservoir r = spatial_merge(pixel, s, rc, yc, pc.params, sr, surfaces, vpls, src, src_position, src_flux, y, rays);
+    Reservoir r = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, rays);
     dst[index] = r;
-    candidate_to_texels(y, dst_position[index], dst_flux[index]);
-    samples[index] = vec4(shade_estimate(s, r, y, pc.params, vpls, rays), 1.0);
+    samples[index] = vec4(shade_estimate(s, r, pc.params, vpls, rays), 1.0);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_SPATIAL_SHADE], rays);
     }

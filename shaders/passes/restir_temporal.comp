@@ -17,12 +17,6 @@ layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2, std430) buffer ReservoirCurrent { Reservoir reservoirs[]; };
 layout(set = 1, binding = 3) uniform utextureBuffer history;  // Reservoir, 1 texel each
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
-// The sample records (texel_records.glsl, sample_texels): the current reservoirs' (read and
-// written in place) and the history's.
-layout(set = 1, binding = 5, std430) buffer SamplePosition { uvec4 sample_position[]; };
-layout(set = 1, binding = 6, std430) buffer SampleFlux { uvec4 sample_flux[]; };
-layout(set = 1, binding = 7) uniform utextureBuffer history_position;
-layout(set = 1, binding = 8) uniform utextureBuffer history_flux;
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -39,17 +33,11 @@ void main() {
     uint rays = 0u;
     bool changed = false;
     Reservoir r = reservoir_empty(0.0);
-    VplCandidate yh;
-    bool took_history = false;
     if (inside) {
         Surface s = surface_texels(surfaces, surface_slot(index));
         if (s.hit_t >= 0.0) {
             TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
-            // The canonical's record stays where it is unless the history's sample replaces it.
-            VplCandidate yc = temporal_reads_canonical_record(pc.params)
-                ? candidate_from_texels(sample_position[index], sample_flux[index]) : no_sample();
-            changed = temporal_merge(pixel, index, s, reservoirs[index], yc, pc.params, t, surfaces, vpls, history, history_position,
-                                     history_flux, r, yh, took_history, rays);
+            changed = temporal_merge(pixel, index, s, reservoirs[index], pc.params, t, surfaces, vpls, history, r, rays);
         }
     }
     // Uniform control flow: every invocation of the workgroup takes part in the reduction.
@@ -59,9 +47,6 @@ void main() {
     }
     if (inside && changed) {
         reservoirs[index] = r;
-        if (took_history) {
-            candidate_to_texels(yh, sample_position[index], sample_flux[index]);
-        }
     }
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_TEMPORAL], rays);

@@ -36,17 +36,11 @@ struct TemporalReuse {
 
 // The temporal merge of pixel `index` (surface `s`, a hit): true (with `result`) when it changes
 // the canonical reservoir `rc`; false when there is no history to merge (result = rc).
-// `surfaces`: both halves of the G-buffer ping-pong; `history`, `history_position`,
-// `history_flux`: the previous frame's final reservoirs and their sample records. `yc`: the
-// canonical's record, read only by unbiased reuse on a moving camera (temporal_reads_canonical_record);
-// `yh`: the history's record, and `took_history` whether it became the result's sample.
-bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplCandidate yc, VplParams p, TemporalReuse t,
-                    utextureBuffer surfaces, utextureBuffer vpls, utextureBuffer history, utextureBuffer history_position,
-                    utextureBuffer history_flux, out Reservoir result, out VplCandidate yh, out bool took_history,
-                    inout uint rays) {
+// `surfaces`: both halves of the G-buffer ping-pong; `history`: the previous frame's final
+// reservoirs.
+bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams p, TemporalReuse t, utextureBuffer surfaces,
+                    utextureBuffer vpls, utextureBuffer history, out Reservoir result, inout uint rays) {
     result = rc;
-    yh = no_sample();
-    took_history = false;
     bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
 
     // The reprojected pixel and its previous surface.
@@ -78,15 +72,14 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplCandida
     float pc_yc = reservoir_valid(rc) ? rc.target : 0.0;
     float pc_yh = 0.0;
     if (reservoir_valid(rh)) {
-        yh = sample_texels(history_position, history_flux, prev_index);
-        pc_yh = surface_vpl_target(s, sample_vpl(yh, p, vpls), p, visible_targets && !same_domain, rays);
+        pc_yh = surface_vpl_target(s, vpl_texels(vpls, rh.vpl), p, visible_targets && !same_domain, rays);
     }
 
     float m_c = mc / (mc + mh);
     float m_h = mh / (mc + mh);
     if (unbiased && !same_domain) {
         Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
-        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, sample_vpl(yc, p, vpls), p, visible_targets, rays) : 0.0;
+        float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpl_texels(vpls, rc.vpl), p, visible_targets, rays) : 0.0;
         float ph_yh = reservoir_valid(rh) ? rh.target : 0.0;
         float dc = mc * pc_yc + mh * ph_yc;
         float dh = mh * ph_yh + mc * pc_yh;
@@ -100,17 +93,11 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplCandida
         stream_update(st, rc.vpl, m_c * pc_yc * rc.ucw, pc_yc, rand(rng));
     }
     if (reservoir_valid(rh)) {
-        took_history = stream_update(st, rh.vpl, m_h * pc_yh * rh.ucw, pc_yh, rand(rng));
+        stream_update(st, rh.vpl, m_h * pc_yh * rh.ucw, pc_yh, rand(rng));
     }
     st.confidence = mc + mh;
     result = stream_finish(st);
     return true;
-}
-
-// Whether temporal_merge reads the canonical sample's record `yc`: only to evaluate it on the
-// previous frame's surface (unbiased reuse, the G-buffer traced again).
-bool temporal_reads_canonical_record(VplParams p) {
-    return (p.flags & VPL_FLAG_UNBIASED) != 0u && (p.flags & VPL_FLAG_SAME_DOMAIN) == 0u;
 }
 
 // The boiling filter's workgroup reduction: 8x8 invocations (the passes that include this file

@@ -15,9 +15,6 @@ layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2) uniform utextureBuffer reservoirs;  // Reservoir, 1 texel each
 layout(set = 1, binding = 3, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
-// The reservoirs' sample records (texel_records.glsl, sample_texels).
-layout(set = 1, binding = 5) uniform utextureBuffer reservoir_position;
-layout(set = 1, binding = 6) uniform utextureBuffer reservoir_flux;
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -75,14 +72,14 @@ void main() {
     if (pc.view == SHADE_VIEW_VPL_KIND) {
         vec3 colour = vec3(0.0);
         if (valid) {
-            uint kind = sample_texels(reservoir_position, reservoir_flux, index).vpl_kind >> CANDIDATE_INDEX_BITS;
+            uint kind = vpl_texels(vpls, r.vpl).kind;
             colour = kind == VPL_INDIRECT ? vec3(1.0, 0.1, 0.05) : kind == VPL_DIRECT_POINT ? vec3(0.1, 0.9, 1.0) : vec3(0.1, 0.25, 1.0);
         }
         samples[index] = vec4(colour, 1.0);
         return;
     }
     uint rays = 0u;
-    vec3 radiance = shade_estimate(s, r, sample_texels(reservoir_position, reservoir_flux, index), p, vpls, rays);
+    vec3 radiance = shade_estimate(s, r, p, vpls, rays);
     samples[index] = vec4(radiance, 1.0);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_SHADE], rays);

@@ -7,14 +7,13 @@
 #include "../restir/reservoir.glsl"
 #include "../common/texel_records.glsl"
 
-// The pixel's estimate from its final reservoir `r` (sample record `y`) at surface `s` (a hit):
-// Le + c_y(x) W, with a shadow ray for y (added to `rays`) unless the targets included visibility
-// (unbiased ReSTIR with --initial-visibility), where a sample with positive target at x is visible
-// from x.
-vec3 shade_estimate(Surface s, Reservoir r, VplCandidate y, VplParams p, utextureBuffer vpls, inout uint rays) {
+// The pixel's estimate from its final reservoir `r` at surface `s` (a hit): Le + c_y(x) W, with a
+// shadow ray for y (added to `rays`) unless the targets included visibility (unbiased ReSTIR with
+// --initial-visibility), where a sample with positive target at x is visible from x.
+vec3 shade_estimate(Surface s, Reservoir r, VplParams p, utextureBuffer vpls, inout uint rays) {
     vec3 radiance = (p.kind_mask & KIND_MASK_DIRECT) != 0u ? s.emission : vec3(0.0);
     if (reservoir_valid(r)) {
-        Vpl v = sample_vpl(y, p, vpls);
+        Vpl v = vpl_texels(vpls, r.vpl);
         vec3 c = surface_vpl_contribution(s, v, p);
         if (max3(c) > 0.0) {
             bool visible = true;

@@ -90,20 +90,6 @@ uint candidate_index(VplCandidate c) {
     return c.vpl_kind & ((1u << CANDIDATE_INDEX_BITS) - 1u);
 }
 
-// The VPL a candidate record describes, for the functions that take a Vpl: its normal decoded from
-// the code (the photon pass stored it quantized so), `own_r2` as its Yuksel radius (vpl_r2 reads it
-// only with VPL_FLAG_PER_VPL_RADIUS), and no photon path (not in the record; no estimator reads it).
-Vpl candidate_vpl(VplCandidate c, float own_r2) {
-    Vpl v;
-    v.position = c.position;
-    v.kind = c.vpl_kind >> CANDIDATE_INDEX_BITS;
-    v.normal = oct_decode(c.normal_oct);
-    v.path = 0u;
-    v.flux = c.flux;
-    v.yuksel_r2 = own_r2;
-    return v;
-}
-
 // The resampling target p^ (without visibility) of a VPL at x: the luminance of its unshadowed
 // contribution, lum(rho Phi) / pi times the geometry, as a scalar (the candidate loop's inner step;
 // every pass evaluates targets through this one function).

@@ -11,7 +11,7 @@ use ash::vk;
 
 use crate::vk::{Binding, Buffer, ComputePipeline, Context};
 
-use super::{ReservoirBindings, Reservoirs};
+use super::Reservoirs;
 
 /// A push-constant block: its size and (member name, byte offset) of every top-level member.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -161,14 +161,10 @@ impl<'a> PipelineBuilder<'a> {
         self
     }
 
-    /// Two set-1 variants over the reservoir buffers: in variant v, the bindings `current` are
-    /// `reservoirs.buffer(v)` and its sample planes, and the bindings `other` (if any) the other
-    /// buffer's.
-    pub fn ping_pong(self, reservoirs: &'a Reservoirs, current: ReservoirBindings, other: Option<ReservoirBindings>) -> Self {
-        self.variants(2, |v| {
-            let bind = |slots: ReservoirBindings, index: usize| slots.into_iter().zip(reservoirs.with_samples(index));
-            bind(current, v).chain(other.into_iter().flat_map(move |slots| bind(slots, 1 - v)))
-        })
+    /// Two set-1 variants over the reservoir buffers: in variant v, binding `current` is
+    /// `reservoirs.buffer(v)` and binding `other` (if any) is the other buffer.
+    pub fn ping_pong(self, reservoirs: &'a Reservoirs, current: u32, other: Option<u32>) -> Self {
+        self.variants(2, |v| [(current, reservoirs.buffer(v))].into_iter().chain(other.map(|b| (b, reservoirs.buffer(1 - v)))))
     }
 
     /// Creates the pipeline (named after the pass) and writes every buffer into its set 1.

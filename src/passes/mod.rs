@@ -118,7 +118,7 @@ const _: () = assert!(
     std::mem::size_of::<GpuSurfaceTexels>() % 16 == 0
         && std::mem::size_of::<GpuVpl>() % 16 == 0
         && std::mem::size_of::<GpuReservoir>() % 16 == 0
-        && std::mem::size_of::<GpuVplCandidate>() == 2 * 16
+        && std::mem::size_of::<GpuVplCandidate>() % 16 == 0
         && std::mem::size_of::<crate::gpu_types::GpuVertex>() % 16 == 0
         && std::mem::size_of::<crate::gpu_types::GpuMaterial>() % 16 == 0
         && std::mem::size_of::<crate::gpu_types::GpuInstance>() == 9 * 16
@@ -235,41 +235,19 @@ pub struct VplInputs<'a> {
 /// The two reservoir buffers the ReSTIR passes ping-pong between. Which one holds what is decided
 /// per frame in [`FramePlan`]: `current` receives the initial reservoirs, the other one holds the
 /// previous frame's final reservoirs (the temporal history).
-///
-/// Each reservoir's sample is also kept as its VPL's 32-byte `GpuVplCandidate`, split into two
-/// planes of one 16-byte texel per pixel (position and index + kind; flux and octahedral normal;
-/// shaders/common/texel_records.glsl, `sample_texels`), so that temporal and spatial reuse and
-/// `vpl_shade` evaluate samples without reading the VPL buffer at random (README, Performance).
-/// Two planes rather than one 32-byte record keep every per-pixel storage buffer at 16 bytes a
-/// pixel, which is what bounds the image size (`FrameTargets::new`).
 pub struct Reservoirs {
     pub a: Buffer,
     pub b: Buffer,
-    /// `samples[i]`: buffer i's sample records, [position plane, flux plane].
-    pub samples: [[Buffer; 2]; 2],
 }
-
-/// The set-1 bindings of one reservoir buffer in a pass: [reservoirs, sample position plane,
-/// sample flux plane].
-pub type ReservoirBindings = [u32; 3];
 
 impl Reservoirs {
     pub fn new(ctx: &Arc<Context>, pixels: u32) -> Result<Self> {
         let bytes = pixels as u64 * std::mem::size_of::<GpuReservoir>() as u64;
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
-        let make = |name: &str, bytes: u64| {
+        let make = |name: &str| {
             Buffer::new(ctx, name, bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(RECORD_TEXELS)
         };
-        // Half a GpuVplCandidate (one texel) per pixel in each plane.
-        let plane = pixels as u64 * RECORD_TEXELS.bytes;
-        let planes = |name: &str| -> Result<[Buffer; 2]> {
-            Ok([make(&format!("{name}.sample_position"), plane)?, make(&format!("{name}.sample_flux"), plane)?])
-        };
-        Ok(Self {
-            a: make("reservoirs_a", bytes)?,
-            b: make("reservoirs_b", bytes)?,
-            samples: [planes("reservoirs_a")?, planes("reservoirs_b")?],
-        })
+        Ok(Self { a: make("reservoirs_a")?, b: make("reservoirs_b")? })
     }
 
     /// 0: `reservoirs_a`, 1: `reservoirs_b`.
@@ -279,12 +257,6 @@ impl Reservoirs {
         } else {
             &self.b
         }
-    }
-
-    /// Buffer `index`'s reservoirs and sample planes, in [`ReservoirBindings`] order.
-    pub fn with_samples(&self, index: usize) -> [&Buffer; 3] {
-        let [position, flux] = &self.samples[index];
-        [self.buffer(index), position, flux]
     }
 }
 

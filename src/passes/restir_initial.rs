@@ -34,7 +34,6 @@ impl RestirInitialPass {
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"),
             storage(3, "reservoirs_out"), storage(4, "ray_count"), texels(5, "tiles"),
-            storage(6, "sample_position_out"), storage(7, "sample_flux_out"),
         ]);
 
     pub fn new(
@@ -49,7 +48,7 @@ impl RestirInitialPass {
             .pipeline(ctx, scene_layout)
             .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (4, &targets.ray_counter), (5, tiles)])
-            .ping_pong(reservoirs, [3, 6, 7], None)
+            .ping_pong(reservoirs, 3, None)
             .build()?;
         Ok(Self { pipeline })
     }

@@ -43,8 +43,6 @@ impl RestirInitialTemporalPass {
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"), texels(3, "tiles"),
             texels(4, "history"), storage(5, "reservoirs_out"), storage(6, "ray_count"),
-            texels(7, "history_position"), texels(8, "history_flux"), storage(9, "sample_position_out"),
-            storage(10, "sample_flux_out"),
         ]);
 
     pub fn new(
@@ -58,7 +56,7 @@ impl RestirInitialTemporalPass {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (3, tiles), (6, &targets.ray_counter)])
-            .ping_pong(reservoirs, [5, 9, 10], Some([4, 7, 8]))
+            .ping_pong(reservoirs, 5, Some(4))
             .build()?;
         Ok(Self { pipeline })
     }

@@ -50,10 +50,7 @@ impl RestirSpatialPass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_SPATIAL, [8, 8, 1])
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
-        .with_bindings(&[
-            texels(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"), storage(4, "ray_count"),
-            texels(5, "src_position"), texels(6, "src_flux"), storage(7, "dst_position"), storage(8, "dst_flux"),
-        ]);
+        .with_bindings(&[texels(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"), storage(4, "ray_count")]);
 
     pub fn new(
         ctx: &Arc<Context>,
@@ -66,7 +63,7 @@ impl RestirSpatialPass {
             .pipeline(ctx, scene_layout)
             .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (4, &targets.ray_counter)])
-            .ping_pong(reservoirs, [2, 5, 6], Some([3, 7, 8]))
+            .ping_pong(reservoirs, 2, Some(3))
             .build()?;
         Ok(Self { pipeline })
     }

@@ -29,8 +29,7 @@ impl RestirSpatialShadePass {
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"),
-            storage(4, "samples"), storage(5, "ray_count"), texels(6, "src_position"), texels(7, "src_flux"),
-            storage(8, "dst_position"), storage(9, "dst_flux"),
+            storage(4, "samples"), storage(5, "ray_count"),
         ]);
 
     pub fn new(
@@ -44,7 +43,7 @@ impl RestirSpatialShadePass {
             .pipeline(ctx, scene_layout)
             .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (4, &targets.samples), (5, &targets.ray_counter)])
-            .ping_pong(reservoirs, [2, 6, 7], Some([3, 8, 9]))
+            .ping_pong(reservoirs, 2, Some(3))
             .build()?;
         Ok(Self { pipeline })
     }

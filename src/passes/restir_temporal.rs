@@ -35,8 +35,7 @@ impl RestirTemporalPass {
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), storage(2, "reservoirs"), texels(3, "history"),
-            storage(4, "ray_count"), storage(5, "sample_position"), storage(6, "sample_flux"),
-            texels(7, "history_position"), texels(8, "history_flux"),
+            storage(4, "ray_count"),
         ]);
 
     /// `targets.surfaces` holds both halves of the G-buffer ping-pong (this frame's and the
@@ -51,7 +50,7 @@ impl RestirTemporalPass {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (4, &targets.ray_counter)])
-            .ping_pong(reservoirs, [2, 5, 6], Some([3, 7, 8]))
+            .ping_pong(reservoirs, 2, Some(3))
             .build()?;
         Ok(Self { pipeline })
     }

@@ -36,7 +36,7 @@ impl VplShadePass {
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "reservoirs"),
-            storage(3, "samples"), storage(4, "ray_count"), texels(5, "reservoir_position"), texels(6, "reservoir_flux"),
+            storage(3, "samples"), storage(4, "ray_count"),
         ]);
 
     pub fn new(
@@ -50,7 +50,7 @@ impl VplShadePass {
             .pipeline(ctx, scene_layout)
             .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (3, &targets.samples), (4, &targets.ray_counter)])
-            .ping_pong(reservoirs, [2, 5, 6], None)
+            .ping_pong(reservoirs, 2, None)
             .build()?;
         Ok(Self { pipeline })
     }
