@@ -740,6 +740,9 @@ fn load_mesh(
                 normals.len()
             );
         }
+        // A non-finite normal would reach the shading normal as NaN (an infinite one survives the
+        // shader's zero-length test): it becomes zero, which the shader treats as no normal.
+        let normals = replace_non_finite(normals, Vec3::ZERO, |v| v.is_finite(), &what, "NORMAL", "zero (no shading normal)", warnings);
 
         let uvs = match prim.get(&Semantic::TexCoords(0)) {
             Some(acc) => {
@@ -775,6 +778,7 @@ fn load_mesh(
                 uvs.len()
             );
         }
+        let uvs = replace_non_finite(uvs, Vec2::ZERO, |v| v.is_finite(), &what, "TEXCOORD_0", "(0, 0)", warnings);
 
         let indices = match prim.indices() {
             Some(acc) => {
@@ -820,6 +824,27 @@ fn load_mesh(
         out.uvs.extend(uvs);
     }
     Ok(out)
+}
+
+/// `values` with every element that fails `finite` replaced by `with`, and a warning naming the
+/// attribute and how many were replaced.
+fn replace_non_finite<T: Copy>(
+    mut values: Vec<T>,
+    with: T,
+    finite: impl Fn(&T) -> bool,
+    what: &str,
+    attribute: &str,
+    shown: &str,
+    warnings: &mut Vec<String>,
+) -> Vec<T> {
+    let bad = values.iter().filter(|v| !finite(v)).count();
+    if bad > 0 {
+        warnings.push(format!("{what}: {bad} of {} {attribute} values are not finite; replaced by {shown}", values.len()));
+        for v in values.iter_mut().filter(|v| !finite(v)) {
+            *v = with;
+        }
+    }
+    values
 }
 
 fn read_vec3(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<Vec3>> {

@@ -3,7 +3,7 @@
 use super::generate::cornell::{cornell_camera_yfov, LIGHT_EMISSION};
 use super::*;
 use super::generate::*;
-use glam::{Mat4, Vec3};
+use glam::{Mat4, Vec2, Vec3};
 use serde_json::{json, Value};
 use std::path::Path;
 
@@ -1613,6 +1613,35 @@ fn degenerate_mesh_transform_is_an_error() {
     let s = load_value(&doc).unwrap();
     assert_contains(&s.warnings.join("\n"), &["test.gltf: mesh 'tri' primitive 0: non-finite vertex positions"]);
     assert!(s.emissive_triangles().is_empty());
+}
+
+/// Non-finite NORMAL and TEXCOORD_0 values are replaced (zero normal: the shader's "no normal";
+/// uv (0, 0)) with a warning naming the primitive and the count: an infinite normal used to reach
+/// the shading normal as NaN.
+#[test]
+fn non_finite_normals_and_uvs_are_replaced_with_a_warning() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let mesh = b.mesh_with_uvs(
+        "tri",
+        &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        Some(&[[0.0, 0.0, 1.0], [f32::INFINITY, 0.0, 1.0], [f32::NAN, 0.0, 0.0]]),
+        &[[0.0, 0.0], [f32::NAN, 0.5], [1.0, f32::NEG_INFINITY]],
+        &[0, 1, 2],
+        m,
+    );
+    b.node("tri", mesh, [0.0; 3]);
+    let s = load_value(&serde_json::from_str(&b.to_json_string()).unwrap()).unwrap();
+    assert_contains(
+        &s.warnings.join("\n"),
+        &[
+            "test.gltf: mesh 'tri' primitive 0: 2 of 3 NORMAL values are not finite; replaced by zero (no shading normal)",
+            "test.gltf: mesh 'tri' primitive 0: 2 of 3 TEXCOORD_0 values are not finite; replaced by (0, 0)",
+        ],
+    );
+    let mesh = &s.meshes[0];
+    assert_eq!(mesh.normals, vec![Vec3::Z, Vec3::ZERO, Vec3::ZERO]);
+    assert_eq!(mesh.uvs, vec![Vec2::ZERO, Vec2::ZERO, Vec2::ZERO]);
 }
 
 /// glTF 2.0 restricts baseColorFactor to [0, 1]: [-1, …] gave negative radiance, 1e30 non-finite
