@@ -912,8 +912,9 @@ impl Renderer {
             self.state.gbuffer_valid = false;
             self.state.accumulated = 0;
         }
-        if !self.settings.progressive {
-            // Every image is this frame alone.
+        if !self.settings.progressive || self.settings.view.shows_reservoirs() {
+            // Every image is this frame alone (the reservoir and motion views show one frame's
+            // reservoirs and reprojection, not a mean over frames).
             self.state.accumulated = 0;
         }
         self.camera = Some(*camera);

@@ -248,7 +248,8 @@ named_enum! {
 }
 
 impl View {
-    /// Whether the view reads the reservoirs.
+    /// Whether the view reads the reservoirs (or, for motion, the temporal reprojection): such a
+    /// view shows each frame alone, never accumulated.
     pub fn shows_reservoirs(self) -> bool {
         matches!(self, View::ReservoirW | View::ReservoirM | View::VplKind | View::Motion)
     }

@@ -182,6 +182,30 @@ fn history_expected(cam0: &Camera, cam1: &Camera, x: u32, y: u32, lo: Vec3, hi: 
     answers.iter().all(|&a| a == answers[0]).then_some(answers[0])
 }
 
+/// The reservoir views show the last frame's final reservoirs, not a mean over frames: on a still
+/// camera M grows with temporal reuse (1, then up to 1 + mcap, then more through spatial reuse),
+/// so a mean of frames would differ from the last frame's M (and W) read back from the GPU.
+#[test]
+fn reservoir_views_show_the_last_frame_alone() {
+    let scene = plane_scene(None);
+    for view in [View::ReservoirM, View::ReservoirW] {
+        let (ctx, mut r) = renderer(&scene, settings(view));
+        let cam = camera_at(0.0, 0.0);
+        for _ in 0..3 {
+            r.render_frame(&cam, false).unwrap();
+        }
+        let image = r.read_mean().unwrap();
+        let reservoirs = r.read_reservoirs().unwrap().expect("restir keeps reservoirs");
+        assert_eq!(image.len(), reservoirs.len());
+        for (i, (p, res)) in image.iter().zip(&reservoirs).enumerate() {
+            let want = if view == View::ReservoirM { res.confidence } else { res.ucw };
+            assert_eq!(p[0], want, "{view:?}: pixel {i} shows {} where the last frame's reservoir has {want}", p[0]);
+        }
+        assert!(reservoirs.iter().any(|res| res.confidence > 1.0), "temporal reuse should have raised M above 1");
+        assert_no_validation_errors(&ctx);
+    }
+}
+
 #[test]
 fn disoccluded_and_off_screen_pixels_get_no_history() {
     // The box is partly off screen at first; the camera moves right: the box enters the view and
