@@ -1,8 +1,8 @@
 //! RTXDI's boiling filter (`--boiling-filter S`): measured on the Cornell box against brute force
-//! over the same VPLs, 16 accumulated ReSTIR frames at 96². Off, the worst 0.1 % of the pixels
-//! carry 40–75 % of the squared error (fireflies that temporal reuse keeps); at strength 0.8 the
-//! filter must cut that share and the RMSE, at the price of a small, bounded darkening (the filter
-//! removes energy: it is biased).
+//! over the same VPLs, 16 accumulated ReSTIR frames at 96², four pixel seeds. Off, the worst 0.1 %
+//! of the pixels carry 15–75 % of a run's squared error (fireflies that temporal reuse keeps; 47 %
+//! averaged over the four seeds); at strength 0.8 the filter must cut that share and the RMSE, at
+//! the price of a small, bounded darkening (the filter removes energy: it is biased).
 
 mod common;
 
@@ -31,17 +31,30 @@ fn boiling_filter_cuts_fireflies_at_a_bounded_bias() {
         RgbImage { width: 96, height: 96, pixels: out.mean }
     };
     let truth = image(&RenderSettings { mode: Mode::Bruteforce, frames: 1, ..base.clone() });
+    // Fireflies are rare events: in one run the worst 0.1 % (9 pixels) may hold one or none, so
+    // one run's share went from 0.38 to 0.15 when only the random numbers changed. Four pixel
+    // seeds (the same VPLs, so the same truth), their squared errors pooled.
+    const SEEDS: [u32; 4] = [1, 2, 3, 4];
     let restir = |strength: f32| {
-        let s = RenderSettings { mode: Mode::Restir, restir: RestirSettings { boiling_filter: strength, ..Default::default() }, ..base.clone() };
-        compare(&image(&s), &truth, &CompareOptions { flip: false, ..Default::default() }).unwrap()
+        let (mut rmse2, mut share, mut ratio) = (0.0, 0.0, 0.0);
+        for seed in SEEDS {
+            let s = RenderSettings { mode: Mode::Restir, seed, restir: RestirSettings { boiling_filter: strength, ..Default::default() }, ..base.clone() };
+            let c = compare(&image(&s), &truth, &CompareOptions { flip: false, ..Default::default() }).unwrap();
+            rmse2 += c.rmse * c.rmse;
+            share += c.worst_share;
+            ratio += c.mean_ratio;
+        }
+        let n = SEEDS.len() as f64;
+        ((rmse2 / n).sqrt(), share / n, ratio / n)
     };
     let (off, on) = (restir(0.0), restir(0.8));
     eprintln!(
-        "off: RMSE {:.4}, worst 0.1% share {:.3}, mean ratio {:.4}; strength 0.8: RMSE {:.4}, share {:.3}, ratio {:.4}",
-        off.rmse, off.worst_share, off.mean_ratio, on.rmse, on.worst_share, on.mean_ratio
+        "over {} seeds: off: RMSE {:.4}, worst 0.1% share {:.3}, mean ratio {:.4}; strength 0.8: RMSE {:.4}, share {:.3}, ratio {:.4}",
+        SEEDS.len(),
+        off.0, off.1, off.2, on.0, on.1, on.2
     );
-    assert!(on.worst_share < 0.6 * off.worst_share, "the filter should cut the fireflies' share: {} vs {}", on.worst_share, off.worst_share);
-    assert!(on.rmse < off.rmse, "and the RMSE: {} vs {}", on.rmse, off.rmse);
+    assert!(on.1 < 0.6 * off.1, "the filter should cut the fireflies' share: {} vs {}", on.1, off.1);
+    assert!(on.0 < off.0, "and the RMSE: {} vs {}", on.0, off.0);
     // Biased, but boundedly: it darkens, by less than 3 % here (measured: about 1.2 %).
-    assert!(on.mean_ratio < off.mean_ratio && on.mean_ratio > 0.97, "mean ratio {} (off: {})", on.mean_ratio, off.mean_ratio);
+    assert!(on.2 < off.2 && on.2 > 0.97, "mean ratio {} (off: {})", on.2, off.2);
 }

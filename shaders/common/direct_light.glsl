@@ -26,7 +26,7 @@ float light_pdf_area(vec3 le, bool double_sided) {
 // residual w(d) = 1 - d^2 G_r(d) for r^2 = residual_r2 (the light the clamped VPLs leave out).
 // Consumes three random numbers whatever the light.
 vec3 next_event(vec3 x, vec3 ng, vec3 ns, vec3 rho, float residual_r2, inout Rng rng, inout uint rays) {
-    uint li = sample_light_index(rand(rng));
+    uint li = sample_light_index(rng_next(rng));
     Light l = light_texels(lights, li);
     vec2 u = rand2(rng);
     if ((l.flags & LIGHT_POINT) != 0u) {

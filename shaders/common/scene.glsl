@@ -202,10 +202,10 @@ bool segment_visible(vec3 from, vec3 to) {
     return rayQueryGetIntersectionTypeEXT(rq, true) == gl_RayQueryCommittedIntersectionNoneEXT;
 }
 
-// Picks a light in proportion to lum(power) through the alias table.
-uint sample_light_index(float u) {
+// Picks a light in proportion to lum(power) through the alias table, from 32 random bits.
+uint sample_light_index(uint bits) {
     float u_rest;
-    uint slot = alias_slot(u, frame.light_count, u_rest);
+    uint slot = alias_slot(bits, frame.light_count, u_rest);
     AliasEntry e = alias_texels(light_alias, slot);
     return alias_resolve(slot, e.keep, e.alias, u_rest);
 }

@@ -27,6 +27,10 @@ Rng rng_init(uint a, uint b, uint c, uint salt) {
     Rng r;
     r.state = pcg_hash(a ^ pcg_hash(b ^ k));
     r.inc = (pcg_hash(b ^ pcg_hash(a ^ k ^ 0x68e31da4u)) << 1u) | 1u;
+    // One step before the first number: rng_next outputs a hash of the state *before* it steps,
+    // so two streams whose states collided would share their first number whatever their
+    // increments; after the step that number depends on the increment too.
+    r.state = r.state * 747796405u + r.inc;
     return r;
 }
 

@@ -159,7 +159,12 @@ bool trace_segment(inout PhotonPath path) {
         return false;
     }
     if (path.bounce >= min_bounces) {
-        float q = clamp(max3(path.phi / path.phi0), 0.05, 0.95);
+        // Survival ∝ the throughput left, per channel against its start; a channel the light
+        // does not emit (phi0 = 0, e.g. a pure red light) would be 0 / 0 and is left out.
+        vec3 left = vec3(path.phi0.x > 0.0 ? path.phi.x / path.phi0.x : 0.0,
+                         path.phi0.y > 0.0 ? path.phi.y / path.phi0.y : 0.0,
+                         path.phi0.z > 0.0 ? path.phi.z / path.phi0.z : 0.0);
+        float q = clamp(max3(left), 0.05, 0.95);
         if (rand(path.rng) >= q) {
             return false;
         }

@@ -120,7 +120,8 @@ pub struct PointLight {
 /// A world-space emitting triangle, for light sampling / photon emission.
 #[derive(Clone, Copy, Debug)]
 pub struct EmissiveTriangle {
-    /// World-space vertices in mesh order.
+    /// World-space vertices, counter-clockwise about the front face: the mesh's order, the last
+    /// two swapped for a mirroring instance.
     pub p: [Vec3; 3],
     /// Emitted radiance Le.
     pub emission: Vec3,
@@ -274,7 +275,10 @@ impl Scene {
                 if !(area > 0.0) {
                     continue;
                 }
-                let normal = if flip { -normal } else { normal };
+                // A mirroring instance turns the mesh's counter-clockwise order clockwise: reversed,
+                // the vertices' own winding gives the front face again, which is all the GPU's
+                // light sampling has (it takes the normal from the vertex order).
+                let (p, normal) = if flip { ([p[0], p[2], p[1]], -normal) } else { (p, normal) };
                 out.push(EmissiveTriangle {
                     p,
                     emission: material.emission,

@@ -565,6 +565,10 @@ fn mirrored_transform_keeps_front_face() {
             t.normal
         );
         assert!((t.area - 0.5).abs() < EPS);
+        // The GPU's light sampling takes the front face from the vertex order alone
+        // (cross(p1 - p0, p2 - p0), photon_emit and direct_light.glsl): it must agree.
+        let ccw = (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]).normalize();
+        assert!(ccw.abs_diff_eq(t.normal, EPS), "instance {}: vertex order faces {ccw}, normal {}", t.instance, t.normal);
     }
 }
 
