@@ -23,18 +23,32 @@ pub struct Camera {
 impl Camera {
     /// A camera at the origin of `t` looking down its local −Z with +Y up (glTF's convention).
     pub fn from_transform(t: Mat4, yfov: f32, source: &'static str) -> Self {
-        let forward = (-t.z_axis.truncate()).normalize();
-        let up0 = t.y_axis.truncate();
-        let right = forward.cross(up0).normalize();
-        let up = right.cross(forward);
-        Self { position: t.w_axis.truncate(), forward, right, up, yfov, source }
+        let eye = t.w_axis.truncate();
+        Self::from_directions(eye, -t.z_axis.truncate(), t.y_axis.truncate(), yfov, source)
     }
 
     pub fn look_at(eye: Vec3, target: Vec3, up: Vec3, yfov: f32, source: &'static str) -> Self {
-        let forward = (target - eye).normalize();
-        let right = forward.cross(up).normalize();
+        // Halves first: the difference of two finite points can overflow where its direction does not.
+        Self::from_directions(eye, target * 0.5 - eye * 0.5, up, yfov, source)
+    }
+
+    /// The basis from a view direction and an up hint, finite for any finite input: a direction
+    /// whose length overflows or underflows f32 is rescaled before it is normalised, a zero one
+    /// looks down −Z, and an up hint parallel to it (or zero) is replaced by a perpendicular one.
+    /// (The inputs' own checks name what is wrong, `Keyframe::check` and the command line's; this
+    /// keeps a camera interpolated or derived from extreme bounds from turning the image to NaN.)
+    fn from_directions(position: Vec3, forward: Vec3, up: Vec3, yfov: f32, source: &'static str) -> Self {
+        let forward = unit(forward).unwrap_or(Vec3::NEG_Z);
+        let right = unit(forward.cross(unit(up).unwrap_or(Vec3::Y)))
+            .filter(|r| r.length_squared() > 0.5)
+            .unwrap_or_else(|| forward.any_orthonormal_vector());
         let up = right.cross(forward);
-        Self { position: eye, forward, right, up, yfov, source }
+        Self { position, forward, right, up, yfov, source }
+    }
+
+    /// Whether every number of the camera is finite (what the renderer requires of a frame's camera).
+    pub fn is_finite(&self) -> bool {
+        self.position.is_finite() && self.forward.is_finite() && self.right.is_finite() && self.up.is_finite() && self.yfov.is_finite()
     }
 
     /// The camera a run starts from: the command line's, else the scene's, else one that frames the
@@ -46,12 +60,14 @@ impl Camera {
         if let Some((transform, yfov)) = scene.camera {
             return Self::from_transform(transform, yfov, "scene camera");
         }
-        let (lo, hi) = scene.bounds;
+        // In f64: the bounds' diagonal of a scene spanning more than ~1e19 overflows f32.
+        let (lo, hi) = (scene.bounds.0.as_dvec3(), scene.bounds.1.as_dvec3());
         let centre = (lo + hi) * 0.5;
         let radius = ((hi - lo).length() * 0.5).max(1e-3);
         let yfov = 45f32.to_radians();
-        let distance = radius / (yfov * 0.5).tan() * 1.1;
-        Self::look_at(centre + Vec3::Z * distance, centre, Vec3::Y, yfov, "automatic (no camera in the scene)")
+        let distance = radius / (f64::from(yfov) * 0.5).tan() * 1.1;
+        let eye = (centre + glam::DVec3::Z * distance).as_vec3().min(Vec3::splat(f32::MAX));
+        Self::look_at(eye, centre.as_vec3(), Vec3::Y, yfov, "automatic (no camera in the scene)")
     }
 
     /// Whether two cameras see the same image (position, orientation and field of view; the
@@ -59,6 +75,16 @@ impl Camera {
     pub fn same_view(&self, other: &Camera) -> bool {
         self.position == other.position && self.forward == other.forward && self.up == other.up && self.yfov == other.yfov
     }
+}
+
+/// `v` scaled to unit length, also where its squared length overflows or underflows f32; `None`
+/// for a zero or non-finite `v`.
+fn unit(v: Vec3) -> Option<Vec3> {
+    if !v.is_finite() {
+        return None;
+    }
+    let m = v.abs().max_element();
+    (m > 0.0).then(|| (v / m).normalize())
 }
 
 /// One keyframe of a camera path (`--camera-path FILE.json`), and the format `O` saves the window's
@@ -100,11 +126,19 @@ impl Keyframe {
         if !(self.fov > 0.0 && self.fov < 180.0) {
             return Err(format!("fov {} must be in (0, 180) degrees", self.fov));
         }
-        let f = target - eye;
-        if f.length_squared() == 0.0 {
+        // The command line's limit on --eye/--target (settings.rs): 32-bit floats square the distance.
+        let d = (target.as_dvec3() - eye.as_dvec3()).length();
+        if d == 0.0 {
             return Err("eye and target are the same point".into());
         }
-        if f.normalize().cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30) {
+        if !(1e-18..=1e18).contains(&d) {
+            return Err(format!("eye and target are {d:.3e} apart; the distance must be between 1e-18 and 1e18"));
+        }
+        if eye.abs().max_element() > 1e18 || target.abs().max_element() > 1e18 {
+            return Err("eye and target must be within 1e18 of the origin".into());
+        }
+        let f = unit(target - eye).expect("eye and target are finite, distinct and within 1e18");
+        if f.cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30) {
             return Err("up is parallel to the view direction (or zero)".into());
         }
         Ok(())
@@ -181,9 +215,12 @@ impl CameraPath {
             target = eye + (Vec3::from(a.target) - Vec3::from(a.eye));
         }
         let mut up = lerp(a.up, b.up);
-        let forward = (target - eye).normalize();
-        if forward.cross(up).length_squared() <= 1e-12 {
-            up = Vec3::from(a.up);
+        let forward = unit(target - eye).expect("keyframes are checked: finite, within 1e18");
+        if forward.cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30) {
+            // The view passes through the up direction: roll as little as possible from the
+            // earlier keyframe, whose right axis stays perpendicular to up.
+            let right_a = (Vec3::from(a.target) - Vec3::from(a.eye)).cross(Vec3::from(a.up));
+            up = right_a.cross(forward);
         }
         Camera::look_at(eye, target, up, (a.fov + (b.fov - a.fov) * t).to_radians(), "camera path")
     }
@@ -421,10 +458,65 @@ mod tests {
             ),
             (r#"{"frames": []}"#, "unknown field"),
             (r#"{"keyframes": [{"frame": 0, "eye": [0,0], "target": [0,0,0], "fov": 40}]}"#, "invalid length"),
+            (r#"{"keyframes": [{"frame": 0, "eye": [1e20,0,0], "target": [0,0,0], "fov": 40}]}"#, "apart"),
+            (r#"{"keyframes": [{"frame": 0, "eye": [3e38,0,0], "target": [-3e38,0,0], "fov": 40}]}"#, "apart"),
+            (r#"{"keyframes": [{"frame": 0, "eye": [2e18,0,0], "target": [2e18,0,1], "fov": 40}]}"#, "within 1e18"),
         ];
         for (json, want) in bad {
             let e = CameraPath::from_json(json).unwrap_err();
             assert!(e.contains(want), "{json}: {e}");
+        }
+    }
+
+    /// Every keyframe is valid, but between two of them the view passes through the up direction:
+    /// the interpolated camera keeps a finite basis, rolled from the earlier keyframe's.
+    #[test]
+    fn a_path_looking_through_up_keeps_a_finite_camera() {
+        let p = CameraPath::from_json(
+            r#"{"keyframes": [{"frame": 0, "eye": [0.278,0.273,-0.8], "target": [1.278,0.273,-0.8], "fov": 40},
+                              {"frame": 2, "eye": [0.278,0.273,-0.8], "target": [-0.722,2.273,-0.8], "fov": 40}]}"#,
+        )
+        .unwrap();
+        let c = p.at(1.0);
+        assert!(c.is_finite(), "{c:?}");
+        assert!((c.forward - Vec3::Y).length() < 1e-5, "{c:?}");
+        assert!(c.right.dot(c.forward).abs() < 1e-5 && c.up.dot(c.forward).abs() < 1e-5 && (c.right.length() - 1.0).abs() < 1e-5);
+        // The earlier keyframe's right axis (forward +x × up +y = +z) is kept.
+        assert!((c.right - Vec3::Z).length() < 1e-5, "{c:?}");
+    }
+
+    /// The automatic camera frames bounds whose diagonal overflows f32 (and a scene of one point).
+    #[test]
+    fn automatic_camera_is_finite_for_extreme_bounds() {
+        for (lo, hi) in [(Vec3::splat(-1e19), Vec3::splat(1e19)), (Vec3::splat(-3e38), Vec3::splat(3e38)), (Vec3::ZERO, Vec3::ZERO)] {
+            let info = crate::scene_gpu::SceneInfo {
+                path: "test".into(),
+                meshes: 0,
+                materials: 0,
+                textured_materials: 0,
+                bounds: (lo, hi),
+                surface_area: 0.0,
+                scale: 1.0,
+                camera: None,
+                warnings: Vec::new(),
+            };
+            let c = Camera::initial(&info, None);
+            assert!(c.is_finite() && (c.forward.length() - 1.0).abs() < 1e-5, "{lo} {hi}: {c:?}");
+        }
+    }
+
+    #[test]
+    fn look_at_is_finite_for_degenerate_input() {
+        let cases = [
+            (Vec3::ZERO, Vec3::ZERO, Vec3::Y),
+            (Vec3::ZERO, Vec3::Y, Vec3::Y),
+            (Vec3::ZERO, Vec3::X, Vec3::ZERO),
+            (Vec3::splat(3e38), Vec3::splat(-3e38), Vec3::Y),
+            (Vec3::ZERO, Vec3::new(1e-40, 0.0, 0.0), Vec3::Y),
+        ];
+        for (eye, target, up) in cases {
+            let c = Camera::look_at(eye, target, up, 0.7, "test");
+            assert!(c.is_finite() && (c.forward.length() - 1.0).abs() < 1e-5 && (c.up.length() - 1.0).abs() < 1e-5, "{eye} {target} {up}: {c:?}");
         }
     }
 

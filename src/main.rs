@@ -983,8 +983,42 @@ fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
     }
 }
 
+/// Flags whose values may start with a minus sign without being plain numbers ("-1,0,0", "-.5",
+/// "-inf", "-8x8"): clap's `allow_negative_numbers` takes only plain numbers and reads the rest
+/// as unknown flags ("unexpected argument '-1' found", not naming the flag), and
+/// `allow_hyphen_values` would also take a following flag as the value (`--eye --target …`).
+const SIGNED_VALUE_FLAGS: [&str; 5] = ["--eye", "--target", "--up", "--exposure", "--workgroup"];
+
+/// `--eye -1,0,0` becomes `--eye=-1,0,0` for the flags above when the value looks like a signed
+/// value (a minus sign, then a digit, '.', or the start of inf/nan), so the flag's own parser
+/// judges it; anything after `--` is left alone.
+fn join_signed_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+    let mut out = Vec::with_capacity(args.len());
+    let mut it = args.into_iter().peekable();
+    while let Some(a) = it.next() {
+        if a == "--" {
+            out.push(a);
+            out.extend(it);
+            break;
+        }
+        let signed_next = it.peek().and_then(|n| n.to_str()).is_some_and(|n| {
+            n.strip_prefix('-').and_then(|r| r.chars().next()).is_some_and(|c| c.is_ascii_digit() || ".iInN".contains(c))
+        });
+        match a.to_str() {
+            Some(flag) if signed_next && SIGNED_VALUE_FLAGS.contains(&flag) => {
+                let value = it.next().expect("peeked");
+                let mut joined = std::ffi::OsString::from(format!("{flag}="));
+                joined.push(value);
+                out.push(joined);
+            }
+            _ => out.push(a),
+        }
+    }
+    out
+}
+
 fn main() -> ExitCode {
-    let matches = Cli::command().get_matches();
+    let matches = Cli::command().get_matches_from(join_signed_values(std::env::args_os().collect()));
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let given = given_render_flags(&matches);
     restir_vpl::logger::init(cli.render.verbose);

@@ -43,6 +43,19 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
 }
 
+/// Whether `a` and `b` name the same file, also when either does not exist yet (its directory is
+/// then resolved): how an output is kept from overwriting an input.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    fn resolve(p: &Path) -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    }
+    matches!((resolve(a), resolve(b)), (Some(x), Some(y)) if x == y)
+}
+
 /// Creates `path`'s directory and checks that it takes the file ([`check_writable`]): called
 /// before a long render whose result goes to `path`.
 pub fn prepare_output_file(path: &Path) -> Result<()> {

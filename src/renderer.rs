@@ -902,6 +902,9 @@ impl Renderer {
 
     /// Records and submits one frame; with `capture`, copies each pass's output aside after it.
     fn submit(&mut self, camera: &Camera, preview: bool, capture: bool) -> Result<(Option<FrameStats>, Vec<CaptureMeta>)> {
+        // A NaN camera would render a black frame without a word; every camera maker keeps its
+        // basis finite (Camera::look_at), so this is a last check, not the usual message.
+        anyhow::ensure!(camera.is_finite(), "the camera ({}) is not finite: {camera:?}", camera.source);
         let start = Instant::now();
         let i = self.next_slot;
         let completed = if self.slots[i].pending.is_some() { Some(self.complete_frame(i)?) } else { None };

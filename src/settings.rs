@@ -584,6 +584,17 @@ impl RenderSettings {
                 bail!("--renderdoc-capture {n}: the run renders frames 0..{} (--frames {})", self.frames.saturating_sub(1), self.frames);
             }
         }
+        if let Some(ply) = &self.dump_vpls {
+            // The run's inputs, and the files it writes to --out after the PLY.
+            let mut taken = vec![("the scene", self.scene.clone())];
+            taken.extend(self.camera_path.clone().map(|p| ("the --camera-path", p)));
+            if let Some(dir) = &self.out_dir {
+                taken.extend(["final.exr", "final.png", "summary.json"].map(|f| ("an output of --out", dir.join(f))));
+            }
+            if let Some((what, p)) = taken.iter().find(|(_, p)| crate::output::same_file(ply, p)) {
+                bail!("--dump-vpls {}: is also {what} ({}); write the VPLs to another file", ply.display(), p.display());
+            }
+        }
         let dump = self.dump_passes_selection()?;
         if dump.is_some() && self.out_dir.is_none() {
             bail!("--dump-passes writes to OUT/passes: give --out");

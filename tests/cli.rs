@@ -129,6 +129,18 @@ fn bad_flags() {
     // A negative value for an unsigned flag names the flag and the value (clap took "-5" for an
     // unknown flag before allow_negative_numbers), in subcommands too.
     assert_fails(&["--headless", "--width", "-5"], &["--width", "'-5'"]);
+    // Values starting with a minus sign that are not plain numbers reach their flag's own parser
+    // (they were "unexpected argument '-1' found", naming no flag).
+    assert_fails(&["--headless", "--eye", "-1,0", "--target", "0,0,0"], &["--eye", "-1,0"]);
+    assert_fails(&["--headless", "--exposure", "-inf"], &["--exposure", "finite"]);
+    assert_fails(&["--headless", "--workgroup", "-8x8"], &["--workgroup", "-8"]);
+    assert_fails(&["--headless", "--eye", "--target", "0,0,0"], &["--eye"]);
+    // --dump-vpls over the scene or over a file the run writes to --out.
+    let dump_out = std::env::temp_dir().join("restir-vpl-cli-dump-vpls");
+    let final_exr = dump_out.join("final.exr").display().to_string();
+    let dump_dir = dump_out.display().to_string();
+    assert_fails(&["--headless", "--dump-vpls", "scenes/cornell_box.gltf"], &["--dump-vpls", "is also the scene"]);
+    assert_fails(&["--headless", "--out", &dump_dir, "--dump-vpls", &final_exr], &["--dump-vpls", "is also an output of --out"]);
     assert_fails(&["bench", "--frames", "-1"], &["--frames", "'-1'"]);
     // Counts of `results` and `bench --curves` are checked before any reference renders, under
     // their own names; the "Instead" benches exclude each other.
@@ -237,6 +249,18 @@ fn empty_vpl_set_renders_in_every_vpl_mode() {
 }
 
 /// A repeated flag overrides the earlier one (the render script appends the user's arguments).
+/// A camera given with negative coordinates as separate arguments (`--eye -1,0.5,2`) is taken.
+#[test]
+fn negative_vectors_are_accepted_as_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let args = ["--headless", "--width", "8", "--height", "8", "--frames", "1", "--mode", "pt", "--out", &out];
+    let o = run(&[&args[..], &["--eye", "-0.2,0.27,-0.8", "--target", "-0.1,0.27,0", "--exposure", "-.5"]].concat());
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    let summary = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
+    assert!(summary.contains("-0.2") && summary.contains("command line"), "{summary}");
+}
+
 #[test]
 fn later_flag_overrides_earlier() {
     let dir = tempfile::tempdir().unwrap();

@@ -236,6 +236,31 @@ fn cli_missing_file() {
     assert!(err.contains("/nonexistent/a.exr") && !err.contains("panicked"), "{err}");
 }
 
+/// An output named like an input (also through another spelling of its path) is refused before
+/// anything is written: it replaced the image with a PNG or with JSON, exit 0.
+#[test]
+fn cli_outputs_never_replace_an_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let (pa, pb) = (save(dir.path(), "a.exr", &scene(4, 4)), save(dir.path(), "b.exr", &scene(4, 4)));
+    let before = std::fs::read(&pa).unwrap();
+    let other_spelling = dir.path().join(".").join("a.exr").display().to_string();
+    let sibling = dir.path().join("out.json").display().to_string();
+    for (args, want) in [
+        (vec!["--error-image", pa.as_str()], "--error-image"),
+        (vec!["--json", other_spelling.as_str()], "--json"),
+        (vec!["--json", pb.as_str()], "--json"),
+        (vec!["--json", sibling.as_str(), "--error-image", sibling.as_str()], "both name"),
+    ] {
+        let mut all = vec!["compare", pa.as_str(), pb.as_str()];
+        all.extend(args);
+        let o = run(&all);
+        let err = stderr(&o);
+        assert!(!o.status.success() && err.contains(want) && !err.contains("panicked"), "{all:?}: {err}");
+    }
+    assert_eq!(std::fs::read(&pa).unwrap(), before, "the input is untouched");
+    assert!(!dir.path().join("out.json").exists());
+}
+
 #[test]
 fn cli_size_mismatch() {
     let dir = tempfile::tempdir().unwrap();

@@ -355,6 +355,19 @@ pub fn run_cli(
     if !PPD_RANGE.contains(&opts.ppd) {
         bail!("--ppd must lie in [{}, {}] pixels per degree (67, the default, is FLIP's standard viewing set-up), not {}", PPD_RANGE.start(), PPD_RANGE.end(), opts.ppd);
     }
+    // An output named like an input would replace the image it was computed from.
+    for (flag, out) in [("--error-image", error_image), ("--json", json)] {
+        if let Some(out) = out {
+            if let Some(input) = [a_path, b_path].into_iter().find(|i| crate::output::same_file(i, out)) {
+                bail!("{flag} {}: is also the input {}; write it to another file", out.display(), input.display());
+            }
+        }
+    }
+    if let (Some(e), Some(j)) = (error_image, json) {
+        if crate::output::same_file(e, j) {
+            bail!("--error-image and --json both name {}; give two files", e.display());
+        }
+    }
     let a = crate::output::read_exr(a_path).context("test image")?;
     let b = crate::output::read_exr(b_path).context("reference")?;
     let need_map = opts.flip || error_image.is_some();

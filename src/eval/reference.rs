@@ -313,8 +313,7 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
 /// frame count and ranges.
 pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path, overwrite: bool) -> Result<()> {
     // Writing over one of the parts would lose its frames if anything went wrong after the write.
-    let same_file = |a: &Path, b: &Path| matches!((a.canonicalize(), b.canonicalize()), (Ok(x), Ok(y)) if x == y);
-    if let Some(p) = inputs.iter().find(|p| same_file(p, out)) {
+    if let Some(p) = inputs.iter().find(|p| crate::output::same_file(p, out)) {
         bail!("--out {}: is also the input {}; write the merge to a new file", out.display(), p.display());
     }
     let mut parts = Vec::with_capacity(inputs.len());

@@ -251,13 +251,16 @@ fn node_label(node: &gltf::Node) -> String {
         .unwrap_or_else(|| format!("node{}", node.index()))
 }
 
-/// The camera the renderer derives from `world` ([`crate::camera::Camera::from_transform`]) must
-/// have a finite orthonormal basis: a zero or non-finite matrix, a scale so small that the axes'
-/// squared lengths underflow f32, or parallel -Z and +Y axes give NaN directions and a black image.
+/// A camera node must have a finite orthonormal basis by plain f32 arithmetic: a zero or non-finite
+/// matrix, a scale so small that the axes' squared lengths underflow f32, or parallel -Z and +Y axes
+/// are refused. ([`crate::camera::Camera::from_transform`] would make a finite basis of any of these
+/// by rescaling or picking an up direction, but the file's camera is then not the one it means.)
 fn check_camera_transform(world: &Mat4, node_name: &str, camera_name: &str) -> Result<()> {
-    let c = crate::camera::Camera::from_transform(*world, 1.0, "scene camera");
+    let forward = (-world.z_axis.truncate()).normalize();
+    let right = forward.cross(world.y_axis.truncate()).normalize();
+    let up = right.cross(forward);
     let unit = |v: Vec3| v.is_finite() && (v.length() - 1.0).abs() < 1e-3;
-    if c.position.is_finite() && unit(c.forward) && unit(c.right) && unit(c.up) {
+    if world.w_axis.truncate().is_finite() && unit(forward) && unit(right) && unit(up) {
         return Ok(());
     }
     let what = if camera_name == node_name {
@@ -395,7 +398,37 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
     if !errors.is_empty() {
         bail!("invalid glTF: {}", errors.join("; "));
     }
+    check_sources(root)?;
     Ok((gltf.document, gltf.blob))
+}
+
+/// What the schema validation leaves out and the gltf crate's accessors unwrap (they would panic):
+/// an image needs a `uri` or a `bufferView`, the latter with a `mimeType`; a camera needs the
+/// object its `type` names.
+fn check_sources(root: &gltf::json::Root) -> Result<()> {
+    use gltf::json::camera::Type;
+    use gltf::json::validation::Checked;
+    for (i, image) in root.images.iter().enumerate() {
+        let name = image.name.clone().unwrap_or_else(|| format!("image{i}"));
+        match (&image.uri, &image.buffer_view, &image.mime_type) {
+            (Some(_), None, _) | (None, Some(_), Some(_)) => {}
+            (None, None, _) => bail!("image {i} ('{name}') has neither a \"uri\" nor a \"bufferView\""),
+            (Some(_), Some(_), _) => bail!("image {i} ('{name}') has both a \"uri\" and a \"bufferView\"; give one"),
+            (None, Some(_), None) => bail!("image {i} ('{name}') has a \"bufferView\" but no \"mimeType\" (required with a bufferView)"),
+        }
+    }
+    for (i, camera) in root.cameras.iter().enumerate() {
+        let name = camera.name.clone().unwrap_or_else(|| format!("camera{i}"));
+        let (has, object) = match camera.type_ {
+            Checked::Valid(Type::Perspective) => (camera.perspective.is_some(), "perspective"),
+            Checked::Valid(Type::Orthographic) => (camera.orthographic.is_some(), "orthographic"),
+            Checked::Invalid => bail!("camera {i} ('{name}') has an invalid \"type\""),
+        };
+        if !has {
+            bail!("camera {i} ('{name}') has \"type\": \"{object}\" but no \"{object}\" object");
+        }
+    }
+    Ok(())
 }
 
 /// Only glTF 2.x is read: glTF 1.0 (and any other major version) is a different format, and an

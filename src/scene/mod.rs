@@ -229,7 +229,8 @@ impl Scene {
         area
     }
 
-    /// World-space AABB `(min, max)` of all instanced vertices; `(ZERO, ZERO)` if there are none.
+    /// World-space AABB `(min, max)` of all instanced vertices with finite world positions;
+    /// `(ZERO, ZERO)` if there are none.
     pub fn world_bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
@@ -239,6 +240,9 @@ impl Scene {
             };
             for &p in &mesh.positions {
                 let w = inst.transform.transform_point3(p);
+                if !w.is_finite() {
+                    continue; // the loader warns about these; they bound nothing
+                }
                 lo = lo.min(w);
                 hi = hi.max(w);
             }

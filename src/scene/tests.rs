@@ -768,6 +768,30 @@ fn texture_errors_name_the_material_and_image() {
     assert_contains(&s.warnings.join("\n"), &["TEXCOORD_1", "ignored"]);
 }
 
+/// Images and cameras that pass the schema but that the gltf crate's accessors would panic on.
+#[test]
+fn images_without_a_source_and_cameras_without_their_object_are_errors() {
+    let mut doc = triangle_doc();
+    doc["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
+    doc["textures"] = json!([{ "source": 0 }]);
+    for (image, want) in [
+        (json!({}), "neither a \"uri\" nor a \"bufferView\""),
+        (json!({ "name": "pic", "bufferView": 0 }), "image 0 ('pic') has a \"bufferView\" but no \"mimeType\""),
+        (json!({ "bufferView": 0, "uri": "x.png", "mimeType": "image/png" }), "both"),
+    ] {
+        doc["images"] = json!([image]);
+        assert_contains(&load_err(&doc), &["image 0", want]);
+    }
+    let mut doc = cornell_doc();
+    for (camera, want) in [
+        (json!({ "name": "cam", "type": "orthographic", "perspective": { "yfov": 0.7, "znear": 0.1 } }), "\"type\": \"orthographic\" but no \"orthographic\" object"),
+        (json!({ "type": "perspective", "orthographic": { "xmag": 1, "ymag": 1, "zfar": 10, "znear": 0.1 } }), "\"type\": \"perspective\" but no \"perspective\" object"),
+    ] {
+        doc["cameras"][0] = camera;
+        assert_contains(&load_err(&doc), &["camera 0", want]);
+    }
+}
+
 #[test]
 fn emissive_strength_round_trip() {
     let mut b = GltfBuilder::new();
