@@ -117,7 +117,12 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         warnings.push(w);
     }
     if let Some(dir) = &settings.out_dir {
+        anyhow::ensure!(!dir.is_file(), "--out {}: is a file; name a directory (it is created if missing)", dir.display());
         std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
+        // Checked before the frames, not after them.
+        for name in ["final.exr", "final.png", "summary.json"] {
+            crate::output::check_writable(&dir.join(name)).with_context(|| format!("--out {}", dir.display()))?;
+        }
     }
     // Read before the renderer's set-up (photons, pipelines), so that a bad file fails at once.
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;

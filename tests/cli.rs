@@ -72,6 +72,21 @@ fn missing_scene_file() {
 
 /// A device or a directory as the scene is refused at once: /dev/zero was read until the
 /// out-of-memory killer ended the process, with no message.
+/// An output that cannot be written fails before the frames are rendered, naming --out.
+#[test]
+fn unwritable_outputs_fail_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("final.exr")).unwrap();
+    let out = dir.path().display().to_string();
+    let args = ["--headless", "--width", "8", "--height", "8", "--frames", "2", "--out", &out];
+    assert_fails(&args, &["--out", "final.exr", "is a directory"]);
+    assert!(!dir.path().join("final.png").exists(), "nothing was written");
+    let file = dir.path().join("plain_file");
+    std::fs::write(&file, b"x").unwrap();
+    let file = file.display().to_string();
+    assert_fails(&["--headless", "--width", "8", "--height", "8", "--frames", "1", "--out", &file], &["--out", "is a file"]);
+}
+
 #[test]
 fn scene_that_is_not_a_file() {
     assert_fails(&["--headless", "--scene", "/dev/zero", "--frames", "1"], &["/dev/zero", "not a regular file"]);

@@ -226,6 +226,25 @@ fn cli_nan_pixel_fails_naming_the_file() {
     assert!(stdout(&o).contains("RMSE") && stdout(&o).contains("63 compared"), "{}", stdout(&o));
 }
 
+/// With no pixel finite in both images there are no metrics: printing and writing RMSE 0 and mean
+/// ratio 1 (a perfect match's values) is what the command did.
+#[test]
+fn cli_no_pixel_compared_gives_no_metrics() {
+    let dir = tempfile::tempdir().unwrap();
+    let b = scene(4, 4);
+    let a = RgbImage { pixels: vec![[f32::NAN; 3]; 16], ..b.clone() };
+    let (pa, pb) = (save(dir.path(), "all_nan.exr", &a), save(dir.path(), "ref.exr", &b));
+    let json = dir.path().join("m.json");
+    let o = run(&["compare", &pa, &pb, "--no-flip", "--json", &json.display().to_string()]);
+    assert_eq!(o.status.code(), Some(3), "stderr: {}", stderr(&o));
+    let out = stdout(&o);
+    assert!(out.contains("0 compared") && out.contains("no pixel is finite in both images") && !out.contains("RMSE             0"), "{out}");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    for k in ["rmse", "relmse", "mean_ratio", "worst_share"] {
+        assert!(v["comparison"][k].is_null(), "{k}: {v}");
+    }
+}
+
 #[test]
 fn cli_missing_file() {
     let dir = tempfile::tempdir().unwrap();

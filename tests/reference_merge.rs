@@ -93,8 +93,15 @@ fn noise_estimate_round_trips_and_merges() {
     let want = (3.0f64 / 8.0).powi(2) * 0.125 + (5.0f64 / 8.0).powi(2) * 0.0625;
     assert!((m.noise_mse.unwrap() - want).abs() < 1e-15);
     // Unknown in one part: unknown.
-    let (_, m) = merge(&[(image(12, 10, 0), ma), (image(12, 10, 1), meta(5, 3))]).unwrap();
+    let (_, m) = merge(&[(image(12, 10, 0), ma.clone()), (image(12, 10, 1), meta(5, 3))]).unwrap();
     assert_eq!(m.noise_mse, None);
+    // A negative or non-finite estimate (a hand-edited header) is refused, not merged.
+    for bad in [-1.0, f64::INFINITY, f64::NAN] {
+        let mut mc = ma.clone();
+        mc.noise_mse = Some(bad);
+        let e = format!("{:#}", merge(&[(image(12, 10, 0), mc)]).unwrap_err());
+        assert!(e.contains("noise_mse"), "{bad}: {e}");
+    }
 }
 
 #[test]

@@ -56,6 +56,12 @@ void splat(uint v, bool record) {
     vec2 centre = vec2((sx + 1.0) * 0.5 * float(frame.width), (1.0 - sy) * 0.5 * float(frame.height));
     float pr = radius / (z * frame.tan_half_fov) * 0.5 * float(frame.height) * 1.5 + 1.0;
     int half_w = int(min(ceil(pr), float(max_footprint)));
+    // Off the image by more than the footprint (or not finite): nothing to draw, and converting a
+    // float beyond int's range is undefined.
+    vec2 reach = vec2(float(half_w) + 1.0);
+    if (!(all(greaterThan(centre, -reach)) && all(lessThan(centre, vec2(frame.width, frame.height) + reach)))) {
+        return;
+    }
     ivec2 ci = ivec2(floor(centre));
     for (int dy = -half_w; dy <= half_w; ++dy) {
         for (int dx = -half_w; dx <= half_w; ++dx) {

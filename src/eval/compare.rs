@@ -318,10 +318,17 @@ pub fn table(c: &Comparison) -> String {
             c.non_finite_b.count()
         ),
     );
-    row("RMSE", format!("{:.6e}", c.rmse));
-    row("relMSE", format!("{:.6e}", c.relmse));
-    row("worst 0.1% px", format!("{:.1}% of the squared error", 100.0 * c.worst_share));
-    row("mean ratio", format!("{:.6} (test mean {:.6e} / reference mean {:.6e})", c.mean_ratio, c.mean_a, c.mean_b));
+    if c.pixels_compared == 0 {
+        // The metrics' values (0, 0, ratio 1) would read as a perfect match.
+        for k in ["RMSE", "relMSE", "worst 0.1% px", "mean ratio"] {
+            row(k, "none: no pixel is finite in both images".into());
+        }
+    } else {
+        row("RMSE", format!("{:.6e}", c.rmse));
+        row("relMSE", format!("{:.6e}", c.relmse));
+        row("worst 0.1% px", format!("{:.1}% of the squared error", 100.0 * c.worst_share));
+        row("mean ratio", format!("{:.6} (test mean {:.6e} / reference mean {:.6e})", c.mean_ratio, c.mean_a, c.mean_b));
+    }
     row(
         "FLIP (LDR)",
         match c.flip {
@@ -382,10 +389,17 @@ pub fn run_cli(
         println!("FLIP error image: {}", path.display());
     }
     if let Some(path) = json {
+        let mut comparison = serde_json::to_value(&cmp)?;
+        if cmp.pixels_compared == 0 {
+            // As in the table: no value rather than a perfect match's.
+            for k in ["rmse", "relmse", "mean_a", "mean_b", "worst_share", "mean_ratio"] {
+                comparison[k] = serde_json::Value::Null;
+            }
+        }
         let text = serde_json::to_string_pretty(&serde_json::json!({
             "test": a_path.display().to_string(),
             "reference": b_path.display().to_string(),
-            "comparison": cmp,
+            "comparison": comparison,
         }))?;
         std::fs::write(path, text).with_context(|| format!("--json {}", path.display()))?;
     }

@@ -104,6 +104,10 @@ impl ReferenceMeta {
             sum += e - s;
         }
         ensure!(sum == self.frames, "frame ranges hold {sum} frames, but frames = {}", self.frames);
+        if let Some(v) = self.noise_mse {
+            // A mean squared error: a negative or non-finite one would pass into every merge.
+            ensure!(v.is_finite() && v >= 0.0, "noise_mse {v} is not a mean squared error (finite, ≥ 0)");
+        }
         ensure!(
             self.ranges[0].0 == self.first_frame,
             "first_frame {} is not the start of the first range {:?}",

@@ -508,6 +508,10 @@ fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
         bail!("unsupported URI '{uri}' (only data: URIs and relative paths are supported)");
     }
     let relative = percent_decode(uri)?;
+    if relative.chars().any(char::is_control) {
+        // A NUL or other control character names no file and would reach the message raw.
+        bail!("URI '{uri}' decodes to a path with a control character");
+    }
     let base = base_dir.ok_or_else(|| {
         anyhow!("external file '{relative}' cannot be resolved without a base directory")
     })?;

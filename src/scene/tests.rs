@@ -893,6 +893,11 @@ fn external_buffer_file() {
     assert_eq!(s.triangle_count(), 1);
     assert_eq!(s.path, path);
     assert_contains(&format!("{err:#}"), &["ext.gltf", "missing.bin"]);
+    // A NUL byte names no file; the message shows the URI as written, not the raw byte.
+    doc["buffers"][0]["uri"] = json!("a%00b.bin");
+    let err = format!("{:#}", Scene::from_gltf_slice(doc.to_string().as_bytes(), Some(Path::new("/tmp")), "nul.gltf").map(|_| ()).unwrap_err());
+    assert_contains(&err, &["nul.gltf", "a%00b.bin", "control character"]);
+    assert!(!err.contains('\0'), "{err:?}");
 }
 
 // ---------------------------------------------------------------- builder
