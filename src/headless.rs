@@ -43,7 +43,8 @@ pub struct Summary {
     pub rays_per_pixel_by_pass: BTreeMap<String, TimingStats>,
     /// The VPL shading setup (VPL modes only).
     pub vpl: Option<crate::renderer::VplSummary>,
-    /// Samples that were NaN or infinite (replaced by 0 in the accumulation).
+    /// Samples that were NaN or infinite in any frame of the run (each replaced by 0 in the
+    /// accumulation, so the images stay finite; any at all is a defect to report).
     pub nonfinite_samples: u64,
     /// The photon pass (run once before frame 0), when the run needed VPLs.
     pub photons: Option<crate::passes::PhotonStats>,
@@ -252,8 +253,8 @@ pub fn finish_run(
         );
         warnings.push(w);
     }
-    if renderer.nonfinite_samples() > 0 {
-        warnings.push(format!("{} non-finite samples were replaced by 0", renderer.nonfinite_samples()));
+    if renderer.nonfinite_samples_total() > 0 {
+        warnings.push(format!("{} non-finite samples were replaced by 0", renderer.nonfinite_samples_total()));
     }
     let log = renderer.log();
     let info = &scene.info;
@@ -283,7 +284,7 @@ pub fn finish_run(
         rays_per_pixel: log.rays_per_pixel(),
         rays_per_pixel_by_pass: log.rays_per_pixel_by_pass(),
         vpl: renderer.vpl_summary(),
-        nonfinite_samples: renderer.nonfinite_samples(),
+        nonfinite_samples: renderer.nonfinite_samples_total(),
         photons: renderer.photon_stats().cloned(),
         total_seconds: start.elapsed().as_secs_f64(),
         displayed,

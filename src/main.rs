@@ -869,6 +869,10 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     if let Some(dir) = &settings.out_dir {
         println!("  {}", dir.join("summary.json").display());
     }
+    // Asked for (--validate), the layer's errors fail the run, after the outputs are written.
+    if s.validation_errors > 0 {
+        bail!("{} Vulkan validation error(s) under --validate (the first is in the warnings above)", s.validation_errors);
+    }
     Ok(())
 }
 

@@ -207,8 +207,9 @@ struct FrameSlot {
     timer: GpuTimer,
     readback: Buffer,
     frame_constants: Buffer,
-    /// The frame waiting for this slot's fence: its start time and whether the gbuffer ran.
-    pending: Option<(Instant, bool)>,
+    /// The frame waiting for this slot's fence: its start time, whether the gbuffer ran and
+    /// whether it restarted the accumulation (and with it the GPU's non-finite count).
+    pending: Option<(Instant, bool, bool)>,
 }
 
 /// Accumulation and reuse state carried from frame to frame.
@@ -257,6 +258,9 @@ pub struct Renderer {
     /// The camera of the last frame recorded.
     camera: Option<Camera>,
     state: FrameState,
+    /// Non-finite samples replaced by zero since the renderer was made, over every accumulation
+    /// (the GPU's count restarts with each: a camera path, a view that shows frames alone).
+    nonfinite_total: u64,
     log: FrameLog,
     last_stats: FrameStats,
     /// Host-visible buffer the captured pass outputs are copied into (`--dump-passes`,
@@ -390,6 +394,7 @@ impl Renderer {
             next_slot: 0,
             camera: None,
             state: FrameState::default(),
+            nonfinite_total: 0,
             log,
             last_stats: FrameStats::default(),
             capture_buffer: None,
@@ -998,7 +1003,7 @@ impl Renderer {
             d.reset_fences(&[slot.fence])?;
             d.queue_submit(ctx.queue, &submit, slot.fence).context("vkQueueSubmit (frame)")?;
         }
-        slot.pending = Some((start, plan.gbuffer == Step::Run));
+        slot.pending = Some((start, plan.gbuffer == Step::Run, plan.reset_accumulation));
         let st = &mut self.state;
         if plan.gbuffer == Step::Run {
             st.gbuffer_valid = true;
@@ -1024,14 +1029,18 @@ impl Renderer {
     /// Waits for the frame in slot `i` and logs its statistics.
     fn complete_frame(&mut self, i: usize) -> Result<FrameStats> {
         let slot = &mut self.slots[i];
-        let (start, gbuffer_ran) = slot.pending.take().context("no frame is pending in this slot")?;
+        let (start, gbuffer_ran, reset) = slot.pending.take().context("no frame is pending in this slot")?;
         // SAFETY: the fence belongs to this slot's last submission.
         unsafe { self.ctx.device.wait_for_fences(&[slot.fence], true, u64::MAX) }
             .context("waiting for the frame (device lost?)")?;
         let dispatch_ms = slot.timer.collect()?;
         let n_slots = RAY_SLOTS.len();
         let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (n_slots + 1))?);
-        self.state.nonfinite_samples = counters[n_slots] as u64;
+        // The GPU's count covers the accumulation so far: what this frame added is the difference
+        // to the last frame's (frames complete in submission order), or all of it after a reset.
+        let count = counters[n_slots] as u64;
+        self.nonfinite_total += if reset { count } else { count.saturating_sub(self.state.nonfinite_samples) };
+        self.state.nonfinite_samples = count;
         let primary = if gbuffer_ran { self.parts.targets.pixels() as u64 } else { 0 };
         let mut rays_by_pass = vec![("gbuffer", primary)];
         for (slot, name) in RAY_SLOTS.iter().enumerate() {
@@ -1208,6 +1217,12 @@ impl Renderer {
     /// Non-finite samples replaced by 0 in the current accumulation.
     pub fn nonfinite_samples(&self) -> u64 {
         self.state.nonfinite_samples
+    }
+
+    /// Non-finite samples replaced by 0 in every frame completed since the renderer was made
+    /// (what a run reports: its camera may have moved, restarting the accumulation).
+    pub fn nonfinite_samples_total(&self) -> u64 {
+        self.nonfinite_total
     }
 
     pub fn pixels(&self) -> u32 {

@@ -42,7 +42,7 @@ fn render(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, s: RenderSettings, frames: 
     }
     let mean = r.read_mean().unwrap();
     common::assert_all_finite(&mean, "mean");
-    assert_eq!(r.nonfinite_samples(), 0, "non-finite samples");
+    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
     let var = r.read_variance().unwrap();
     let n = mean.len() as f64;
     // Channel average's variance <= mean of the channel variances (Cauchy–Schwarz): conservative.

@@ -200,6 +200,8 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     }
     eprintln!("{checked} pixels recombined, {shadowed} shadowed");
     assert!(checked > 2000 && shadowed < checked, "{checked} checked, {shadowed} shadowed");
+    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
 }
 
 #[test]

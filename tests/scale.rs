@@ -43,6 +43,7 @@ fn render_scaled(k: f32, base: &RenderSettings) -> RgbImage {
         r.render_frame(&camera, false).unwrap();
     }
     assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
+    assert_eq!(r.nonfinite_samples_total(), 0, "scale {k}: non-finite samples");
     let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean().unwrap() };
     assert_all_finite(&img.pixels, &format!("scale {k}"));
     img
@@ -59,8 +60,11 @@ fn the_path_tracer_renders_the_same_image_at_any_scale() {
         let c = compare(&img, &one, &CompareOptions { flip: false, ..Default::default() }).unwrap();
         eprintln!("pt ×{k}: relMSE {:.2e}, mean ratio {:.6}", c.relmse, c.mean_ratio);
         // Same random numbers, same paths: only float rounding of scaled positions differs, and it
-        // may flip a rare path at a silhouette. An absolute epsilon shows as percent-level changes.
-        assert!(c.relmse < 1e-4, "scale {k}: relMSE {:.3e} against scale 1 (mean ratio {:.5})", c.relmse, c.mean_ratio);
+        // may flip a rare path at a silhouette (measured: relMSE up to 2.5e-7, mean ratio within
+        // 8e-6 of 1). An absolute epsilon shows as percent-level changes: a uniform 0.5 % shift is
+        // relMSE ~1e-5 at this image's brightness, and 1e-4 in the mean.
+        assert!(c.relmse < 1e-5, "scale {k}: relMSE {:.3e} against scale 1 (mean ratio {:.6})", c.relmse, c.mean_ratio);
+        assert!((c.mean_ratio - 1.0).abs() < 1e-4, "scale {k}: mean ratio {:.6} against scale 1", c.mean_ratio);
     }
 }
 

@@ -182,10 +182,14 @@ fn reservoir_picks_in_proportion_to_weights() {
     // Tolerance: the 0.9999 quantile, a false failure once in 10^4 runs (the run is deterministic
     // for a fixed seed, so it either always passes or always fails).
     assert!(chi2 < limit, "choices do not follow w/Σw: chi-square {chi2:.2} > {limit:.2}");
-    // W · p̂(y) = Σw for every reservoir, whichever sample it chose.
-    for o in &out.outputs {
-        assert!(((o[0] as f64) - total).abs() <= 1e-5 * total, "W·p̂ = {} vs Σw = {total}", o[0]);
-        assert_eq!(o[1], 1.0);
+    // Every reservoir keeps its chosen candidate's own target (1 + its index here) and
+    // W = Σw / p̂(chosen), and passes its confidence through.
+    for (o, &c) in out.outputs.iter().zip(&out.chosen) {
+        let target = 1.0 + c as f64;
+        assert_eq!(o[0] as f64, target, "candidate {c}: stored target {} is not its own", o[0]);
+        let want = total / target;
+        assert!(((o[1] as f64) - want).abs() <= 1e-5 * want, "candidate {c}: W = {} vs Σw/p̂ = {want}", o[1]);
+        assert_eq!(o[2], 3.0, "confidence");
     }
 }
 

@@ -55,7 +55,7 @@ fn render(renderer: &mut Renderer, frames: u32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>
     }
     let mean = renderer.read_mean().unwrap();
     common::assert_all_finite(&mean, "mean");
-    assert_eq!(renderer.nonfinite_samples(), 0, "non-finite samples");
+    assert_eq!(renderer.nonfinite_samples_total(), 0, "non-finite samples");
     (mean, renderer.read_variance().unwrap())
 }
 
@@ -213,7 +213,8 @@ fn per_vpl_radius_modes_converge_to_their_brute_force() {
     check_validation(&ctx);
 }
 
-/// Unbiased ReSTIR: 12 independent runs, t-test per block; biased ReSTIR's bias printed.
+/// Unbiased ReSTIR: 32 independent runs, t-test per block, and enough runs that a 1 % whole-image
+/// bias fails it; biased ReSTIR's bias printed.
 #[test]
 fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     let ctx = common::context();
@@ -224,7 +225,7 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     let mut all = vec![(0usize..(W * H) as usize).collect::<Vec<_>>()];
     all.extend(bl.iter().cloned());
     let ref_means = block_means(&reference, &all);
-    const RUNS: u32 = 12;
+    const RUNS: u32 = 32;
     const FRAMES: u32 = 16;
     for (bias, visibility) in [(Bias::Unbiased, true), (Bias::Unbiased, false), (Bias::Biased, false)] {
         let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: Some(visibility), ..Default::default() };
@@ -232,10 +233,17 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
         let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         let (runs, ts, lines) = run_means(&mut r, RUNS, FRAMES, &all, &ref_means);
         let worst = ts.iter().fold(0f64, |w, t| w.max(t.abs()));
+        // The test's power: the smallest whole-image bias that |t| < 6 would still let through.
+        let whole: Vec<f64> = runs.iter().map(|m| m[0]).collect();
+        let whole_mean = whole.iter().sum::<f64>() / RUNS as f64;
+        let whole_se = (whole.iter().map(|x| (x - whole_mean).powi(2)).sum::<f64>() / (RUNS as f64 - 1.0) / RUNS as f64).sqrt();
+        let detectable = 6.0 * whole_se / ref_means[0];
+        println!("restir {bias:?} (visibility {visibility}): a whole-image bias above {:.3}% fails the t-test", 100.0 * detectable);
         if bias == Bias::Unbiased {
             for (t, line) in ts.iter().zip(&lines) {
                 assert!(t.abs() < 6.0, "unbiased restir, {line}");
             }
+            assert!(detectable < 0.01, "too few runs to see a 1 % bias: 6 SE = {:.3}% of the mean", 100.0 * detectable);
         }
         println!(
             "restir {bias:?} (targets with visibility: {visibility}): image mean {:.6} vs brute force {:.6} ({:+.3}%), worst block |t| = {worst:.2} over {RUNS} runs × {FRAMES} frames",

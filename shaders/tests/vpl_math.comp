@@ -51,10 +51,10 @@ void main() {
             float target = inputs[j].y;
             stream_update(s, j, w, target, rand(rng));
         }
-        s.confidence = 1.0;
+        s.confidence = 3.0;
         Reservoir r = stream_finish(s);
         chosen[i] = r.vpl;
-        outputs[i] = vec4(r.ucw * r.target, r.confidence, 0.0, 0.0);
+        outputs[i] = vec4(r.target, r.ucw, r.confidence, 0.0);
     } else if (pc.test == 3u) {
         Rng rng = rng_init(i, 29u, 0u, pc.seed);
         uint k = 1u + rand_index(rng, 8u);

@@ -17,9 +17,16 @@ pub fn repo_path(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join(rel)
 }
 
-/// The validation layer is on in tests wherever it is installed.
+/// The validation layer is on in tests wherever it is installed; under CI (`CI=true`, what
+/// `.ci/run` sets) a missing layer is an error, since every "0 validation errors" would then hold
+/// whatever the code does (the set-up step installs it).
 pub fn validate() -> bool {
-    validation_layer_available()
+    let available = validation_layer_available();
+    assert!(
+        available || std::env::var("CI").as_deref() != Ok("true"),
+        "CI=true but the Khronos validation layer is not installed (scripts/setup.sh --test installs it)"
+    );
+    available
 }
 
 pub fn context() -> Arc<Context> {

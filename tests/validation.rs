@@ -1,0 +1,28 @@
+//! The validation layer's positive control: every GPU test asserts "0 validation errors", which
+//! proves nothing unless an error is actually counted. A deliberately invalid command must raise
+//! the count (where the layer is installed; CI requires it, see `common::validate`).
+
+mod common;
+
+use ash::vk;
+use common::*;
+use gpu_allocator::MemoryLocation;
+use restir_vpl::vk::Buffer;
+
+#[test]
+fn an_invalid_command_is_counted_as_a_validation_error() {
+    if !validate() {
+        eprintln!("SKIPPED: no validation layer installed (CI requires one)");
+        return;
+    }
+    let ctx = context();
+    assert_eq!(ctx.validation_errors(), 0, "a fresh context has no errors: {:?}", ctx.first_validation_error());
+    // vkCmdFillBuffer on a buffer created without TRANSFER_DST usage
+    // (VUID-vkCmdFillBuffer-dstBuffer-00029); drivers ignore usage flags, so it is harmless.
+    let buffer = Buffer::new(&ctx, "validation_control", 256, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuOnly).unwrap();
+    // SAFETY: cmd is recording; the buffer outlives the one-shot submission.
+    ctx.one_shot(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, buffer.raw, 0, 256, 0) }).unwrap();
+    assert!(ctx.validation_errors() >= 1, "the invalid fill was not reported: the validation messenger does not count errors");
+    let first = ctx.first_validation_error().unwrap_or_default();
+    assert!(first.contains("00029") || first.contains("TRANSFER_DST"), "an unexpected first error: {first}");
+}
