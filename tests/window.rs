@@ -358,3 +358,55 @@ fn overlay_with_a_reference_split_screen_along_a_camera_path() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--reference"), "{}", String::from_utf8_lossy(&o.stderr));
 }
+
+/// Brute force that would freeze the window (its frame is one dispatch, and the window answers
+/// only between frames) is refused at start-up and when a resize would make its frame too large,
+/// as it is on the key press: the window switches to ReSTIR and says why. (Grown from 24×16 to
+/// 200×150 it started a frame of about 30 minutes on lavapipe.) The limits are per device kind
+/// (`WINDOW_BRUTEFORCE_PAIRS_CPU`/`_GPU`); the sizes here are for the CPU one.
+#[test]
+fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
+    let Some(x) = xvfb() else { return };
+    if common::context().report.kind != "CPU" {
+        eprintln!("not a CPU device: the sizes of this test are below a GPU's limit");
+        return;
+    }
+    let d = x.display.as_str();
+    let vpls = ["--scene", "scenes/cornell_box.gltf", "--vpls-direct", "4000", "--vpls-indirect", "4000"];
+    let quit = |mut child: Child, wid: &str| {
+        xdotool(d, &["windowfocus", "--sync", wid]);
+        xdotool(d, &["key", "Escape"]);
+        let start = Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            assert!(start.elapsed() < Duration::from_secs(60), "Esc did not close the window");
+            if start.elapsed().as_secs() % 10 == 9 {
+                xdotool(d, &["key", "--window", wid, "Escape"]);
+            }
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        let o = child.wait_with_output().unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    };
+    let window_id = || String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().unwrap().to_string();
+    // 160×120 × 8k VPLs = 1.5e8 pairs, over the CPU limit of 1e8: refused from the start.
+    let mut child = restir_vpl(Some(d), &[&vpls[..], &["--mode", "bruteforce", "--width", "160", "--height", "120"]].concat())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let title = wait_for_title(d, &mut child, "restir ·", Duration::from_secs(120));
+    assert!(title.contains("refused") && title.contains("started in mode restir"), "{title}");
+    quit(child, &window_id());
+    // 64×48 × 8k = 2.5e7: accepted; grown to 160×120 it is refused and ReSTIR takes over.
+    let mut child = restir_vpl(Some(d), &[&vpls[..], &["--mode", "bruteforce", "--width", "64", "--height", "48"]].concat())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for_title(d, &mut child, "bruteforce ·", Duration::from_secs(120));
+    let wid = window_id();
+    xdotool(d, &["windowsize", &wid, "160", "120"]);
+    let title = wait_for_title(d, &mut child, "refused at 160×120", Duration::from_secs(120));
+    assert!(title.contains("restir ·"), "{title}");
+    quit(child, &wid);
+}

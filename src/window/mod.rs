@@ -181,6 +181,13 @@ impl App {
         // The render size follows the window.
         self.settings.width = swapchain.extent.width;
         self.settings.height = swapchain.extent.height;
+        // --mode bruteforce at a size the window would refuse on a key press: start in ReSTIR.
+        let mut message = String::new();
+        if let Some(why) = interactive_bruteforce_refusal(&self.settings, None, &ctx.report.kind) {
+            self.settings.mode = Mode::Restir;
+            message = format!("refused: {why}; started in mode restir");
+            log::warn!("{message}");
+        }
         let renderer = Renderer::new(ctx.clone(), scene.clone(), self.settings.clone())?;
         let presenter = Presenter::new(&ctx, &swapchain)?;
         let ui = Overlay::new(&ctx, &window, &swapchain, PRESENT_SLOTS, self.reference.take())?;
@@ -209,7 +216,7 @@ impl App {
             clock: Instant::now(),
             last_title: Instant::now(),
             smoothed_ms: 0.0,
-            message: String::new(),
+            message,
             window,
         })
     }
@@ -368,7 +375,10 @@ impl App {
                 let outputs = Vec::new();
                 let displayed = r.displayed(self.opts.present_mode);
                 r.message = match finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start, displayed) {
-                    Ok(summary) => format!("wrote {}", summary.outputs.join(", ")),
+                    Ok(summary) => {
+                        let json = self.settings.out_dir.as_ref().map(|d| format!(", {}", d.join("summary.json").display())).unwrap_or_default();
+                        format!("wrote {}{json}", summary.outputs.join(", "))
+                    }
                     Err(e) => format!("saving failed: {e:#}"),
                 };
                 log::info!("{}", r.message);
@@ -402,6 +412,19 @@ impl App {
             Action::Freeze => {
                 r.frozen = !r.frozen;
                 r.timing_restarts = true; // the frozen time is no frame's
+                if r.frozen {
+                    // The frames in flight end now, so the summary's frame times leave the frozen
+                    // time out, and the title says so at once (no frame redraws the overlay).
+                    r.renderer.complete_all()?;
+                    r.message = "frozen: F2 resumes, F3 renders one frame".into();
+                    r.window.set_title(&format!(
+                        "restir-vpl — {} · frozen (F2 resumes, F3 renders one frame) · {} frames accumulated",
+                        r.renderer.settings().mode.name(),
+                        r.renderer.accumulated()
+                    ));
+                } else {
+                    r.message = "resumed".into();
+                }
             }
             Action::Step => {
                 r.step = r.frozen;
@@ -483,6 +506,13 @@ impl App {
             if (w, h) != (r.renderer.settings().width, r.renderer.settings().height) {
                 let mut s = r.renderer.settings().clone();
                 (s.width, s.height) = (w, h);
+                // Brute force that a key press would refuse at this size is refused here too: a
+                // window grown from 24×16 to 200×150 started a frame of ~30 minutes on lavapipe.
+                if let Some(why) = interactive_bruteforce_refusal(&s, r.renderer.photon_stats(), &r.ctx.report.kind) {
+                    s.mode = Mode::Restir;
+                    r.message = format!("refused at {w}×{h}: {why}; switched to mode restir");
+                    log::warn!("{}", r.message);
+                }
                 match r.renderer.apply_settings(s.clone()) {
                     Ok(()) => {}
                     // Brute force refuses this many pixel × VPL pairs: fall back to ReSTIR at the
@@ -530,6 +560,10 @@ impl App {
             }
         }
         r.frames += 1;
+        if r.frozen {
+            // A frame stepped with F3 ends now, not when the next step or the resume reuses its slot.
+            r.renderer.complete_all()?;
+        }
         let shown = Instant::now();
         if r.frames == 3 {
             r.timed_from = Some(shown);

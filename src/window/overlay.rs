@@ -393,7 +393,7 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
             if ui.checkbox(&mut edited.progressive, "progressive (P)").changed() {
                 what = Some("progressive".into());
             }
-            if ui.add(egui::Slider::new(&mut edited.exposure, -8.0..=8.0).text("exposure (EV)")).changed() {
+            if ui.add(egui::Slider::new(&mut edited.exposure, -24.0..=24.0).text("exposure (EV)")).changed() {
                 what = Some("exposure".into());
             }
             combo(ui, "attenuation", &mut edited.attenuation, &mut what);
