@@ -142,3 +142,36 @@ fn compensation_converges_to_the_path_tracer_on_the_cornell_box() {
 fn compensation_converges_to_the_path_tracer_in_a_tight_wedge() {
     check_scene("wedge", &wedge_room(), 0.15);
 }
+
+/// The wedge room's box lit only by lights of the two other kinds: a double-sided emitter hanging
+/// in the middle of the room, both faces lighting it (one faces the camera, one the back wall),
+/// and a `KHR_lights_punctual` point light. The other scenes have single-sided area lights only,
+/// so this is where the photon pass's face choice (each face half the paths, the flux of both)
+/// and point-light VPLs meet the path tracer.
+fn double_sided_and_point_lights_room() -> Scene {
+    let mut b = GltfBuilder::new();
+    let white = b.material("white", [0.75; 3], [0.0; 3], false);
+    let panel = b.material("panel", [0.0; 3], [6.0; 3], true);
+    let s = 1.0f32;
+    let walls = [
+        ([[0.0, 0.0, 0.0], [s, 0.0, 0.0], [s, 0.0, -s], [0.0, 0.0, -s]], [0.0, 1.0, 0.0]),
+        ([[0.0, s, 0.0], [0.0, s, -s], [s, s, -s], [s, s, 0.0]], [0.0, -1.0, 0.0]),
+        ([[0.0, 0.0, -s], [s, 0.0, -s], [s, s, -s], [0.0, s, -s]], [0.0, 0.0, 1.0]),
+        ([[0.0, 0.0, 0.0], [0.0, 0.0, -s], [0.0, s, -s], [0.0, s, 0.0]], [1.0, 0.0, 0.0]),
+        ([[s, 0.0, 0.0], [s, s, 0.0], [s, s, -s], [s, 0.0, -s]], [-1.0, 0.0, 0.0]),
+    ];
+    let quads: Vec<_> = walls.iter().map(|(q, d)| orient_quad(*q, *d)).collect();
+    let m = b.quads("room", &quads, white);
+    b.node("room", m, [0.0; 3]);
+    let pq = orient_quad([[0.4, 0.55, -0.6], [0.6, 0.55, -0.6], [0.6, 0.75, -0.6], [0.4, 0.75, -0.6]], [0.0, 0.0, 1.0]);
+    let m = b.quad("panel", pq, panel);
+    b.node("panel", m, [0.0; 3]);
+    b.point_light("bulb", [0.2, 0.8, -0.3], [1.0, 0.9, 0.8], 0.4);
+    b.camera("camera", [0.5, 0.5, 0.6], [0.5, 0.45, -0.5], [0.0, 1.0, 0.0], 60f32.to_radians());
+    common::load_json(&b.to_json_string(), "double-sided and point lights room")
+}
+
+#[test]
+fn compensation_converges_to_the_path_tracer_with_double_sided_and_point_lights() {
+    check_scene("double_sided_point", &double_sided_and_point_lights_room(), 0.15);
+}

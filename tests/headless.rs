@@ -205,3 +205,21 @@ fn a_mirrored_emitter_lights_from_its_front_face() {
     let tol = 4.0 * (se0 * se0 + se1 * se1).sqrt();
     assert!((m1 - m0).abs() < tol, "mirrored light: mean {m1:.5} against {m0:.5} (tolerance {tol:.5}, ratio {:.3})", m1 / m0);
 }
+
+/// `compare`'s 8-bit mapping (`to_srgb8`, what FLIP sees) is the PNG preview's: the GPU tonemap of
+/// final.exr at the run's exposure, byte for byte up to rounding at a half (GPU `pow` against the
+/// host's `powf`: at most one step, in a few pixels).
+#[test]
+fn compare_maps_to_8_bits_as_the_png_preview_does() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let settings = RenderSettings { out_dir: Some(dir.path().to_path_buf()), exposure: 1.5, mode: restir_vpl::settings::Mode::Pt, ..small(40, 30, 2) };
+    render(&cornell(), &settings);
+    let exr = read_exr(&dir.path().join("final.exr")).unwrap();
+    let png = image::open(dir.path().join("final.png")).unwrap().to_rgb8().into_raw();
+    let ours = restir_vpl::eval::compare::to_srgb8(&exr, settings.exposure);
+    assert_eq!(ours.len(), png.len());
+    let off: Vec<(usize, u8, u8)> = ours.iter().zip(&png).enumerate().filter(|(_, (a, b))| a != b).map(|(i, (a, b))| (i, *a, *b)).collect();
+    assert!(off.iter().all(|&(_, a, b)| a.abs_diff(b) <= 1), "channels differ by more than one step: {:?}", &off[..off.len().min(8)]);
+    assert!(off.len() * 100 <= ours.len(), "{} of {} channels differ by a step", off.len(), ours.len());
+    assert!(png.iter().any(|&v| v > 0 && v < 255), "a lit, unsaturated image");
+}

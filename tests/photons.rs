@@ -73,6 +73,19 @@ fn assert_rel(a: [f64; 3], b: [f64; 3], tol: f64, what: &str) {
     }
 }
 
+/// The expected power above is the light list's own sum (`LightSet::total_power`, the code that
+/// also builds the GPU lights): checked here against the scene's numbers by hand, so that a wrong
+/// area, side count or point-light factor cannot hide in both.
+#[test]
+fn two_lights_power_by_hand() {
+    let pi = std::f64::consts::PI;
+    let warm = [9.0, 3.0, 1.0].map(|le: f64| pi * le * (2.0 * 0.5)); // one-sided, 2 m × 0.5 m
+    let cool = [0.5, 1.0, 4.0].map(|le: f64| 2.0 * pi * le * (0.3 * 0.5)); // double-sided, 0.3 m × 0.5 m
+    let bulb = [1.0, 0.8, 0.6].map(|c: f64| 4.0 * pi * 0.7 * c); // 0.7 cd
+    let by_hand = [0, 1, 2].map(|c| warm[c] + cool[c] + bulb[c]);
+    assert_rel(light_power(&two_lights()), by_hand, 1e-6, "total light power");
+}
+
 #[test]
 fn direct_vpl_flux_equals_light_power() {
     for (scene, n) in [(cornell(), 20_000), (two_lights(), 30_000)] {
