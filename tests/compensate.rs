@@ -9,7 +9,9 @@
 //! The path tracer's standard error comes from its per-pixel variance over independent frames.
 //! Pass: |mode − pt| < 4·√(SE² + SE_pt²), the bound the issue asks for; with 9 degrees of freedom
 //! a false alarm has probability ≈ 0.003 per check (the seeds are fixed, so a given build either
-//! passes or fails). The uncompensated image must be more than 10 such errors below the path
+//! passes or fails). The same over each of 16 blocks of 12×12 pixels with 6 standard errors
+//! (probability 2e-4 per block), so that compensation adding the right total in the wrong places
+//! fails too. The uncompensated image must be more than 10 such errors below the path
 //! tracer (the test can tell), and a compensated image never holds a non-finite value.
 
 mod common;
@@ -32,9 +34,20 @@ fn image_mean(img: &[[f32; 3]]) -> f64 {
     img.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum::<f64>() / img.len() as f64
 }
 
-/// Renders `frames` frames; returns (image mean, its standard error from the per-pixel variance,
-/// valid when frames are independent).
-fn render(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, s: RenderSettings, frames: u32) -> (f64, f64) {
+/// 12×12-pixel blocks of the 48×48 image (16), by pixel index.
+const BLOCK: u32 = 12;
+fn block_of(i: usize) -> usize {
+    let (x, y) = (i as u32 % W, i as u32 / W);
+    ((y / BLOCK) * (W / BLOCK) + x / BLOCK) as usize
+}
+const BLOCKS: usize = ((W / BLOCK) * (H / BLOCK)) as usize;
+
+/// Means (index 0: the whole image; 1..: the blocks) with standard errors.
+type Means = Vec<(f64, f64)>;
+
+/// Renders `frames` frames; returns the image's and each block's mean with its standard error from
+/// the per-pixel variance (valid when frames are independent).
+fn render(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, s: RenderSettings, frames: u32) -> Means {
     let mut r = Renderer::new(ctx.clone(), scene.clone(), s).expect("renderer");
     let camera = r.initial_camera();
     for _ in 0..frames {
@@ -44,20 +57,30 @@ fn render(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, s: RenderSettings, frames: 
     common::assert_all_finite(&mean, "mean");
     assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
     let var = r.read_variance().unwrap();
-    let n = mean.len() as f64;
     // Channel average's variance <= mean of the channel variances (Cauchy–Schwarz): conservative.
-    let v: f64 = var.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum();
-    (image_mean(&mean), (v / frames as f64).sqrt() / n)
+    let lum = |p: &[f32; 3]| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0;
+    let mut sums = vec![(0.0, 0.0, 0usize); BLOCKS + 1];
+    for (i, (m, v)) in mean.iter().zip(&var).enumerate() {
+        for k in [0, 1 + block_of(i)] {
+            sums[k].0 += lum(m);
+            sums[k].1 += lum(v);
+            sums[k].2 += 1;
+        }
+    }
+    sums.iter().map(|&(m, v, n)| (m / n as f64, (v / frames as f64).sqrt() / n as f64)).collect()
 }
 
-/// Mean and standard error over [`RUNS`] seeds.
-fn runs(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, base: &RenderSettings, frames: u32) -> (f64, f64) {
-    let means: Vec<f64> =
-        (1..=RUNS).map(|seed| render(ctx, scene, RenderSettings { seed, ..base.clone() }, frames).0).collect();
-    let k = means.len() as f64;
-    let m = means.iter().sum::<f64>() / k;
-    let var = means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (k - 1.0);
-    (m, (var / k).sqrt())
+/// Means and standard errors over [`RUNS`] seeds (the spread of the run means / √RUNS).
+fn runs(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, base: &RenderSettings, frames: u32) -> Means {
+    let per_run: Vec<Means> = (1..=RUNS).map(|seed| render(ctx, scene, RenderSettings { seed, ..base.clone() }, frames)).collect();
+    let k = RUNS as f64;
+    (0..=BLOCKS)
+        .map(|b| {
+            let m = per_run.iter().map(|r| r[b].0).sum::<f64>() / k;
+            let var = per_run.iter().map(|r| (r[b].0 - m).powi(2)).sum::<f64>() / (k - 1.0);
+            (m, (var / k).sqrt())
+        })
+        .collect()
 }
 
 /// A 1 m open-fronted room lit from the ceiling with, on its floor, a wedge: a 0.6 m plate hinged
@@ -107,11 +130,12 @@ fn check_scene(label: &str, scene: &Scene, radius: f32) {
         photon_max_bounces: 64,
         ..Default::default()
     };
-    let (pt, pt_se) = render(&ctx, &gpu, RenderSettings { mode: Mode::Pt, seed: 99, ..base.clone() }, 1024);
+    let pt_means = render(&ctx, &gpu, RenderSettings { mode: Mode::Pt, seed: 99, ..base.clone() }, 1024);
+    let (pt, pt_se) = pt_means[0];
     println!("{label}: pt {pt:.5} ± {pt_se:.5}");
 
     let plain = RenderSettings { mode: Mode::Ris, vpls_direct: 20_000, vpls_indirect: 20_000, ..base.clone() };
-    let (m, se) = runs(&ctx, &gpu, &plain, 32);
+    let (m, se) = runs(&ctx, &gpu, &plain, 32)[0];
     let z_plain = (m - pt) / (se * se + pt_se * pt_se).sqrt();
     println!("{label}: ris without --compensate {m:.5} ± {se:.5} ({:+.2}% , z = {z_plain:.1})", 100.0 * (m / pt - 1.0));
     assert!(z_plain < -10.0, "{label}: r = {radius} should leave the plain VPL image visibly dark (z = {z_plain:.1})");
@@ -124,10 +148,16 @@ fn check_scene(label: &str, scene: &Scene, radius: f32) {
     ];
     for (name, mode, vpls, frames) in cases {
         let s = RenderSettings { mode, vpls_direct: vpls, vpls_indirect: vpls, compensate: true, ..base.clone() };
-        let (m, se) = runs(&ctx, &gpu, &s, frames);
+        let means = runs(&ctx, &gpu, &s, frames);
+        let (m, se) = means[0];
         let z = (m - pt) / (se * se + pt_se * pt_se).sqrt();
-        println!("{label}: {name} --compensate {m:.5} ± {se:.5} ({:+.2}%, z = {z:.2})", 100.0 * (m / pt - 1.0));
+        // Each 12×12 block too, so that light added in the wrong places cannot pass on the total:
+        // |z| < 6 per block (16 blocks; t with 9 dof exceeds 6 with probability 2e-4).
+        let zb: Vec<f64> = (1..=BLOCKS).map(|b| (means[b].0 - pt_means[b].0) / (means[b].1.powi(2) + pt_means[b].1.powi(2)).sqrt()).collect();
+        let (worst_b, worst) = zb.iter().enumerate().fold((0, 0f64), |w, (b, z)| if z.abs() > w.1.abs() { (b, *z) } else { w });
+        println!("{label}: {name} --compensate {m:.5} ± {se:.5} ({:+.2}%, z = {z:.2}; worst block {worst_b}: z = {worst:.2})", 100.0 * (m / pt - 1.0));
         assert!(z.abs() < 4.0, "{label}: {name} with --compensate: mean {m:.6} vs path tracer {pt:.6}: {z:.2} standard errors");
+        assert!(worst.abs() < 6.0, "{label}: {name} with --compensate: block {worst_b} {:.6} vs path tracer {:.6}: {worst:.2} standard errors", means[worst_b + 1].0, pt_means[worst_b + 1].0);
     }
     assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
 }

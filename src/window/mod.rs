@@ -345,9 +345,9 @@ impl App {
                 let c = r.renderer.settings().candidates;
                 let next = if action == Action::MoreCandidates { (c * 2).min(1024) } else { (c / 2).max(1) };
                 if next == c {
-                    r.message = format!("{c} RIS candidates: the {} there is", if c == 1 { "fewest" } else { "most" });
+                    r.message = format!("{c} RIS candidate{}: the {} there is", if c == 1 { "" } else { "s" }, if c == 1 { "fewest" } else { "most" });
                 } else {
-                    self.change(&format!("{next} RIS candidates"), |s| s.candidates = next)?
+                    self.change(&format!("{next} RIS candidate{}", if next == 1 { "" } else { "s" }), |s| s.candidates = next)?
                 }
             }
             Action::ToggleProgressive => {
@@ -580,12 +580,13 @@ impl App {
             let s = r.renderer.settings();
             let gpu: f64 = r.renderer.last_stats().gpu_ms();
             r.window.set_title(&format!(
-                "restir-vpl — {} · {:.1} ms/frame ({:.0} fps, GPU {:.1} ms) · {} frames accumulated{}{}",
+                "restir-vpl — {} · {:.1} ms/frame ({:.0} fps, GPU {:.1} ms) · {} frame{} accumulated{}{}",
                 s.mode.name(),
                 r.smoothed_ms,
                 1e3 / r.smoothed_ms.max(1e-3),
                 gpu,
                 r.renderer.accumulated(),
+                if r.renderer.accumulated() == 1 { "" } else { "s" },
                 if s.view != View::Final && !r.message.contains(&format!("view {}", s.view.name())) {
                     format!(" · view {}", s.view.name())
                 } else {
