@@ -29,11 +29,6 @@ const W: u32 = 48;
 const H: u32 = 48;
 const RUNS: u32 = 10;
 
-/// Mean over pixels of the channel average.
-fn image_mean(img: &[[f32; 3]]) -> f64 {
-    img.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum::<f64>() / img.len() as f64
-}
-
 /// 12×12-pixel blocks of the 48×48 image (16), by pixel index.
 const BLOCK: u32 = 12;
 fn block_of(i: usize) -> usize {
@@ -83,14 +78,9 @@ fn runs(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, base: &RenderSettings, frames
         .collect()
 }
 
-/// A 1 m open-fronted room lit from the ceiling with, on its floor, a wedge: a 0.6 m plate hinged
-/// on the floor and rising at 20° towards the camera, so its underside and the floor meet in a
-/// tight corner that the camera looks into.
-fn wedge_room() -> Scene {
-    let mut b = GltfBuilder::new();
-    let white = b.material("white", [0.75; 3], [0.0; 3], false);
-    let plate = b.material("plate", [0.8, 0.7, 0.5], [0.0; 3], true);
-    let light = b.material("light", [0.0; 3], [8.0; 3], false);
+/// The 1 m room both test rooms share: floor, ceiling, back and side walls of material `white`,
+/// open at the front (z = 0), facing inward.
+fn open_room(b: &mut GltfBuilder, white: usize) {
     let s = 1.0f32;
     let walls = [
         ([[0.0, 0.0, 0.0], [s, 0.0, 0.0], [s, 0.0, -s], [0.0, 0.0, -s]], [0.0, 1.0, 0.0]),
@@ -102,6 +92,17 @@ fn wedge_room() -> Scene {
     let quads: Vec<_> = walls.iter().map(|(q, d)| orient_quad(*q, *d)).collect();
     let m = b.quads("room", &quads, white);
     b.node("room", m, [0.0; 3]);
+}
+
+/// A 1 m open-fronted room lit from the ceiling with, on its floor, a wedge: a 0.6 m plate hinged
+/// on the floor and rising at 20° towards the camera, so its underside and the floor meet in a
+/// tight corner that the camera looks into.
+fn wedge_room() -> Scene {
+    let mut b = GltfBuilder::new();
+    let white = b.material("white", [0.75; 3], [0.0; 3], false);
+    let plate = b.material("plate", [0.8, 0.7, 0.5], [0.0; 3], true);
+    let light = b.material("light", [0.0; 3], [8.0; 3], false);
+    open_room(&mut b, white);
     let lq = orient_quad([[0.3, 0.999, -0.7], [0.7, 0.999, -0.7], [0.7, 0.999, -0.3], [0.3, 0.999, -0.3]], [0.0, -1.0, 0.0]);
     let m = b.quad("light", lq, light);
     b.node("light", m, [0.0; 3]);
@@ -182,17 +183,7 @@ fn double_sided_and_point_lights_room() -> Scene {
     let mut b = GltfBuilder::new();
     let white = b.material("white", [0.75; 3], [0.0; 3], false);
     let panel = b.material("panel", [0.0; 3], [6.0; 3], true);
-    let s = 1.0f32;
-    let walls = [
-        ([[0.0, 0.0, 0.0], [s, 0.0, 0.0], [s, 0.0, -s], [0.0, 0.0, -s]], [0.0, 1.0, 0.0]),
-        ([[0.0, s, 0.0], [0.0, s, -s], [s, s, -s], [s, s, 0.0]], [0.0, -1.0, 0.0]),
-        ([[0.0, 0.0, -s], [s, 0.0, -s], [s, s, -s], [0.0, s, -s]], [0.0, 0.0, 1.0]),
-        ([[0.0, 0.0, 0.0], [0.0, 0.0, -s], [0.0, s, -s], [0.0, s, 0.0]], [1.0, 0.0, 0.0]),
-        ([[s, 0.0, 0.0], [s, s, 0.0], [s, s, -s], [s, 0.0, -s]], [-1.0, 0.0, 0.0]),
-    ];
-    let quads: Vec<_> = walls.iter().map(|(q, d)| orient_quad(*q, *d)).collect();
-    let m = b.quads("room", &quads, white);
-    b.node("room", m, [0.0; 3]);
+    open_room(&mut b, white);
     let pq = orient_quad([[0.4, 0.55, -0.6], [0.6, 0.55, -0.6], [0.6, 0.75, -0.6], [0.4, 0.75, -0.6]], [0.0, 0.0, 1.0]);
     let m = b.quad("panel", pq, panel);
     b.node("panel", m, [0.0; 3]);
