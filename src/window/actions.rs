@@ -88,11 +88,8 @@ pub fn action_for(key: KeyCode) -> Option<Action> {
 }
 
 /// The help text: one line per key.
-pub fn help_lines() -> Vec<String> {
-    KEYS.iter()
-        .map(|(_, label, _, what)| format!("{label:<10} {what}"))
-        .chain(MOVE_KEYS.iter().map(|(label, what)| format!("{label:<10} {what}")))
-        .collect()
+pub fn help_rows() -> Vec<(&'static str, &'static str)> {
+    KEYS.iter().map(|(_, label, _, what)| (*label, *what)).chain(MOVE_KEYS.iter().copied()).collect()
 }
 
 #[cfg(test)]

@@ -343,9 +343,20 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
     let mut what: Option<String> = None;
     let stats = renderer.last_stats();
     let pixels = renderer.pixels().max(1) as f64;
-    egui::Window::new("restir-vpl").default_pos([8.0, 8.0]).default_width(300.0).resizable(false).vscroll(true).show(ui.ctx(), |ui| {
+    // In a small window (at 320×240 the 300 px panel hid the image) it starts collapsed to its
+    // title bar (a click opens it); it is resizable, and narrower where the window is.
+    let screen = ui.ctx().content_rect();
+    let width = 300f32.min(0.6 * screen.width()).max(120.0);
+    egui::Window::new("restir-vpl")
+        .default_pos([8.0, 8.0])
+        .default_open(screen.width() >= 480.0 && screen.height() >= 360.0)
+        .default_width(width)
+        .default_height(0.8 * screen.height())
+        .resizable(true)
+        .vscroll(true)
+        .show(ui.ctx(), |ui| {
         ui.label(format!(
-            "{} · view {} · {}×{}\n{:.1} ms/frame ({:.0} fps) · GPU {:.2} ms\n{} frames accumulated{}",
+            "{} · view {} · {}×{}\n{:.1} ms/frame ({:.0} fps) · GPU {:.2} ms\n{} frame{} accumulated{}",
             s.mode.name(),
             s.view.name(),
             s.width,
@@ -354,6 +365,7 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
             1e3 / info.ms_per_frame.max(1e-3),
             stats.gpu_ms(),
             renderer.accumulated(),
+            if renderer.accumulated() == 1 { "" } else { "s" },
             if info.frozen { " · FROZEN (F2 resumes, F3 steps)" } else { "" }
         ));
         if let Some(v) = renderer.vpl_summary() {
@@ -440,8 +452,13 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
             }
         });
         egui::CollapsingHeader::new("keys (F1 hides this)").default_open(false).show(ui, |ui| {
-            for line in actions::help_lines() {
-                ui.monospace(line);
+            // The key in bold, then its description, wrapping as the panel's width allows (padded
+            // to ten columns, a long key name such as "right mouse button" ran into its text).
+            for (key, what) in actions::help_rows() {
+                ui.horizontal_wrapped(|ui| {
+                    ui.label(egui::RichText::new(key).monospace().strong());
+                    ui.label(what);
+                });
             }
         });
     });
