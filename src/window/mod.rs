@@ -111,6 +111,9 @@ struct Running {
     smoothed_ms: f64,
     /// Latest status message (errors of refused actions, saved files).
     message: String,
+    /// The message as last seen by the title and since when: a message is cleared after
+    /// `MESSAGE_SECONDS` (a "camera loaded" or "wrote …" stayed for hundreds of frames).
+    message_since: (String, Instant),
     window: Arc<Window>,
 }
 
@@ -217,6 +220,7 @@ impl App {
             last_title: Instant::now(),
             smoothed_ms: 0.0,
             message,
+            message_since: (String::new(), Instant::now()),
             window,
         })
     }
@@ -575,6 +579,11 @@ impl App {
         let ms = if std::mem::take(&mut r.timing_restarts) { r.renderer.last_stats().gpu_ms() } else { dt as f64 * 1e3 };
         let weight = 1.0 - (-ms / 500.0).exp();
         r.smoothed_ms = if r.frames <= 2 { ms } else { r.smoothed_ms + weight * (ms - r.smoothed_ms) };
+        if r.message != r.message_since.0 {
+            r.message_since = (r.message.clone(), now);
+        } else if !r.message.is_empty() && now.duration_since(r.message_since.1).as_secs_f64() > MESSAGE_SECONDS {
+            r.message.clear();
+        }
         if now.duration_since(r.last_title).as_secs_f64() > 0.25 {
             r.last_title = now;
             let s = r.renderer.settings();
@@ -871,6 +880,9 @@ pub fn interactive_bruteforce_refusal(s: &RenderSettings, photons: Option<&crate
         )
     })
 }
+
+/// How long a status message stays in the title and the overlay.
+const MESSAGE_SECONDS: f64 = 10.0;
 
 /// What the movement keys, Home and I answer while `--camera-path` drives the camera.
 const FOLLOWS_PATH: &str = "the camera follows --camera-path: movement keys, Home and I are off";
