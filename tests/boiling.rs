@@ -57,12 +57,12 @@ fn boiling_filter_cuts_fireflies_at_a_bounded_bias() {
             share += c.worst_share;
             ratio += c.mean_ratio;
         }
-        assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+        common::assert_no_nonfinite_samples(&r, "run");
         let n = SEEDS.len() as f64;
         ((rmse2 / n).sqrt(), share / n, ratio / n)
     };
     let (off, on) = (restir(0.0), restir(0.8));
-    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
     eprintln!(
         "over {} seeds: off: RMSE {:.4}, worst 0.1% share {:.3}, mean ratio {:.4}; strength 0.8: RMSE {:.4}, share {:.3}, ratio {:.4}",
         SEEDS.len(),

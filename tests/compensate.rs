@@ -50,7 +50,7 @@ fn render(ctx: &Arc<Context>, scene: &Arc<SceneGpu>, s: RenderSettings, frames: 
     }
     let mean = r.read_mean().unwrap();
     common::assert_all_finite(&mean, "mean");
-    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+    common::assert_no_nonfinite_samples(&r, "run");
     let var = r.read_variance().unwrap();
     // Channel average's variance <= mean of the channel variances (Cauchy–Schwarz): conservative.
     let lum = |p: &[f32; 3]| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0;
@@ -160,7 +160,7 @@ fn check_scene(label: &str, scene: &Scene, radius: f32) {
         assert!(z.abs() < 4.0, "{label}: {name} with --compensate: mean {m:.6} vs path tracer {pt:.6}: {z:.2} standard errors");
         assert!(worst.abs() < 6.0, "{label}: {name} with --compensate: block {worst_b} {:.6} vs path tracer {:.6}: {worst:.2} standard errors", means[worst_b + 1].0, pt_means[worst_b + 1].0);
     }
-    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
 }
 
 #[test]

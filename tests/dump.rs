@@ -200,8 +200,8 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     }
     eprintln!("{checked} pixels recombined, {shadowed} shadowed");
     assert!(checked > 2000 && shadowed < checked, "{checked} checked, {shadowed} shadowed");
-    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
-    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
+    common::assert_no_nonfinite_samples(&r, "run");
+    common::assert_no_validation_errors(&ctx);
 }
 
 #[test]
@@ -314,5 +314,5 @@ fn the_captured_g_buffer_holds_each_pixels_own_primary_hit() {
         }
     }
     assert!(checked > w * h, "most pixels see the box: {checked} hits checked over two frames");
-    assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
 }

@@ -175,8 +175,8 @@ fn exposure_changes_keep_the_accumulation_and_other_changes_restart_it() {
     r.apply_settings(RenderSettings { exposure: 2.0, candidates: 8, ..settings }).unwrap();
     r.render_frame(&camera, false).unwrap();
     assert_eq!(r.accumulated(), 1, "another change starts again");
-    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
-    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
+    common::assert_no_nonfinite_samples(&r, "run");
+    common::assert_no_validation_errors(&ctx);
 }
 
 /// The Cornell box's light mirrored in x about its own centre line is the same light, so the

@@ -22,7 +22,7 @@ fn vpls(scene: &Scene, settings: RenderSettings) -> (Vec<GpuVpl>, PhotonStats) {
     let r = Renderer::new(Arc::clone(&ctx), gpu, settings).expect("renderer");
     let v = r.read_vpls().expect("read").expect("VPLs present");
     let stats = r.photon_stats().expect("photon stats").clone();
-    assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
     for x in &v {
         assert!(x.flux.iter().all(|c| c.is_finite() && *c >= 0.0), "bad flux {x:?}");
         assert!(x.position.iter().chain(&x.normal).all(|c| c.is_finite()), "bad VPL {x:?}");

@@ -49,7 +49,7 @@ fn merged_partial_references_equal_one_long_run() {
         let (nm, nw) = (meta.noise_mse.unwrap(), whole.noise_mse.unwrap());
         assert!(nm > 0.0 && (nm / nw - 1.0).abs() < 0.5, "noise estimates {nm} vs {nw}");
     }
-    assert_eq!(ctx.validation_errors(), 0, "first: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
 }
 
 fn cli(args: &[&str]) -> std::process::Output {

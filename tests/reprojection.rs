@@ -65,10 +65,6 @@ fn renderer(scene: &Scene, settings: RenderSettings) -> (Arc<restir_vpl::vk::Con
     (ctx, r)
 }
 
-fn assert_no_validation_errors(ctx: &restir_vpl::vk::Context) {
-    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
-}
-
 #[test]
 fn a_plane_moved_by_whole_pixels_reprojects_exactly() {
     let scene = plane_scene(None);
@@ -104,7 +100,7 @@ fn a_plane_moved_by_whole_pixels_reprojects_exactly() {
         assert_eq!(off_screen, expect_off);
         assert!(matched > 0);
     }
-    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+    common::assert_no_nonfinite_samples(&r, "run");
     assert_no_validation_errors(&ctx);
 }
 
@@ -203,7 +199,7 @@ fn reservoir_views_show_the_last_frame_alone() {
             assert_eq!(p[0], want, "{view:?}: pixel {i} shows {} where the last frame's reservoir has {want}", p[0]);
         }
         assert!(reservoirs.iter().any(|res| res.confidence > 1.0), "temporal reuse should have raised M above 1");
-        assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+        common::assert_no_nonfinite_samples(&r, "run");
         assert_no_validation_errors(&ctx);
     }
 }
@@ -249,7 +245,7 @@ fn disoccluded_and_off_screen_pixels_get_no_history() {
     assert!(without > 100, "the set-up should disocclude or bring in many pixels: {without}");
     assert!(with > 1000, "most of the plane keeps its history: {with}");
     assert!(skipped < (W * H / 10) as usize, "{skipped} pixels not judged");
-    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+    common::assert_no_nonfinite_samples(&r, "run");
     assert_no_validation_errors(&ctx);
 }
 
@@ -311,7 +307,7 @@ fn unbiased_restir_stays_unbiased_along_a_camera_path() {
         assert!(se > 0.0, "block {b}: no variance across runs (are the seeds used?)");
         assert!(diff.abs() <= 4.0 * se, "block {b}: ReSTIR {mean} vs brute force {} ({:.1} standard errors)", truth_blocks[b], diff / se);
     }
-    assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+    common::assert_no_nonfinite_samples(&r, "run");
     assert_no_validation_errors(&ctx);
 }
 
@@ -340,7 +336,7 @@ fn fused_passes_render_the_same_frames_as_passes_apart() {
                 r.render_frame(&path.at(4.0 * f as f32), false).unwrap();
                 shown.push(r.read_mean().unwrap());
             }
-            assert_eq!(r.nonfinite_samples_total(), 0, "non-finite samples");
+            common::assert_no_nonfinite_samples(&r, "run");
             (shown, r.last_plan().unwrap().clone())
         };
         let (apart, plan_apart) = frames(false);

@@ -42,8 +42,8 @@ fn render_scaled(k: f32, base: &RenderSettings) -> RgbImage {
     for _ in 0..base.frames {
         r.render_frame(&camera, false).unwrap();
     }
-    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
-    assert_eq!(r.nonfinite_samples_total(), 0, "scale {k}: non-finite samples");
+    common::assert_no_validation_errors(&ctx);
+    common::assert_no_nonfinite_samples(&r, &format!("scale {k}"));
     let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean().unwrap() };
     assert_all_finite(&img.pixels, &format!("scale {k}"));
     img

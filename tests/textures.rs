@@ -125,8 +125,8 @@ fn texture_variants_are_used_only_when_needed() {
             r.render_frame(&camera, false).unwrap();
             r.render_frame(&camera, false).unwrap();
             assert_all_finite(&r.read_mean().unwrap(), "textured-scene image");
-            assert_eq!(r.nonfinite_samples_total(), 0, "mode {mode:?}: non-finite samples");
+            common::assert_no_nonfinite_samples(&r, &format!("mode {mode:?}"));
         }
     }
-    assert_eq!(ctx.validation_errors(), 0, "first: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
 }

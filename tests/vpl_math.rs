@@ -52,7 +52,7 @@ fn run(test: u32, count: u32, n: u32, inputs: &[[f32; 4]], vpls: &[GpuVpl], poin
     ctx.one_shot(|cmd| pipeline.dispatch_1d(cmd, empty.set, bytemuck::bytes_of(&push), count)).unwrap();
     let outputs: Vec<[f32; 4]> = bytemuck::cast_slice(&restir_vpl::vk::buffer::read_back(&ctx, &outputs_b).unwrap()).to_vec();
     let chosen: Vec<u32> = bytemuck::cast_slice(&restir_vpl::vk::buffer::read_back(&ctx, &chosen_b).unwrap()).to_vec();
-    assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
     Run { outputs: outputs[..count as usize].to_vec(), chosen: chosen[..chosen_len].to_vec() }
 }
 
@@ -330,5 +330,5 @@ fn records_read_as_texels_decode_to_their_bytes() {
         let first_bad = words.iter().zip(&back).position(|(a, b)| a != b);
         assert_eq!(first_bad, None, "record kind {kind} ({size} bytes): word {first_bad:?} differs after the texel round trip");
     }
-    assert_eq!(ctx.validation_errors(), 0, "validation: {:?}", ctx.first_validation_error());
+    common::assert_no_validation_errors(&ctx);
 }

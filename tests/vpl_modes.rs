@@ -43,10 +43,6 @@ fn settings(mode: Mode, w: u32, h: u32, direct: u32, indirect: u32) -> RenderSet
     }
 }
 
-fn check_validation(ctx: &Context) {
-    assert_eq!(ctx.validation_errors(), 0, "validation errors; first: {:?}", ctx.first_validation_error());
-}
-
 /// Renders `frames` frames; returns (mean, variance) images.
 fn render(renderer: &mut Renderer, frames: u32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>) {
     let camera = renderer.initial_camera();
@@ -55,7 +51,7 @@ fn render(renderer: &mut Renderer, frames: u32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>
     }
     let mean = renderer.read_mean().unwrap();
     common::assert_all_finite(&mean, "mean");
-    assert_eq!(renderer.nonfinite_samples_total(), 0, "non-finite samples");
+    common::assert_no_nonfinite_samples(&renderer, "run");
     (mean, renderer.read_variance().unwrap())
 }
 
@@ -114,7 +110,7 @@ fn uniform_and_ris_converge_to_brute_force() {
         assert_eq!(r.vpl_summary().unwrap().presample, presample && mode == Mode::Ris, "{label}: presample pass present");
         assert_frames_converge(label, &mut r, frames, &all, &ref_all);
     }
-    check_validation(&ctx);
+    common::assert_no_validation_errors(&ctx);
 }
 
 /// Renders `frames` independent frames and asserts every block's mean within 5 standard errors
@@ -210,7 +206,7 @@ fn per_vpl_radius_modes_converge_to_their_brute_force() {
     for (t, line) in ts.iter().zip(&lines) {
         assert!(t.abs() < 6.0, "unbiased restir, per-VPL radius, {line}");
     }
-    check_validation(&ctx);
+    common::assert_no_validation_errors(&ctx);
 }
 
 /// Unbiased ReSTIR: 32 independent runs, t-test per block, and enough runs that a 1 % whole-image
@@ -255,7 +251,7 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
             println!("biased restir per block (measured, not asserted):\n  {}", lines.join("\n  "));
         }
     }
-    check_validation(&ctx);
+    common::assert_no_validation_errors(&ctx);
 }
 
 /// relMSE of one image against the reference: mean of (a − b)² / (b² + 0.01).
@@ -316,7 +312,7 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
     // Biased reuse has heavy tails here (confidence weights ignore how sharply a VPL's target
     // changes between neighbours: fireflies), but on average it still beats RIS.
     assert!(errors[4] < errors[1], "biased ReSTIR per-frame relMSE {} is not below RIS's {}", errors[4], errors[1]);
-    check_validation(&ctx);
+    common::assert_no_validation_errors(&ctx);
 }
 
 /// Inverse-square attenuation puts huge values next to VPLs; no mode may write NaN/Inf, and every
@@ -347,7 +343,7 @@ fn no_mode_or_view_writes_nan_with_inverse_square() {
             }
         }
     }
-    check_validation(&ctx);
+    common::assert_no_validation_errors(&ctx);
 }
 
 /// Direct-only plus indirect-only equals the full brute-force image (the split is exact).
@@ -370,5 +366,5 @@ fn direct_and_indirect_views_add_up() {
         }
     }
     assert!(i.iter().map(lum).sum::<f64>() > 0.0, "indirect light is missing");
-    check_validation(&ctx);
+    common::assert_no_validation_errors(&ctx);
 }

@@ -43,15 +43,21 @@ pub fn render(scene: &Scene, settings: &RenderSettings) -> RunOutput {
     let ctx = context();
     let gpu = upload(&ctx, scene, settings);
     let out = run_with(ctx.clone(), gpu, settings, Instant::now()).expect("render succeeds");
-    assert_eq!(
-        ctx.validation_errors(),
-        0,
-        "Vulkan validation errors; first: {:?}",
-        ctx.first_validation_error()
-    );
+    assert_no_validation_errors(&ctx);
     assert_all_finite(&out.mean, "mean image");
     assert_eq!(out.summary.nonfinite_samples, 0, "non-finite samples were produced");
     out
+}
+
+/// No validation-layer error on `ctx` so far (the first one is in the failure message).
+pub fn assert_no_validation_errors(ctx: &Context) {
+    assert_eq!(ctx.validation_errors(), 0, "Vulkan validation errors; first: {:?}", ctx.first_validation_error());
+}
+
+/// No non-finite sample in any frame `r` has completed (the accumulation turns them into zeros,
+/// so a finite image does not show them; `what` names the case).
+pub fn assert_no_nonfinite_samples(r: &restir_vpl::renderer::Renderer, what: &str) {
+    assert_eq!(r.nonfinite_samples_total(), 0, "{what}: non-finite samples");
 }
 
 pub fn load_json(json: &str, label: &str) -> Scene {
