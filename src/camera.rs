@@ -87,6 +87,29 @@ fn unit(v: Vec3) -> Option<Vec3> {
     (m > 0.0).then(|| (v / m).normalize())
 }
 
+/// What makes a view from `eye` to `target` with the up hint `up` unusable: the command line's
+/// --eye/--target/--up and a camera path's keyframes are checked alike, each in its own words.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ViewProblem {
+    SamePoint,
+    /// The distance (in f64) is outside 1e-18..=1e18: 32-bit floats square it when normalising
+    /// and in the parallel test; 1e18 leaves room, far beyond any scene.
+    Distance(f64),
+    UpParallel,
+}
+
+pub fn view_problem(eye: Vec3, target: Vec3, up: Vec3) -> Option<ViewProblem> {
+    let d = (target.as_dvec3() - eye.as_dvec3()).length();
+    if d == 0.0 {
+        return Some(ViewProblem::SamePoint);
+    }
+    // (NaN and non-finite inputs fail the range too.)
+    let Some(f) = unit(target - eye).filter(|_| (1e-18..=1e18).contains(&d)) else {
+        return Some(ViewProblem::Distance(d));
+    };
+    (f.cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30)).then_some(ViewProblem::UpParallel)
+}
+
 /// One keyframe of a camera path (`--camera-path FILE.json`), and the format `O` saves the window's
 /// camera in: `{"keyframes": [{"frame": 0, "eye": [x,y,z], "target": [x,y,z], "up": [0,1,0], "fov": 40}]}`
 /// (`fov` vertical, in degrees).
@@ -126,20 +149,16 @@ impl Keyframe {
         if !(self.fov > 0.0 && self.fov < 180.0) {
             return Err(format!("fov {} must be in (0, 180) degrees", self.fov));
         }
-        // The command line's limit on --eye/--target (settings.rs): 32-bit floats square the distance.
-        let d = (target.as_dvec3() - eye.as_dvec3()).length();
-        if d == 0.0 {
-            return Err("eye and target are the same point".into());
-        }
-        if !(1e-18..=1e18).contains(&d) {
-            return Err(format!("eye and target are {d:.3e} apart; the distance must be between 1e-18 and 1e18"));
+        match view_problem(eye, target, up) {
+            Some(ViewProblem::SamePoint) => return Err("eye and target are the same point".into()),
+            Some(ViewProblem::Distance(d)) => {
+                return Err(format!("eye and target are {d:.3e} apart; the distance must be between 1e-18 and 1e18"))
+            }
+            Some(ViewProblem::UpParallel) => return Err("up is parallel to the view direction (or zero)".into()),
+            None => {}
         }
         if eye.abs().max_element() > 1e18 || target.abs().max_element() > 1e18 {
             return Err("eye and target must be within 1e18 of the origin".into());
-        }
-        let f = unit(target - eye).expect("eye and target are finite, distinct and within 1e18");
-        if f.cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30) {
-            return Err("up is parallel to the view direction (or zero)".into());
         }
         Ok(())
     }

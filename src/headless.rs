@@ -98,6 +98,9 @@ pub struct RunOutput {
     pub summary: Summary,
 }
 
+/// The files every run writes to `--out` ([`finish_run`]).
+pub const RUN_OUTPUT_FILES: [&str; 3] = ["final.exr", "final.png", "summary.json"];
+
 /// Loads and uploads the scene, renders `settings.frames` frames and writes the outputs to
 /// `settings.out_dir` (when set).
 pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
@@ -121,7 +124,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         anyhow::ensure!(!dir.is_file(), "--out {}: is a file; name a directory (it is created if missing)", dir.display());
         std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
         // Checked before the frames, not after them.
-        for name in ["final.exr", "final.png", "summary.json"] {
+        for name in RUN_OUTPUT_FILES {
             crate::output::check_writable(&dir.join(name)).with_context(|| format!("--out {}", dir.display()))?;
         }
     }

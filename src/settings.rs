@@ -589,7 +589,7 @@ impl RenderSettings {
             let mut taken = vec![("the scene", self.scene.clone())];
             taken.extend(self.camera_path.clone().map(|p| ("the --camera-path", p)));
             if let Some(dir) = &self.out_dir {
-                taken.extend(["final.exr", "final.png", "summary.json"].map(|f| ("an output of --out", dir.join(f))));
+                taken.extend(crate::headless::RUN_OUTPUT_FILES.map(|f| ("an output of --out", dir.join(f))));
             }
             if let Some((what, p)) = taken.iter().find(|(_, p)| crate::output::same_file(ply, p)) {
                 bail!("--dump-vpls {}: is also {what} ({}); write the VPLs to another file", ply.display(), p.display());
@@ -724,18 +724,15 @@ impl RenderSettings {
             if !(c.yfov_degrees > 0.0 && c.yfov_degrees < 180.0) {
                 bail!("--fov {}: must be in (0, 180) degrees", c.yfov_degrees);
             }
-            let f = c.target - c.eye;
-            if !f.is_finite() || f.length_squared() == 0.0 {
-                bail!("--eye and --target must differ");
-            }
-            // Squares of the view vector's length must stay finite (normalising and the parallel
-            // test below square it); 1e18 leaves room, far beyond any scene.
-            let d = f64::from(f.x).hypot(f64::from(f.y)).hypot(f64::from(f.z));
-            if !(1e-18..=1e18).contains(&d) {
-                bail!("--eye {} --target {}: their distance must be between 1e-18 and 1e18 (32-bit floats)", c.eye, c.target);
-            }
-            if f.cross(c.up).length_squared() <= 1e-12 * f.length_squared() * c.up.length_squared().max(1e-30) {
-                bail!("--up must not be parallel to the view direction (--target minus --eye)");
+            // As a camera path's keyframes are checked (camera::view_problem).
+            use crate::camera::ViewProblem;
+            match crate::camera::view_problem(c.eye, c.target, c.up) {
+                Some(ViewProblem::SamePoint) => bail!("--eye and --target must differ"),
+                Some(ViewProblem::Distance(_)) => {
+                    bail!("--eye {} --target {}: their distance must be between 1e-18 and 1e18 (32-bit floats)", c.eye, c.target)
+                }
+                Some(ViewProblem::UpParallel) => bail!("--up must not be parallel to the view direction (--target minus --eye)"),
+                None => {}
             }
         }
         Ok(())

@@ -519,8 +519,9 @@ impl App {
                 }
                 match r.renderer.apply_settings(s.clone()) {
                     Ok(()) => {}
-                    // Brute force refuses this many pixel × VPL pairs: fall back to ReSTIR at the
-                    // new size rather than close the window.
+                    // Brute force refused by the renderer at the new size (its pair limit is above
+                    // the window's, checked above; this is any other refusal): fall back to ReSTIR
+                    // rather than close the window.
                     Err(e) if s.mode == Mode::Bruteforce => {
                         s.mode = Mode::Restir;
                         r.renderer.apply_settings(s).with_context(|| format!("resizing to {w}×{h}"))?;
