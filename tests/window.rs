@@ -185,7 +185,8 @@ fn write_until(display: &str, wid: &str, out: &Path, timeout: Duration, what: &s
             xdotool(display, &["key", "Return"]);
             pressed = Some(Instant::now());
         }
-        let s = summary(out);
+        // Not written yet, or being written: null.
+        let s = std::fs::read_to_string(out.join("summary.json")).ok().and_then(|t| serde_json::from_str(&t).ok()).unwrap_or_default();
         if done(&s) {
             return s;
         }
@@ -409,4 +410,66 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     let title = wait_for_title(d, &mut child, "refused at 160×120", Duration::from_secs(120));
     assert!(title.contains("restir ·"), "{title}");
     quit(child, &wid);
+}
+
+/// F2 freezes the frame loop: no frame is rendered while frozen (the outputs written twice count
+/// the same frames), yet keys still answer in the title and the overlay (they are redrawn over the
+/// last frame: the title followed a mode switch made while frozen only at the next frame before).
+/// Home plays `--camera-path` again: the frame F3 renders after it stands at the first keyframe,
+/// where the frames before it held the last one.
+#[test]
+fn frozen_window_still_answers_and_home_replays_the_camera_path() {
+    let Some(x) = xvfb() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let d = x.display.as_str();
+    let mut child = restir_vpl(
+        Some(d),
+        &[
+            &SCENE_ARGS[..],
+            &["--mode", "uniform", "--width", "64", "--height", "48", "--camera-path", "scenes/cornell_box.path.json"],
+            &["--out", out.to_str().unwrap()],
+        ]
+        .concat(),
+    )
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped())
+    .spawn()
+    .unwrap();
+    wait_for_title(d, &mut child, "uniform ·", Duration::from_secs(120));
+    let wid = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().unwrap().to_string();
+    // Past the path's last keyframe (frame 31) the camera holds it.
+    write_until(d, &wid, &out, Duration::from_secs(120), "40 frames", |s| s["frames"].as_u64().is_some_and(|n| n >= 40));
+    press_until_title(d, &wid, "F2", "frozen", Duration::from_secs(60));
+    let first = write_until(d, &wid, &out, Duration::from_secs(30), "a write while frozen", |s| s["frames"].as_u64().is_some_and(|n| n >= 40));
+    let position = |s: &serde_json::Value| -> Vec<f64> { (0..3).map(|i| s["camera"]["position"][i].as_f64().unwrap()).collect() };
+    let near = |p: &[f64], q: [f64; 3]| p.iter().zip(q).all(|(a, b)| (a - b).abs() < 1e-4);
+    assert!(near(&position(&first), [0.2, 0.3, -0.45]), "the last keyframe's eye: {}", first["camera"]);
+    // A key pressed while frozen shows in the title at once, and renders nothing.
+    let title = press_until_title(d, &wid, "2", "ris ·", Duration::from_secs(30));
+    assert!(title.contains("frozen"), "{title}");
+    std::fs::remove_file(out.join("summary.json")).unwrap();
+    let again = write_until(d, &wid, &out, Duration::from_secs(30), "a second write while frozen", |s| s["frames"].is_u64());
+    assert_eq!(again["frames"], first["frames"], "frames rendered while frozen: {again}");
+    // Home, then one frame (F3): the path's first keyframe.
+    press_until_title(d, &wid, "Home", "playing again", Duration::from_secs(30));
+    xdotool(d, &["key", "F3"]);
+    let n = first["frames"].as_u64().unwrap();
+    let stepped = write_until(d, &wid, &out, Duration::from_secs(60), "the frame F3 renders", |s| s["frames"].as_u64() == Some(n + 1));
+    assert_eq!(stepped["settings"]["mode"], "ris", "{stepped}");
+    assert!(near(&position(&stepped), [0.278, 0.273, -0.8]), "the first keyframe's eye: {}", stepped["camera"]);
+    xdotool(d, &["key", "Escape"]);
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(60), "Esc did not close the window");
+        if start.elapsed().as_secs() % 10 == 9 {
+            xdotool(d, &["key", "--window", &wid, "Escape"]);
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("[vulkan") && !err.contains("panicked"), "stderr: {err}");
+    assert_eq!(summary(&out)["validation_errors"], 0);
 }

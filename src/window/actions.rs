@@ -64,7 +64,7 @@ pub const KEYS: &[(KeyCode, &str, Action, &str)] = &[
     (KeyCode::Enter, "Enter", Action::SaveImage, "write final.exr/png + summary.json to --out"),
     (KeyCode::KeyO, "O", Action::SaveCamera, "save the camera to camera.json"),
     (KeyCode::KeyI, "I", Action::LoadCamera, "load the camera from camera.json"),
-    (KeyCode::Home, "Home", Action::HomeCamera, "back to the scene camera"),
+    (KeyCode::Home, "Home", Action::HomeCamera, "back to the scene camera (--camera-path: play it again)"),
     (KeyCode::F1, "F1", Action::ToggleOverlay, "overlay on/off"),
     (KeyCode::F2, "F2", Action::Freeze, "freeze / resume the frame loop"),
     (KeyCode::F3, "F3", Action::Step, "one frame while frozen"),

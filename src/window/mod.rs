@@ -92,11 +92,15 @@ struct Running {
     controller: FlyController,
     /// Frames shown since the window opened.
     frames: u32,
+    /// The window frame at which `--camera-path` (last) started: Home plays it again.
+    path_from: u32,
     /// When the third frame was shown (after warm-up), and the last one.
     timed_from: Option<Instant>,
     last_shown: Option<Instant>,
     frozen: bool,
     step: bool,
+    /// Frozen: show the last frame again with the overlay redrawn (an input changed what it shows).
+    refresh: bool,
     overlay: bool,
     resize_pending: bool,
     looking: bool,
@@ -141,7 +145,7 @@ impl ApplicationHandler for App {
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
         if let Some(r) = &self.running {
             let size = r.window.inner_size();
-            let drawing = (!r.frozen || r.step) && size.width > 0 && size.height > 0;
+            let drawing = (!r.frozen || r.step || r.refresh) && size.width > 0 && size.height > 0;
             if drawing {
                 event_loop.set_control_flow(ControlFlow::Poll);
                 r.window.request_redraw();
@@ -206,10 +210,12 @@ impl App {
             ctx,
             controller,
             frames: 0,
+            path_from: 0,
             timed_from: None,
             last_shown: None,
             frozen: false,
             step: false,
+            refresh: false,
             overlay: true,
             resize_pending: false,
             looking: false,
@@ -227,6 +233,11 @@ impl App {
 
     fn handle(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
         let Some(r) = self.running.as_mut() else { return Ok(()) };
+        if r.frozen && !matches!(event, WindowEvent::RedrawRequested) {
+            // No frame redraws the overlay and the title while frozen: an input (a key, the
+            // pointer over the panel, a resize) shows the last frame again with them redrawn.
+            r.refresh = true;
+        }
         if r.overlay && !matches!(event, WindowEvent::RedrawRequested) {
             // The panel takes the pointer over it, and the keys while one of its widgets has focus.
             let consumed = r.ui.on_window_event(&r.window, &event);
@@ -400,7 +411,11 @@ impl App {
                     Err(e) => format!("saving the camera to {} failed: {e}", file.display()),
                 };
             }
-            Action::LoadCamera | Action::HomeCamera if self.path.is_some() => r.message = FOLLOWS_PATH.to_string(),
+            Action::HomeCamera if self.path.is_some() => {
+                r.path_from = r.frames;
+                r.message = "camera path: playing again from its first keyframe".into();
+            }
+            Action::LoadCamera if self.path.is_some() => r.message = FOLLOWS_PATH.to_string(),
             Action::LoadCamera => {
                 let file = camera_file(&self.settings);
                 match CameraPath::load(&file) {
@@ -421,11 +436,7 @@ impl App {
                     // time out, and the title says so at once (no frame redraws the overlay).
                     r.renderer.complete_all()?;
                     r.message = "frozen: F2 resumes, F3 renders one frame".into();
-                    r.window.set_title(&format!(
-                        "restir-vpl — {} · frozen (F2 resumes, F3 renders one frame) · {} frames accumulated",
-                        r.renderer.settings().mode.name(),
-                        r.renderer.accumulated()
-                    ));
+                    r.update_title(Instant::now());
                 } else {
                     r.message = "resumed".into();
                 }
@@ -479,7 +490,10 @@ impl App {
     /// Renders and shows one frame.
     fn frame(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
         let r = self.running.as_mut().expect("called while running");
-        if r.frozen && !r.step {
+        // Frozen without F3: no frame; the last one is shown again with the overlay and the title
+        // redrawn when an input asked for it.
+        let mut refresh_only = r.frozen && !r.step;
+        if refresh_only && !std::mem::take(&mut r.refresh) {
             return Ok(());
         }
         r.step = false;
@@ -531,13 +545,16 @@ impl App {
                     Err(e) => return Err(e.context(format!("resizing to {w}×{h}"))),
                 }
                 self.settings = r.renderer.settings().clone();
+                // The frame targets are new: there is no last frame to show again.
+                refresh_only = false;
             }
         }
         let camera = match &self.path {
-            Some(p) => p.at(r.frames as f32),
+            _ if refresh_only => None,
+            Some(p) => Some(p.at(r.path_frame(r.frames))),
             None => {
                 r.controller.update(r.clock.elapsed().as_secs_f64());
-                r.controller.camera()
+                Some(r.controller.camera())
             }
         };
         let draw_ui = r.overlay || r.ui.has_reference();
@@ -548,7 +565,7 @@ impl App {
             None
         };
         let ui = if draw_ui { Some(&mut r.ui) } else { None };
-        match r.presenter.show(&r.ctx, &r.swapchain, &mut r.renderer, &camera, ui)? {
+        match r.presenter.show(&r.ctx, &r.swapchain, &mut r.renderer, camera.as_ref(), ui)? {
             Shown::Yes => {}
             Shown::YesRecreate => r.resize_pending = true,
             shown @ (Shown::OutOfDate | Shown::NotReady) => {
@@ -563,6 +580,18 @@ impl App {
                 }
                 return Ok(());
             }
+        }
+        if refresh_only {
+            // An edit's message, and egui's own second pass after some inputs (a combo box
+            // opening), need one more refresh.
+            let edited = edit.is_some();
+            if let Some(e) = edit {
+                self.change(&e.what, |s| *s = e.settings)?;
+            }
+            let r = self.running.as_mut().expect("called while running");
+            r.update_title(now);
+            r.refresh = edited || r.ui.repaint_soon();
+            return Ok(());
         }
         r.frames += 1;
         if r.frozen {
@@ -580,30 +609,8 @@ impl App {
         let ms = if std::mem::take(&mut r.timing_restarts) { r.renderer.last_stats().gpu_ms() } else { dt as f64 * 1e3 };
         let weight = 1.0 - (-ms / 500.0).exp();
         r.smoothed_ms = if r.frames <= 2 { ms } else { r.smoothed_ms + weight * (ms - r.smoothed_ms) };
-        if r.message != r.message_since.0 {
-            r.message_since = (r.message.clone(), now);
-        } else if !r.message.is_empty() && now.duration_since(r.message_since.1).as_secs_f64() > MESSAGE_SECONDS {
-            r.message.clear();
-        }
         if now.duration_since(r.last_title).as_secs_f64() > 0.25 {
-            r.last_title = now;
-            let s = r.renderer.settings();
-            let gpu: f64 = r.renderer.last_stats().gpu_ms();
-            r.window.set_title(&format!(
-                "restir-vpl — {} · {:.1} ms/frame ({:.0} fps, GPU {:.1} ms) · {} frame{} accumulated{}{}",
-                s.mode.name(),
-                r.smoothed_ms,
-                1e3 / r.smoothed_ms.max(1e-3),
-                gpu,
-                r.renderer.accumulated(),
-                if r.renderer.accumulated() == 1 { "" } else { "s" },
-                if s.view != View::Final && !r.message.contains(&format!("view {}", s.view.name())) {
-                    format!(" · view {}", s.view.name())
-                } else {
-                    String::new()
-                },
-                if r.message.is_empty() { String::new() } else { format!(" · {}", r.message) },
-            ));
+            r.update_title(now);
         }
         if let Some(e) = edit {
             self.change(&e.what, |s| *s = e.settings)?;
@@ -620,15 +627,54 @@ impl App {
 }
 
 impl Running {
-    /// The camera of the frame on screen: frame() shows frame k from the path's p.at(k), then
+    /// Writes the window's title (mode, frame time, accumulation, view and status message) and
+    /// lets a status message go after `MESSAGE_SECONDS`.
+    fn update_title(&mut self, now: Instant) {
+        if self.message != self.message_since.0 {
+            self.message_since = (self.message.clone(), now);
+        } else if !self.message.is_empty() && now.duration_since(self.message_since.1).as_secs_f64() > MESSAGE_SECONDS {
+            self.message.clear();
+        }
+        self.last_title = now;
+        let s = self.renderer.settings();
+        let accumulated = self.renderer.accumulated();
+        let timing = if self.frozen {
+            "frozen (F2 resumes, F3 renders one frame)".to_string()
+        } else {
+            format!(
+                "{:.1} ms/frame ({:.0} fps, GPU {:.1} ms)",
+                self.smoothed_ms,
+                1e3 / self.smoothed_ms.max(1e-3),
+                self.renderer.last_stats().gpu_ms()
+            )
+        };
+        let view = if s.view != View::Final && !self.message.contains(&format!("view {}", s.view.name())) {
+            format!(" · view {}", s.view.name())
+        } else {
+            String::new()
+        };
+        let message = if self.message.is_empty() || self.message.starts_with("frozen") { String::new() } else { format!(" · {}", self.message) };
+        self.window.set_title(&format!(
+            "restir-vpl — {} · {timing} · {accumulated} frame{} accumulated{view}{message}",
+            s.mode.name(),
+            if accumulated == 1 { "" } else { "s" },
+        ));
+    }
+
+    /// The path's frame for window frame `frame` (the path starts again at `path_from`: Home).
+    fn path_frame(&self, frame: u32) -> f32 {
+        frame.saturating_sub(self.path_from) as f32
+    }
+
+    /// The camera of the frame on screen: frame() shows frame k from the path's frame k, then
     /// counts it.
     fn camera_on_screen(&self, path: Option<&CameraPath>) -> Camera {
-        path.map_or_else(|| self.controller.camera(), |p| p.at(self.frames.saturating_sub(1) as f32))
+        path.map_or_else(|| self.controller.camera(), |p| p.at(self.path_frame(self.frames.saturating_sub(1))))
     }
 
     /// The camera of the next frame (what a key that renders one, F4 or F12, renders).
     fn next_camera(&self, path: Option<&CameraPath>) -> Camera {
-        path.map_or_else(|| self.controller.camera(), |p| p.at(self.frames as f32))
+        path.map_or_else(|| self.controller.camera(), |p| p.at(self.path_frame(self.frames)))
     }
 
     /// Frames per second as shown, from the third frame on (None before two are timed).
@@ -732,15 +778,16 @@ impl Presenter {
         Ok(Self { ctx: ctx.clone(), staging, cmds, fences, acquired, next: 0 })
     }
 
-    /// Acquires a swapchain image, submits the renderer's frame, copies its preview onto the image
-    /// and presents it. The renderer's frame stays in flight.
+    /// Acquires a swapchain image, submits the renderer's frame (`camera`; None: none, the last
+    /// frame's preview again), copies its preview onto the image and presents it. The renderer's
+    /// frame stays in flight.
     /// `overlay`: drawn over the image after the blit.
     fn show(
         &mut self,
         ctx: &Context,
         swapchain: &Swapchain,
         renderer: &mut Renderer,
-        camera: &crate::camera::Camera,
+        camera: Option<&crate::camera::Camera>,
         overlay: Option<&mut Overlay>,
     ) -> Result<Shown> {
         let p = ctx.presentation.as_ref().expect("a window context");
@@ -758,7 +805,10 @@ impl Presenter {
             Err(vk::Result::TIMEOUT | vk::Result::NOT_READY) => return Ok(Shown::NotReady),
             Err(e) => return Err(e).context("vkAcquireNextImageKHR"),
         };
-        renderer.submit_frame(camera, true)?;
+        // No camera: the preview of the last frame (complete: frozen) is shown again.
+        if let Some(camera) = camera {
+            renderer.submit_frame(camera, true)?;
+        }
         let cmd = self.cmds[f];
         let image = swapchain.images[image_index as usize];
         let (w, h) = (renderer.settings().width, renderer.settings().height);
@@ -885,5 +935,5 @@ pub fn interactive_bruteforce_refusal(s: &RenderSettings, photons: Option<&crate
 /// How long a status message stays in the title and the overlay.
 const MESSAGE_SECONDS: f64 = 10.0;
 
-/// What the movement keys, Home and I answer while `--camera-path` drives the camera.
-const FOLLOWS_PATH: &str = "the camera follows --camera-path: movement keys, Home and I are off";
+/// What the movement keys and I answer while `--camera-path` drives the camera.
+const FOLLOWS_PATH: &str = "the camera follows --camera-path: movement keys and I are off (Home plays the path again)";

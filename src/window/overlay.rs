@@ -110,6 +110,7 @@ pub struct Overlay {
     /// The last frame's shapes, ready to draw.
     primitives: Vec<egui::ClippedPrimitive>,
     pixels_per_point: f32,
+    repaint_soon: bool,
 }
 
 impl Overlay {
@@ -156,6 +157,7 @@ impl Overlay {
             reference,
             primitives: Vec::new(),
             pixels_per_point: 1.0,
+            repaint_soon: false,
         };
         overlay.set_swapchain(swapchain)?;
         Ok(overlay)
@@ -236,6 +238,12 @@ impl Overlay {
         self.egui.egui_wants_keyboard_input()
     }
 
+    /// Whether egui asked, in the last `prepare`, to be run again at once (its answer to some
+    /// inputs takes two passes).
+    pub fn repaint_soon(&self) -> bool {
+        self.repaint_soon
+    }
+
     /// Whether anything is drawn when the panel is hidden (the reference's split screen stays).
     pub fn has_reference(&self) -> bool {
         self.reference.is_some()
@@ -261,6 +269,7 @@ impl Overlay {
             }
         });
         self.state.handle_platform_output(window, output.platform_output);
+        self.repaint_soon = output.viewport_output.get(&egui::ViewportId::ROOT).is_some_and(|v| v.repaint_delay.is_zero());
         self.pixels_per_point = output.pixels_per_point;
         self.primitives = self.egui.tessellate(output.shapes, output.pixels_per_point);
         let set = std::mem::take(&mut output.textures_delta.set);
