@@ -751,9 +751,6 @@ fn load_mesh(
         let positions =
             read_vec3(&pos_acc, buffers).with_context(|| format!("{what}: POSITION"))?;
         let n = positions.len();
-        if positions.iter().any(|p| !p.is_finite()) {
-            warnings.push(format!("{what}: non-finite vertex positions"));
-        }
 
         let normals = match prim.get(&Semantic::Normals) {
             Some(acc)
@@ -840,6 +837,12 @@ fn load_mesh(
             }
         };
 
+        // A triangle with a non-finite vertex is dropped: in an acceleration structure its NaN
+        // bounds took the whole BLAS with them (one such triangle anywhere blacked out the scene
+        // once merged into one BLAS). Its vertices move onto a finite one of the primitive so that
+        // no bound or scale computed over the vertices sees them.
+        let (indices, positions) = drop_non_finite_triangles(indices, positions, &what, warnings);
+
         let material = match prim.material().index() {
             Some(i) => i as u32,
             None => {
@@ -861,6 +864,34 @@ fn load_mesh(
         out.uvs.extend(uvs);
     }
     Ok(out)
+}
+
+/// `indices` without the triangles that use a non-finite position, `positions` with every
+/// non-finite one replaced by the primitive's first finite one (or zero), and a warning saying how
+/// many triangles went.
+fn drop_non_finite_triangles(indices: Vec<u32>, mut positions: Vec<Vec3>, what: &str, warnings: &mut Vec<String>) -> (Vec<u32>, Vec<Vec3>) {
+    if positions.iter().all(|p| p.is_finite()) {
+        return (indices, positions);
+    }
+    let triangles = indices.len() / 3;
+    let kept: Vec<u32> = indices
+        .chunks_exact(3)
+        .filter(|t| t.iter().all(|&i| positions[i as usize].is_finite()))
+        .flatten()
+        .copied()
+        .collect();
+    let dropped = triangles - kept.len() / 3;
+    let finite = positions.iter().copied().find(|p| p.is_finite()).unwrap_or(Vec3::ZERO);
+    let bad = positions.iter().filter(|p| !p.is_finite()).count();
+    for p in positions.iter_mut().filter(|p| !p.is_finite()) {
+        *p = finite;
+    }
+    warnings.push(format!(
+        "{what}: {bad} non-finite vertex position{} (NaN or infinite): {dropped} of its {triangles} triangle{} dropped",
+        if bad == 1 { "" } else { "s" },
+        if triangles == 1 { "" } else { "s" }
+    ));
+    (kept, positions)
 }
 
 /// `values` with every element that fails `finite` replaced by `with`, and a warning naming the
