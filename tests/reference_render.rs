@@ -99,4 +99,12 @@ fn cli_reference_resumes_and_refuses_mismatches() {
     let o = cli(&["reference", "--mode", "restir", "--frames", "1", "--out", dir.path().join("x.exr").to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--mode restir"));
+    // Settings that show each frame alone would write one frame labelled as all of them.
+    let y = dir.path().join("y.exr");
+    for (flags, named) in [(["--mode", "pt", "--progressive", "off"], "--progressive off"), (["--mode", "ris", "--view", "reservoir-w"], "--view reservoir-w")] {
+        let o = cli(&[&["reference", "--width", "16", "--height", "16", "--frames", "2"][..], &flags[..], &["--out", y.to_str().unwrap()]].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(named) && err.contains("mean of its frames"), "{err}");
+        assert!(!y.exists());
+    }
 }

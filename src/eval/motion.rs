@@ -151,7 +151,9 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
         let mut references: Vec<RgbImage> = Vec::new();
         for f in 0..opts.frames {
             let camera = path.at(f as f32);
-            let settings = RenderSettings { mode: Mode::Pt, camera: Some(as_override(&camera)), ..base.clone() };
+            // Accumulated: `base` shows each frame alone, which made every "128-frame" reference
+            // one frame (until 2026-11-25: the references' noise then hid the modes' differences).
+            let settings = RenderSettings { mode: Mode::Pt, camera: Some(as_override(&camera)), progressive: true, ..base.clone() };
             let file = refs_dir.join(format!("{label}_{}x{}_motion_f{f:03}_pt.exr", spec.width, spec.height));
             let made = make_reference(ctx, &scene, &settings, &file, ReferenceTarget::AtLeast { frames: opts.reference_frames }, &mut |_, _| {})?;
             if let Some((n, _, wall)) = made.rendered {

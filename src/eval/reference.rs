@@ -427,6 +427,17 @@ pub fn same_config(a: &str, b: &str) -> bool {
 /// Modes whose partial references are independent samples of one answer (no state carried from
 /// frame to frame), so that split runs merge into exactly the mean of one long run.
 pub fn reference_mode_ok(settings: &RenderSettings) -> Result<()> {
+    // A reference is the mean of its frames: a view or setting that shows each frame alone would
+    // write one frame labelled as all of them (and merge with that weight).
+    if settings.view.shows_reservoirs() {
+        bail!(
+            "--view {}: shows each frame alone, never accumulated; a reference is the mean of its frames (use --view final, direct or indirect)",
+            settings.view.name()
+        );
+    }
+    if !settings.progressive {
+        bail!("--progressive off: shows each frame alone; a reference is the mean of its frames (leave it on)");
+    }
     match settings.mode {
         Mode::Pt | Mode::Bruteforce | Mode::Uniform | Mode::Ris => Ok(()),
         Mode::Restir if !settings.restir.temporal && settings.restir.bias == Bias::Unbiased => Ok(()),
