@@ -702,6 +702,9 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             }
             opts.out_dir = out.clone();
             opts.markdown_name = "curves.md".into();
+            // One scene's curves: the three-scene moving-camera study is `bench --motion`'s (it
+            // ran here too, ~25 minutes on lavapipe, unasked).
+            opts.motion = None;
             opts.device_index = *device;
             if let Some(c) = checkpoints {
                 opts.checkpoints = c.clone();

@@ -51,6 +51,9 @@ fn bench_curves_quick_writes_csv_tables_and_plots() {
         assert!(md.contains(needle), "curves.md lacks {needle:?}:\n{md}");
     }
     non_empty(&dir.path().join("frame_times.csv"));
+    // One scene's curves, nothing else: the three-scene moving-camera study (`bench --motion`,
+    // ~25 minutes at full size) ran here too.
+    assert!(!md.contains("Moving camera") && !dir.path().join("motion.csv").exists(), "{md}");
     for reference in ["pt", "vpl"] {
         for kind in ["frames", "time"] {
             let svg = non_empty(&dir.path().join(format!("plots/cornell_box_{reference}_rmse_vs_{kind}.svg")));
