@@ -8,7 +8,18 @@ use anyhow::{Context as _, Result};
 /// the sibling then replaces `path` by a rename. A reader polling the output (a script, the window
 /// test pressing Enter again and again, another run sharing the pipeline cache) sees the old file or
 /// the new one, never a half-written one.
+///
+/// A symbolic link is followed (the file it points to is replaced, the link stays), and a device
+/// or a pipe (`/dev/null`) is written in place: the rename replaced the link or the device node
+/// itself with a regular file.
 pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    let resolved = follow_links(path);
+    match std::fs::metadata(&resolved) {
+        Ok(m) if m.is_dir() => anyhow::bail!("writing {}: it is a directory", path.display()),
+        Ok(m) if !m.is_file() => return write(&resolved).with_context(|| format!("writing {}", path.display())),
+        _ => {}
+    }
+    let path = resolved.as_path();
     let name = path.file_name().with_context(|| format!("{} names no file", path.display()))?;
     let mut partial_name = std::ffi::OsString::from(".");
     partial_name.push(name);
@@ -21,6 +32,20 @@ pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> 
         let _ = std::fs::remove_file(&partial);
     }
     written.with_context(|| format!("writing {}", path.display()))
+}
+
+/// `path` with symbolic links followed (also a link to a file not written yet); `path` itself when
+/// it is no link.
+fn follow_links(path: &Path) -> PathBuf {
+    let mut p = path.to_path_buf();
+    // A bounded walk: a loop of links ends here and fails when written.
+    for _ in 0..40 {
+        match std::fs::read_link(&p) {
+            Ok(target) => p = p.parent().map_or(target.clone(), |d| d.join(&target)),
+            Err(_) => return p,
+        }
+    }
+    p
 }
 
 /// Reads an input file whole (a scene, one of its buffers or images, a camera path). Anything but a
@@ -190,6 +215,33 @@ impl TimingStats {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A symbolic link named as an output keeps pointing where it did: the file it points to gets
+    /// the image (a dangling link's target is created), and a device behind a link is written in
+    /// place. The rename replaced the link (or, named directly, `/dev/null` itself) with a regular
+    /// file.
+    #[cfg(unix)]
+    #[test]
+    fn outputs_follow_links_and_write_devices_in_place() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("target.png");
+        let link = dir.path().join("link.png");
+        std::os::unix::fs::symlink("target.png", &link).unwrap();
+        write_replacing(&link, |p| Ok(std::fs::write(p, b"one")?)).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&target).unwrap(), b"one");
+        write_replacing(&link, |p| Ok(std::fs::write(p, b"two")?)).unwrap();
+        assert!(std::fs::symlink_metadata(&link).unwrap().file_type().is_symlink());
+        assert_eq!(std::fs::read(&target).unwrap(), b"two");
+        let null = dir.path().join("null.png");
+        std::os::unix::fs::symlink("/dev/null", &null).unwrap();
+        write_replacing(&null, |p| Ok(std::fs::write(p, b"gone")?)).unwrap();
+        assert!(std::fs::symlink_metadata(&null).unwrap().file_type().is_symlink());
+        assert!(!std::fs::metadata("/dev/null").unwrap().is_file(), "/dev/null is still a device");
+        let e = format!("{:#}", write_replacing(dir.path(), |p| Ok(std::fs::write(p, b"x")?)).unwrap_err());
+        assert!(e.contains("directory"), "{e}");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3, "no partial file left behind");
+    }
 
     /// An EXR whose header claims a huge image is refused from its header, before an allocation of
     /// the claimed size (which aborted the process: "memory allocation of 120000000000 bytes").
