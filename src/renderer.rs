@@ -599,6 +599,12 @@ impl Renderer {
                     let spacing =
                         (area / (std::f64::consts::PI * vpl_count.max(1) as f64)).sqrt() as f32;
                     let r = multiple * spacing;
+                    anyhow::ensure!(
+                        r <= crate::settings::MAX_YUKSEL_RADIUS,
+                        "--yuksel-spacings {multiple}: gives a Yuksel radius of {r:e} ({multiple} × the mean VPL spacing {spacing:e}), \
+                         over {:e} scene units",
+                        crate::settings::MAX_YUKSEL_RADIUS
+                    );
                     let r = if r > 0.0 && r.is_finite() { r } else { 1e-3 };
                     let text = crate::settings::radius_rule_text(multiple, settings.yuksel_knn);
                     match settings.yuksel_knn {

@@ -285,6 +285,10 @@ pub struct CameraOverride {
 pub const DEFAULT_RADIUS_SPACINGS: f32 = 8.0;
 /// Most nearest VPLs `--yuksel-knn` may ask for.
 pub const MAX_YUKSEL_KNN: u32 = 256;
+/// The largest Yuksel radius: r² + d² stays far inside 32-bit floats (3.4e38) for any distance
+/// within the camera's limits.
+pub const MAX_YUKSEL_RADIUS: f32 = 1e18;
+
 /// An automatic radius rule in words (summary.json's `yuksel_radius_source`): M × the mean VPL
 /// spacing, or with `knn` M × each VPL's local spacing from its K nearest VPLs.
 pub fn radius_rule_text(multiple: f32, knn: Option<u32>) -> String {
@@ -676,8 +680,8 @@ impl RenderSettings {
             bail!("--depth-threshold {}: a relative depth difference, must be >= 0", r.depth_threshold);
         }
         if let Some(y) = self.yuksel_radius {
-            if !(y > 0.0 && y.is_finite()) {
-                bail!("--yuksel-radius {y}: must be a positive finite number (scene units)");
+            if !(y > 0.0 && y <= MAX_YUKSEL_RADIUS) {
+                bail!("--yuksel-radius {y}: must be a positive number up to {MAX_YUKSEL_RADIUS:e} (scene units; the shaders square it in 32-bit floats)");
             }
             if self.attenuation != Attenuation::Yuksel {
                 bail!("--yuksel-radius is only used with --attenuation yuksel");

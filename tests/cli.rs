@@ -300,6 +300,9 @@ fn vpl_mode_flag_errors() {
     assert_fails(&with(&["--mode", "ris", "--yuksel-knn", "8", "--compensate"]), &["--yuksel-knn", "--compensate"]);
     assert_fails(&with(&["--mode", "ris", "--yuksel-knn", "8", "--yuksel-radius", "0.1"]), &["--yuksel-knn", "--yuksel-radius"]);
     assert_fails(&with(&["--mode", "ris", "--yuksel-spacings=-2"]), &["--yuksel-spacings -2"]);
+    // Radii whose square leaves 32-bit floats in the shaders: given, or from the spacing rule.
+    assert_fails(&with(&["--mode", "restir", "--yuksel-radius", "1e19"]), &["--yuksel-radius", "1e18"]);
+    assert_fails(&with(&["--mode", "ris", "--yuksel-spacings", "1e30"]), &["--yuksel-spacings", "radius", "1e18"]);
     assert_fails(&with(&["--mode", "ris", "--attenuation", "inverse-square", "--yuksel-spacings", "4"]), &["--yuksel-spacings", "yuksel"]);
     assert_fails(&with(&["--mode", "pt", "--view", "reservoir-w"]), &["--view reservoir-w", "no reservoirs"]);
     assert_fails(&with(&["--mode", "bruteforce", "--view", "vpl-kind"]), &["--view vpl-kind"]);

@@ -23,13 +23,15 @@ float vpl_attenuation(float d2, uint mode, float r2) {
 // The share of the true geometry term 1/d^2 that Yuksel's kernel leaves out, in solid angle:
 // w(d) = 1 - d^2 G_r(d). With s = sqrt(d^2 + r^2) it is r^2 (s + 2d) / (s (s + d)^2), which has no
 // cancellation: 1 at d = 0, 0.414 at d = r, ~3r^2/(4d^2) for d >> r. 0 for r = 0 (inverse square).
+// Computed as (r^2/s^2) (1 + 2a) / (1 + a)^2 with a = d/s in [0, 1]: every factor is at most 1 (the
+// cube s (s + d)^2 overflowed 32-bit floats for r above ~1e12, which made the residual 0).
 float yuksel_residual(float d2, float r2) {
     if (!(r2 > 0.0)) {
         return 0.0;
     }
-    float d = sqrt(d2);
-    float s = sqrt(d2 + r2);
-    return clamp(r2 * (s + 2.0 * d) / (s * (s + d) * (s + d)), 0.0, 1.0);
+    float s2 = d2 + r2;
+    float a = sqrt(d2 / s2);
+    return clamp((r2 / s2) * (1.0 + 2.0 * a) / ((1.0 + a) * (1.0 + a)), 0.0, 1.0);
 }
 
 bool vpl_kind_enabled(uint kind, uint kind_mask) {
