@@ -410,6 +410,20 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     let title = wait_for_title(d, &mut child, "refused at 160×120", Duration::from_secs(120));
     assert!(title.contains("restir ·"), "{title}");
     quit(child, &wid);
+    // 64×48 × 4k direct VPLs (GI off) = 1.2e7: accepted; G would trace 40k more, 1.4e8 pairs:
+    // refused, brute force stays (the check counted the VPLs traced without GI, and the frame
+    // took ~30 s).
+    let gi = ["--scene", "scenes/cornell_box.gltf", "--vpls-direct", "4000", "--vpls-indirect", "40000", "--no-gi"];
+    let mut child = restir_vpl(Some(d), &[&gi[..], &["--mode", "bruteforce", "--width", "64", "--height", "48"]].concat())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    wait_for_title(d, &mut child, "bruteforce ·", Duration::from_secs(120));
+    let wid = window_id();
+    let title = press_until_title(d, &wid, "g", "refused", Duration::from_secs(60));
+    assert!(title.contains("bruteforce ·") && title.contains("44000 VPLs"), "{title}");
+    quit(child, &wid);
 }
 
 /// F2 freezes the frame loop: no frame is rendered while frozen (the outputs written twice count

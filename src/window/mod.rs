@@ -94,6 +94,10 @@ struct Running {
     frames: u32,
     /// The window frame at which `--camera-path` (last) started: Home plays it again.
     path_from: u32,
+    /// Time spent frozen since the timed frames began, and the start of the freeze going on
+    /// (left out of `displayed`'s frame time).
+    frozen_total: std::time::Duration,
+    frozen_since: Option<Instant>,
     /// When the third frame was shown (after warm-up), and the last one.
     timed_from: Option<Instant>,
     last_shown: Option<Instant>,
@@ -211,6 +215,8 @@ impl App {
             controller,
             frames: 0,
             path_from: 0,
+            frozen_total: std::time::Duration::ZERO,
+            frozen_since: None,
             timed_from: None,
             last_shown: None,
             frozen: false,
@@ -316,7 +322,7 @@ impl App {
         let r = self.running.as_mut().expect("called while running");
         let mut s = r.renderer.settings().clone();
         edit(&mut s);
-        if let Some(why) = interactive_bruteforce_refusal(&s, r.renderer.photon_stats(), &r.ctx.report.kind) {
+        if let Some(why) = interactive_bruteforce_refusal(&s, r.traced_vpls(), &r.ctx.report.kind) {
             r.message = format!("refused: {why}");
             log::warn!("{what}: refused: {why}");
             return Ok(());
@@ -355,6 +361,12 @@ impl App {
                     _ => next_valid_view(&current, action == Action::NextView),
                 };
                 self.change(&format!("view {}", view.name()), |s| s.view = view)?
+            }
+            Action::MoreCandidates | Action::FewerCandidates
+                if !matches!(r.renderer.settings().mode, Mode::Ris | Mode::Restir) =>
+            {
+                // A change would restart the accumulation for a setting the mode never reads.
+                r.message = format!("RIS candidates: mode {} draws none (ris and restir do)", r.renderer.settings().mode.name());
             }
             Action::MoreCandidates | Action::FewerCandidates => {
                 let c = r.renderer.settings().candidates;
@@ -431,6 +443,12 @@ impl App {
             Action::Freeze => {
                 r.frozen = !r.frozen;
                 r.timing_restarts = true; // the frozen time is no frame's
+                let now = Instant::now();
+                if r.frozen {
+                    r.frozen_since = Some(now);
+                } else if let Some(since) = r.frozen_since.take() {
+                    r.frozen_total += r.timed_span(since, now);
+                }
                 if r.frozen {
                     // The frames in flight end now, so the summary's frame times leave the frozen
                     // time out, and the title says so at once (no frame redraws the overlay).
@@ -526,7 +544,7 @@ impl App {
                 (s.width, s.height) = (w, h);
                 // Brute force that a key press would refuse at this size is refused here too: a
                 // window grown from 24×16 to 200×150 started a frame of ~30 minutes on lavapipe.
-                if let Some(why) = interactive_bruteforce_refusal(&s, r.renderer.photon_stats(), &r.ctx.report.kind) {
+                if let Some(why) = interactive_bruteforce_refusal(&s, r.traced_vpls(), &r.ctx.report.kind) {
                     s.mode = Mode::Restir;
                     r.message = format!("refused at {w}×{h}: {why}; switched to mode restir");
                     log::warn!("{}", r.message);
@@ -661,6 +679,11 @@ impl Running {
         ));
     }
 
+    /// The VPL set traced now and the settings it was traced with (brute force's refusal).
+    fn traced_vpls(&self) -> Option<(&crate::passes::PhotonStats, crate::settings::PhotonSettings)> {
+        self.renderer.photon_stats().map(|p| (p, self.renderer.settings().photon_settings()))
+    }
+
     /// The path's frame for window frame `frame` (the path starts again at `path_from`: Home).
     fn path_frame(&self, frame: u32) -> f32 {
         frame.saturating_sub(self.path_from) as f32
@@ -677,11 +700,18 @@ impl Running {
         path.map_or_else(|| self.controller.camera(), |p| p.at(self.path_frame(self.frames)))
     }
 
-    /// Frames per second as shown, from the third frame on (None before two are timed).
+    /// The part of `[a, b]` after the timed frames began.
+    fn timed_span(&self, a: Instant, b: Instant) -> std::time::Duration {
+        self.timed_from.map_or(std::time::Duration::ZERO, |from| b.saturating_duration_since(a.max(from)))
+    }
+
+    /// Frames per second as shown, from the third frame on (None before two are timed), the time
+    /// spent frozen (F2) left out.
     fn displayed(&self, mode: PresentMode) -> Option<crate::headless::DisplayedFrames> {
         let (from, last) = (self.timed_from?, self.last_shown?);
         let frames = self.frames.checked_sub(3).filter(|&n| n > 0)?;
-        let ms = (last - from).as_secs_f64() * 1e3 / frames as f64;
+        let frozen = self.frozen_total + self.frozen_since.map_or(std::time::Duration::ZERO, |since| self.timed_span(since, last));
+        let ms = (last - from).saturating_sub(frozen).as_secs_f64() * 1e3 / frames as f64;
         Some(crate::headless::DisplayedFrames { present_mode: mode.name().to_string(), frames, ms_per_frame: ms, fps: 1e3 / ms })
     }
 }
@@ -910,13 +940,22 @@ pub const WINDOW_BRUTEFORCE_PAIRS_GPU: u64 = 2_000_000_000;
 
 /// Why the window refuses brute force for `s` (None: it does not). Pressing 5 at 320×240 with the
 /// default 200k VPLs froze the window for ~14 minutes a frame on lavapipe.
-pub fn interactive_bruteforce_refusal(s: &RenderSettings, photons: Option<&crate::passes::PhotonStats>, device_kind: &str) -> Option<String> {
+/// `traced`: the VPL set traced now and the settings it was traced with.
+pub fn interactive_bruteforce_refusal(
+    s: &RenderSettings,
+    traced: Option<(&crate::passes::PhotonStats, crate::settings::PhotonSettings)>,
+    device_kind: &str,
+) -> Option<String> {
     if s.mode != crate::settings::Mode::Bruteforce {
         return None;
     }
-    // The traced set's count, or (none traced yet: the path tracer) the counts asked for.
+    // The traced set's count when `s` keeps it, else (none traced yet, or `s` traces another:
+    // G turning the indirect VPLs on) the counts asked for.
     let asked = s.photon_settings();
-    let vpls = photons.map_or(u64::from(asked.direct) + u64::from(asked.indirect), |p| u64::from(crate::passes::PhotonEmitPass::vpl_count(p)));
+    let vpls = match traced {
+        Some((p, with)) if with == asked => u64::from(crate::passes::PhotonEmitPass::vpl_count(p)),
+        _ => u64::from(asked.direct) + u64::from(asked.indirect),
+    };
     let pairs = crate::renderer::bruteforce_pairs(s, vpls);
     let limit = if device_kind == "CPU" { WINDOW_BRUTEFORCE_PAIRS_CPU } else { WINDOW_BRUTEFORCE_PAIRS_GPU };
     (pairs > limit).then(|| {

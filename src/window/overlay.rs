@@ -356,9 +356,18 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
     // title bar (a click opens it); it is resizable, and narrower where the window is.
     let screen = ui.ctx().content_rect();
     let width = 300f32.min(0.6 * screen.width()).max(120.0);
+    let roomy = screen.width() >= 480.0 && screen.height() >= 360.0;
+    // A resize across 480×360 shows a new panel with the defaults for the new size, folded or
+    // open (egui applies the defaults only when a panel is first shown: shrunk to 200×150 the open
+    // panel covered the whole image, and grown back it kept the small height).
+    let key = egui::Id::new("restir-vpl overlay panel");
+    let (was_roomy, generation) = ui.ctx().data_mut(|d| d.get_temp::<(bool, u32)>(key)).unwrap_or((roomy, 0));
+    let generation = if was_roomy == roomy { generation } else { generation + 1 };
+    ui.ctx().data_mut(|d| d.insert_temp(key, (roomy, generation)));
     egui::Window::new("restir-vpl")
+        .id(key.with(generation))
         .default_pos([8.0, 8.0])
-        .default_open(screen.width() >= 480.0 && screen.height() >= 360.0)
+        .default_open(roomy)
         .default_width(width)
         .default_height(0.8 * screen.height())
         .resizable(true)
