@@ -584,6 +584,25 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     }
     if let Some(Command::Reference { render, out, first_frame, resume }) = &cli.command {
         let settings = settings_from(render, None)?;
+        // A headless run's extra outputs and checks: a reference writes --out and nothing else
+        // (they were accepted and did nothing).
+        let headless_only: Vec<&str> = [
+            ("--dump-vpls", settings.dump_vpls.is_some()),
+            ("--dump-passes", settings.dump_passes.is_some()),
+            ("--save-every", settings.save_every > 0),
+            ("--check-finite", settings.check_finite),
+            ("--renderdoc-capture", settings.renderdoc_capture.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(flag, given)| given.then_some(flag))
+        .collect();
+        if !headless_only.is_empty() {
+            bail!(
+                "{}: not done by `reference`, which writes only --out; give {} to a --headless run with the same settings",
+                headless_only.join(", "),
+                if headless_only.len() == 1 { "it" } else { "them" }
+            );
+        }
         settings.validate()?;
         warn_unused_flags(&settings, given);
         return reference_main(&settings, out, *first_frame, *resume);
@@ -624,6 +643,29 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         check_counts(&[("--runs", *runs)], checkpoints.as_deref())?;
         if (*quick || runs.is_some()) && !*curves && !*motion && !*radius && !*scaling {
             bail!("--quick and --runs go with --curves, --motion, --radius or --scaling");
+        }
+        // Each benchmark's own flags; another one given is refused, not ignored (`--rays --scene X`
+        // measured the three scenes without a word).
+        let (which, uses): (&str, &[&str]) = match () {
+            _ if *scaling => ("--scaling", &["quick", "out", "device"]),
+            _ if *radius => ("--radius", &["quick", "out", "runs", "device"]),
+            _ if *motion => ("--motion", &["quick", "out", "runs", "device"]),
+            _ if *curves => ("--curves", &["scene", "width", "height", "quick", "out", "checkpoints", "runs", "device"]),
+            _ if *rays => ("--rays", &["width", "height", "frames", "json", "device"]),
+            _ if *workgroups => ("--workgroups", &["scene", "width", "height", "frames", "json", "device"]),
+            _ if *modes => ("--modes", &["scene", "width", "height", "frames", "json", "device", "moving", "fusion"]),
+            _ if *photons => ("--photons", &["scene", "frames", "device"]),
+            _ => ("(the primary-ray and path-tracing benchmark)", &["scene", "width", "height", "frames", "json", "device"]),
+        };
+        let modes_flags = ["scaling", "radius", "motion", "curves", "rays", "workgroups", "modes", "photons"];
+        let unused: Vec<String> =
+            given.iter().filter(|id| !modes_flags.contains(&id.as_str()) && !uses.contains(&id.as_str())).map(|id| format!("--{id}")).collect();
+        if !unused.is_empty() {
+            bail!(
+                "bench {which} does not use {}; it takes {}",
+                unused.join(", "),
+                uses.iter().map(|u| format!("--{u}")).collect::<Vec<_>>().join(", ")
+            );
         }
         if *scaling {
             if runs.is_some() {
@@ -969,10 +1011,20 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
 }
 
 /// The render flags given on the command line (clap ids, as `RenderSettings::unused_flags` takes
-/// them), of the main command or of `reference`; none for the other subcommands.
+/// them), of the main command or of `reference`; `bench`'s own flags for `bench`; none for the
+/// other subcommands.
 fn given_render_flags(matches: &clap::ArgMatches) -> Vec<String> {
     let m = match matches.subcommand() {
         Some(("reference", sub)) => sub,
+        Some(("bench", sub)) => {
+            return sub
+                .ids()
+                .map(|id| id.as_str().to_string())
+                // The derive's argument group ("Bench") is among the ids.
+                .filter(|id| id.starts_with(|c: char| c.is_ascii_lowercase()))
+                .filter(|id| sub.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
+                .collect()
+        }
         Some(_) => return Vec::new(),
         None => matches,
     };

@@ -172,6 +172,11 @@ fn bad_flags() {
     let err = stderr(&run(&args));
     assert!(!err.contains("/3 frames"), "the path was checked only after rendering: {err}");
     assert_fails(&["bench", "--curves", "--photons"], &["--curves", "--photons"]);
+    // A flag the chosen benchmark does not read is refused, naming it (it was ignored).
+    assert_fails(&["bench", "--rays", "--scene", "/nonexistent.gltf"], &["bench --rays does not use --scene"]);
+    assert_fails(&["bench", "--curves", "--quick", "--frames", "0", "--json", "x.json"], &["bench --curves does not use --frames, --json"]);
+    assert_fails(&["bench", "--photons", "--width", "64"], &["bench --photons does not use --width"]);
+    assert_fails(&["bench", "--motion", "--scene", "scenes/cornell_box.gltf"], &["bench --motion does not use --scene"]);
     assert_fails(&["--headless", "--device", "99", "--frames", "1", "--width", "8", "--height", "8"], &["--device 99"]);
 }
 

@@ -107,4 +107,10 @@ fn cli_reference_resumes_and_refuses_mismatches() {
         assert!(!o.status.success() && err.contains(named) && err.contains("mean of its frames"), "{err}");
         assert!(!y.exists());
     }
+    // A headless run's extra outputs are not a reference's: refused, not ignored.
+    let ply = dir.path().join("v.ply");
+    let o = run(&["--frames", "1", "--dump-vpls", ply.to_str().unwrap(), "--save-every", "1", "--out", y.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--dump-vpls, --save-every") && err.contains("--headless"), "{err}");
+    assert!(!y.exists() && !ply.exists());
 }
