@@ -37,16 +37,20 @@ pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
         header += &format!("property {ty} {name}\n");
     }
     header += "end_header\n";
-    w.write_all(header.as_bytes())?;
-    for v in vpls {
-        for f in v.position.iter().chain(&v.normal).chain(&v.flux) {
-            w.write_all(&f.to_le_bytes())?;
+    let written = (|| -> std::io::Result<()> {
+        w.write_all(header.as_bytes())?;
+        for v in vpls {
+            for f in v.position.iter().chain(&v.normal).chain(&v.flux) {
+                w.write_all(&f.to_le_bytes())?;
+            }
+            let colour: [u8; 3] = if v.kind == VPL_INDIRECT { [230, 40, 30] } else { [30, 80, 240] };
+            w.write_all(&[v.kind as u8])?;
+            w.write_all(&colour)?;
         }
-        let colour: [u8; 3] = if v.kind == VPL_INDIRECT { [230, 40, 30] } else { [30, 80, 240] };
-        w.write_all(&[v.kind as u8])?;
-        w.write_all(&colour)?;
-    }
-    w.flush().with_context(|| format!("writing {}", path.display()))
+        w.flush()
+    })();
+    // A full disk said only "No space left on device": the file and the flag are named.
+    written.with_context(|| format!("--dump-vpls {}: writing the file", path.display()))
 }
 
 /// Reads a PLY written by [`write_vpls`] back (used by tests; checks the header strictly).

@@ -527,6 +527,16 @@ impl RenderSettings {
                     format!("it sets ReSTIR's reuse, and --mode {mode} reuses no reservoirs")
                 }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
+                "vpls_indirect" | "photon_min_bounces" | "photon_max_bounces" if !self.gi => {
+                    "it shapes the indirect VPLs, and --no-gi traces none".to_string()
+                }
+                "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" | "candidates" | "candidate_source"
+                | "presample" | "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
+                | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes"
+                    if self.view == View::Vpls =>
+                {
+                    "--view vpls draws the VPLs instead of shading with them".to_string()
+                }
                 _ => continue,
             };
             out.push(format!("{} has no effect here: {why}", flag(id)));
@@ -767,6 +777,15 @@ mod tests {
         assert_eq!(named(&with_mode(Mode::Ris), &["candidates", "initial_visibility", "fuse_passes"]), ["--initial-visibility", "--fuse-passes"]);
         let w = pt.unused_flags(&["candidates"]);
         assert!(w[0].contains("no effect") && w[0].contains("--mode ris and restir"), "{w:?}");
+        // Settings beside the mode: no GI traces no indirect VPLs; --view vpls shades with none.
+        let no_gi = RenderSettings { gi: false, ..restir.clone() };
+        assert_eq!(
+            named(&no_gi, &["no_gi", "vpls_direct", "vpls_indirect", "photon_min_bounces", "photon_max_bounces"]),
+            ["--vpls-indirect", "--photon-min-bounces", "--photon-max-bounces"]
+        );
+        let view = RenderSettings { view: View::Vpls, ..restir.clone() };
+        assert_eq!(named(&view, &["mcap", "candidates", "compensate", "vpl_radius", "vpls_direct"]), ["--mcap", "--candidates", "--compensate"]);
+        assert!(view.unused_flags(&["mcap"])[0].contains("--view vpls draws the VPLs"));
     }
 
     #[test]

@@ -156,6 +156,11 @@ fn bad_flags() {
     let dump_dir = dump_out.display().to_string();
     assert_fails(&["--headless", "--dump-vpls", "scenes/cornell_box.gltf"], &["--dump-vpls", "is also the scene"]);
     assert_fails(&["--headless", "--out", &dump_dir, "--dump-vpls", &final_exr], &["--dump-vpls", "is also an output of --out"]);
+    // A failed write names the flag and the file (a full disk said only "No space left on device").
+    if Path::new("/dev/full").exists() {
+        let small = ["--headless", "--mode", "ris", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "500", "--vpls-indirect", "500"];
+        assert_fails(&[&small[..], &["--out", &dump_dir, "--dump-vpls", "/dev/full"]].concat(), &["--dump-vpls /dev/full: writing the file"]);
+    }
     assert_fails(&["bench", "--frames", "-1"], &["--frames", "'-1'"]);
     // Counts of `results` and `bench --curves` are checked before any reference renders, under
     // their own names; the "Instead" benches exclude each other.
