@@ -33,10 +33,21 @@ pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> 
     load_inner(bytes, base_dir, label).map_err(|e| anyhow!("{label}: {e:#}"))
 }
 
+/// The glTF extensions the renderer reads.
+const SUPPORTED_EXTENSIONS: [&str; 2] = ["KHR_materials_emissive_strength", "KHR_lights_punctual"];
+
 fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scene> {
     let (doc, blob) = parse(bytes)?;
     let buffers = load_buffers(&doc, base_dir, blob)?;
     let mut warnings = Vec::new();
+    // Optional extensions the renderer does not read change the picture without a word otherwise
+    // (KHR_texture_transform moved no texture); required ones are refused by the parser.
+    for ext in doc.extensions_used() {
+        if !SUPPORTED_EXTENSIONS.contains(&ext) {
+            warnings.push(format!("extension {ext} (in extensionsUsed) is not supported: ignored, so the image may differ from other renderers'"));
+        }
+    }
+    check_node_matrices(doc.as_json(), &mut warnings);
 
     let nodes = traverse(&doc, &mut warnings)?;
 
@@ -242,6 +253,26 @@ fn local_matrix(node: &gltf::Node, warnings: &mut Vec<String>) -> Result<Mat4> {
         matrix => matrix,
     };
     Ok(Mat4::from_cols_array_2d(&transform.matrix()))
+}
+
+/// Node matrices the loader reads other than as written: one beside translation, rotation or
+/// scale (glTF forbids both; the matrix is used), and one whose last row is not (0, 0, 0, 1) (a
+/// projective matrix; read as affine).
+fn check_node_matrices(root: &gltf::json::Root, warnings: &mut Vec<String>) {
+    for (i, node) in root.nodes.iter().enumerate() {
+        let Some(m) = node.matrix else { continue };
+        let name = node.name.clone().unwrap_or_else(|| format!("node{i}"));
+        if node.translation.is_some() || node.rotation.is_some() || node.scale.is_some() {
+            warnings.push(format!(
+                "node '{name}': has a matrix and translation/rotation/scale, which glTF forbids; the matrix is used and the rest ignored"
+            ));
+        }
+        // Column-major: the last row is elements 3, 7, 11 and 15.
+        let row = [m[3], m[7], m[11], m[15]];
+        if row != [0.0, 0.0, 0.0, 1.0] {
+            warnings.push(format!("node '{name}': its matrix's last row is {}, not (0, 0, 0, 1); read as an affine transform", fmt_floats(&row)));
+        }
+    }
 }
 
 /// The node's name, or `node{index}`.
@@ -630,6 +661,12 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
             "material '{name}': invalid emission {emission}, set to zero"
         ));
         emission = Vec3::ZERO;
+    }
+    if m.emissive_texture().is_some() && emission.max_element() > 0.0 {
+        warnings.push(format!(
+            "material '{name}': emissiveTexture is not supported: the whole surface emits emissiveFactor {}",
+            fmt_floats(&m.emissive_factor())
+        ));
     }
     Ok(Material {
         base_color: Vec4::from_array(base_color),

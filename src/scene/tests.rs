@@ -1813,3 +1813,40 @@ fn texture_without_texcoords_warns() {
     );
     assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
 }
+
+/// What the loader reads other than as written is said: an optional extension it does not
+/// support (KHR_texture_transform moved no texture), a node with both a matrix and TRS (glTF
+/// forbids it; the matrix wins), a projective node matrix (read as affine), and an emissive
+/// texture (the whole surface emits the factor). Supported extensions stay silent.
+#[test]
+fn content_read_otherwise_than_written_is_warned_about() {
+    let mut b = GltfBuilder::new();
+    let texture = b.texture_png("t", 1, 1, &[255, 255, 255, 255]);
+    let m = b.material("glow", [0.5; 3], [2.0, 1.0, 0.5], false);
+    let mesh = b.mesh("tri", &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], None, &[0, 1, 2], m);
+    let mut identity = [0.0f32; 16];
+    for i in 0..4 {
+        identity[5 * i] = 1.0;
+    }
+    b.node_matrix("both", mesh, identity);
+    let mut projective = identity;
+    projective[11] = 0.5;
+    b.node_matrix("projective", mesh, projective);
+    let mut doc: Value = serde_json::from_str(&b.to_json_string()).unwrap();
+    doc["extensionsUsed"] = json!(["KHR_texture_transform", "KHR_materials_emissive_strength"]);
+    let both = doc["nodes"].as_array().unwrap().iter().position(|n| n["name"] == "both").unwrap();
+    doc["nodes"][both]["translation"] = json!([1.0, 0.0, 0.0]);
+    doc["materials"][m]["emissiveTexture"] = json!({ "index": texture });
+    let w = load_value(&doc).unwrap().warnings.join("\n");
+    assert_contains(
+        &w,
+        &[
+            "extension KHR_texture_transform (in extensionsUsed) is not supported",
+            "node 'both': has a matrix and translation/rotation/scale",
+            "node 'projective': its matrix's last row is [0, 0, 0.5, 1]",
+            "material 'glow': emissiveTexture is not supported",
+        ],
+    );
+    assert!(!w.contains("KHR_materials_emissive_strength"), "{w}");
+    assert!(!w.contains("node 'projective': has a matrix"), "{w}");
+}
