@@ -120,7 +120,14 @@ fn different_settings_are_refused() {
     let mut mb = meta(5, 3);
     mb.config = "bounces=4;aa=1".into();
     let e = merge(&[a.clone(), (image(12, 10, 2), mb)]).unwrap_err().to_string();
-    assert!(e.contains("config") && e.contains("part #1") && e.contains("part #2"), "{e}");
+    assert!(e.contains("settings") && e.contains("part #1") && e.contains("part #2"), "{e}");
+    // Settings (as `reference` writes them: JSON) are compared key by key and the message names
+    // only the keys that differ.
+    let config = |bounces: i32| format!(r#"{{"mode":"pt","max_bounces":{bounces},"aa":false,"scene_hash":"1"}}"#);
+    let (mut ma, mut mb) = (meta(3, 0), meta(5, 3));
+    (ma.config, mb.config) = (config(8), config(2));
+    let e = merge(&[(image(12, 10, 1), ma), (image(12, 10, 2), mb)]).unwrap_err().to_string();
+    assert!(e.contains("settings: max_bounces 8 vs 2") && !e.contains("aa") && !e.contains("scene_hash"), "{e}");
 
     let mut mb = meta(5, 3);
     mb.seed = 8;
@@ -143,7 +150,7 @@ fn plain_exr_is_not_a_reference() {
     let img = image(12, 10, 0);
     write_exr(&p, 12, 10, &img.pixels).unwrap();
     let e = format!("{:#}", read_reference(&p).unwrap_err());
-    assert!(e.contains("final.exr") && e.contains("not a restir-vpl reference"), "{e}");
+    assert!(e.contains("final.exr") && e.contains("not a restir-vpl reference") && e.contains("`restir-vpl reference`"), "{e}");
     let e = format!("{:#}", read_reference(&dir.path().join("missing.exr")).unwrap_err());
     assert!(e.contains("missing.exr"), "{e}");
 }
@@ -187,6 +194,14 @@ fn cli_merge_references() {
     let o = merge_into_c(&["--overwrite"]);
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(read_reference(&pc).unwrap().1.frames, 8);
+    // A missing directory of --out is created, as `reference --out` does.
+    let deep = dir.path().join("new/dir/m.exr");
+    let o = Command::new(bin)
+        .args(["merge-references", &pa.display().to_string(), &pb.display().to_string(), "--out", &deep.display().to_string()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(read_reference(&deep).unwrap().1.frames, 8);
 }
 
 /// A part with a NaN or Inf pixel is refused (it would spread into the merge, which `compare`

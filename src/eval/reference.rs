@@ -199,8 +199,8 @@ pub fn read_reference(path: &Path) -> Result<(RgbImage, ReferenceMeta)> {
         ),
         None => bail!(
             "{} is not a restir-vpl reference: its EXR header has no '{META_ATTRIBUTE}' attribute (frame count, \
-             seed, settings). A plain render (final.exr) cannot be merged; write references with \
-             restir_vpl::eval::reference::write_reference, or merge existing ones with `restir-vpl merge-references`",
+             seed, settings). A plain render (final.exr) cannot be merged; render references with \
+             `restir-vpl reference`, then merge them with `restir-vpl merge-references`",
             path.display()
         ),
     };
@@ -248,7 +248,7 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
             diffs.push(format!("seed {} vs {}", m0.seed, m.seed));
         }
         if !same_config(&m.config, &m0.config) {
-            diffs.push(format!("config '{}' vs '{}'", m0.config, m.config));
+            diffs.push(config_differences(&m0.config, &m.config));
         }
         if !diffs.is_empty() {
             bail!("cannot merge {} and {label}: they differ in {}", labels[0], diffs.join("; "));
@@ -331,7 +331,9 @@ pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path, overwrite: bool)
     if !overwrite && out.symlink_metadata().is_ok() {
         bail!("--out {}: exists; pass --overwrite to replace it, or write the merge to a new file", out.display());
     }
-    write_reference(out, &img, &meta)?;
+    // As `reference --out`: a missing directory is created, and a failure names the flag.
+    crate::output::prepare_output_file(out).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
+    write_reference(out, &img, &meta).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
     for (p, (_, m)) in inputs.iter().zip(&parts) {
         println!("  {}: {}", p.display(), m.describe_frames());
     }
@@ -422,6 +424,29 @@ pub fn same_config(a: &str, b: &str) -> bool {
         (Some(x), Some(y)) => x == y,
         _ => false,
     }
+}
+
+/// The settings two reference configs differ in, key by key ("max_bounces 8 vs 2"), or both
+/// whole when either does not parse.
+fn config_differences(a: &str, b: &str) -> String {
+    let parse = |s: &str| -> Option<serde_json::Map<String, serde_json::Value>> {
+        let mut v: serde_json::Value = serde_json::from_str(s).ok()?;
+        let mode: Mode = serde_json::from_value(v.get("mode")?.clone()).ok()?;
+        let obj = v.as_object_mut()?;
+        strip_unused(obj, mode);
+        Some(obj.clone())
+    };
+    let (Some(x), Some(y)) = (parse(a), parse(b)) else {
+        return format!("settings '{a}' vs '{b}'");
+    };
+    let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+    let null = serde_json::Value::Null;
+    let shown: Vec<String> = keys
+        .into_iter()
+        .filter(|k| x.get(*k) != y.get(*k))
+        .map(|k| format!("{k} {} vs {}", x.get(k).unwrap_or(&null), y.get(k).unwrap_or(&null)))
+        .collect();
+    format!("settings: {}", shown.join(", "))
 }
 
 /// Modes whose partial references are independent samples of one answer (no state carried from
