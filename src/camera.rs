@@ -515,7 +515,6 @@ mod tests {
                 textured_materials: 0,
                 bounds: (lo, hi),
                 surface_area: 0.0,
-                scale: 1.0,
                 camera: None,
                 warnings: Vec::new(),
             };

@@ -83,7 +83,7 @@ pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
     match c.kind {
         CaptureKind::Surfaces => {
             let s: Vec<GpuSurface> = decode_surfaces(&c.bytes[..n * std::mem::size_of::<GpuSurfaceTexels>()]);
-            let ids = |s: &GpuSurface| if s.hit_t < 0.0 { [0.0; 3] } else { hash_colour(s.instance.wrapping_mul(65_599) ^ s.triangle) };
+            let ids = |s: &GpuSurface| if s.offset_scale < 0.0 { [0.0; 3] } else { hash_colour(s.instance.wrapping_mul(65_599) ^ s.triangle) };
             vec![
                 Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| s.position).collect()) },
                 Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()) },

@@ -131,8 +131,9 @@ gpu_struct! {
     pub struct GpuSurface as "Surface" (80) {
     /// World-space hit position.
     pub position: [f32; 3],
-    /// Distance along the primary ray; negative when the ray missed.
-    pub hit_t: f32,
+    /// The hit triangle's largest |world coordinate|, the scale of its ray-origin offsets
+    /// (`offset_ray` in shaders/lib/sampling.glsl); negative when the ray missed.
+    pub offset_scale: f32,
     /// Shading normal, flipped to the viewer's side.
     pub shading_normal: [f32; 3],
     pub instance: u32,
@@ -181,9 +182,7 @@ gpu_struct! {
     /// the G-buffer was not traced again this frame).
     pub surface_offset: u32,
     pub prev_surface_offset: u32,
-    /// The scene's coordinate scale (largest |coordinate| of its bounds): ray-origin offsets are
-    /// relative to it, so a scene renders the same at any scale.
-    pub scene_scale: f32,
+    pub _pad1: u32,
     /// The previous frame's camera (for reprojection); equal to this frame's when it did not move.
     pub prev_camera_position: [f32; 3],
     pub prev_tan_half_fov: f32,
@@ -344,7 +343,7 @@ pub const SURFACE_TEXELS: u32 = 4;
 /// storage-buffer store costs a fraction of an `imageStore` to a texel buffer (README, Performance).
 pub const GBUFFER_CHUNKS: u32 = 8;
 
-/// One pixel's G-buffer record as stored: `position, hit_t | albedo, oct(shading_normal) |
+/// One pixel's G-buffer record as stored: `position, offset_scale | albedo, oct(shading_normal) |
 /// emission, oct(geometric_normal) | instance, triangle, material, view_depth`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -360,7 +359,7 @@ impl GpuSurfaceTexels {
         let f = |i: usize| f32::from_bits(w[i]);
         GpuSurface {
             position: [f(0), f(1), f(2)],
-            hit_t: f(3),
+            offset_scale: f(3),
             shading_normal: oct_decode(w[7]),
             instance: w[12],
             geometric_normal: oct_decode(w[11]),

@@ -466,7 +466,7 @@ impl Renderer {
         let new_photons = match &old_photons {
             Some(_) => None,
             None if settings.needs_vpls() => {
-                let pass = PhotonEmitPass::new(ctx, layout, textured, lights, settings.photon_settings(), scene.info.scale)
+                let pass = PhotonEmitPass::new(ctx, layout, textured, lights, settings.photon_settings())
                     .context("creating the photon pass")?;
                 let stats = pass.run(scene_set.set).context("tracing photons")?;
                 log::info!(
@@ -857,7 +857,6 @@ impl Renderer {
             instance_count: self.scene.instance_count as u32,
             total_light_power: self.lights.set.total_power_lum as f32,
             exposure: 2f32.powf(s.exposure),
-            scene_scale: self.scene.info.scale,
             debug_poison: self.debug_poison,
             accumulated_frames: self.state.accumulated + 1,
             surface_offset: halves.0 * self.parts.targets.surface_half_records,

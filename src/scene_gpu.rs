@@ -57,9 +57,6 @@ pub struct SceneInfo {
     pub bounds: (glam::Vec3, glam::Vec3),
     /// Total surface area of all instanced triangles (scene units²).
     pub surface_area: f64,
-    /// The largest |coordinate| of the bounds (1 for an empty scene): what ray-origin offsets are
-    /// relative to (`GpuFrame::scene_scale`).
-    pub scale: f32,
     /// The glTF camera (world transform, vertical field of view in radians), when there is one.
     pub camera: Option<(Mat4, f32)>,
     /// Loader warnings.
@@ -259,9 +256,7 @@ impl SceneGpu {
             buffers.extend([(9, tb), (10, xb)]);
         }
         let bounds = scene.world_bounds();
-        let scale = bounds.0.abs().max(bounds.1.abs()).max_element();
         let info = SceneInfo {
-            scale: if scale.is_finite() && scale > 0.0 { scale } else { 1.0 },
             path: scene.path.clone(),
             meshes: scene.meshes.len(),
             materials: scene.materials.len(),

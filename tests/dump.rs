@@ -178,7 +178,7 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     let (mut checked, mut shadowed) = (0, 0);
     for i in 0..64 * 64 {
         let (s, res, got) = (&surfaces[i], &reservoirs[i], samples[i]);
-        if s.hit_t < 0.0 || res.vpl == RESERVOIR_EMPTY {
+        if s.offset_scale < 0.0 || res.vpl == RESERVOIR_EMPTY {
             continue;
         }
         let le = Vec3::from(s.emission);
@@ -299,16 +299,20 @@ fn the_captured_g_buffer_holds_each_pixels_own_primary_hit() {
         let tan = (0.5 * camera.yfov).tan();
         let aspect = w as f32 / h as f32;
         for (i, s) in surfaces.iter().enumerate() {
-            if s.hit_t < 0.0 {
+            if s.offset_scale < 0.0 {
                 continue;
             }
             let (x, y) = ((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
             let ndc = (2.0 * x / w as f32 - 1.0, 1.0 - 2.0 * y / h as f32);
             let dir = (camera.forward + ndc.0 * tan * aspect * camera.right + ndc.1 * tan * camera.up).normalize();
-            let expected = camera.position + s.hit_t * dir;
+            // The stored hit lies on the pixel's ray (t: its distance along it).
+            let t = (Vec3::from(s.position) - camera.position).dot(dir);
+            let expected = camera.position + t * dir;
             let err = (Vec3::from(s.position) - expected).length();
-            assert!(err <= 1e-3 * (1.0 + s.hit_t), "pixel ({x}, {y}): stored hit {:?} is {err} from its ray's point {expected:?} at t = {}", s.position, s.hit_t);
-            let depth = s.hit_t * dir.dot(camera.forward);
+            assert!(t > 0.0 && err <= 1e-3 * (1.0 + t), "pixel ({x}, {y}): stored hit {:?} is {err} from its ray's point {expected:?} at t = {t}", s.position);
+            // Its offset scale is its triangle's largest |coordinate|: the box spans 0..0.56.
+            assert!(s.offset_scale > 0.0 && s.offset_scale <= 0.6, "pixel ({x}, {y}): offset scale {}", s.offset_scale);
+            let depth = t * dir.dot(camera.forward);
             assert!((s.view_depth - depth).abs() <= 1e-3 * (1.0 + depth), "pixel ({x}, {y}): view depth {} against {depth}", s.view_depth);
             checked += 1;
         }

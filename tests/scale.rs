@@ -138,3 +138,43 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
         );
     }
 }
+
+/// Ray offsets follow each triangle's own coordinates, not the whole scene's extent: a copy of the
+/// Cornell box's short block 1e5 units away (off screen, a sky dome's or a far ground's distance)
+/// leaves the image as it is. Relative to the scene's largest coordinate, the offsets near the
+/// origin became 1e5/65536 = 1.5 units, above the box's light, and the box went black.
+#[test]
+fn a_far_away_triangle_leaves_the_image_as_it_is() {
+    let base = RenderSettings { mode: Mode::Pt, ..small(48, 48, 8) };
+    let one = render_scaled(1.0, &base);
+    let ctx = context();
+    let text = std::fs::read_to_string(repo_path("scenes/cornell_box.gltf")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let block = json["nodes"].as_array().unwrap().iter().find(|n| n["mesh"].is_u64()).expect("a mesh node")["mesh"].clone();
+    let nodes = json["nodes"].as_array_mut().unwrap();
+    nodes.push(serde_json::json!({ "name": "far", "mesh": block, "translation": [1e5, 0.0, 0.0] }));
+    let far = nodes.len() - 1;
+    json["scenes"][0]["nodes"].as_array_mut().unwrap().push(far.into());
+    let scene = Scene::from_gltf_slice(json.to_string().as_bytes(), None, "cornell with a far copy").unwrap();
+    let gpu = upload(&ctx, &scene, &base);
+    let mut r = Renderer::new(ctx.clone(), gpu, base.clone()).unwrap();
+    let camera = render_camera(&base);
+    for _ in 0..base.frames {
+        r.render_frame(&camera, false).unwrap();
+    }
+    common::assert_no_validation_errors(&ctx);
+    let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean().unwrap() };
+    assert_all_finite(&img.pixels, "with a far triangle");
+    let c = compare(&img, &one, &CompareOptions { flip: false, ..Default::default() }).unwrap();
+    eprintln!("far copy: relMSE {:.2e}, mean ratio {:.6}", c.relmse, c.mean_ratio);
+    // The same paths (a path reaching the far copy is rare: it subtends ~1e-10 sr); tolerances
+    // as for a rescaled scene above.
+    assert!(c.relmse < 1e-5 && (c.mean_ratio - 1.0).abs() < 1e-4, "relMSE {:.3e}, mean ratio {:.6} against the box alone", c.relmse, c.mean_ratio);
+}
+
+/// The scale-1 Cornell camera.
+fn render_camera(base: &RenderSettings) -> restir_vpl::camera::Camera {
+    let ctx = context();
+    let gpu = upload(&ctx, &scaled_cornell(1.0), base);
+    Renderer::new(ctx, gpu, RenderSettings { mode: Mode::Pt, ..base.clone() }).unwrap().initial_camera()
+}

@@ -21,11 +21,11 @@ float light_pdf_area(vec3 le, bool double_sided) {
     return frame.total_light_power > 0.0 ? sides * PI * luminance(le) / frame.total_light_power : 0.0;
 }
 
-// Reflected radiance at x (geometric normal ng, shading normal ns, albedo rho) from one light
+// Reflected radiance at x (geometric normal ng, shading normal ns, offset_ray scale x_scale, albedo rho) from one light
 // sample. `residual_r2` < 0: the light counts whole; otherwise each sample is weighted by Yuksel's
 // residual w(d) = 1 - d^2 G_r(d) for r^2 = residual_r2 (the light the clamped VPLs leave out).
 // Consumes three random numbers whatever the light.
-vec3 next_event(vec3 x, vec3 ng, vec3 ns, vec3 rho, float residual_r2, inout Rng rng, inout uint rays) {
+vec3 next_event(vec3 x, vec3 ng, vec3 ns, float x_scale, vec3 rho, float residual_r2, inout Rng rng, inout uint rays) {
     uint li = sample_light_index(rng_next(rng));
     Light l = light_texels(lights, li);
     vec2 u = rand2(rng);
@@ -38,7 +38,7 @@ vec3 next_event(vec3 x, vec3 ng, vec3 ns, vec3 rho, float residual_r2, inout Rng
         float weight = residual_r2 < 0.0 ? 1.0 : yuksel_residual(d2, residual_r2);
         if (cos_x > 0.0 && dot(ng, wi) > 0.0 && d2 > 0.0 && weight > 0.0) {
             rays += 1u;
-            if (segment_visible(offset_ray(x, ng, frame.scene_scale), l.p0)) {
+            if (segment_visible(offset_ray(x, ng, x_scale), l.p0)) {
                 return lambert_brdf(rho) * l.emission * (weight * cos_x / (d2 * l.pdf));
             }
         }
@@ -62,7 +62,7 @@ vec3 next_event(vec3 x, vec3 ng, vec3 ns, vec3 rho, float residual_r2, inout Rng
         float w = power_heuristic(pdf_light, lambert_pdf(cos_x));
         vec3 nl_toward_x = cos_l_signed > 0.0 ? nl : -nl;
         rays += 1u;
-        if (segment_visible(offset_ray(x, ng, frame.scene_scale), offset_ray(y, nl_toward_x, frame.scene_scale))) {
+        if (segment_visible(offset_ray(x, ng, x_scale), offset_ray(y, nl_toward_x, triangle_offset_scale(l.p0, l.p1, l.p2)))) {
             return lambert_brdf(rho) * l.emission * (weight * cos_x * w / pdf_light);
         }
     }

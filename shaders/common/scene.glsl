@@ -39,6 +39,7 @@ struct Hit {
     vec3 shading_normal;    // same hemisphere as geometric_normal
     uint material;
     bool front_face;        // the ray hit the glTF front face (counter-clockwise side)
+    float offset_scale;     // offset_ray's scale for this triangle (triangle_offset_scale)
     uint instance;
     uint triangle;
 #ifdef SCENE_TEXTURES
@@ -107,6 +108,7 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     }
     Hit h;
     h.position = b.x * p0 + b.y * p1 + b.z * p2;
+    h.offset_scale = triangle_offset_scale(p0, p1, p2);
     vec3 ng = cross(p1 - p0, p2 - p0);
     if ((flags & INSTANCE_MIRRORED) != 0u) {
         ng = -ng;

@@ -22,7 +22,7 @@ uvec4 texel_at(utextureBuffer b, uint texel) {
 }
 
 // A Surface is stored as SURFACE_TEXELS texels with its two normals octahedral (packing.glsl,
-// ~3e-5 rad): position, hit_t | albedo, oct(shading normal) | emission, oct(geometric normal) |
+// ~3e-5 rad): position, offset_scale | albedo, oct(shading normal) | emission, oct(geometric normal) |
 // instance, triangle, material, view_depth. Four 16-byte stores per pixel in gbuffer instead of
 // five (on lavapipe each cost ~7 ms of a 1280×720 frame as an imageStore, less through the storage
 // buffers gbuffer now writes with), and a target evaluation at a surface reads three texels
@@ -35,7 +35,7 @@ Surface surface_texels(utextureBuffer b, uint i) {
     uvec4 t3 = texel_at(b, k + 3u);
     Surface s;
     s.position = uintBitsToFloat(t0.xyz);
-    s.hit_t = uintBitsToFloat(t0.w);
+    s.offset_scale = uintBitsToFloat(t0.w);
     s.albedo = uintBitsToFloat(t1.xyz);
     s.shading_normal = oct_decode(t1.w);
     s.emission = uintBitsToFloat(t2.xyz);
@@ -49,7 +49,7 @@ Surface surface_texels(utextureBuffer b, uint i) {
 
 // The texels of a Surface, as surface_texels reads them (gbuffer stores them through storage buffers).
 void surface_to_texels(Surface s, out uvec4 t[SURFACE_TEXELS]) {
-    t[0] = uvec4(floatBitsToUint(s.position), floatBitsToUint(s.hit_t));
+    t[0] = uvec4(floatBitsToUint(s.position), floatBitsToUint(s.offset_scale));
     t[1] = uvec4(floatBitsToUint(s.albedo), oct_encode(s.shading_normal));
     t[2] = uvec4(floatBitsToUint(s.emission), oct_encode(s.geometric_normal));
     t[3] = uvec4(s.instance, s.triangle, s.material, floatBitsToUint(s.view_depth));

@@ -59,7 +59,7 @@ struct AliasEntry {
 
 struct Surface {
     vec3 position;
-    float hit_t;
+    float offset_scale;
     vec3 shading_normal;
     uint instance;
     vec3 geometric_normal;
@@ -90,7 +90,7 @@ struct Frame {
     uint accumulated_frames;
     uint surface_offset;
     uint prev_surface_offset;
-    float scene_scale;
+    uint _pad1;
     vec3 prev_camera_position;
     float prev_tan_half_fov;
     vec3 prev_camera_right;

@@ -11,7 +11,7 @@
 // Shadow ray from the surface (offset along its geometric normal) to the VPL (already offset off
 // its own surface by the photon pass).
 bool vpl_visible(Surface s, Vpl v) {
-    return segment_visible(offset_ray(s.position, s.geometric_normal, frame.scene_scale), v.position);
+    return segment_visible(offset_ray(s.position, s.geometric_normal, s.offset_scale), v.position);
 }
 
 vec3 surface_vpl_contribution(Surface s, Vpl v, VplParams p) {
@@ -21,7 +21,7 @@ vec3 surface_vpl_contribution(Surface s, Vpl v, VplParams p) {
 // p^(y) at surface s: lum of the unshadowed contribution, times V when `with_visibility` (one
 // shadow ray, counted in `rays`, only when the unshadowed value is positive).
 float surface_vpl_target(Surface s, Vpl v, VplParams p, bool with_visibility, inout uint rays) {
-    if (s.hit_t < 0.0) {
+    if (s.offset_scale < 0.0) {
         return 0.0;
     }
     float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);

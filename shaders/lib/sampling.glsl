@@ -90,14 +90,24 @@ uint alias_resolve(uint slot, float keep, uint alias_index, float u_rest) {
     return u_rest < keep ? slot : alias_index;
 }
 
+// The scale of a triangle's rounding errors for offset_ray: its vertices' largest |coordinate|
+// (a point interpolated from them is off its plane by a few ulps of that), never zero.
+float triangle_offset_scale(vec3 p0, vec3 p1, vec3 p2) {
+    vec3 m = max(max(abs(p0), abs(p1)), abs(p2));
+    return max(max(m.x, max(m.y, m.z)), 1e-30);
+}
+
 // Ray-origin offset against self-intersection (Waechter & Binder, Ray Tracing Gems, ch. 6):
 // moves p along n by a few ulps (far from the origin) or, near the origin where ulps vanish, by a
-// small amount. Their "near" and "small" (1/32 and 1/65536) are for scenes of unit size: here they
-// are relative to `scene_scale` (the largest |coordinate| of the scene), so a scene scaled by any
-// factor gets the same offsets relative to its size and renders the same image.
-vec3 offset_ray(vec3 p, vec3 n, float scene_scale) {
-    float origin = scene_scale * (1.0 / 32.0);
-    float float_scale = scene_scale * (1.0 / 65536.0);
+// small amount. Their "near" and "small" (1/32 and 1/65536) are for triangles of unit size: here
+// they are relative to `scale`, the largest |coordinate| of the triangle p lies on
+// (triangle_offset_scale), so a scene scaled by any factor gets the same offsets relative to its
+// size, and a triangle far away (a sky dome, a distant ground) no longer widens the offsets of the
+// small ones near the origin (relative to the whole scene's extent they did: one triangle 1e5
+// away lifted shadow rays 1.5 units off a 1-unit room and blacked it out).
+vec3 offset_ray(vec3 p, vec3 n, float scale) {
+    float origin = scale * (1.0 / 32.0);
+    float float_scale = scale * (1.0 / 65536.0);
     const float int_scale = 256.0;
     ivec3 of_i = ivec3(int_scale * n);
     vec3 p_i = vec3(

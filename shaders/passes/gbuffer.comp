@@ -64,7 +64,7 @@ void main() {
 
     Surface s;
     s.position = vec3(0.0);
-    s.hit_t = -1.0;
+    s.offset_scale = -1.0;
     s.shading_normal = vec3(0.0);
     s.instance = 0xFFFFFFFFu;
     s.geometric_normal = vec3(0.0);
@@ -79,7 +79,7 @@ void main() {
     if (trace_closest(frame.camera_position, dir, 1e30, hit, t)) {
         Material m = material_texels(materials, hit.material);
         s.position = hit.position;
-        s.hit_t = t;
+        s.offset_scale = hit.offset_scale;
         s.shading_normal = hit.shading_normal;
         s.instance = hit.instance;
         s.geometric_normal = hit.geometric_normal;

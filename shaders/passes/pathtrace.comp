@@ -29,7 +29,7 @@ void main() {
     }
     uint index = pixel.y * frame.width + pixel.x;
     Surface s = surface_texels(surfaces, surface_slot(index));
-    if (s.hit_t < 0.0) {
+    if (s.offset_scale < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }
@@ -42,6 +42,7 @@ void main() {
     vec3 ng = s.geometric_normal;
     vec3 ns = s.shading_normal;
     vec3 albedo = s.albedo;
+    float x_scale = s.offset_scale;
 
     for (int bounce = 1; frame.max_bounces < 0 || bounce <= frame.max_bounces; ++bounce) {
         if (bounce >= RR_START_BOUNCE) {
@@ -54,7 +55,7 @@ void main() {
 
         // Next-event estimation.
         if (frame.light_count > 0u) {
-            radiance += throughput * next_event(x, ng, ns, albedo, NEE_UNCLAMPED, rng, rays);
+            radiance += throughput * next_event(x, ng, ns, x_scale, albedo, NEE_UNCLAMPED, rng, rays);
         }
 
         // BSDF sampling: cosine-weighted, f * cos / pdf = albedo.
@@ -68,7 +69,7 @@ void main() {
         Hit hit;
         float t;
         rays += 1u;
-        if (!trace_closest(offset_ray(x, ng, frame.scene_scale), wi, 1e30, hit, t)) {
+        if (!trace_closest(offset_ray(x, ng, x_scale), wi, 1e30, hit, t)) {
             break;
         }
         Material m = material_texels(materials, hit.material);
@@ -80,6 +81,7 @@ void main() {
         x = hit.position;
         ng = hit.geometric_normal;
         ns = hit.shading_normal;
+        x_scale = hit.offset_scale;
         albedo = hit_albedo(hit);
     }
     samples[index] = vec4(radiance, 1.0);

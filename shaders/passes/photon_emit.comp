@@ -37,7 +37,6 @@ layout(push_constant) uniform Push {
     uint seed;
     float scale;       // PHOTON_EMIT_SCALE
     uint light_count;  // entries of light_cdf
-    float scene_scale; // ray-origin offsets are relative to it (offset_ray)
 };
 
 const uint SALT_DIRECT = 0x64697265u;
@@ -60,6 +59,7 @@ uint invert_light_cdf(float u) {
 
 struct LightSample {
     vec3 position;
+    float offset_scale;  // offset_ray's scale of the light's triangle
     vec3 normal;  // the emitting side
     vec3 power_over_pdf;  // Phi_t / P(t)
 };
@@ -70,6 +70,7 @@ LightSample sample_light_point(uint t, inout Rng rng) {
         // Isotropic: power 4 pi I; `normal` is a uniform direction, used only to start photons.
         LightSample s;
         s.position = l.p0;
+        s.offset_scale = 0.0;  // a point: never offset
         s.normal = sample_uniform_sphere(rand2(rng));
         s.power_over_pdf = l.emission * (4.0 * PI / l.pdf);
         return s;
@@ -77,6 +78,7 @@ LightSample sample_light_point(uint t, inout Rng rng) {
     vec3 b = sample_triangle_barycentrics(rand2(rng));
     LightSample s;
     s.position = b.x * l.p0 + b.y * l.p1 + b.z * l.p2;
+    s.offset_scale = triangle_offset_scale(l.p0, l.p1, l.p2);
     s.normal = normalize(cross(l.p1 - l.p0, l.p2 - l.p0));
     float sides = 1.0;
     if ((l.flags & MATERIAL_DOUBLE_SIDED) != 0u) {
@@ -97,7 +99,7 @@ void direct_vpl(uint i) {
     LightSample s = sample_light_point(t, rng);
     bool point = (light_texels(lights, t).flags & LIGHT_POINT) != 0u;
     Vpl v;
-    v.position = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
+    v.position = point ? s.position : offset_ray(s.position, s.normal, s.offset_scale);
     v.kind = point ? VPL_DIRECT_POINT : VPL_DIRECT_AREA;
     v.normal = oct_quantize(s.normal);  // as its VplCandidate code stores it
     v.path = i;
@@ -126,7 +128,7 @@ PhotonPath start_path(uint p) {
     path.phi0 = s.power_over_pdf;
     path.phi = path.phi0;
     bool point = (light_texels(lights, t).flags & LIGHT_POINT) != 0u;
-    path.origin = point ? s.position : offset_ray(s.position, s.normal, scene_scale);
+    path.origin = point ? s.position : offset_ray(s.position, s.normal, s.offset_scale);
     path.dir = point ? s.normal : sample_cosine_hemisphere(s.normal, rand2(path.rng));
     path.bounce = 1u;
     return path;
@@ -147,7 +149,7 @@ bool trace_segment(inout PhotonPath path) {
     uint slot = atomicAdd(counters.indirect_count, 1u);
     if (slot < capacity) {
         Vpl v;
-        v.position = offset_ray(hit.position, hit.geometric_normal, scene_scale);
+        v.position = offset_ray(hit.position, hit.geometric_normal, hit.offset_scale);
         v.kind = VPL_INDIRECT;
         v.normal = oct_quantize(hit.geometric_normal);  // faces the incoming photon; quantized as VplCandidate stores it
         v.path = path.index;
@@ -174,7 +176,7 @@ bool trace_segment(inout PhotonPath path) {
     if (dot(path.dir, hit.geometric_normal) <= 0.0) {
         return false;
     }
-    path.origin = offset_ray(hit.position, hit.geometric_normal, scene_scale);
+    path.origin = offset_ray(hit.position, hit.geometric_normal, hit.offset_scale);
     path.bounce += 1u;
     return true;
 }

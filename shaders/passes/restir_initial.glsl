@@ -38,7 +38,7 @@ void initial_offer(inout ReservoirStream st, uint i, float t, vec3 flux, VplPara
 // shadow rays it traced to `rays`.
 Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count, utextureBuffer vpls, utextureBuffer vpl_alias,
                             utextureBuffer tiles, inout uint rays) {
-    if (s.hit_t < 0.0 || p.vpl_count == 0u || p.candidates == 0u) {
+    if (s.offset_scale < 0.0 || p.vpl_count == 0u || p.candidates == 0u) {
         return reservoir_empty(1.0);
     }
     Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_INITIAL);

@@ -43,7 +43,7 @@ void main() {
         Surface s = surface_texels(surfaces, surface_slot(index));
         Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
         r = initial;
-        if (s.hit_t >= 0.0) {
+        if (s.offset_scale >= 0.0) {
             TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
             temporal_merge(pixel, index, s, initial, pc.params, t, surfaces, vpls, history, r, rays);
         }

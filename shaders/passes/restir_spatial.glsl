@@ -41,7 +41,7 @@ bool pick_neighbour(uvec2 pixel, Surface s, vec2 u, SpatialReuse sr, utextureBuf
     }
     qi = uint(q.y) * frame.width + uint(q.x);
     Surface sq = surface_texels(surfaces, surface_slot(qi));
-    return sq.hit_t >= 0.0
+    return sq.offset_scale >= 0.0
         && same_surface(s.shading_normal, s.view_depth, sq.shading_normal, sq.view_depth, sr.normal_threshold, sr.depth_threshold);
 }
 

@@ -35,7 +35,7 @@ void main() {
     Reservoir r = reservoir_empty(0.0);
     if (inside) {
         Surface s = surface_texels(surfaces, surface_slot(index));
-        if (s.hit_t >= 0.0) {
+        if (s.offset_scale >= 0.0) {
             TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
             changed = temporal_merge(pixel, index, s, reservoirs[index], pc.params, t, surfaces, vpls, history, r, rays);
         }

@@ -53,7 +53,7 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams 
         }
         prev_index = uint(pq.y) * frame.width + uint(pq.x);
         Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
-        if (sp.hit_t < 0.0
+        if (sp.offset_scale < 0.0
             || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, t.normal_threshold, t.depth_threshold)) {
             return false;  // disoccluded: another surface (or none) was there
         }

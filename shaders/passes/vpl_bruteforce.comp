@@ -31,7 +31,7 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
-    if (s.hit_t < 0.0) {
+    if (s.offset_scale < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }

@@ -74,7 +74,7 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
-    if (s.hit_t < 0.0 || p.vpl_count == 0u) {
+    if (s.offset_scale < 0.0 || p.vpl_count == 0u) {
         return;
     }
     // Later hops see every VPL, whatever the view.
@@ -88,7 +88,7 @@ void main() {
     for (int hop = 0; hop < MAX_HOPS && carry != 0u; ++hop) {
         // Emitters near s: next-event estimation weighted by the residual, MIS with the hit below.
         if ((carry & COMPENSATE_EMISSION) != 0u && frame.light_count > 0u) {
-            added += throughput * next_event(s.position, s.geometric_normal, s.shading_normal, s.albedo, p.yuksel_r2, rng, rays);
+            added += throughput * next_event(s.position, s.geometric_normal, s.shading_normal, s.offset_scale, s.albedo, p.yuksel_r2, rng, rays);
         }
         vec3 wi = sample_cosine_hemisphere(s.shading_normal, rand2(rng));
         float cos_x = dot(s.shading_normal, wi);
@@ -98,7 +98,7 @@ void main() {
         Hit hit;
         float t;
         rays += 1u;
-        if (!trace_closest(offset_ray(s.position, s.geometric_normal, frame.scene_scale), wi, 1e30, hit, t)) {
+        if (!trace_closest(offset_ray(s.position, s.geometric_normal, s.offset_scale), wi, 1e30, hit, t)) {
             break;
         }
         vec3 to_y = hit.position - s.position;
@@ -113,7 +113,7 @@ void main() {
         bool double_sided = (m.flags & MATERIAL_DOUBLE_SIDED) != 0u;
         Surface y;
         y.position = hit.position;
-        y.hit_t = t;
+        y.offset_scale = hit.offset_scale;
         y.shading_normal = hit.shading_normal;
         y.geometric_normal = hit.geometric_normal;
         y.albedo = hit_albedo(hit);

@@ -32,7 +32,7 @@ vec3 motion_view(uvec2 pixel, Surface s) {
         return vec3(motion, -1.0);
     }
     Surface sp = surface_texels(surfaces, prev_surface_slot(uint(pq.y) * frame.width + uint(pq.x)));
-    if (sp.hit_t < 0.0
+    if (sp.offset_scale < 0.0
         || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, pc.normal_threshold, pc.depth_threshold)) {
         return vec3(motion, -1.0);
     }
@@ -51,7 +51,7 @@ void main() {
     }
     Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
-    if (s.hit_t < 0.0) {
+    if (s.offset_scale < 0.0) {
         samples[index] = vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }

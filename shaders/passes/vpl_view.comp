@@ -72,7 +72,9 @@ void splat(uint v, bool record) {
             uint i = uint(p.y) * frame.width + uint(p.x);
             vec3 dir = camera_ray_direction(vec2(p) + 0.5);
             float t = ray_sphere(frame.camera_position, dir, c, radius);
-            float surface_t = surface_texels(surfaces, surface_slot(i)).hit_t;
+            Surface s = surface_texels(surfaces, surface_slot(i));
+            // The surface's distance along this (unjittered) ray.
+            float surface_t = s.offset_scale >= 0.0 ? dot(s.position - frame.camera_position, dir) : -1.0;
             if (t <= 0.0 || (surface_t >= 0.0 && t >= surface_t)) {
                 continue;
             }
@@ -102,7 +104,7 @@ void main() {
         vec3 dir = camera_ray_direction(vec2(p) + 0.5);
         Surface s = surface_texels(surfaces, surface_slot(k));
         vec3 colour = vec3(0.0);
-        if (s.hit_t >= 0.0) {
+        if (s.offset_scale >= 0.0) {
             colour = s.albedo * (0.15 + 0.85 * abs(dot(s.shading_normal, dir))) + min(s.emission, vec3(1.0));
         }
         uint id = sphere_id[k];

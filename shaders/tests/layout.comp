@@ -24,7 +24,7 @@ layout(set = 0, binding = 12, std430) buffer B12 { VplCandidate layout_vpl_candi
 void main() {
     // Touch every buffer so glslang keeps their declarations.
     layout_vertex[0].u = layout_material[0].albedo.x + layout_instance[0].world_from_object[0][0]
-        + layout_light[0].area + layout_alias[0].keep + layout_surface[0].hit_t
+        + layout_light[0].area + layout_alias[0].keep + layout_surface[0].offset_scale
         + layout_frame_std430[0].aspect + layout_frame_std140.aspect + layout_vpl[0].flux.x
         + layout_reservoir[0].ucw + layout_vpl_params[0].yuksel_r2 + float(layout_texture[0].width)
         + layout_vpl_candidate[0].flux.x;

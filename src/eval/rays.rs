@@ -68,7 +68,7 @@ pub struct RayRate {
 }
 
 /// Frame constants that ray_rate.comp reads: the camera and the image size.
-fn frame_for(camera: &Camera, width: u32, height: u32, scene: &SceneGpu) -> GpuFrame {
+fn frame_for(camera: &Camera, width: u32, height: u32) -> GpuFrame {
     let mut f: GpuFrame = bytemuck::Zeroable::zeroed();
     f.camera_position = camera.position.to_array();
     f.tan_half_fov = (camera.yfov * 0.5).tan();
@@ -78,7 +78,6 @@ fn frame_for(camera: &Camera, width: u32, height: u32, scene: &SceneGpu) -> GpuF
     f.camera_forward = camera.forward.to_array();
     f.width = width;
     f.height = height;
-    f.scene_scale = scene.info.scale;
     f
 }
 
@@ -105,7 +104,7 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
     let set = DescriptorSet::with_variants(ctx, "ray_rate.scene", gpu.bindings, 1)?;
     gpu.write_set(&set)?;
     let camera = Camera::initial(&gpu.info, None);
-    let frame = frame_for(&camera, width, height, &gpu);
+    let frame = frame_for(&camera, width, height);
     let frame_buffer = Buffer::with_data(ctx, "ray_rate.frame", bytemuck::bytes_of(&frame), vk::BufferUsageFlags::UNIFORM_BUFFER)?;
     set.write_buffer_in(0, 8, &frame_buffer)?;
     let pixels = width as u64 * height as u64;

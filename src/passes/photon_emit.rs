@@ -69,8 +69,6 @@ push_constants! {
         scale: f32,
         /// Entries of `light_cdf`.
         light_count: u32,
-        /// The scene's coordinate scale (ray-origin offsets are relative to it).
-        scene_scale: f32,
     }
 }
 
@@ -158,7 +156,6 @@ pub struct PhotonEmitPass {
     settings: PhotonSettings,
     capacity: u32,
     light_count: u32,
-    scene_scale: f32,
     /// The per-VPL radius rule the VPL records hold, (K, M bits, fallback r bits), and its median
     /// radius; None until [`Self::set_knn_radii`], and again after each [`Self::run`].
     knn_radii: std::cell::Cell<Option<((u32, u32, u32), f32)>>,
@@ -216,7 +213,6 @@ impl PhotonEmitPass {
         textured: bool,
         lights: &LightSet,
         settings: PhotonSettings,
-        scene_scale: f32,
     ) -> Result<Self> {
         Self::check_memory(ctx, &settings)?;
         ensure!(settings.max_bounces >= 1, "--photon-max-bounces must be at least 1");
@@ -254,7 +250,6 @@ impl PhotonEmitPass {
             settings,
             capacity,
             light_count,
-            scene_scale,
             knn_radii: Default::default(),
             ctx: ctx.clone(),
         })
@@ -273,7 +268,6 @@ impl PhotonEmitPass {
             seed: self.settings.seed,
             scale: 1.0,
             light_count: self.light_count,
-            scene_scale: self.scene_scale,
         }
     }
 
