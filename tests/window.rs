@@ -399,13 +399,17 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     assert!(title.contains("refused") && title.contains("started in mode restir"), "{title}");
     quit(child, &window_id());
     // 64×48 × 8k = 2.5e7: accepted; grown to 160×120 it is refused and ReSTIR takes over.
-    let mut child = restir_vpl(Some(d), &[&vpls[..], &["--mode", "bruteforce", "--width", "64", "--height", "48"]].concat())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_for_title(d, &mut child, "bruteforce ·", Duration::from_secs(120));
-    let wid = window_id();
+    // A 64×48 brute-force window with `scene` flags, once its first frame shows.
+    let small_bruteforce = |scene: &[&str]| -> (Child, String) {
+        let mut child = restir_vpl(Some(d), &[scene, &["--mode", "bruteforce", "--width", "64", "--height", "48"]].concat())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        wait_for_title(d, &mut child, "bruteforce ·", Duration::from_secs(120));
+        (child, window_id())
+    };
+    let (mut child, wid) = small_bruteforce(&vpls);
     xdotool(d, &["windowsize", &wid, "160", "120"]);
     let title = wait_for_title(d, &mut child, "refused at 160×120", Duration::from_secs(120));
     assert!(title.contains("restir ·"), "{title}");
@@ -414,13 +418,7 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     // refused, brute force stays (the check counted the VPLs traced without GI, and the frame
     // took ~30 s).
     let gi = ["--scene", "scenes/cornell_box.gltf", "--vpls-direct", "4000", "--vpls-indirect", "40000", "--no-gi"];
-    let mut child = restir_vpl(Some(d), &[&gi[..], &["--mode", "bruteforce", "--width", "64", "--height", "48"]].concat())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    wait_for_title(d, &mut child, "bruteforce ·", Duration::from_secs(120));
-    let wid = window_id();
+    let (child, wid) = small_bruteforce(&gi);
     let title = press_until_title(d, &wid, "g", "refused", Duration::from_secs(60));
     assert!(title.contains("bruteforce ·") && title.contains("44000 VPLs"), "{title}");
     quit(child, &wid);
