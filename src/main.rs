@@ -33,9 +33,9 @@ struct Cli {
     /// List Vulkan devices and what each lacks, then exit.
     #[arg(long)]
     list_devices: bool,
-    /// How the window's frames wait for the display.
-    #[arg(long, value_parser = named::<PresentMode>(), default_value_t = PresentMode::default())]
-    present_mode: PresentMode,
+    /// How the window's frames wait for the display [default: fifo].
+    #[arg(long, value_parser = named::<PresentMode>())]
+    present_mode: Option<PresentMode>,
     /// Window only: a reference EXR of the same camera and size (`reference` writes one); shown on
     /// the right of a split screen, with the live RMSE and FLIP of the image against it.
     #[arg(long, value_name = "REF.exr")]
@@ -840,6 +840,9 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     }
     let settings = settings_from(&cli.render, Some(cli.out.clone()))?;
     settings.validate()?;
+    if cli.headless && cli.present_mode.is_some() {
+        bail!("--present-mode sets how the window's frames wait for the display; a headless run has no window");
+    }
     if cli.headless && cli.reference.is_some() {
         bail!("--reference shows a split screen in the window; headless runs compare with `restir-vpl compare`");
     }
@@ -848,7 +851,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         restir_vpl::run(&settings)?.summary
     } else {
         let opts = restir_vpl::window::WindowOptions {
-            present_mode: cli.present_mode,
+            present_mode: cli.present_mode.unwrap_or_default(),
             frames: cli.render.frames,
             reference: cli.reference.clone(),
         };

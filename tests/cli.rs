@@ -155,6 +155,8 @@ fn bad_flags() {
     let final_exr = dump_out.join("final.exr").display().to_string();
     let dump_dir = dump_out.display().to_string();
     assert_fails(&["--headless", "--dump-vpls", "scenes/cornell_box.gltf"], &["--dump-vpls", "is also the scene"]);
+    // A window-only flag in a headless run is refused (it was ignored).
+    assert_fails(&["--headless", "--present-mode", "mailbox"], &["--present-mode", "no window"]);
     assert_fails(&["--headless", "--out", &dump_dir, "--dump-vpls", &final_exr], &["--dump-vpls", "is also an output of --out"]);
     // A failed write names the flag and the file (a full disk said only "No space left on device").
     if Path::new("/dev/full").exists() {
