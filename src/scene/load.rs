@@ -178,7 +178,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
 
     // Warnings are printed away from the load (in the run's summary): name the file in each.
     let warnings = warnings.into_iter().map(|w| format!("{label}: {w}")).collect();
-    let scene = Scene {
+    let mut scene = Scene {
         path: label.into(),
         meshes,
         instances,
@@ -193,7 +193,16 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
     }
     let emitters = scene.emissive_triangles();
     check_emitter_areas(&scene, &emitters)?;
-    check_light_power(&scene, &emitters)?;
+    let tiny = scene.emitters_below_f32_area();
+    if tiny > 0 {
+        // Dropped from the light set; said, since in a tiny scene they can be all its light.
+        scene.warnings.push(format!(
+            "{}: {tiny} emissive triangle{} an area under 32-bit floats' smallest (1.4e-45 in the scene's units squared): \
+             left out of the lights (in a scene this small, scale it up)",
+            label,
+            if tiny == 1 { " has" } else { "s have" }
+        ));
+    }    check_light_power(&scene, &emitters)?;
     Ok(scene)
 }
 

@@ -1850,3 +1850,19 @@ fn content_read_otherwise_than_written_is_warned_about() {
     assert!(!w.contains("KHR_materials_emissive_strength"), "{w}");
     assert!(!w.contains("node 'projective': has a matrix"), "{w}");
 }
+
+/// An emissive triangle whose area is positive but under f32's smallest (a scene at 1e-30 scale)
+/// cannot be a light; it is left out with a warning saying so (the only message was "no emitters").
+#[test]
+fn emitters_too_small_for_f32_are_named() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("glow", [0.5; 3], [2.0, 1.0, 0.5], false);
+    let mesh = b.mesh("tiny", &[[0.0, 0.0, 0.0], [1e-30, 0.0, 0.0], [0.0, 1e-30, 0.0]], None, &[0, 1, 2], m);
+    b.node("tiny", mesh, [0.0; 3]);
+    let s = load_str(&b.to_json_string()).unwrap();
+    assert!(s.emissive_triangles().is_empty());
+    assert_eq!(s.emitters_below_f32_area(), 1);
+    assert_contains(&s.warnings.join("\n"), &["1 emissive triangle has an area under 32-bit floats' smallest"]);
+    // A plain triangle says nothing.
+    assert!(load_value(&triangle_doc()).unwrap().warnings.is_empty());
+}
