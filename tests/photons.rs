@@ -192,24 +192,45 @@ fn world_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
     out
 }
 
-/// Every VPL lies on a surface (a short ray along −normal meets geometry within 1e-4 m), and in the
-/// closed Cornell box every VPL's normal faces the room's interior (photons arrive from inside).
+/// Every VPL lies on a surface (a short ray along −normal meets geometry within 1e-4 m) with its
+/// normal along that surface's (within the octahedral quantisation), on the side the photons come
+/// from: a point 1e-4 m along the normal is inside the room (within 1e-6: a VPL on a wall with a
+/// flipped normal puts it 1e-4 outside) and outside both blocks (the segment from it to the camera,
+/// which leaves through the open front, crosses the blocks' faces an even number of times; a VPL
+/// on a block with a flipped normal puts it inside, an odd count). The check before (a point 1e-3
+/// along the normal within 1e-3 of the room's bounds) let flipped normals on the walls and on the
+/// blocks through.
 #[test]
 fn vpls_lie_on_surfaces_facing_the_photons() {
     let scene = cornell();
     let tris = world_triangles(&scene);
     let (v, _) = vpls(&scene, RenderSettings { vpls_direct: 500, vpls_indirect: 3000, ..small(8, 8, 1) });
     let (lo, hi) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.5565, 0.5488, 0.5592));
+    let camera = Vec3::new(0.278, 0.273, -0.8);
+    // The blocks' faces: inside the room, below its top, on none of its walls or its floor.
+    let on = |a: f32, b: f32| (a - b).abs() < 1e-4;
+    let blocks: Vec<[Vec3; 3]> = tris
+        .iter()
+        .copied()
+        .filter(|t| {
+            let all = |f: &dyn Fn(Vec3) -> bool| t.iter().all(|&p| f(p));
+            all(&|p| p.y < 0.5) && !all(&|p| on(p.y, 0.0)) && !all(&|p| on(p.x, lo.x)) && !all(&|p| on(p.x, hi.x)) && !all(&|p| on(p.z, hi.z))
+        })
+        .collect();
+    assert_eq!(blocks.len(), 2 * 2 * 5, "two blocks of five quads (their floor faces are left out)");
     for x in &v {
         let p = Vec3::from(x.position);
         let n = Vec3::from(x.normal);
-        let nearest = tris.iter().filter_map(|t| ray_triangle(p, -n, *t)).fold(f32::INFINITY, f32::min);
+        let behind = tris.iter().filter_map(|t| ray_triangle(p, -n, *t).map(|d| (d, *t))).min_by(|a, b| a.0.total_cmp(&b.0));
+        let (nearest, tri) = behind.unwrap_or_else(|| panic!("VPL {x:?} has no surface behind it"));
         assert!(nearest < 1e-4, "VPL {x:?} is {nearest} m from the surface behind it");
-        let inside = p + n * 1e-3;
-        assert!(
-            inside.cmpge(lo - 1e-3).all() && inside.cmple(hi + 1e-3).all(),
-            "VPL normal points out of the room: {x:?}"
-        );
+        let plane = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize();
+        assert!(n.dot(plane).abs() > 0.9999, "VPL {x:?}: normal {n} is not its surface's {plane}");
+        let probe = p + n * 1e-4;
+        assert!(probe.cmpge(lo - 1e-6).all() && probe.cmple(hi + 1e-6).all(), "VPL normal points out of the room: {x:?}");
+        let to_camera = camera - probe;
+        let crossings = blocks.iter().filter_map(|t| ray_triangle(probe, to_camera.normalize(), *t)).filter(|&d| d < to_camera.length()).count();
+        assert!(crossings % 2 == 0, "VPL normal points into a block ({crossings} block faces toward the camera): {x:?}");
     }
 }
 
