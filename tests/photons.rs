@@ -197,9 +197,9 @@ fn world_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
 /// from: a point 1e-4 m along the normal is inside the room (within 1e-6: a VPL on a wall with a
 /// flipped normal puts it 1e-4 outside) and outside both blocks (the segment from it to the camera,
 /// which leaves through the open front, crosses the blocks' faces an even number of times; a VPL
-/// on a block with a flipped normal puts it inside, an odd count). The check before (a point 1e-3
-/// along the normal within 1e-3 of the room's bounds) let flipped normals on the walls and on the
-/// blocks through.
+/// on a block with a flipped normal puts it inside, an odd count). The surface-behind check alone
+/// sees a flipped normal only through the ray offset (~1e-5 here) that puts the VPL off its
+/// surface; these two do not depend on it.
 #[test]
 fn vpls_lie_on_surfaces_facing_the_photons() {
     let scene = cornell();
