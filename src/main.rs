@@ -144,7 +144,8 @@ struct RenderArgs {
     presample: Toggle,
     /// ReSTIR's passes fused in pairs (restir_initial_temporal, restir_spatial_shade), as Bevy
     /// Solari runs them: the same image, fewer dispatches. Frames whose pass outputs are dumped or
-    /// checked, and the reservoir views, run the passes apart. Off by default: on lavapipe it pays
+    /// checked run the passes apart; the reservoir views keep vpl_shade apart (it draws them). Off
+    /// by default: on lavapipe it pays
     /// on the Cornell box only (README, "Pass fusion").
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.fuse_passes))]
     fuse_passes: Toggle,

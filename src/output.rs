@@ -68,15 +68,21 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
 }
 
-/// Whether `a` and `b` name the same file, also when either does not exist yet (its directory is
-/// then resolved): how an output is kept from overwriting an input.
+/// Whether `a` and `b` name the same file, also when either does not exist yet (its deepest
+/// existing directory is then resolved): how an output is kept from overwriting an input.
 pub fn same_file(a: &Path, b: &Path) -> bool {
+    // The deepest existing ancestor resolved, the rest joined as written (`OUT/passes/vpls.ply`
+    // before `passes` exists).
     fn resolve(p: &Path) -> Option<PathBuf> {
-        if let Ok(c) = p.canonicalize() {
-            return Some(c);
+        let mut rest = Vec::new();
+        let mut at = p;
+        loop {
+            if let Ok(c) = at.canonicalize() {
+                return Some(rest.iter().rev().fold(c, |acc, part| acc.join(part)));
+            }
+            rest.push(at.file_name()?.to_owned());
+            at = at.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
         }
-        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        Some(dir.canonicalize().ok()?.join(p.file_name()?))
     }
     matches!((resolve(a), resolve(b)), (Some(x), Some(y)) if x == y)
 }

@@ -27,6 +27,10 @@ const PROPERTIES: [(&str, &str); 13] = [
 
 /// Writes the VPLs to `path`.
 pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
+    // As --out: a missing directory is created.
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("--dump-vpls {}: cannot create the directory {}", path.display(), dir.display()))?;
+    }
     let file = std::fs::File::create(path).with_context(|| format!("--dump-vpls {}: cannot create the file", path.display()))?;
     let mut w = std::io::BufWriter::new(file);
     let mut header = format!(

@@ -604,6 +604,19 @@ impl RenderSettings {
             taken.extend(self.camera_path.clone().map(|p| ("the --camera-path", p)));
             if let Some(dir) = &self.out_dir {
                 taken.extend(crate::headless::RUN_OUTPUT_FILES.map(|f| ("an output of --out", dir.join(f))));
+                // --save-every's snapshots and --dump-passes' copy of the VPLs.
+                // (By name: one path per snapshot would be a million for --frames 1000000.)
+                let snapshot = ply
+                    .file_name()
+                    .and_then(|n| n.to_str())
+                    .and_then(|n| n.strip_prefix("accum_")?.strip_suffix(".exr")?.parse::<u32>().ok())
+                    .filter(|&f| self.save_every > 0 && f > 0 && f <= self.frames && f % self.save_every == 0);
+                if let Some(f) = snapshot {
+                    taken.push(("a --save-every output", dir.join(format!("accum_{f:04}.exr"))));
+                }
+                if self.dump_passes.is_some() {
+                    taken.push(("the --dump-passes copy of the VPLs", dir.join("passes").join("vpls.ply")));
+                }
             }
             if let Some((what, p)) = taken.iter().find(|(_, p)| crate::output::same_file(ply, p)) {
                 bail!("--dump-vpls {}: is also {what} ({}); write the VPLs to another file", ply.display(), p.display());

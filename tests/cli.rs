@@ -158,6 +158,12 @@ fn bad_flags() {
     // A window-only flag in a headless run is refused (it was ignored).
     assert_fails(&["--headless", "--present-mode", "mailbox"], &["--present-mode", "no window"]);
     assert_fails(&["--headless", "--out", &dump_dir, "--dump-vpls", &final_exr], &["--dump-vpls", "is also an output of --out"]);
+    // ... and over a --save-every snapshot or --dump-passes' copy of the VPLs (the PLY was written,
+    // then replaced by the snapshot, and the run said nothing).
+    let snapshot = dump_out.join("accum_0002.exr").display().to_string();
+    assert_fails(&["--headless", "--out", &dump_dir, "--frames", "4", "--save-every", "2", "--dump-vpls", &snapshot], &["--dump-vpls", "a --save-every output"]);
+    let passes_ply = dump_out.join("passes").join("vpls.ply").display().to_string();
+    assert_fails(&["--headless", "--out", &dump_dir, "--dump-passes", "last", "--dump-vpls", &passes_ply], &["--dump-vpls", "--dump-passes copy"]);
     // A failed write names the flag and the file (a full disk said only "No space left on device").
     if Path::new("/dev/full").exists() {
         let small = ["--headless", "--mode", "ris", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "500", "--vpls-indirect", "500"];
