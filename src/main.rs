@@ -517,7 +517,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         }
         _ => bail!("--eye and --target go together"),
     };
-    let validate = cli.validate || std::env::var("RESTIR_VPL_VALIDATE").is_ok_and(|v| v == "1");
+    let validate = cli.validate || env_validate();
     Ok(RenderSettings {
         scene: cli.scene.clone(),
         mode: cli.mode,
@@ -684,6 +684,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let csv = out.join("scaling.csv");
             restir_vpl::eval::scaling::write_csv(&csv, &points)?;
             let plots = restir_vpl::eval::scaling::write_plots(out, &points)?;
+            check_validation(&ctx)?;
             println!("{}\n{}", md.display(), csv.display());
             for p in plots {
                 println!("{}", p.display());
@@ -701,6 +702,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             opts.runs = runs.unwrap_or(opts.runs);
             let ctx = bench_context(*device)?;
             let rows = restir_vpl::eval::radius::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            check_validation(&ctx)?;
             let md = write_report(out, "radius.md", "The Yuksel radius as a trade-off (`bench --radius`)", &restir_vpl::eval::radius::markdown(&opts, &rows))?;
             let csv = out.join("radius.csv");
             restir_vpl::eval::radius::write_csv(&csv, &rows)?;
@@ -718,6 +720,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             opts.runs = runs.unwrap_or(opts.runs);
             let ctx = bench_context(*device)?;
             let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            check_validation(&ctx)?;
             let files = restir_vpl::eval::motion::write_outputs(out, &points)?;
             let md = write_report(out, "motion.md", "Moving camera: error of every displayed frame", &restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots))?;
             println!("{}\n{}", md.display(), files.csv.display());
@@ -768,6 +771,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 eprintln!("bench --rays: {}", spec.path.display());
                 rows.push(restir_vpl::eval::rays::measure(&ctx, &spec.path, w, h, *frames, *frames)?);
             }
+            check_validation(&ctx)?;
             print!("{}", restir_vpl::eval::rays::markdown(&rows, &ctx.report.name));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
@@ -974,8 +978,29 @@ fn check_counts(counts: &[(&str, Option<u32>)], checkpoints: Option<&[u32]>) -> 
 
 /// A context without validation on `device`, for the bench subcommands.
 
+/// `RESTIR_VPL_VALIDATE=1`: the Khronos validation layer, as `--validate` asks for it (the only
+/// way for `bench` and `results`, which take no render flags).
+fn env_validate() -> bool {
+    std::env::var("RESTIR_VPL_VALIDATE").is_ok_and(|v| v == "1")
+}
+
+/// The context of the benchmarks that take one (under the validation layer with
+/// `RESTIR_VPL_VALIDATE=1`; the timing benchmarks `--modes`, `--photons`, `--workgroups` and the
+/// primary-ray one make their own without it).
 fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk::Context>> {
-    Ok(std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions { device_index: device, ..Default::default() })?))
+    Ok(std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
+        validate: env_validate(),
+        device_index: device,
+        ..Default::default()
+    })?))
+}
+
+/// Fails a benchmark whose run drew validation errors (their text went to the log).
+fn check_validation(ctx: &restir_vpl::vk::Context) -> Result<()> {
+    match ctx.validation_errors() {
+        0 => Ok(()),
+        n => bail!("{n} Vulkan validation error(s) under RESTIR_VPL_VALIDATE=1; the first: {}", ctx.first_validation_error().unwrap_or_default()),
+    }
 }
 
 /// Writes `OUT/name` as a Markdown page titled `title` around `body` (creating OUT); its path.
@@ -1000,11 +1025,12 @@ fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::C
 
 fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> {
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-        validate: opts.validate,
+        validate: opts.validate || env_validate(),
         device_index: opts.device_index,
         ..Default::default()
     })?);
     let out = restir_vpl::eval::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
+    check_validation(&ctx)?;
     println!("{}", out.markdown.display());
     println!("{}", out.csv.display());
     println!("{}", out.frame_times_csv.display());

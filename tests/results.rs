@@ -1,17 +1,22 @@
 //! The equal-time benchmark end to end: `bench --curves --quick` on one scene and
 //! `results --quick` on the three scenes write the CSVs, tables and plots they promise.
 
+mod common;
+
 use std::path::Path;
 use std::process::Command;
 
 use restir_vpl::eval::report::read_curves_csv;
 
+/// Runs the binary, under the validation layer where it is installed (a validation error fails
+/// the command: `check_validation` in src/main.rs).
 fn cli(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_restir-vpl"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("run restir-vpl")
+    let mut c = Command::new(env!("CARGO_BIN_EXE_restir-vpl"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR")).args(args);
+    if common::validate() {
+        c.env("RESTIR_VPL_VALIDATE", "1");
+    }
+    c.output().expect("run restir-vpl")
 }
 
 /// Runs `args --quick --out DIR` in a fresh temporary DIR, asserts success and returns DIR.
