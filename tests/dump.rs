@@ -176,6 +176,8 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     let reservoirs: &[GpuReservoir] = bytemuck::cast_slice(&finals.bytes);
     let samples: &[[f32; 4]] = bytemuck::cast_slice(&captured[shade].bytes);
     let (mut checked, mut shadowed) = (0, 0);
+    let mut unblocked_shadows = Vec::new();
+    let triangles = world_triangles(&scene);
     for i in 0..64 * 64 {
         let (s, res, got) = (&surfaces[i], &reservoirs[i], samples[i]);
         if s.offset_scale < 0.0 || res.vpl == RESERVOIR_EMPTY {
@@ -185,7 +187,18 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
         let expected = le + contribution(s, &vpls[res.vpl as usize], r2) * res.ucw;
         let got = Vec3::new(got[0], got[1], got[2]);
         if (got - le).max_element() <= 0.0 && expected.max_element() > le.max_element() {
-            shadowed += 1; // the shadow ray found the VPL occluded: the sample is Le alone
+            // The shadow ray found the VPL occluded: the sample is Le alone. Checked on the CPU:
+            // the segment from the surface to the VPL crosses a triangle (a pass that dropped
+            // samples would otherwise pass as shadows).
+            let from = Vec3::from(s.position) + 1e-4 * Vec3::from(s.geometric_normal);
+            let to = Vec3::from(vpls[res.vpl as usize].position);
+            let (dir, len) = ((to - from).normalize(), (to - from).length());
+            let blocked = triangles.iter().filter_map(|t| ray_triangle(from, dir, *t)).any(|d| d > 1e-4 && d < len - 1e-4);
+            if blocked {
+                shadowed += 1;
+            } else {
+                unblocked_shadows.push(i);
+            }
             continue;
         }
         for c in 0..3 {
@@ -198,8 +211,11 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
         }
         checked += 1;
     }
-    eprintln!("{checked} pixels recombined, {shadowed} shadowed");
+    eprintln!("{checked} pixels recombined, {shadowed} shadowed, {} shadowed with nothing in the way on the CPU", unblocked_shadows.len());
     assert!(checked > 2000 && shadowed < checked, "{checked} checked, {shadowed} shadowed");
+    // A segment grazing an edge or a corner may be judged apart by the GPU's and the CPU's
+    // arithmetic: a handful at most (1 % of the shadowed).
+    assert!(unblocked_shadows.len() * 100 <= shadowed.max(1), "pixels whose sample is Le alone with the VPL in sight: {unblocked_shadows:?}");
     common::assert_no_nonfinite_samples(&r, "run");
     common::assert_no_validation_errors(&ctx);
 }

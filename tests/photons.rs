@@ -163,34 +163,6 @@ fn indirect_flux_closed_box_with_roulette_is_unbiased() {
     assert!((mean - expected).abs() <= 4.0 * se, "{mean} vs {expected}: {:.1} SE", (mean - expected).abs() / se);
 }
 
-/// Möller–Trumbore distance along a ray, or None.
-fn ray_triangle(o: Vec3, d: Vec3, t: [Vec3; 3]) -> Option<f32> {
-    let e1 = t[1] - t[0];
-    let e2 = t[2] - t[0];
-    let p = d.cross(e2);
-    let det = e1.dot(p);
-    if det.abs() < 1e-12 {
-        return None;
-    }
-    let s = o - t[0];
-    let u = s.dot(p) / det;
-    let q = s.cross(e1);
-    let v = d.dot(q) / det;
-    let dist = e2.dot(q) / det;
-    (u >= -1e-6 && v >= -1e-6 && u + v <= 1.0 + 1e-6 && dist >= 0.0).then_some(dist)
-}
-
-fn world_triangles(scene: &Scene) -> Vec<[Vec3; 3]> {
-    let mut out = Vec::new();
-    for inst in &scene.instances {
-        let m = &scene.meshes[inst.mesh];
-        for t in 0..m.triangle_count() {
-            let tri = m.triangle(t).unwrap();
-            out.push(tri.map(|p| inst.transform.transform_point3(p)));
-        }
-    }
-    out
-}
 
 /// Every VPL lies on a surface (a short ray along −normal meets geometry within 1e-4 m) with its
 /// normal along that surface's (within the octahedral quantisation), on the side the photons come

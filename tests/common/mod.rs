@@ -85,3 +85,34 @@ pub fn image_mean_and_se(out: &RunOutput, frames: u32, pixels: impl Iterator<Ite
     let se = (var_sum / frames as f64).sqrt() / n;
     (mean, se)
 }
+
+/// Möller–Trumbore distance along a ray from `o` in direction `d`, or None (edges count as hits
+/// within 1e-6 in barycentrics).
+pub fn ray_triangle(o: glam::Vec3, d: glam::Vec3, t: [glam::Vec3; 3]) -> Option<f32> {
+    let e1 = t[1] - t[0];
+    let e2 = t[2] - t[0];
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let s = o - t[0];
+    let u = s.dot(p) / det;
+    let q = s.cross(e1);
+    let v = d.dot(q) / det;
+    let dist = e2.dot(q) / det;
+    (u >= -1e-6 && v >= -1e-6 && u + v <= 1.0 + 1e-6 && dist >= 0.0).then_some(dist)
+}
+
+/// Every instanced triangle of `scene` in world space.
+pub fn world_triangles(scene: &Scene) -> Vec<[glam::Vec3; 3]> {
+    let mut out = Vec::new();
+    for inst in &scene.instances {
+        let m = &scene.meshes[inst.mesh];
+        for t in 0..m.triangle_count() {
+            let tri = m.triangle(t).unwrap();
+            out.push(tri.map(|p| inst.transform.transform_point3(p)));
+        }
+    }
+    out
+}
