@@ -94,14 +94,13 @@ struct Running {
     frames: u32,
     /// The window frame at which `--camera-path` (last) started: Home plays it again.
     path_from: u32,
-    /// Time spent frozen since the timed frames began, and the start of the freeze going on
-    /// (left out of `displayed`'s frame time).
+    /// Time spent frozen since the timed frames began (left out of `displayed`'s frame time).
     frozen_total: std::time::Duration,
+    /// F2: when the freeze going on began (None: not frozen).
     frozen_since: Option<Instant>,
     /// When the third frame was shown (after warm-up), and the last one.
     timed_from: Option<Instant>,
     last_shown: Option<Instant>,
-    frozen: bool,
     step: bool,
     /// Frozen: show the last frame again with the overlay redrawn (an input changed what it shows).
     refresh: bool,
@@ -149,7 +148,7 @@ impl ApplicationHandler for App {
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
         if let Some(r) = &self.running {
             let size = r.window.inner_size();
-            let drawing = (!r.frozen || r.step || r.refresh) && size.width > 0 && size.height > 0;
+            let drawing = (!r.frozen() || r.step || r.refresh) && size.width > 0 && size.height > 0;
             if drawing {
                 event_loop.set_control_flow(ControlFlow::Poll);
                 r.window.request_redraw();
@@ -219,7 +218,6 @@ impl App {
             frozen_since: None,
             timed_from: None,
             last_shown: None,
-            frozen: false,
             step: false,
             refresh: false,
             overlay: true,
@@ -239,7 +237,7 @@ impl App {
 
     fn handle(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
         let Some(r) = self.running.as_mut() else { return Ok(()) };
-        if r.frozen && !matches!(event, WindowEvent::RedrawRequested) {
+        if r.frozen() && !matches!(event, WindowEvent::RedrawRequested) {
             // No frame redraws the overlay and the title while frozen: an input (a key, the
             // pointer over the panel, a resize) shows the last frame again with them redrawn.
             r.refresh = true;
@@ -441,26 +439,22 @@ impl App {
             Action::HomeCamera => r.controller.go_home(),
             Action::ToggleOverlay => r.overlay = !r.overlay,
             Action::Freeze => {
-                r.frozen = !r.frozen;
                 r.timing_restarts = true; // the frozen time is no frame's
                 let now = Instant::now();
-                if r.frozen {
-                    r.frozen_since = Some(now);
-                } else if let Some(since) = r.frozen_since.take() {
+                if let Some(since) = r.frozen_since.take() {
                     r.frozen_total += r.timed_span(since, now);
-                }
-                if r.frozen {
+                    r.message = "resumed".into();
+                } else {
+                    r.frozen_since = Some(now);
                     // The frames in flight end now, so the summary's frame times leave the frozen
                     // time out, and the title says so at once (no frame redraws the overlay).
                     r.renderer.complete_all()?;
                     r.message = "frozen: F2 resumes, F3 renders one frame".into();
-                    r.update_title(Instant::now());
-                } else {
-                    r.message = "resumed".into();
+                    r.update_title(now);
                 }
             }
             Action::Step => {
-                r.step = r.frozen;
+                r.step = r.frozen();
                 r.timing_restarts = true;
             }
             Action::RenderDocCapture => {
@@ -510,7 +504,7 @@ impl App {
         let r = self.running.as_mut().expect("called while running");
         // Frozen without F3: no frame; the last one is shown again with the overlay and the title
         // redrawn when an input asked for it.
-        let mut refresh_only = r.frozen && !r.step;
+        let mut refresh_only = r.frozen() && !r.step;
         if refresh_only && !std::mem::take(&mut r.refresh) {
             return Ok(());
         }
@@ -577,7 +571,7 @@ impl App {
         };
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
-            let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen };
+            let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen() };
             r.ui.prepare(&r.window, &r.renderer, &info, r.overlay)?
         } else {
             None
@@ -612,7 +606,7 @@ impl App {
             return Ok(());
         }
         r.frames += 1;
-        if r.frozen {
+        if r.frozen() {
             // A frame stepped with F3 ends now, not when the next step or the resume reuses its slot.
             r.renderer.complete_all()?;
         }
@@ -645,6 +639,11 @@ impl App {
 }
 
 impl Running {
+    /// F2: the frame loop is frozen.
+    fn frozen(&self) -> bool {
+        self.frozen_since.is_some()
+    }
+
     /// Writes the window's title (mode, frame time, accumulation, view and status message) and
     /// lets a status message go after `MESSAGE_SECONDS`.
     fn update_title(&mut self, now: Instant) {
@@ -656,7 +655,7 @@ impl Running {
         self.last_title = now;
         let s = self.renderer.settings();
         let accumulated = self.renderer.accumulated();
-        let timing = if self.frozen {
+        let timing = if self.frozen() {
             "frozen (F2 resumes, F3 renders one frame)".to_string()
         } else {
             format!(
