@@ -976,8 +976,6 @@ fn check_counts(counts: &[(&str, Option<u32>)], checkpoints: Option<&[u32]>) -> 
     }
 }
 
-/// A context without validation on `device`, for the bench subcommands.
-
 /// `RESTIR_VPL_VALIDATE=1`: the Khronos validation layer, as `--validate` asks for it (the only
 /// way for `bench` and `results`, which take no render flags).
 fn env_validate() -> bool {
