@@ -191,9 +191,8 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
     if scene.triangle_count() == 0 {
         bail!("no triangles in scene");
     }
-    let emitters = scene.emissive_triangles();
+    let (emitters, tiny) = scene.emissive_triangles_and_tiny();
     check_emitter_areas(&scene, &emitters)?;
-    let tiny = scene.emitters_below_f32_area();
     if tiny > 0 {
         // Dropped from the light set; said, since in a tiny scene they can be all its light.
         scene.warnings.push(format!(
@@ -202,7 +201,8 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
             label,
             if tiny == 1 { " has" } else { "s have" }
         ));
-    }    check_light_power(&scene, &emitters)?;
+    }
+    check_light_power(&scene, &emitters)?;
     Ok(scene)
 }
 

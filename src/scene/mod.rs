@@ -254,13 +254,23 @@ impl Scene {
         }
     }
 
-    /// Every instanced triangle with an emissive material: instance index, triangle index, its
-    /// world-space vertices and its material.
-    fn each_emissive(&self, mut f: impl FnMut(usize, usize, [Vec3; 3], &Material)) {
+    /// Every instanced triangle with an emissive material and positive world-space area (+Inf where
+    /// the area does not fit f32: the loader refuses such a scene, `check_emitter_areas`).
+    pub fn emissive_triangles(&self) -> Vec<EmissiveTriangle> {
+        self.emissive_triangles_and_tiny().0
+    }
+
+    /// [`Scene::emissive_triangles`], and how many emissive triangles it leaves out for an area
+    /// that is positive but too small for f32 (under ~1.4e-45 in the scene's units squared: a
+    /// scene at 1e-30 scale), which the loader names in a warning.
+    pub fn emissive_triangles_and_tiny(&self) -> (Vec<EmissiveTriangle>, usize) {
+        let mut out = Vec::new();
+        let mut tiny = 0;
         for (ii, inst) in self.instances.iter().enumerate() {
             let Some(mesh) = self.meshes.get(inst.mesh) else {
                 continue;
             };
+            let flip = inst.is_mirrored();
             for (t, &mat) in mesh.triangle_materials.iter().enumerate() {
                 let Some(material) = self.materials.get(mat as usize) else {
                     continue;
@@ -269,53 +279,31 @@ impl Scene {
                     continue;
                 }
                 let Some(p) = mesh.triangle(t) else { continue };
-                f(ii, t, p.map(|v| inst.transform.transform_point3(v)), material);
+                let p = p.map(|v| inst.transform.transform_point3(v));
+                let (area64, normal) = area_and_normal(p);
+                // Zero (or below f32's smallest) area: degenerate; NaN: non-finite vertices. Beyond
+                // f32::MAX it is kept as +Inf for the loader to refuse, so nothing is dropped silently.
+                let area = area64 as f32;
+                if !(area > 0.0) {
+                    tiny += usize::from(area64 > 0.0);
+                    continue;
+                }
+                // A mirroring instance turns the mesh's counter-clockwise order clockwise: reversed,
+                // the vertices' own winding gives the front face again, which is all the GPU's
+                // light sampling has (it takes the normal from the vertex order).
+                let (p, normal) = if flip { ([p[0], p[2], p[1]], -normal) } else { (p, normal) };
+                out.push(EmissiveTriangle {
+                    p,
+                    emission: material.emission,
+                    area,
+                    normal,
+                    double_sided: material.double_sided,
+                    instance: ii as u32,
+                    triangle: t as u32,
+                });
             }
         }
-    }
-
-    /// How many emissive triangles have a positive area too small for f32 (under ~1.4e-45 in the
-    /// scene's units squared): `emissive_triangles` leaves them out, and the loader refuses the
-    /// scene rather than lose the light without a word.
-    pub fn emitters_below_f32_area(&self) -> usize {
-        let mut n = 0;
-        self.each_emissive(|_, _, p, _| {
-            let area = area_and_normal(p).0;
-            if area > 0.0 && area as f32 == 0.0 {
-                n += 1;
-            }
-        });
-        n
-    }
-
-    /// Every instanced triangle with an emissive material and positive world-space area (+Inf where
-    /// the area does not fit f32: the loader refuses such a scene, `check_emitter_areas`).
-    pub fn emissive_triangles(&self) -> Vec<EmissiveTriangle> {
-        let mut out = Vec::new();
-        self.each_emissive(|ii, t, p, material| {
-            let flip = self.instances[ii].is_mirrored();
-            let (area, normal) = area_and_normal(p);
-            // Zero (or below f32's smallest) area: degenerate; NaN: non-finite vertices. Beyond
-            // f32::MAX it is kept as +Inf for the loader to refuse, so nothing is dropped silently.
-            let area = area as f32;
-            if !(area > 0.0) {
-                return;
-            }
-            // A mirroring instance turns the mesh's counter-clockwise order clockwise: reversed,
-            // the vertices' own winding gives the front face again, which is all the GPU's
-            // light sampling has (it takes the normal from the vertex order).
-            let (p, normal) = if flip { ([p[0], p[2], p[1]], -normal) } else { (p, normal) };
-            out.push(EmissiveTriangle {
-                p,
-                emission: material.emission,
-                area,
-                normal,
-                double_sided: material.double_sided,
-                instance: ii as u32,
-                triangle: t as u32,
-            });
-        });
-        out
+        (out, tiny)
     }
 }
 

@@ -1860,8 +1860,9 @@ fn emitters_too_small_for_f32_are_named() {
     let mesh = b.mesh("tiny", &[[0.0, 0.0, 0.0], [1e-30, 0.0, 0.0], [0.0, 1e-30, 0.0]], None, &[0, 1, 2], m);
     b.node("tiny", mesh, [0.0; 3]);
     let s = load_str(&b.to_json_string()).unwrap();
-    assert!(s.emissive_triangles().is_empty());
-    assert_eq!(s.emitters_below_f32_area(), 1);
+    let (lights, tiny) = s.emissive_triangles_and_tiny();
+    assert!(lights.is_empty() && s.emissive_triangles().is_empty());
+    assert_eq!(tiny, 1);
     assert_contains(&s.warnings.join("\n"), &["1 emissive triangle has an area under 32-bit floats' smallest"]);
     // A plain triangle says nothing.
     assert!(load_value(&triangle_doc()).unwrap().warnings.is_empty());
