@@ -101,6 +101,11 @@ pub struct RunOutput {
 /// The files every run writes to `--out` ([`finish_run`]).
 pub const RUN_OUTPUT_FILES: [&str; 3] = ["final.exr", "final.png", "summary.json"];
 
+/// The file `--save-every` writes to `--out` after frame `frame` (1-based).
+pub fn snapshot_file(frame: u32) -> String {
+    format!("accum_{frame:04}.exr")
+}
+
 /// Loads and uploads the scene, renders `settings.frames` frames and writes the outputs to
 /// `settings.out_dir` (when set).
 pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
@@ -200,7 +205,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         }
         if let Some(dir) = &settings.out_dir {
             if settings.save_every > 0 && (f + 1) % settings.save_every == 0 {
-                let path = dir.join(format!("accum_{:04}.exr", f + 1));
+                let path = dir.join(snapshot_file(f + 1));
                 write_exr(&path, settings.width, settings.height, &renderer.read_mean()?)?;
                 outputs.push(path.display().to_string());
             }

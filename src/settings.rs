@@ -612,7 +612,7 @@ impl RenderSettings {
                     .and_then(|n| n.strip_prefix("accum_")?.strip_suffix(".exr")?.parse::<u32>().ok())
                     .filter(|&f| self.save_every > 0 && f > 0 && f <= self.frames && f % self.save_every == 0);
                 if let Some(f) = snapshot {
-                    taken.push(("a --save-every output", dir.join(format!("accum_{f:04}.exr"))));
+                    taken.push(("a --save-every output", dir.join(crate::headless::snapshot_file(f))));
                 }
                 if self.dump_passes.is_some() {
                     taken.push(("the --dump-passes copy of the VPLs", dir.join("passes").join("vpls.ply")));
