@@ -115,22 +115,19 @@ fn wedge_room() -> Scene {
     common::load_json(&b.to_json_string(), "wedge room")
 }
 
+/// The W×H settings at Yuksel radius `radius`, path depth unbounded on both sides (Russian
+/// roulette only; photons up to 64 bounces): the compensation's recursion has no depth limit, so
+/// against a path tracer cut at 8 bounces it would add the light of longer paths (+1% in the wedge
+/// room, albedo 0.75).
+fn unbounded(radius: f32, validate: bool) -> RenderSettings {
+    RenderSettings { width: W, height: H, validate, yuksel_radius: Some(radius), max_bounces: -1, photon_max_bounces: 64, ..Default::default() }
+}
+
 fn check_scene(label: &str, scene: &Scene, radius: f32) {
     let ctx = common::context();
     let validate = common::validate();
     let gpu = Arc::new(SceneGpu::new(&ctx, scene, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES).expect("scene uploads"));
-    // Path depth unbounded on both sides (Russian roulette only; photons up to 64 bounces): the
-    // compensation's recursion has no depth limit, so against a path tracer cut at 8 bounces it
-    // would add the light of longer paths (+1% in the wedge room, albedo 0.75).
-    let base = RenderSettings {
-        width: W,
-        height: H,
-        validate,
-        yuksel_radius: Some(radius),
-        max_bounces: -1,
-        photon_max_bounces: 64,
-        ..Default::default()
-    };
+    let base = unbounded(radius, validate);
     let pt_means = render(&ctx, &gpu, RenderSettings { mode: Mode::Pt, seed: 99, ..base.clone() }, 1024);
     let (pt, pt_se) = pt_means[0];
     println!("{label}: pt {pt:.5} ± {pt_se:.5}");
@@ -207,15 +204,7 @@ fn compensation_with_a_radius_far_beyond_the_scene_still_converges() {
     let ctx = common::context();
     let scene = Scene::load(&common::repo_path("scenes/cornell_box.gltf")).expect("Cornell box loads");
     let gpu = Arc::new(SceneGpu::new(&ctx, &scene, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES).expect("scene uploads"));
-    let base = RenderSettings {
-        width: W,
-        height: H,
-        validate: common::validate(),
-        yuksel_radius: Some(1e15),
-        max_bounces: -1,
-        photon_max_bounces: 64,
-        ..Default::default()
-    };
+    let base = unbounded(1e15, common::validate());
     let (pt, pt_se) = render(&ctx, &gpu, RenderSettings { mode: Mode::Pt, seed: 99, ..base.clone() }, 512)[0];
     let s = RenderSettings { mode: Mode::Uniform, vpls_direct: 2_000, vpls_indirect: 2_000, compensate: true, ..base };
     let (m, se) = runs(&ctx, &gpu, &s, 16)[0];

@@ -27,25 +27,26 @@ fn scaled_cornell(k: f32) -> Scene {
 
 /// Renders `frames` frames of the scene scaled by `k`, seen from the scale-1 camera scaled by `k`.
 fn render_scaled(k: f32, base: &RenderSettings) -> RgbImage {
-    let ctx = context();
-    let scene = scaled_cornell(k);
-    let gpu = upload(&ctx, &scene, base);
-    let mut r = Renderer::new(ctx.clone(), gpu, base.clone()).unwrap();
     // The scale-1 scene's camera, scaled (the scaled scene's own camera node is scaled too, but
     // this does not depend on how the loader reads a scaled camera transform).
-    let c = {
-        let one = scaled_cornell(1.0);
-        let gpu = upload(&ctx, &one, base);
-        Renderer::new(ctx.clone(), gpu, RenderSettings { mode: Mode::Pt, ..base.clone() }).unwrap().initial_camera()
-    };
+    let c = render_camera(base);
     let camera = restir_vpl::camera::Camera::look_at(c.position * k, (c.position + c.forward) * k, c.up, c.yfov, "test");
+    render_mean(&scaled_cornell(k), &camera, base, &format!("scale {k}"))
+}
+
+/// Renders `frames` frames of `scene` from `camera`: the mean image, checked finite, with no
+/// non-finite sample and no validation error on the way.
+fn render_mean(scene: &Scene, camera: &restir_vpl::camera::Camera, base: &RenderSettings, what: &str) -> RgbImage {
+    let ctx = context();
+    let gpu = upload(&ctx, scene, base);
+    let mut r = Renderer::new(ctx.clone(), gpu, base.clone()).unwrap();
     for _ in 0..base.frames {
-        r.render_frame(&camera, false).unwrap();
+        r.render_frame(camera, false).unwrap();
     }
     common::assert_no_validation_errors(&ctx);
-    common::assert_no_nonfinite_samples(&r, &format!("scale {k}"));
+    common::assert_no_nonfinite_samples(&r, what);
     let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean().unwrap() };
-    assert_all_finite(&img.pixels, &format!("scale {k}"));
+    assert_all_finite(&img.pixels, what);
     img
 }
 
@@ -147,7 +148,6 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
 fn a_far_away_triangle_leaves_the_image_as_it_is() {
     let base = RenderSettings { mode: Mode::Pt, ..small(48, 48, 8) };
     let one = render_scaled(1.0, &base);
-    let ctx = context();
     let text = std::fs::read_to_string(repo_path("scenes/cornell_box.gltf")).unwrap();
     let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
     let block = json["nodes"].as_array().unwrap().iter().find(|n| n["mesh"].is_u64()).expect("a mesh node")["mesh"].clone();
@@ -156,15 +156,7 @@ fn a_far_away_triangle_leaves_the_image_as_it_is() {
     let far = nodes.len() - 1;
     json["scenes"][0]["nodes"].as_array_mut().unwrap().push(far.into());
     let scene = Scene::from_gltf_slice(json.to_string().as_bytes(), None, "cornell with a far copy").unwrap();
-    let gpu = upload(&ctx, &scene, &base);
-    let mut r = Renderer::new(ctx.clone(), gpu, base.clone()).unwrap();
-    let camera = render_camera(&base);
-    for _ in 0..base.frames {
-        r.render_frame(&camera, false).unwrap();
-    }
-    common::assert_no_validation_errors(&ctx);
-    let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean().unwrap() };
-    assert_all_finite(&img.pixels, "with a far triangle");
+    let img = render_mean(&scene, &render_camera(&base), &base, "with a far triangle");
     let c = compare(&img, &one, &CompareOptions { flip: false, ..Default::default() }).unwrap();
     eprintln!("far copy: relMSE {:.2e}, mean ratio {:.6}", c.relmse, c.mean_ratio);
     // The same paths (a path reaching the far copy is rare: it subtends ~1e-10 sr); tolerances

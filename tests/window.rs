@@ -217,6 +217,24 @@ fn wait_for_fast_frames(display: &str, child: &mut Child, ms: f64, timeout: Dura
     }
 }
 
+/// Esc: the window closes within a minute (Esc again every 10 s in case a key was lost under
+/// load) and the program exits 0; its output.
+fn quit(d: &str, mut child: Child, wid: &str) -> Output {
+    xdotool(d, &["windowfocus", "--sync", wid]);
+    xdotool(d, &["key", "Escape"]);
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(60), "Esc did not close the window");
+        if start.elapsed().as_secs() % 10 == 9 {
+            xdotool(d, &["key", "--window", wid, "Escape"]);
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "exit status {}: {}", o.status, String::from_utf8_lossy(&o.stderr));
+    o
+}
+
 /// Presses an idempotent key until the title shows `want`: under load (the suite runs its tests
 /// side by side on two cores) the first key event can reach the window before it has focus.
 fn press_until_title(display: &str, wid: &str, key: &str, want: &str, timeout: Duration) -> String {
@@ -374,20 +392,6 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     }
     let d = x.display.as_str();
     let vpls = ["--scene", "scenes/cornell_box.gltf", "--vpls-direct", "4000", "--vpls-indirect", "4000"];
-    let quit = |mut child: Child, wid: &str| {
-        xdotool(d, &["windowfocus", "--sync", wid]);
-        xdotool(d, &["key", "Escape"]);
-        let start = Instant::now();
-        while child.try_wait().unwrap().is_none() {
-            assert!(start.elapsed() < Duration::from_secs(60), "Esc did not close the window");
-            if start.elapsed().as_secs() % 10 == 9 {
-                xdotool(d, &["key", "--window", wid, "Escape"]);
-            }
-            std::thread::sleep(Duration::from_millis(200));
-        }
-        let o = child.wait_with_output().unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    };
     let window_id = || String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().unwrap().to_string();
     // 160×120 × 8k VPLs = 1.5e8 pairs, over the CPU limit of 1e8: refused from the start.
     let mut child = restir_vpl(Some(d), &[&vpls[..], &["--mode", "bruteforce", "--width", "160", "--height", "120"]].concat())
@@ -397,7 +401,7 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
         .unwrap();
     let title = wait_for_title(d, &mut child, "restir ·", Duration::from_secs(120));
     assert!(title.contains("refused") && title.contains("started in mode restir"), "{title}");
-    quit(child, &window_id());
+    quit(d, child, &window_id());
     // 64×48 × 8k = 2.5e7: accepted; grown to 160×120 it is refused and ReSTIR takes over.
     // A 64×48 brute-force window with `scene` flags, once its first frame shows.
     let small_bruteforce = |scene: &[&str]| -> (Child, String) {
@@ -413,7 +417,7 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     xdotool(d, &["windowsize", &wid, "160", "120"]);
     let title = wait_for_title(d, &mut child, "refused at 160×120", Duration::from_secs(120));
     assert!(title.contains("restir ·"), "{title}");
-    quit(child, &wid);
+    quit(d, child, &wid);
     // 64×48 × 4k direct VPLs (GI off) = 1.2e7: accepted; G would trace 40k more, 1.4e8 pairs:
     // refused, brute force stays (the check counted the VPLs traced without GI, and the frame
     // took ~30 s).
@@ -421,7 +425,7 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     let (child, wid) = small_bruteforce(&gi);
     let title = press_until_title(d, &wid, "g", "refused", Duration::from_secs(60));
     assert!(title.contains("bruteforce ·") && title.contains("44000 VPLs"), "{title}");
-    quit(child, &wid);
+    quit(d, child, &wid);
 }
 
 /// F2 freezes the frame loop: no frame is rendered while frozen (the outputs written twice count
@@ -470,18 +474,8 @@ fn frozen_window_still_answers_and_home_replays_the_camera_path() {
     let stepped = write_until(d, &wid, &out, Duration::from_secs(60), "the frame F3 renders", |s| s["frames"].as_u64() == Some(n + 1));
     assert_eq!(stepped["settings"]["mode"], "ris", "{stepped}");
     assert!(near(&position(&stepped), [0.278, 0.273, -0.8]), "the first keyframe's eye: {}", stepped["camera"]);
-    xdotool(d, &["key", "Escape"]);
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(60), "Esc did not close the window");
-        if start.elapsed().as_secs() % 10 == 9 {
-            xdotool(d, &["key", "--window", &wid, "Escape"]);
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    }
-    let o = child.wait_with_output().unwrap();
+    let o = quit(d, child, &wid);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "{err}");
     assert!(!err.contains("[vulkan") && !err.contains("panicked"), "stderr: {err}");
     assert_eq!(summary(&out)["validation_errors"], 0);
 }
