@@ -7,7 +7,8 @@
 //!   the runtime arrays) and compare them with `GpuStruct::FIELDS` (generated from the Rust fields
 //!   by `offset_of!`).
 //! - Passes: for every `PassDesc` (`passes::ALL_PASSES`) and every SPIR-V variant of it, the set-1
-//!   bindings, the push-constant block and the local size in the SPIR-V equal the desc's.
+//!   bindings, the push-constant block and the local size in the SPIR-V equal the desc's; set 0
+//!   equals the scene's table (`SCENE_BINDINGS`, or `SCENE_BINDINGS_TEXTURED` for `textured` variants).
 //! - Constants: every `const uint` of the header has a Rust twin of the same name and value
 //!   (`passes::glsl_constants()`), and every Rust one is in the header.
 //!
@@ -22,8 +23,9 @@ use rspirv::spirv::{Decoration, Dim, ExecutionMode, Op, StorageClass};
 use restir_vpl::gpu_types::*;
 use restir_vpl::passes::desc::{PassDesc, PushLayout};
 use restir_vpl::passes::{self, AccumulatePass, GbufferPass, RestirSpatialPass, RestirTemporalPass, TonemapPass, VplShadePass};
+use restir_vpl::scene_gpu::{SCENE_BINDINGS, SCENE_BINDINGS_TEXTURED};
 use restir_vpl::vk::pipeline::{storage, storage_texels, texels, uniform};
-use restir_vpl::vk::BindingKind;
+use restir_vpl::vk::{Binding, BindingKind};
 
 /// The parts of a SPIR-V module the checks read.
 struct Spirv {
@@ -261,9 +263,15 @@ fn texture_layout_matches() {
 // ---- Passes -------------------------------------------------------------------------------------
 
 /// Everything `desc` says that the SPIR-V `spirv` (its variant `variant`) contradicts, one message
-/// per mismatch: set-1 bindings (number, kind, name = the block's first member or the variable's
-/// name), the push-constant block (member names, offsets, size) and the local size.
+/// per mismatch: set-1 bindings and set 0's against the scene's table (number, kind, name = the
+/// block's first member or the variable's name), the push-constant block (member names, offsets, size) and the local size.
 fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> {
+    let scene = if variant == "textured" { SCENE_BINDINGS_TEXTURED } else { SCENE_BINDINGS };
+    pass_mismatches_against(desc, variant, spirv, scene)
+}
+
+/// [`pass_mismatches`] with set 0 compared against `scene`.
+fn pass_mismatches_against(desc: &PassDesc, variant: &str, spirv: &[u8], scene: &[Binding]) -> Vec<String> {
     let at = format!("{} ({variant})", desc.name);
     let m = match Spirv::parse(spirv) {
         Ok(m) => m,
@@ -271,19 +279,24 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
     };
     let mut out = Vec::new();
 
-    // Set 1: binding -> (kind, name) on both sides.
-    let mut shader: BTreeMap<u32, (Result<BindingKind, String>, String)> = BTreeMap::new();
+    // Sets 0 and 1: binding -> (kind, name) on both sides.
+    let mut shader: [BTreeMap<u32, (Result<BindingKind, String>, String)>; 2] = Default::default();
     let mut push = Vec::new();
     for (var, class, pointee) in m.variables() {
         if class == StorageClass::PushConstant {
             push.push(pointee);
             continue;
         }
-        if m.decorations.get(&(var, Decoration::DescriptorSet)) != Some(&1) {
-            continue;
-        }
+        let set = match m.decorations.get(&(var, Decoration::DescriptorSet)) {
+            Some(&set) if set <= 1 => set as usize,
+            Some(set) => {
+                out.push(format!("{at}: a variable in descriptor set {set} (only 0, the scene, and 1 exist)"));
+                continue;
+            }
+            None => continue,
+        };
         let Some(&binding) = m.decorations.get(&(var, Decoration::Binding)) else {
-            out.push(format!("{at}: a set-1 variable has no Binding"));
+            out.push(format!("{at}: a set-{set} variable has no Binding"));
             continue;
         };
         let block_name = m.member_names.get(&(pointee, 0)).cloned();
@@ -308,36 +321,17 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
             StorageClass::UniformConstant if texel_buffer(2) => (Ok(BindingKind::StorageTexelBuffer), m.names.get(&var).cloned()),
             other => (Err(format!("{other:?} variable")), m.names.get(&var).cloned()),
         };
-        if shader.insert(binding, (entry.0, entry.1.unwrap_or_default())).is_some() {
-            out.push(format!("{at}: the shader declares set 1 binding {binding} twice"));
+        if shader[set].insert(binding, (entry.0, entry.1.unwrap_or_default())).is_some() {
+            out.push(format!("{at}: the shader declares set {set} binding {binding} twice"));
         }
     }
-    let mut table: BTreeMap<u32, (BindingKind, &str)> = BTreeMap::new();
-    for b in desc.bindings {
-        if table.insert(b.binding, (b.kind, b.name)).is_some() {
-            out.push(format!("{at}: the table lists binding {} twice", b.binding));
-        }
+    // Set 1 against the desc's table; set 0 against the scene's table of this variant (the
+    // shaders declare it once, in shaders/common/scene.glsl).
+    let [scene_shader, own_shader] = shader;
+    binding_mismatches(&at, "", desc.bindings, &own_shader, &mut out);
+    if !scene_shader.is_empty() {
+        binding_mismatches(&at, "set 0 ", scene, &scene_shader, &mut out);
     }
-    for (binding, (kind, name)) in &table {
-        match shader.get(binding) {
-            None => out.push(format!("{at}: binding {binding} ('{name}') is in the table but not in the shader")),
-            Some((Err(what), _)) => out.push(format!("{at}: binding {binding} is a {what} in the shader")),
-            Some((Ok(k), n)) => {
-                if k != kind {
-                    out.push(format!("{at}: binding {binding} ('{name}') is {kind:?} in the table, {k:?} in the shader"));
-                }
-                if n != name {
-                    out.push(format!("{at}: binding {binding} is '{name}' in the table, '{n}' in the shader"));
-                }
-            }
-        }
-    }
-    for (binding, (_, name)) in &shader {
-        if !table.contains_key(binding) {
-            out.push(format!("{at}: binding {binding} ('{name}') is in the shader but not in the table"));
-        }
-    }
-
     // Push constants: top-level members and the block's size.
     match (push.as_slice(), desc.push.size) {
         ([], 0) => {}
@@ -379,6 +373,43 @@ fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> 
         ));
     }
     out
+}
+
+/// Mismatches between a binding table and the shader's bindings of one set (`set`: "" for set 1,
+/// the pass's own, "set 0 " for the scene's), added to `out`.
+fn binding_mismatches(
+    at: &str,
+    set: &str,
+    bindings: &[Binding],
+    shader: &BTreeMap<u32, (Result<BindingKind, String>, String)>,
+    out: &mut Vec<String>,
+) {
+    let mut table: BTreeMap<u32, (BindingKind, &str)> = BTreeMap::new();
+    for b in bindings {
+        if table.insert(b.binding, (b.kind, b.name)).is_some() {
+            out.push(format!("{at}: the table lists {set}binding {} twice", b.binding));
+        }
+    }
+    for (binding, (kind, name)) in &table {
+        match shader.get(binding) {
+            None => out.push(format!("{at}: {set}binding {binding} ('{name}') is in the table but not in the shader")),
+            Some((Err(what), _)) => out.push(format!("{at}: {set}binding {binding} is a {what} in the shader")),
+            Some((Ok(k), n)) => {
+                if k != kind {
+                    out.push(format!("{at}: {set}binding {binding} ('{name}') is {kind:?} in the table, {k:?} in the shader"));
+                }
+                if n != name {
+                    out.push(format!("{at}: {set}binding {binding} is '{name}' in the table, '{n}' in the shader"));
+                }
+            }
+        }
+    }
+    for (binding, (_, name)) in shader {
+        if !table.contains_key(binding) {
+            out.push(format!("{at}: {set}binding {binding} ('{name}') is in the shader but not in the table"));
+        }
+    }
+
 }
 
 /// Every mismatch of `desc` over all its SPIR-V variants.
@@ -449,6 +480,24 @@ fn a_drifted_binding_table_is_detected() {
     assert_reported(&short, "binding 5 ('nonfinite_samples') is in the shader but not in the table");
     // Also checked in the textured variant.
     assert_reported(&as_texels, "gbuffer (textured): binding 3 ('surfaces_chunk3') is StorageTexelBuffer");
+}
+
+#[test]
+fn a_drifted_scene_table_is_detected() {
+    let spirv = GbufferPass::DESC.spirv_variants();
+    let [(_, plain), (_, textured)] = spirv.as_slice() else { panic!("gbuffer has a default and a textured variant") };
+    let at = |scene: &[Binding], spirv: &[u8]| pass_mismatches_against(&GbufferPass::DESC, "default", spirv, scene);
+    // The textured variant's texture bindings against the plain table.
+    assert!(at(SCENE_BINDINGS, textured).iter().any(|m| m.contains("set 0 binding 9 ('textures') is in the shader but not in the table")));
+    assert!(at(SCENE_BINDINGS_TEXTURED, plain).iter().any(|m| m.contains("set 0 binding 10 ('texels') is in the table but not in the shader")));
+    // A renamed and a retyped row.
+    let mut rows = SCENE_BINDINGS.to_vec();
+    rows[6] = texels(6, "light_list");
+    rows[8] = storage(8, "frame");
+    let found = at(&rows, plain);
+    assert!(found.iter().any(|m| m.contains("set 0 binding 6 is 'light_list' in the table, 'lights' in the shader")), "{found:?}");
+    assert!(found.iter().any(|m| m.contains("set 0 binding 8 ('frame') is StorageBuffer in the table, UniformBuffer in the shader")), "{found:?}");
+    assert!(at(SCENE_BINDINGS, plain).is_empty());
 }
 
 #[test]
