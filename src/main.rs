@@ -535,7 +535,6 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         out_dir,
         validate,
         device_index: cli.device,
-        verbose: cli.verbose,
         progress: true,
         vpls_direct: cli.vpls_direct,
         vpls_indirect: cli.vpls_indirect,

@@ -325,7 +325,6 @@ pub struct RenderSettings {
     pub out_dir: Option<PathBuf>,
     pub validate: bool,
     pub device_index: Option<usize>,
-    pub verbose: bool,
     /// Show a progress bar (only on a terminal, and only for runs over a second).
     pub progress: bool,
     /// Direct VPLs (they replace the area lights).
@@ -419,7 +418,6 @@ impl Default for RenderSettings {
             out_dir: None,
             validate: false,
             device_index: None,
-            verbose: false,
             progress: false,
             vpls_direct: 100_000,
             vpls_indirect: 100_000,
@@ -477,17 +475,23 @@ pub fn parse_workgroup(s: &str) -> Result<[u32; 2], String> {
         .split_once(['x', 'X', '×'])
         .ok_or_else(|| format!("'{s}': expected WIDTHxHEIGHT, like 8x8"))?;
     let side = |v: &str| -> Result<u32, String> {
-        let n = v.trim().parse::<u32>().map_err(|e| format!("'{s}': '{v}' is not a whole number ({e})"))?;
-        if n == 0 || n > 1024 {
-            return Err(format!("'{s}': each side must be 1 to 1024, not {n}"));
-        }
-        Ok(n)
+        v.trim().parse::<u32>().map_err(|e| format!("'{s}': '{v}' is not a whole number ({e})"))
     };
     let size = [side(w)?, side(h)?];
-    if size[0] * size[1] > 1024 {
-        return Err(format!("'{s}': {} invocations per workgroup, more than 1024", size[0] * size[1]));
-    }
+    check_workgroup(size).map_err(|e| format!("'{s}': {e}"))?;
     Ok(size)
+}
+
+/// The bounds [`parse_workgroup`] documents, also checked by [`RenderSettings::validate`] for
+/// settings built in code (a side of 0 would divide by zero when dispatching).
+pub fn check_workgroup(size: [u32; 2]) -> Result<(), String> {
+    if let Some(n) = size.iter().find(|&&n| n == 0 || n > 1024) {
+        return Err(format!("each side must be 1 to 1024, not {n}"));
+    }
+    if size[0] * size[1] > 1024 {
+        return Err(format!("{} invocations per workgroup, more than 1024", size[0] * size[1]));
+    }
+    Ok(())
 }
 
 /// Largest image side accepted (keeps per-pixel buffers well inside 32-bit indexing).
@@ -589,6 +593,9 @@ impl RenderSettings {
                 "--compensate: the inverse-square kernel removes no energy, there is nothing to compensate; \
                  use it with --attenuation yuksel"
             );
+        }
+        if let Err(e) = check_workgroup(self.workgroup) {
+            bail!("--workgroup {}x{}: {e}", self.workgroup[0], self.workgroup[1]);
         }
         if !(0.0..=1.0).contains(&self.restir.boiling_filter) {
             bail!("--boiling-filter {}: expected a strength in [0, 1] (0: off)", self.restir.boiling_filter);
@@ -810,6 +817,24 @@ mod tests {
 
     /// Without --spatial-radius the disc scales with the image width (20 px at 1280, never under
     /// 4 px); a given radius is kept at every width.
+    #[test]
+    fn workgroup_bounds_hold_on_the_command_line_and_in_code() {
+        assert_eq!(parse_workgroup("16x4"), Ok([16, 4]));
+        assert_eq!(parse_workgroup("1×1024"), Ok([1, 1024]));
+        for bad in ["0x8", "8x0", "2048x1", "64x32", "8", "8xa"] {
+            assert!(parse_workgroup(bad).is_err(), "{bad}");
+        }
+        // Settings built in code skip the parser; validate() holds them to the same bounds.
+        for (size, ok) in [([8, 8], true), ([0, 8], false), ([8, 0], false), ([64, 32], false)] {
+            let s = RenderSettings { workgroup: size, ..RenderSettings::default() };
+            let r = s.validate();
+            assert_eq!(r.is_ok(), ok, "{size:?}");
+            if let Err(e) = r {
+                assert!(e.to_string().starts_with("--workgroup "), "{e}");
+            }
+        }
+    }
+
     #[test]
     fn spatial_radius_scales_with_width_unless_given() {
         let auto = RestirSettings::default();

@@ -254,7 +254,6 @@ fn reference_configs_ignore_settings_the_mode_does_not_use() {
         s.mode = Mode::Pt;
         s.check_finite = true;
         s.renderdoc_capture = Some(3);
-        s.verbose = true;
         s.workgroup = [16, 4];
     }));
     assert!(!same_config(&pt, &config(&|s| {

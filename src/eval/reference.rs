@@ -368,7 +368,7 @@ pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<S
     let obj = v.as_object_mut().expect("RenderSettings serialises to an object");
     // Output, debugging and speed-only flags (the image is the same for every workgroup shape,
     // and with the passes fused or apart).
-    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "verbose", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture", "workgroup", "fuse_passes"] {
+    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture", "workgroup", "fuse_passes"] {
         obj.remove(k);
     }
     obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));
