@@ -450,7 +450,7 @@ impl Renderer {
         let info = &scene.info;
         if textured {
             log::info!(
-                "textures: {} ({:.1} MiB of texels, {} textured materials): gbuffer, pathtrace and photon_emit use their textured variants",
+                "textures: {} ({:.1} MiB of texels, {} textured materials): gbuffer, pathtrace, photon_emit and vpl_compensate use their textured variants",
                 scene.texture_count,
                 scene.texel_bytes as f64 / (1 << 20) as f64,
                 info.textured_materials
@@ -945,7 +945,12 @@ impl Renderer {
             // Room for every output a frame can write: G-buffer, two sample writers, the
             // reservoirs after initial, temporal and each spatial pass, the mean and the preview.
             let pixels = self.parts.targets.pixels() as u64;
-            let need = pixels * (80 + 2 * 16 + 16 * (2 + self.settings.restir.spatial_passes as u64) + 16 + 4);
+            let per_pixel = CaptureKind::Surfaces.bytes_per_pixel()
+                + 2 * CaptureKind::Rgba.bytes_per_pixel()
+                + (2 + u64::from(self.settings.restir.spatial_passes)) * CaptureKind::Reservoirs.bytes_per_pixel()
+                + CaptureKind::Rgba.bytes_per_pixel()
+                + CaptureKind::Rgba8.bytes_per_pixel();
+            let need = pixels * per_pixel;
             if self.capture_buffer.as_ref().is_none_or(|b| b.size < need) {
                 self.capture_buffer = Some(Buffer::new(&self.ctx, "capture.pass_outputs", need, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?);
             }

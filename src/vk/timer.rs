@@ -14,7 +14,9 @@ pub struct GpuTimer {
     capacity: u32,
     used: u32,
     scopes: Vec<(&'static str, u32)>,
-    open: Vec<(&'static str, u32)>,
+    /// The scopes begun and not yet ended, innermost last; None for one begun when the pool was
+    /// full (it has a label but no timestamps), so that its `end` closes it and not its parent.
+    open: Vec<Option<(&'static str, u32)>>,
     period_ns: f64,
     valid: bool,
 }
@@ -58,14 +60,16 @@ impl GpuTimer {
         if self.used + 2 <= self.capacity {
             // SAFETY: query index within the pool.
             unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, self.used) };
-            self.open.push((name, self.used));
+            self.open.push(Some((name, self.used)));
             self.used += 2;
+        } else {
+            self.open.push(None);
         }
     }
 
     /// Closes the innermost open scope.
     pub fn end(&mut self, cmd: vk::CommandBuffer) {
-        if let Some((name, q)) = self.open.pop() {
+        if let Some(Some((name, q))) = self.open.pop() {
             // SAFETY: query index within the pool.
             unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1) };
             self.scopes.push((name, q));

@@ -930,7 +930,7 @@ impl Drop for Presenter {
 }
 
 /// Most pixel × VPL pairs (shadow rays) a brute-force frame may have in the window, by device
-/// kind: a frame is one dispatch, and the window answers no key until it ends. lavapipe traces
+/// kind: a frame is one submission, and the window answers no key until it ends. lavapipe traces
 /// ~18M such rays a second on the 2-core reference machine (1.7 s for 320×240 × 400 VPLs), so
 /// 1e8 is ~5 s a frame there; a GPU with RT cores traces ~1e9 a second or more. Headless runs keep
 /// the larger `MAX_BRUTEFORCE_PAIRS`.
