@@ -48,8 +48,10 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         }
     }
     check_node_matrices(doc.as_json(), &mut warnings);
+    check_node_cycles(&doc)?;
 
     let nodes = traverse(&doc, &mut warnings)?;
+    check_morph_weights(&nodes, &mut warnings);
 
     // Materials: all glTF materials, the default one appended below if needed.
     let mut materials: Vec<Material> = doc
@@ -284,6 +286,64 @@ fn check_node_matrices(root: &gltf::json::Root, warnings: &mut Vec<String>) {
     }
 }
 
+/// glTF's nodes form disjoint trees. A node that is its own ancestor is refused, naming the
+/// cycle: traversal would drop the repeated reference, and in a file without scenes (where the
+/// roots are the nodes nobody lists as a child) the cycle's nodes would vanish without a word.
+fn check_node_cycles(doc: &Document) -> Result<()> {
+    let nodes: Vec<gltf::Node> = doc.nodes().collect();
+    let children: Vec<Vec<usize>> = nodes.iter().map(|n| n.children().map(|c| c.index()).collect()).collect();
+    // 0: not reached yet, 1: on the current path, 2: done.
+    let mut state = vec![0u8; nodes.len()];
+    for start in 0..nodes.len() {
+        if state[start] != 0 {
+            continue;
+        }
+        state[start] = 1;
+        let mut path = vec![(start, 0usize)];
+        while let Some((node, next)) = path.last_mut() {
+            let Some(&child) = children[*node].get(*next) else {
+                state[*node] = 2;
+                path.pop();
+                continue;
+            };
+            *next += 1;
+            match state.get(child) {
+                Some(0) => {
+                    state[child] = 1;
+                    path.push((child, 0));
+                }
+                Some(1) => {
+                    let from = path.iter().position(|&(n, _)| n == child).expect("a node on the path");
+                    let cycle: Vec<String> =
+                        path[from..].iter().map(|&(n, _)| node_label(&nodes[n])).chain([node_label(&nodes[child])]).collect();
+                    bail!("node {child} ('{}') is its own ancestor ({}): glTF nodes must form trees", node_label(&nodes[child]), cycle.join(" -> "));
+                }
+                _ => {}
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Morph targets are not applied: the base shape is rendered. Said where a node's (or its mesh's
+/// default) weights would move it.
+fn check_morph_weights(nodes: &[(gltf::Node, Mat4)], warnings: &mut Vec<String>) {
+    let mut warned = std::collections::BTreeSet::new();
+    for (node, _) in nodes {
+        let Some(mesh) = node.mesh() else { continue };
+        let targets = mesh.primitives().map(|p| p.morph_targets().len()).max().unwrap_or(0);
+        let weights = node.weights().or_else(|| mesh.weights()).unwrap_or_default();
+        if targets > 0 && weights.iter().any(|&w| w != 0.0) && warned.insert(mesh.index()) {
+            let name = mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned);
+            warnings.push(format!(
+                "mesh '{name}' (node '{}'): morph targets are not supported; its weights {} are ignored and the base shape is rendered",
+                node_label(node),
+                fmt_floats(weights)
+            ));
+        }
+    }
+}
+
 /// The node's name, or `node{index}`.
 fn node_label(node: &gltf::Node) -> String {
     node.name()
@@ -412,7 +472,8 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
             );
         }
     }
-    let gltf = match gltf::Gltf::from_slice_without_validation(bytes) {
+    let parsed = gltf::Gltf::from_slice_without_validation(bytes).or_else(|e| with_scene_nodes_defaulted(bytes).ok_or(e));
+    let gltf = match parsed {
         Ok(gltf) => gltf,
         Err(e) => {
             // A glTF 1.0 file fails the 2.0 schema: say which version it is rather than why.
@@ -440,6 +501,33 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
     }
     check_sources(root)?;
     Ok((gltf.document, gltf.blob))
+}
+
+/// `scene.nodes` is optional in glTF 2.0, but the gltf crate (1.4) requires it: the document
+/// parsed again with `"nodes": []` given to every scene that lacks it, or None when no scene
+/// lacks it (the parse failed for another reason) or it still fails.
+fn with_scene_nodes_defaulted(bytes: &[u8]) -> Option<gltf::Gltf> {
+    let (json, blob) = if bytes.starts_with(b"glTF") {
+        let glb = gltf::Glb::from_slice(bytes).ok()?;
+        (glb.json.into_owned(), glb.bin.map(std::borrow::Cow::into_owned))
+    } else {
+        (bytes.to_vec(), None)
+    };
+    let mut value: serde_json::Value = serde_json::from_slice(&json).ok()?;
+    let mut defaulted = false;
+    for scene in value.get_mut("scenes")?.as_array_mut()? {
+        if let Some(scene) = scene.as_object_mut() {
+            if !scene.contains_key("nodes") {
+                scene.insert("nodes".into(), serde_json::Value::Array(Vec::new()));
+                defaulted = true;
+            }
+        }
+    }
+    if !defaulted {
+        return None;
+    }
+    let root: gltf::json::Root = serde_json::from_value(value).ok()?;
+    Some(gltf::Gltf { document: Document::from_json_without_validation(root), blob })
 }
 
 /// What the schema validation leaves out and the gltf crate's accessors unwrap (they would panic):
@@ -630,7 +718,7 @@ fn traverse<'a>(
         };
         if *seen {
             warnings.push(format!(
-                "node {} is reachable more than once (cycle or shared child); extra references ignored",
+                "node {} is reachable more than once (a child of two parents, or listed twice); extra references ignored",
                 node.index()
             ));
             continue;
@@ -823,6 +911,18 @@ fn load_mesh(
         // A non-finite normal would reach the shading normal as NaN (an infinite one survives the
         // shader's zero-length test): it becomes zero, which the shader treats as no normal.
         let normals = replace_non_finite(normals, Vec3::ZERO, |v| v.is_finite(), &what, "NORMAL", "zero (no shading normal)", warnings);
+        // Vertex colours multiply the base colour in glTF; they are not read.
+        if let Some(acc) = prim.get(&Semantic::Colors(0)) {
+            if let Some(colors) = read_colors(&acc, buffers).with_context(|| format!("{what}: COLOR_0"))? {
+                let tinted = colors.iter().filter(|c| (**c - Vec3::ONE).abs().max_element() > 0.5 / 255.0).count();
+                if tinted > 0 {
+                    warnings.push(format!(
+                        "{what}: COLOR_0 (vertex colours, {tinted} of {} not white) is not supported; the base colour is used without it",
+                        colors.len()
+                    ));
+                }
+            }
+        }
 
         let uvs = match prim.get(&Semantic::TexCoords(0)) {
             Some(acc) => {
@@ -996,6 +1096,25 @@ fn read_vec2(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Option<Vec<Vec
     let size = acc.size();
     let bytes = accessor_bytes(acc, buffers)?;
     Ok(Some(bytes.chunks_exact(size).map(decode).collect()))
+}
+
+/// A COLOR_0 accessor's RGB (alpha dropped): VEC3 or VEC4 of float or normalised u8 / u16; None
+/// for other types.
+fn read_colors(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Option<Vec<Vec3>>> {
+    if !matches!(acc.dimensions(), Dimensions::Vec3 | Dimensions::Vec4) {
+        return Ok(None);
+    }
+    let decode: fn(&[u8]) -> Vec3 = match acc.data_type() {
+        DataType::F32 => |c| Vec3::new(f32_at(c, 0), f32_at(c, 4), f32_at(c, 8)),
+        DataType::U16 => |c| {
+            let u = |i: usize| f32::from(u16::from_le_bytes([c[2 * i], c[2 * i + 1]])) / 65535.0;
+            Vec3::new(u(0), u(1), u(2))
+        },
+        DataType::U8 => |c| Vec3::new(f32::from(c[0]), f32::from(c[1]), f32::from(c[2])) / 255.0,
+        _ => return Ok(None),
+    };
+    let bytes = accessor_bytes(acc, buffers)?;
+    Ok(Some(bytes.chunks_exact(acc.size()).map(decode).collect()))
 }
 
 fn read_indices(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<u32>> {

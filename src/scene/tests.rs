@@ -431,12 +431,69 @@ fn error_bad_buffers_do_not_panic() {
         );
         assert_contains(&err, &["bad.glb", "GLB"]);
     }
-    // Node cycle: warning, no hang.
+    // Node cycles are refused, naming the cycle: a node its own child, and a cycle of two in a
+    // file without scenes (where its nodes, nobody's roots, used to vanish without a word).
     let mut doc = triangle_doc();
     doc["nodes"][0]["children"] = json!([0]);
+    assert_contains(&load_err(&doc), &["node 0 ('tri') is its own ancestor (tri -> tri)", "trees"]);
+    let mut doc = triangle_doc();
+    doc["nodes"].as_array_mut().unwrap().push(json!({ "name": "other", "children": [0] }));
+    doc["nodes"][0]["children"] = json!([1]);
+    doc.as_object_mut().unwrap().remove("scenes");
+    doc.as_object_mut().unwrap().remove("scene");
+    assert_contains(&load_err(&doc), &["is its own ancestor", "tri -> other -> tri"]);
+    // A shared child (two parents) is not a cycle: a warning, the first placement kept.
+    let mut doc = triangle_doc();
+    doc["nodes"].as_array_mut().unwrap().push(json!({ "name": "a", "children": [0] }));
+    doc["nodes"].as_array_mut().unwrap().push(json!({ "name": "b", "children": [0] }));
+    doc["scenes"][0]["nodes"] = json!([1, 2]);
     let s = load_value(&doc).unwrap();
     assert_eq!(s.instances.len(), 1);
-    assert!(s.warnings.iter().any(|w| w.contains("more than once")));
+    assert!(s.warnings.iter().any(|w| w.contains("more than once")), "{:?}", s.warnings);
+}
+
+#[test]
+fn a_scene_without_nodes_is_valid() {
+    // `scene.nodes` is optional in glTF 2.0 (the gltf crate requires it).
+    let mut doc = triangle_doc();
+    doc["scenes"].as_array_mut().unwrap().push(json!({ "name": "empty" }));
+    let s = load_value(&doc).expect("scene 0 loads beside a scene without nodes");
+    assert_eq!(s.instances.len(), 1);
+    // Chosen, it is an empty scene: the error says so, not that the file is malformed.
+    doc["scene"] = json!(1);
+    let err = load_err(&doc);
+    assert!(!err.contains("malformed"), "{err}");
+}
+
+#[test]
+fn morph_targets_and_vertex_colours_are_named_when_they_would_change_the_image() {
+    let warned = |doc: &Value, what: &str| load_value(doc).unwrap().warnings.iter().any(|w| w.contains(what));
+    // Morph targets (POSITION displacements, here the positions themselves) under a weight of 1;
+    // a weight of 0 changes nothing and says nothing; a node's weights override the mesh's.
+    let mut doc = triangle_doc();
+    doc["meshes"][0]["primitives"][0]["targets"] = json!([{ "POSITION": 0 }]);
+    assert!(!warned(&doc, "morph targets"));
+    doc["meshes"][0]["weights"] = json!([0.0]);
+    assert!(!warned(&doc, "morph targets"));
+    doc["meshes"][0]["weights"] = json!([1.0]);
+    assert!(warned(&doc, "mesh 'tri' (node 'tri'): morph targets are not supported; its weights [1] are ignored"));
+    doc["nodes"][0]["weights"] = json!([0.0]);
+    assert!(!warned(&doc, "morph targets"));
+    // COLOR_0: the positions as colours are not white; an all-white one is the identity.
+    let mut doc = triangle_doc();
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(0);
+    assert!(warned(&doc, "COLOR_0 (vertex colours, 3 of 3 not white) is not supported"));
+    let white: Vec<u8> = [1.0f32; 9].iter().flat_map(|x| x.to_le_bytes()).collect();
+    doc["buffers"].as_array_mut().unwrap().push(json!({
+        "byteLength": white.len(),
+        "uri": format!("data:application/octet-stream;base64,{}", crate::scene::base64::encode(&white)),
+    }));
+    let buffer = doc["buffers"].as_array().unwrap().len() - 1;
+    doc["bufferViews"].as_array_mut().unwrap().push(json!({ "buffer": buffer, "byteLength": white.len() }));
+    let view = doc["bufferViews"].as_array().unwrap().len() - 1;
+    doc["accessors"].as_array_mut().unwrap().push(json!({ "bufferView": view, "componentType": 5126, "count": 3, "type": "VEC3" }));
+    doc["meshes"][0]["primitives"][0]["attributes"]["COLOR_0"] = json!(doc["accessors"].as_array().unwrap().len() - 1);
+    assert!(!warned(&doc, "COLOR_0"));
 }
 
 // ---------------------------------------------------------------- loader features
