@@ -930,9 +930,10 @@ fn load_mesh(
                     Some(uvs) => uvs,
                     None => {
                         warnings.push(format!(
-                            "{what}: TEXCOORD_0 of type {:?} {:?} not supported, ignored",
+                            "{what}: TEXCOORD_0 of type {:?} {:?}{} not supported, ignored",
                             acc.data_type(),
-                            acc.dimensions()
+                            acc.dimensions(),
+                            if acc.data_type() == DataType::F32 || acc.normalized() { "" } else { " (not normalized)" }
                         ));
                         vec![Vec2::ZERO; n]
                     }
@@ -1078,8 +1079,10 @@ fn read_vec3(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Vec<Vec3>> {
 }
 
 /// Texture coordinates (float, or normalised unsigned byte/short); `None` for other types.
+/// Float, or unsigned integers read as normalised: glTF 2.0's texture coordinates and colours
+/// (integers that are not `normalized` need KHR_mesh_quantization, which is not supported).
 fn read_vec2(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Option<Vec<Vec2>>> {
-    if acc.dimensions() != Dimensions::Vec2 {
+    if acc.dimensions() != Dimensions::Vec2 || (acc.data_type() != DataType::F32 && !acc.normalized()) {
         return Ok(None);
     }
     let decode: fn(&[u8]) -> Vec2 = match acc.data_type() {
@@ -1101,7 +1104,7 @@ fn read_vec2(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Option<Vec<Vec
 /// A COLOR_0 accessor's RGB (alpha dropped): VEC3 or VEC4 of float or normalised u8 / u16; None
 /// for other types.
 fn read_colors(acc: &gltf::Accessor, buffers: &[Vec<u8>]) -> Result<Option<Vec<Vec3>>> {
-    if !matches!(acc.dimensions(), Dimensions::Vec3 | Dimensions::Vec4) {
+    if !matches!(acc.dimensions(), Dimensions::Vec3 | Dimensions::Vec4) || (acc.data_type() != DataType::F32 && !acc.normalized()) {
         return Ok(None);
     }
     let decode: fn(&[u8]) -> Vec3 = match acc.data_type() {

@@ -453,6 +453,33 @@ fn error_bad_buffers_do_not_panic() {
 }
 
 #[test]
+fn integer_texcoords_are_read_only_when_normalized() {
+    // TEXCOORD_0 as UNSIGNED_BYTE VEC2 (stride 4, as vertex attributes must be aligned).
+    let bytes: Vec<u8> = vec![255, 0, 0, 0, 0, 255, 0, 0, 51, 102, 0, 0];
+    let mut doc = triangle_doc();
+    doc["buffers"].as_array_mut().unwrap().push(json!({
+        "byteLength": bytes.len(),
+        "uri": format!("data:application/octet-stream;base64,{}", crate::scene::base64::encode(&bytes)),
+    }));
+    let buffer = doc["buffers"].as_array().unwrap().len() - 1;
+    doc["bufferViews"].as_array_mut().unwrap().push(json!({ "buffer": buffer, "byteLength": bytes.len(), "byteStride": 4 }));
+    let view = doc["bufferViews"].as_array().unwrap().len() - 1;
+    doc["accessors"].as_array_mut().unwrap().push(json!({
+        "bufferView": view, "componentType": 5121, "normalized": true, "count": 3, "type": "VEC2",
+    }));
+    let accessor = doc["accessors"].as_array().unwrap().len() - 1;
+    doc["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(accessor);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.meshes[0].uvs, [Vec2::new(1.0, 0.0), Vec2::new(0.0, 1.0), Vec2::new(0.2, 0.4)]);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    // Not normalized: integer UVs need KHR_mesh_quantization; ignored with a warning.
+    doc["accessors"][accessor]["normalized"] = json!(false);
+    let s = load_value(&doc).unwrap();
+    assert!(s.meshes[0].uvs.iter().all(|&uv| uv == Vec2::ZERO));
+    assert_contains(&s.warnings.join("\n"), &["TEXCOORD_0 of type U8 Vec2 (not normalized) not supported, ignored"]);
+}
+
+#[test]
 fn a_scene_without_nodes_is_valid() {
     // `scene.nodes` is optional in glTF 2.0 (the gltf crate requires it).
     let mut doc = triangle_doc();
