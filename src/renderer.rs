@@ -446,7 +446,7 @@ impl Renderer {
             Some(t) => t,
             None => Rc::new(FrameTargets::new(ctx, settings.width, settings.height, settings.workgroup).context("allocating frame targets")?),
         };
-        let mut passes = Passes::new(ctx, layout, textured, &targets).context("creating passes")?;
+        let mut passes = Passes::new(ctx, layout, textured, settings.mode == Mode::Pt, &targets).context("creating passes")?;
         let info = &scene.info;
         if textured {
             log::info!(

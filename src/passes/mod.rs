@@ -393,7 +393,8 @@ pub struct VplPasses {
 /// Every pass of the renderer.
 pub struct Passes {
     pub gbuffer: GbufferPass,
-    pub pathtrace: PathtracePass,
+    /// Only in mode pt.
+    pub pathtrace: Option<PathtracePass>,
     pub accumulate: AccumulatePass,
     pub tonemap: TonemapPass,
     /// Only with `--view vpls`.
@@ -404,15 +405,17 @@ pub struct Passes {
 
 impl Passes {
     /// `textured`: set 0 carries textures, so the passes that read albedo use `textured` variants.
+    /// `path_traced`: mode pt, the only one that runs `pathtrace`.
     pub fn new(
         ctx: &Arc<Context>,
         scene_layout: vk::DescriptorSetLayout,
         textured: bool,
+        path_traced: bool,
         targets: &FrameTargets,
     ) -> Result<Self> {
         Ok(Self {
             gbuffer: GbufferPass::new(ctx, scene_layout, textured, targets)?,
-            pathtrace: PathtracePass::new(ctx, scene_layout, textured, targets)?,
+            pathtrace: path_traced.then(|| PathtracePass::new(ctx, scene_layout, textured, targets)).transpose()?,
             accumulate: AccumulatePass::new(ctx, scene_layout, targets)?,
             tonemap: TonemapPass::new(ctx, scene_layout, targets)?,
             vpl_view: None,
@@ -445,7 +448,9 @@ impl Passes {
         compute_barrier(ctx, cmd);
 
         scoped(ctx, cmd, timer, after, 0, &plan.gbuffer, GbufferPass::NAME, |cmd| self.gbuffer.record(cmd, scene_set, w, h));
-        scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| self.pathtrace.record(cmd, scene_set, w, h));
+        if let Some(pass) = &self.pathtrace {
+            scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| pass.record(cmd, scene_set, w, h));
+        }
 
         // VPL modes: brute force, or (presample ->) initial RIS -> temporal -> spatial ×n -> shade;
         // then compensate. With --fuse-passes: initial + temporal in one dispatch, and the last
