@@ -328,6 +328,12 @@ pub const PHOTON_EMIT_DIRECT: u32 = 0;
 pub const PHOTON_EMIT_PATHS: u32 = 1;
 pub const PHOTON_EMIT_SCALE: u32 = 2;
 
+/// The `mode` push constant of `bench --rays`' kernel (shaders/bench/ray_rate.comp): primary,
+/// shadow or closest-hit ("bounce") rays.
+pub const RAY_RATE_PRIMARY: u32 = 0;
+pub const RAY_RATE_SHADOW: u32 = 1;
+pub const RAY_RATE_BOUNCE: u32 = 2;
+
 /// Most neighbours one `restir_spatial` pass merges (a fixed-size array in the shader).
 pub const MAX_SPATIAL_NEIGHBOURS: u32 = 32;
 
@@ -430,6 +436,9 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     PHOTON_EMIT_DIRECT,
     PHOTON_EMIT_PATHS,
     PHOTON_EMIT_SCALE,
+    RAY_RATE_PRIMARY,
+    RAY_RATE_SHADOW,
+    RAY_RATE_BOUNCE,
     MAX_SPATIAL_NEIGHBOURS,
     SURFACE_TEXELS,
     GBUFFER_CHUNKS,

@@ -423,6 +423,14 @@ fn every_pass_desc_matches_its_spirv() {
     assert!(mismatches.is_empty(), "pass descs and SPIR-V differ:\n{}", mismatches.join("\n"));
 }
 
+/// `bench --rays`' kernel (shaders/bench/ray_rate.comp) is not a frame pass but has the same
+/// interface checks.
+#[test]
+fn the_ray_rate_kernel_desc_matches_its_spirv() {
+    let mismatches = all_mismatches(&restir_vpl::eval::rays::RAY_RATE_DESC);
+    assert!(mismatches.is_empty(), "ray_rate's desc and SPIR-V differ:\n{}", mismatches.join("\n"));
+}
+
 /// Each `shaders/passes/<name>.comp` has exactly one desc named `<name>`, and vice versa.
 #[test]
 fn every_pass_shader_has_one_desc() {

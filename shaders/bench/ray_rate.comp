@@ -22,10 +22,6 @@ layout(push_constant) uniform Push {
     uint dispatch_index;
 } pc;
 
-const uint RAY_RATE_PRIMARY = 0u;
-const uint RAY_RATE_SHADOW = 1u;
-const uint RAY_RATE_BOUNCE = 2u;
-
 void main() {
     uvec2 pixel = gl_GlobalInvocationID.xy;
     if (pixel.x >= frame.width || pixel.y >= frame.height) {

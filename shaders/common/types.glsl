@@ -171,6 +171,10 @@ const uint VPL_VIEW_DRAW = 3u;
 const uint PHOTON_EMIT_DIRECT = 0u;
 const uint PHOTON_EMIT_PATHS = 1u;
 const uint PHOTON_EMIT_SCALE = 2u;
+// bench ray_rate `mode`: the kind of ray (shaders/bench/ray_rate.comp).
+const uint RAY_RATE_PRIMARY = 0u;
+const uint RAY_RATE_SHADOW = 1u;
+const uint RAY_RATE_BOUNCE = 2u;
 // restir_spatial: most neighbours per pass (the settings refuse more).
 const uint MAX_SPATIAL_NEIGHBOURS = 32u;
 // RGBA32UI texels per pixel in the G-buffer (texel_records.glsl packs a Surface into them).

@@ -10,29 +10,30 @@ use ash::vk;
 use serde::Serialize;
 
 use crate::camera::Camera;
-use crate::gpu_types::GpuFrame;
+use crate::gpu_types::{GpuFrame, RAY_RATE_BOUNCE, RAY_RATE_PRIMARY, RAY_RATE_SHADOW};
 use crate::output::TimingStats;
 use crate::renderer::Renderer;
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::settings::{Mode, RenderSettings, RestirSettings};
 use crate::shaders;
-use crate::vk::pipeline::{storage, Binding};
+use crate::passes::desc::{push_constants, PassDesc};
+use crate::vk::pipeline::storage;
 use crate::vk::{Buffer, ComputePipeline, Context, DescriptorSet, GpuTimer};
 
-#[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct Push {
-    bounds_lo: [f32; 3],
-    mode: u32,
-    bounds_hi: [f32; 3],
-    dispatch_index: u32,
+push_constants! {
+    struct Push {
+        bounds_lo: [f32; 3],
+        mode: u32,
+        bounds_hi: [f32; 3],
+        dispatch_index: u32,
+    }
 }
 
-const TABLE: &[Binding] = &[storage(0, "sink")];
-const RAY_RATE_PRIMARY: u32 = 0;
-const RAY_RATE_SHADOW: u32 = 1;
-const RAY_RATE_BOUNCE: u32 = 2;
+/// The kernel's interface, checked against its SPIR-V by tests/layout.rs like every pass's.
+pub const RAY_RATE_DESC: PassDesc = PassDesc::new("ray_rate", shaders::BENCH_RAY_RATE, [8, 8, 1])
+    .with_push(Push::LAYOUT)
+    .with_bindings(&[storage(0, "sink")]);
 
 /// One tracing pass in a real frame against the raw rate of its kind of ray.
 #[derive(Clone, Debug, Serialize)]
@@ -109,7 +110,8 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
     set.write_buffer_in(0, 8, &frame_buffer)?;
     let pixels = width as u64 * height as u64;
     let sink = Buffer::with_data(ctx, "ray_rate.sink", &vec![0u8; (pixels * 4) as usize], vk::BufferUsageFlags::STORAGE_BUFFER)?;
-    let pipeline = ComputePipeline::new(ctx, "ray_rate", shaders::BENCH_RAY_RATE, set.layout, TABLE, std::mem::size_of::<Push>() as u32, [8, 8, 1])?;
+    let d = &RAY_RATE_DESC;
+    let pipeline = ComputePipeline::new(ctx, d.name, d.spirv, set.layout, d.bindings, d.push.size as u32, d.local_size)?;
     pipeline.set1.write_buffer(0, &sink)?;
     let (lo, hi) = gpu.info.bounds;
     let mut timer = GpuTimer::new(ctx, 4)?;
