@@ -106,7 +106,8 @@ struct RenderArgs {
     /// Photon bounces before Russian roulette starts.
     #[arg(long, default_value_t = DEFAULTS.photon_min_bounces)]
     photon_min_bounces: u32,
-    /// Maximum photon bounces (indirect VPLs per path).
+    /// Maximum photon bounces (indirect VPLs per path); the VPL image then holds light paths of up to
+    /// B + 1 reflections, the path tracer's --max-bounces B + 1.
     #[arg(long, default_value_t = DEFAULTS.photon_max_bounces)]
     photon_max_bounces: u32,
     /// Write the VPLs as a PLY point cloud (opens in MeshLab/Blender).

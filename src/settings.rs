@@ -335,6 +335,9 @@ pub struct RenderSettings {
     pub gi: bool,
     /// Russian roulette starts after this many photon bounces.
     pub photon_min_bounces: u32,
+    /// At most this many indirect VPLs per photon path. A VPL at a path's k-th hit reflects once
+    /// more toward the pixel, so the VPL image holds light paths of up to B + 1 reflections: the
+    /// path tracer's `max_bounces` = B + 1 (default 7, against the path tracer's 8).
     pub photon_max_bounces: u32,
     /// Write the VPLs as a PLY point cloud here.
     pub dump_vpls: Option<PathBuf>,
@@ -423,7 +426,7 @@ impl Default for RenderSettings {
             vpls_indirect: 100_000,
             gi: true,
             photon_min_bounces: 0,
-            photon_max_bounces: 8,
+            photon_max_bounces: 7,
             dump_vpls: None,
             dump_passes: None,
             check_finite: false,

@@ -1,6 +1,7 @@
 //! Furnace tests of the path tracer: a closed box whose surfaces all have albedo ρ and emit Le.
 //! Exact answer everywhere: L = Le / (1 − ρ) with unbounded depth, and the truncated sum
-//! Le·(1 − ρ^(D+1)) / (1 − ρ) with `--max-bounces D`.
+//! Le·(1 − ρ^(D+1)) / (1 − ρ) with `--max-bounces D`. The VPL image with `--photon-max-bounces B`
+//! is the same sum with D = B + 1 (the last test).
 //!
 //! Tolerance: the image mean must be within 4 standard errors (false-failure rate ~6e-5 for a
 //! normal statistic; 64·64·frames samples make the CLT apply), and every 8×8 block of pixels within
@@ -70,5 +71,55 @@ fn furnace_zero_bounces_is_exact() {
         for c in p {
             assert!((c - 1.5).abs() < 1e-6, "{p:?}");
         }
+    }
+}
+
+/// The VPL image holds light paths of up to B + 1 reflections with `--photon-max-bounces B` (a VPL
+/// at a photon's k-th hit carries Φ·ρ^k and reflects once more toward the pixel), so it converges
+/// to the path tracer with `--max-bounces B + 1`: in the furnace, Le·(1 − ρ^(B+2)) / (1 − ρ). The
+/// defaults keep the two aligned (B = 7 against D = 8).
+///
+/// Brute force with the inverse-square kernel (unclamped, so unbiased for any VPL set) over
+/// independent VPL sets: the image mean of each set is one sample, and the test asks for the mean
+/// of K = 24 sets within 4 standard errors (from their spread) of the closed form, and more than 8
+/// from the next shallower depth's (D = B: 18 % lower for B = 1, 5 % for B = 3; the standard error
+/// is ~0.4 %).
+#[test]
+fn vpl_image_converges_to_the_path_tracer_one_bounce_deeper() {
+    use restir_vpl::settings::{Attenuation, Mode};
+    let defaults = restir_vpl::RenderSettings::default();
+    assert_eq!(defaults.photon_max_bounces as i32 + 1, defaults.max_bounces, "default depths describe the same light paths");
+    let (albedo, le) = (0.6f64, 1.0f64);
+    let scene = load_json(&furnace_box_gltf(albedo as f32, le as f32, 2.0), "furnace");
+    let truncated = |d: i32| le * (1.0 - albedo.powi(d + 1)) / (1.0 - albedo);
+    for b in [1u32, 3] {
+        let means: Vec<f64> = (0..24u32)
+            .map(|seed| {
+                let settings = restir_vpl::RenderSettings {
+                    mode: Mode::Bruteforce,
+                    attenuation: Attenuation::InverseSquare,
+                    vpls_direct: 800,
+                    vpls_indirect: 3200,
+                    photon_max_bounces: b,
+                    seed,
+                    ..small(16, 16, 1)
+                };
+                let out = render(&scene, &settings);
+                image_mean_and_se(&out, 1, 0..16 * 16).0
+            })
+            .collect();
+        let k = means.len() as f64;
+        let mean = means.iter().sum::<f64>() / k;
+        let se = (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+        let expected = truncated(b as i32 + 1);
+        eprintln!(
+            "furnace VPLs B={b}: mean {mean:.5} ± {se:.5}; path tracer D={}: {expected:.5}, D={b}: {:.5}, D={}: {:.5}",
+            b + 1,
+            truncated(b as i32),
+            b + 2,
+            truncated(b as i32 + 2)
+        );
+        assert!((mean - expected).abs() <= 4.0 * se, "B={b}: {mean} vs {expected}: {:.1} standard errors", (mean - expected).abs() / se);
+        assert!((mean - truncated(b as i32)).abs() > 8.0 * se, "B={b}: cannot tell D=B from D=B+1 at this noise");
     }
 }

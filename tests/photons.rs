@@ -145,8 +145,8 @@ fn indirect_flux_closed_box_with_roulette_is_unbiased() {
     let rho = 0.7f64;
     let scene = closed_box_scene(rho as f32);
     let phi = light_power(&scene);
-    let b = 8u32;
     let settings = RenderSettings { vpls_direct: 1000, vpls_indirect: 40_000, seed: 5, ..small(8, 8, 1) };
+    let b = settings.photon_max_bounces;
     let (v, stats) = vpls(&scene, settings);
     let paths = stats.paths;
     let mut per_path: BTreeMap<u32, f64> = BTreeMap::new();
