@@ -46,7 +46,7 @@ vec3 next_event(vec3 x, vec3 ng, vec3 ns, float x_scale, vec3 rho, float residua
     }
     vec3 bc = sample_triangle_barycentrics(u);
     vec3 y = bc.x * l.p0 + bc.y * l.p1 + bc.z * l.p2;
-    vec3 nl = normalize(cross(l.p1 - l.p0, l.p2 - l.p0));
+    vec3 nl = triangle_normal(l.p0, l.p1, l.p2);
     vec3 to_light = y - x;
     float d2 = dot(to_light, to_light);
     float d = sqrt(d2);

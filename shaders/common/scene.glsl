@@ -109,12 +109,11 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     Hit h;
     h.position = b.x * p0 + b.y * p1 + b.z * p2;
     h.offset_scale = triangle_offset_scale(p0, p1, p2);
-    vec3 ng = cross(p1 - p0, p2 - p0);
+    vec3 ng = triangle_normal(p0, p1, p2);
     if ((flags & INSTANCE_MIRRORED) != 0u) {
         ng = -ng;
     }
-    float len = length(ng);
-    ng = len > 0.0 ? ng / len : -ray_dir;
+    ng = dot(ng, ng) > 0.0 ? ng : -ray_dir;
     h.front_face = dot(ng, ray_dir) < 0.0;
     if (!h.front_face) {
         ng = -ng;

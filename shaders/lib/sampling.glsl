@@ -97,6 +97,23 @@ float triangle_offset_scale(vec3 p0, vec3 p1, vec3 p2) {
     return max(max(m.x, max(m.y, m.z)), 1e-30);
 }
 
+// A triangle's unit normal (counter-clockwise p0, p1, p2) at any scale: the edges are divided by
+// their largest |component| before the cross product, whose squared length would otherwise
+// underflow f32 for triangles under ~1e-10 across (and overflow above ~1e19). Zero for a
+// degenerate triangle.
+vec3 triangle_normal(vec3 p0, vec3 p1, vec3 p2) {
+    vec3 e1 = p1 - p0;
+    vec3 e2 = p2 - p0;
+    vec3 m = max(abs(e1), abs(e2));
+    float s = max(m.x, max(m.y, m.z));
+    if (!(s > 0.0)) {
+        return vec3(0.0);
+    }
+    vec3 n = cross(e1 / s, e2 / s);
+    float len = length(n);
+    return len > 0.0 ? n / len : vec3(0.0);
+}
+
 // Ray-origin offset against self-intersection (Waechter & Binder, Ray Tracing Gems, ch. 6):
 // moves p along n by a few ulps (far from the origin) or, near the origin where ulps vanish, by a
 // small amount. Their "near" and "small" (1/32 and 1/65536) are for triangles of unit size: here

@@ -79,7 +79,7 @@ LightSample sample_light_point(uint t, inout Rng rng) {
     LightSample s;
     s.position = b.x * l.p0 + b.y * l.p1 + b.z * l.p2;
     s.offset_scale = triangle_offset_scale(l.p0, l.p1, l.p2);
-    s.normal = normalize(cross(l.p1 - l.p0, l.p2 - l.p0));
+    s.normal = triangle_normal(l.p0, l.p1, l.p2);
     float sides = 1.0;
     if ((l.flags & MATERIAL_DOUBLE_SIDED) != 0u) {
         // Each face emits pi Le A: pick one with probability 1/2, the flux covers both.

@@ -43,14 +43,15 @@ bool vpl_kind_enabled(uint kind, uint kind_mask) {
 // ng, both facing the viewer's side): (1/pi) emit cos_x G(d), with emit = max(0, ny.w) for a cosine
 // VPL (unit normal ny) and 1/4 for a point-light VPL, and r2 the VPL's Yuksel r^2 (vpl_r2). Zero
 // when the VPL lies behind either surface, coincides with x, or its kind is masked out. Never
-// NaN/Inf for finite inputs with d2 > 0 or Yuksel's r2 > 0.
+// NaN/Inf for finite inputs: no absolute distance is too small (a scene may be 1e-10 units across),
+// only a contribution past f32's range (inverse square within ~1e-19 of the VPL) counts as zero.
 float vpl_geometry(vec3 y, uint kind, vec3 ny, float r2, vec3 x, vec3 ns, vec3 ng, VplParams p) {
     if (!vpl_kind_enabled(kind, p.kind_mask)) {
         return 0.0;
     }
     vec3 to_x = x - y;
     float d2 = dot(to_x, to_x);
-    if (!(d2 > 1e-20)) {
+    if (!(d2 > 0.0)) {
         return 0.0;  // on the point itself: the cosines are undefined (and zero in the limit)
     }
     vec3 w = to_x * inversesqrt(d2);
@@ -59,7 +60,8 @@ float vpl_geometry(vec3 y, uint kind, vec3 ny, float r2, vec3 x, vec3 ns, vec3 n
     if (cos_x <= 0.0 || dot(ng, w) >= 0.0 || emit <= 0.0) {
         return 0.0;
     }
-    return INV_PI * emit * cos_x * vpl_attenuation(d2, p.attenuation, r2);  // finite: d2 > 1e-20
+    float g = INV_PI * emit * cos_x * vpl_attenuation(d2, p.attenuation, r2);
+    return g <= 3.0e38 ? g : 0.0;
 }
 
 // Yuksel's r^2 of VPL v: its own with VPL_FLAG_PER_VPL_RADIUS, else the one of every VPL.
