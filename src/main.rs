@@ -922,9 +922,13 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     if let Some(dir) = &settings.out_dir {
         println!("  {}", dir.join("summary.json").display());
     }
-    // Asked for (--validate), the layer's errors fail the run, after the outputs are written.
+    // Asked for (--validate), the layer's errors fail the run, after the outputs are written, and
+    // so do non-finite samples (a shader bug that the accumulation hides by writing 0).
     if s.validation_errors > 0 {
         bail!("{} Vulkan validation error(s) under --validate (the first is in the warnings above)", s.validation_errors);
+    }
+    if settings.validate && s.nonfinite_samples > 0 {
+        bail!("{} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under --validate: a shader produced them", s.nonfinite_samples);
     }
     Ok(())
 }
@@ -952,6 +956,9 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
         }
     })?;
     eprintln!();
+    if settings.validate {
+        check_validation(&ctx)?;
+    }
     let meta = &made.meta;
     println!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
     println!("frames: {}", meta.describe_frames());
@@ -993,11 +1000,13 @@ fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk:
     })?))
 }
 
-/// Fails a benchmark whose run drew validation errors (their text went to the log).
+/// Fails a run (benchmark, results, reference) whose context drew validation errors (their text
+/// went to the log) or whose renderers replaced non-finite samples.
 fn check_validation(ctx: &restir_vpl::vk::Context) -> Result<()> {
-    match ctx.validation_errors() {
-        0 => Ok(()),
-        n => bail!("{n} Vulkan validation error(s) under RESTIR_VPL_VALIDATE=1; the first: {}", ctx.first_validation_error().unwrap_or_default()),
+    match (ctx.validation_errors(), ctx.nonfinite_samples()) {
+        (0, 0) => Ok(()),
+        (0, n) => bail!("{n} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under validation: a shader produced them"),
+        (n, _) => bail!("{n} Vulkan validation error(s) under validation; the first: {}", ctx.first_validation_error().unwrap_or_default()),
     }
 }
 

@@ -269,9 +269,19 @@ pub struct Renderer {
     /// The pass list of the last frame recorded (what ran, what was skipped and why).
     last_plan: Option<FramePlan>,
     /// Tests only (`RESTIR_VPL_DEBUG_POISON=vpl_shade`): a pass writes a NaN, so that
-    /// `--check-finite` can be shown to find it.
+    /// `--check-finite` can be shown to find it (`=validation`: see [`record_invalid_command`]).
     debug_poison: u32,
     ctx: Arc<Context>,
+}
+
+/// Tests only (`RESTIR_VPL_DEBUG_POISON=validation`): one command the validation layer reports, so
+/// that a command's failure on validation errors can be shown. vkCmdFillBuffer on a buffer created
+/// without TRANSFER_DST usage (VUID-vkCmdFillBuffer-dstBuffer-00029); drivers ignore usage flags, so
+/// it is harmless.
+fn record_invalid_command(ctx: &Arc<Context>) -> Result<()> {
+    let buffer = Buffer::new(ctx, "debug_poison.validation", 256, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuOnly)?;
+    // SAFETY: cmd is recording; the buffer outlives the one-shot submission.
+    ctx.one_shot(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, buffer.raw, 0, 256, 0) })
 }
 
 /// What a captured pass output holds, per pixel.
@@ -356,6 +366,9 @@ impl Renderer {
     /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
     pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
         settings.validate()?;
+        if std::env::var("RESTIR_VPL_DEBUG_POISON").as_deref() == Ok("validation") {
+            record_invalid_command(&ctx)?;
+        }
         let scene_set = DescriptorSet::with_variants(&ctx, "scene", scene.bindings, FRAME_SLOTS as u32)?;
         scene.write_set(&scene_set)?;
         let mut slots = Vec::with_capacity(FRAME_SLOTS);
@@ -1049,7 +1062,9 @@ impl Renderer {
         // The GPU's count covers the accumulation so far: what this frame added is the difference
         // to the last frame's (frames complete in submission order), or all of it after a reset.
         let count = counters[n_slots] as u64;
-        self.nonfinite_total += if reset { count } else { count.saturating_sub(self.state.nonfinite_samples) };
+        let added = if reset { count } else { count.saturating_sub(self.state.nonfinite_samples) };
+        self.nonfinite_total += added;
+        self.ctx.add_nonfinite_samples(added);
         self.state.nonfinite_samples = count;
         let primary = if gbuffer_ran { self.parts.targets.pixels() as u64 } else { 0 };
         let mut rays_by_pass = vec![("gbuffer", primary)];

@@ -522,3 +522,43 @@ fn a_1280x720_frame_of_every_mode_stays_within_the_device_limits() {
         assert!(!err.contains("VALIDATION") && !err.contains("validation error"), "{mode:?}: {err}");
     }
 }
+
+/// A command's exit status is what the tests' "0 validation errors" rests on for everything run as
+/// a subprocess: with one invalid command recorded (a test-only switch), a headless run and
+/// `reference` under validation exit non-zero naming the error, and without validation the same
+/// runs succeed (the switch does nothing else).
+#[test]
+fn a_validation_error_fails_headless_and_reference_runs() {
+    if !validate() {
+        eprintln!("SKIPPED: no validation layer installed (CI requires one)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let small = ["--width", "8", "--height", "8", "--frames", "1", "--mode", "pt"];
+    let headless = |strict: bool| {
+        let mut c = bin();
+        c.args(["--headless", "--out", dir.path().to_str().unwrap()]).args(small).env("RESTIR_VPL_DEBUG_POISON", "validation");
+        if !strict {
+            c.env_remove("RESTIR_VPL_VALIDATE");
+        }
+        c.output().unwrap()
+    };
+    let reference = |strict: bool| {
+        // A new file each time: the failed run still writes its frames, as a headless run does.
+        let exr = dir.path().join(format!("ref_{strict}.exr"));
+        let mut c = bin();
+        c.args(["reference", "--out", exr.to_str().unwrap()]).args(small).env("RESTIR_VPL_DEBUG_POISON", "validation");
+        if !strict {
+            c.env_remove("RESTIR_VPL_VALIDATE");
+        }
+        c.output().unwrap()
+    };
+    for (what, run) in [("headless", &headless as &dyn Fn(bool) -> Output), ("reference", &reference)] {
+        let o = run(true);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{what}: exit 0 with a validation error: {err}");
+        assert!(err.contains("validation error"), "{what}: {err}");
+        let o = run(false);
+        assert!(o.status.success(), "{what} without validation: {}", stderr(&o));
+    }
+}

@@ -52,12 +52,15 @@ fn merged_partial_references_equal_one_long_run() {
     common::assert_no_validation_errors(&ctx);
 }
 
+/// Runs the binary, under the validation layer where it is installed (validation errors and
+/// non-finite samples then fail the command).
 fn cli(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_restir-vpl"))
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .args(args)
-        .output()
-        .expect("run restir-vpl")
+    let mut c = Command::new(env!("CARGO_BIN_EXE_restir-vpl"));
+    c.current_dir(env!("CARGO_MANIFEST_DIR")).args(args);
+    if common::validate() {
+        c.env("RESTIR_VPL_VALIDATE", "1");
+    }
+    c.output().expect("run restir-vpl")
 }
 
 #[test]

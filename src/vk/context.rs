@@ -125,6 +125,10 @@ pub struct Context {
     pub pipeline_cache_loaded: usize,
     /// The window's surface, when the context was made for one.
     pub presentation: Option<Presentation>,
+    /// Non-finite samples the accumulation replaced by 0 in any renderer on this context (the
+    /// renderers report them as their frames complete): a shader bug, checked beside the
+    /// validation errors by strict runs (`RESTIR_VPL_VALIDATE=1`).
+    nonfinite_samples: AtomicU64,
 }
 
 /// The acceleration-structure limits the renderer uses.
@@ -530,12 +534,23 @@ impl Context {
             validation,
             command_pool,
             presentation,
+            nonfinite_samples: AtomicU64::new(0),
         })
     }
 
     /// Validation-layer errors reported so far (0 when the layer is off).
     pub fn validation_errors(&self) -> u64 {
         self.validation.errors.load(Ordering::SeqCst)
+    }
+
+    /// Non-finite samples replaced by 0 so far, over every renderer on this context.
+    pub fn nonfinite_samples(&self) -> u64 {
+        self.nonfinite_samples.load(Ordering::SeqCst)
+    }
+
+    /// Adds `n` to [`Self::nonfinite_samples`] (renderers, as their frames complete).
+    pub fn add_nonfinite_samples(&self, n: u64) {
+        self.nonfinite_samples.fetch_add(n, Ordering::SeqCst);
     }
 
     /// The first validation error message, if any.
