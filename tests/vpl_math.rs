@@ -202,6 +202,50 @@ fn pairwise_mis_weights_sum_to_one() {
     }
 }
 
+/// Each weight on its own (the sum above holds for any split of the pair's share): against the
+/// generalised balance heuristic of one pair (Lin et al. 2022) evaluated on the host in f64; a
+/// neighbour that cannot produce the sample (p_i = 0) gets exactly 0; with equal targets the
+/// weights are the confidence weights m_i / M and (m_c / k) / M.
+#[test]
+fn pairwise_mis_weights_are_the_balance_heuristic() {
+    let mut rng = 0x2545_f491u64;
+    let mut next = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 40) as f32 / (1u64 << 24) as f32
+    };
+    let mut inputs = Vec::new();
+    let mut points = Vec::new();
+    for case in 0..4096 {
+        let m_i = 1.0 + 20.0 * next();
+        let share = 0.1 + 5.0 * next();
+        let p_c = 0.01 + next();
+        let p_i = match case % 4 {
+            0 => 0.0,
+            1 => p_c,
+            _ => 5.0 * next(),
+        };
+        inputs.push([m_i, p_i, share, p_c]);
+        points.push([m_i + share + 30.0 * next(), 0.0, 0.0, 0.0]);
+    }
+    let out = run(5, inputs.len() as u32, 0, &inputs, &[], &points, GpuVplParams::default());
+    for (i, (a, o)) in inputs.iter().zip(&out.outputs).enumerate() {
+        let [m_i, p_i, share, p_c] = a.map(f64::from);
+        let total = points[i][0] as f64;
+        let pair = (m_i + share) / total;
+        let (neighbour, canonical) = (m_i * p_i / (m_i * p_i + share * p_c) * pair, share * p_c / (m_i * p_i + share * p_c) * pair);
+        let close = |gpu: f32, want: f64| (gpu as f64 - want).abs() <= 1e-5 * want.max(1e-3);
+        assert!(close(o[0], neighbour) && close(o[1], canonical), "case {i} {a:?}, M = {total}: GPU ({}, {}) vs ({neighbour}, {canonical})", o[0], o[1]);
+        if p_i == 0.0 {
+            assert_eq!(o[0], 0.0, "case {i}: a technique that cannot produce the sample has weight 0");
+        }
+        if p_i == p_c {
+            assert!(close(o[0], m_i / total) && close(o[1], share / total), "case {i}: equal targets give confidence weights");
+        }
+    }
+}
+
 #[test]
 fn random_streams_of_different_pixels_do_not_overlap() {
     // 65,536 streams (128 × 128 pixels × 4 frames, seeded as the passes seed them), 64 numbers

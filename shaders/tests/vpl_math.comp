@@ -7,6 +7,8 @@
 //  3: pairwise MIS weights for random confidences/targets: sum over all techniques -> `outputs[i].x`
 //  4: the first `pc.n` numbers of the stream a pass seeds for pixel (i % 128, (i / 128) % 128) in
 //     frame i / 16384 -> `chosen[i * n + j]`
+//  5: pairwise MIS weights of one pair: `inputs[i]` = (m_i, p_i, m_c / k, p_c), `points[i].x` =
+//     total confidence -> (neighbour weight, canonical weight) in `outputs[i].xy`
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -75,6 +77,10 @@ void main() {
             sum += pairwise_canonical_weight(m[j], p[j], mc / float(k), p_c, total);
         }
         outputs[i] = vec4(sum, float(k), 0.0, 0.0);
+    } else if (pc.test == 5u) {
+        vec4 a = inputs[i];
+        float total = points[i].x;
+        outputs[i] = vec4(pairwise_neighbour_weight(a.x, a.y, a.z, a.w, total), pairwise_canonical_weight(a.x, a.y, a.z, a.w, total), 0.0, 0.0);
     } else if (pc.test == 4u) {
         Rng rng = rng_init(i % 128u, (i / 128u) % 128u, i / 16384u, pc.seed);
         for (uint j = 0u; j < pc.n; ++j) {
