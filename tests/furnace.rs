@@ -81,7 +81,8 @@ fn furnace_zero_bounces_is_exact() {
 ///
 /// Brute force with the inverse-square kernel (unclamped, so unbiased for any VPL set) over
 /// independent VPL sets: the image mean of each set is one sample, and the test asks for the mean
-/// of K = 24 sets within 4 standard errors (from their spread) of the closed form, and more than 8
+/// of K = 24 sets within 5 standard errors (from their spread: t with 23 degrees of freedom exceeds
+/// 5 with probability 4.7e-5, so ~1e-4 for the two depths) of the closed form, and more than 8
 /// from the next shallower depth's (D = B: 18 % lower for B = 1, 5 % for B = 3; the standard error
 /// is ~0.4 %).
 #[test]
@@ -119,7 +120,7 @@ fn vpl_image_converges_to_the_path_tracer_one_bounce_deeper() {
             b + 2,
             truncated(b as i32 + 2)
         );
-        assert!((mean - expected).abs() <= 4.0 * se, "B={b}: {mean} vs {expected}: {:.1} standard errors", (mean - expected).abs() / se);
+        assert!((mean - expected).abs() <= 5.0 * se, "B={b}: {mean} vs {expected}: {:.1} standard errors", (mean - expected).abs() / se);
         assert!((mean - truncated(b as i32)).abs() > 8.0 * se, "B={b}: cannot tell D=B from D=B+1 at this noise");
     }
 }
