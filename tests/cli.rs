@@ -363,7 +363,13 @@ fn restir_summary_reports_rays_per_pass() {
     assert!(by_pass["restir_spatial"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
     assert!(by_pass.get("vpl_shade").is_none(), "{by_pass}");
     assert_eq!(summary["vpl"]["unbiased_reuse"], true);
-    assert!(summary["vpl"]["yuksel_radius"].as_f64().unwrap() > 0.0);
+    // The default radius: 8 × the mean VPL spacing √(A / (π N)) of the VPLs traced.
+    let area = restir_vpl::scene::Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap().surface_area();
+    let n = summary["vpl"]["vpl_count"].as_f64().unwrap();
+    let want = restir_vpl::settings::DEFAULT_RADIUS_SPACINGS as f64 * (area / (std::f64::consts::PI * n)).sqrt();
+    let r = summary["vpl"]["yuksel_radius"].as_f64().unwrap();
+    assert!((r / want - 1.0).abs() < 1e-5, "Yuksel radius {r} vs 8 × the mean spacing {want} ({n} VPLs)");
+    assert_eq!(restir_vpl::settings::DEFAULT_RADIUS_SPACINGS, 8.0, "the README's default");
 
     // Fused: frame 0 has no history, so restir_initial runs alone and the last
     // spatial pass is fused with the shading; from frame 1 restir_initial_temporal runs (its rays:

@@ -119,6 +119,37 @@ fn gbuffer_traced_once_unless_aa() {
     assert!((m(&still) - m(&aa)).abs() < 0.1 * m(&still));
 }
 
+/// `--progressive off` (what `bench --motion` renders its displayed frames with): every image is
+/// its frame alone, on a still camera too. The mean equals the last frame's samples, the count
+/// stays 1, and consecutive images differ (fresh random numbers), where progressive accumulation
+/// counts every frame.
+#[test]
+fn progressive_off_shows_each_frame_alone() {
+    let ctx = context();
+    let scene = cornell();
+    let settings = RenderSettings { mode: restir_vpl::settings::Mode::Restir, progressive: false, ..small(32, 32, 1) };
+    let gpu = upload(&ctx, &scene, &settings);
+    let mut r = restir_vpl::renderer::Renderer::new(ctx.clone(), gpu.clone(), settings.clone()).unwrap();
+    let camera = r.initial_camera();
+    let mut last: Option<Vec<[f32; 3]>> = None;
+    for _ in 0..4 {
+        r.render_frame(&camera, false).unwrap();
+        assert_eq!(r.accumulated(), 1);
+        let (mean, samples) = (r.read_mean().unwrap(), r.read_frame_samples().unwrap());
+        assert_eq!(mean, samples, "the image is the frame's samples");
+        if let Some(prev) = &last {
+            assert_ne!(prev, &mean, "a new frame draws new random numbers");
+        }
+        last = Some(mean);
+    }
+    let mut p = restir_vpl::renderer::Renderer::new(ctx.clone(), gpu, RenderSettings { progressive: true, ..settings }).unwrap();
+    for _ in 0..4 {
+        p.render_frame(&camera, false).unwrap();
+    }
+    assert_eq!(p.accumulated(), 4);
+    assert_no_validation_errors(&ctx);
+}
+
 /// `--merge-blas`: the living room (47 instances, transformed) traced as one merged world-space
 /// mesh renders the instanced image. Both runs use the same random numbers, so a pixel differs only
 /// where float rounding of the baked vertices (or a ray through a shared edge) sends a path

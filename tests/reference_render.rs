@@ -20,8 +20,11 @@ fn settings(mode: Mode) -> RenderSettings {
     }
 }
 
-/// Largest relative difference between two images (relative to max(|b|, 1e-3)).
+/// Largest relative difference between two images (relative to max(|b|, 1e-3)); both must be
+/// finite (a NaN would vanish in the max).
 fn max_rel_diff(a: &[[f32; 3]], b: &[[f32; 3]]) -> f64 {
+    assert_all_finite(a, "image a");
+    assert_all_finite(b, "image b");
     a.iter()
         .zip(b)
         .flat_map(|(p, q)| (0..3).map(move |c| ((p[c] - q[c]).abs() / q[c].abs().max(1e-3)) as f64))

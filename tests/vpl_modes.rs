@@ -130,7 +130,9 @@ fn assert_frames_converge(label: &str, r: &mut Renderer, frames: u32, all: &[Vec
         let n = xs.len() as f64;
         let m = xs.iter().sum::<f64>() / n;
         let se = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
-        let z = (m - reference[bi]) / se.max(1e-12);
+        // A black block on both sides would pass any bound: the blocks must be lit and noisy.
+        assert!(reference[bi] > 0.0 && se > 0.0, "{label}: block {bi}: reference {} and spread {se}: nothing to test", reference[bi]);
+        let z = (m - reference[bi]) / se;
         worst = worst.max(z.abs());
         assert!(z.abs() < 5.0, "{label}: block {bi} mean {m:.6} vs brute force {:.6}: {z:.2} standard errors ({frames} frames)", reference[bi]);
     }
@@ -155,7 +157,8 @@ fn run_means(r: &mut Renderer, runs: u32, frames: u32, all: &[Vec<usize>], refer
         let m = xs.iter().sum::<f64>() / runs as f64;
         let sd = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (runs - 1) as f64).sqrt();
         let se = sd / (runs as f64).sqrt();
-        let t = (m - reference[bi]) / se.max(1e-12);
+        assert!(reference[bi] > 0.0 && se > 0.0, "block {bi}: reference {} and spread {se}: nothing to test", reference[bi]);
+        let t = (m - reference[bi]) / se;
         ts.push(t);
         lines.push(format!("block {bi}: {m:.6} vs {:.6} ({:+.2}%, t = {t:.2})", reference[bi], 100.0 * (m / reference[bi] - 1.0)));
     }
@@ -297,6 +300,7 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
         }
         let mean = r.read_mean().unwrap();
         common::assert_all_finite(&mean, label);
+        common::assert_no_nonfinite_samples(&r, label);
         let e = per_frame.iter().sum::<f64>() / per_frame.len() as f64;
         println!(
             "{label}: per-frame relMSE {e:.4} (frames {}..{frames}), accumulated over {frames}: RMSE {:.5}, relMSE {:.5}",
@@ -306,6 +310,9 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
         );
         errors.push(e);
     }
+    // One seed, so each build either passes or fails; the margins (measured 2026-11-25: uniform
+    // 0.598, RIS 0.0720, unbiased ReSTIR 0.0292 with visibility in the targets and 0.0523 without,
+    // biased 0.0507) are 28 % or more, far beyond the per-frame spread of eight frames.
     assert!(errors[1] < errors[0], "RIS per-frame relMSE {} is not below uniform's {}", errors[1], errors[0]);
     assert!(errors[2] < errors[1], "unbiased ReSTIR per-frame relMSE {} is not below RIS's {}", errors[2], errors[1]);
     assert!(errors[3] < errors[1], "unbiased ReSTIR (unshadowed targets) per-frame relMSE {} is not below RIS's {}", errors[3], errors[1]);

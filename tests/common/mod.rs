@@ -56,9 +56,12 @@ pub fn render(scene: &Scene, settings: &RenderSettings) -> RunOutput {
     out
 }
 
-/// No validation-layer error on `ctx` so far (the first one is in the failure message).
+/// No validation-layer error on `ctx` so far (the first one is in the failure message), and no
+/// non-finite sample in any frame a renderer on `ctx` has completed (the accumulation replaces
+/// them by 0, so a finite image alone proves nothing).
 pub fn assert_no_validation_errors(ctx: &Context) {
     assert_eq!(ctx.validation_errors(), 0, "Vulkan validation errors; first: {:?}", ctx.first_validation_error());
+    assert_eq!(ctx.nonfinite_samples(), 0, "renderers on this context produced non-finite samples (replaced by 0)");
 }
 
 /// No non-finite sample in any frame `r` has completed (the accumulation turns them into zeros,
