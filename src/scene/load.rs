@@ -607,7 +607,7 @@ fn load_buffers(
             let i = buffer.index();
             let data = match buffer.source() {
                 gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
-                    anyhow!("buffer {i} refers to the GLB binary chunk, but there is none")
+                    anyhow!("buffer {i} has no \"uri\": only a .glb file's first buffer may omit it (it is then the binary chunk), and this file has no binary chunk")
                 })?,
                 gltf::buffer::Source::Uri(uri) => {
                     read_uri(uri, base_dir).with_context(|| format!("buffer {i}"))?
