@@ -251,6 +251,17 @@ fn disoccluded_and_off_screen_pixels_get_no_history() {
 
 #[test]
 fn unbiased_restir_stays_unbiased_along_a_camera_path() {
+    unbiased_along_the_path(false);
+}
+
+/// The same with visibility in the targets (`--initial-visibility on`): shadow rays in every
+/// reuse step, and the final sample known visible, so `vpl_shade` traces none.
+#[test]
+fn unbiased_restir_with_visibility_in_the_targets_stays_unbiased_along_a_camera_path() {
+    unbiased_along_the_path(true);
+}
+
+fn unbiased_along_the_path(visibility: bool) {
     let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
     let path = CameraPath::load(&repo_path("scenes/cornell_box.path.json")).unwrap();
     let (w, h) = (48u32, 48u32);
@@ -269,7 +280,7 @@ fn unbiased_restir_stays_unbiased_along_a_camera_path() {
     brute.render_frame(&cam, false).unwrap();
     let truth = brute.read_mean().unwrap();
     drop(brute);
-    let restir = RestirSettings { bias: Bias::Unbiased, spatial_radius: Some(6.0), ..Default::default() };
+    let restir = RestirSettings { bias: Bias::Unbiased, initial_visibility: Some(visibility), spatial_radius: Some(6.0), ..Default::default() };
     let mut r = Renderer::new(ctx.clone(), gpu, RenderSettings { mode: Mode::Restir, restir, ..base }).unwrap();
     // Blocks of 16×16 pixels: mean over runs of each block's mean, against brute force's.
     let blocks = (w / 16) * (h / 16);
