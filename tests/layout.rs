@@ -262,6 +262,10 @@ fn texture_layout_matches() {
 
 // ---- Passes -------------------------------------------------------------------------------------
 
+/// One descriptor set's bindings as the SPIR-V declares them: binding -> (kind, or what the
+/// variable is when no kind fits; name).
+type ShaderBindings = BTreeMap<u32, (Result<BindingKind, String>, String)>;
+
 /// Everything `desc` says that the SPIR-V `spirv` (its variant `variant`) contradicts, one message
 /// per mismatch: set-1 bindings and set 0's against the scene's table (number, kind, name = the
 /// block's first member or the variable's name), the push-constant block (member names, offsets, size) and the local size.
@@ -280,7 +284,7 @@ fn pass_mismatches_against(desc: &PassDesc, variant: &str, spirv: &[u8], scene: 
     let mut out = Vec::new();
 
     // Sets 0 and 1: binding -> (kind, name) on both sides.
-    let mut shader: [BTreeMap<u32, (Result<BindingKind, String>, String)>; 2] = Default::default();
+    let mut shader: [ShaderBindings; 2] = Default::default();
     let mut push = Vec::new();
     for (var, class, pointee) in m.variables() {
         if class == StorageClass::PushConstant {
@@ -381,7 +385,7 @@ fn binding_mismatches(
     at: &str,
     set: &str,
     bindings: &[Binding],
-    shader: &BTreeMap<u32, (Result<BindingKind, String>, String)>,
+    shader: &ShaderBindings,
     out: &mut Vec<String>,
 ) {
     let mut table: BTreeMap<u32, (BindingKind, &str)> = BTreeMap::new();
