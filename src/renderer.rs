@@ -371,7 +371,7 @@ impl Renderer {
         }
         let scene_set = DescriptorSet::with_variants(&ctx, "scene", scene.bindings, FRAME_SLOTS as u32)?;
         scene.write_set(&scene_set)?;
-        let mut slots = Vec::with_capacity(FRAME_SLOTS);
+        let mut buffers = Vec::with_capacity(FRAME_SLOTS);
         for i in 0..FRAME_SLOTS {
             let frame_constants = Buffer::new(
                 &ctx,
@@ -388,13 +388,20 @@ impl Renderer {
                 vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             )?;
-            // Destroyed in Drop.
-            let (cmd, fence) = ctx.command_buffer_and_fence(&format!("frame{i}"), false)?;
-            slots.push(FrameSlot { cmd, fence, timer: GpuTimer::new(&ctx, 32)?, readback, frame_constants, pending: None });
+            buffers.push((frame_constants, readback));
         }
         let lights = LightBuffers::new(&ctx, scene.lights.clone())?;
         lights.write_set(&scene_set)?;
+        // What the settings can refuse (brute force over its limit, an image too large for the
+        // device) is built before the command buffers and fences, which only Drop frees.
         let parts = Self::build(&ctx, &scene, &scene_set, &lights.set, &settings, None)?;
+        let mut slots = Vec::with_capacity(FRAME_SLOTS);
+        for (i, (frame_constants, readback)) in buffers.into_iter().enumerate() {
+            let timer = GpuTimer::new(&ctx, 32)?;
+            // Destroyed in Drop.
+            let (cmd, fence) = ctx.command_buffer_and_fence(&format!("frame{i}"), false)?;
+            slots.push(FrameSlot { cmd, fence, timer, readback, frame_constants, pending: None });
+        }
         let log = FrameLog { pixels: parts.targets.pixels() as f64, ..Default::default() };
         Ok(Self {
             settings,

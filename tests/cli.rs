@@ -31,6 +31,9 @@ fn assert_fails(args: &[&str], expect: &[&str]) {
     let err = stderr(&o);
     assert!(!o.status.success(), "{args:?} should fail; stderr: {err}");
     assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    // Refused cleanly: under the validation layer (where installed) nothing is left undestroyed
+    // (a refusal after the frame fences were made left two: VUID-vkDestroyDevice-device-00378).
+    assert!(!err.contains("VALIDATION"), "{args:?}: validation errors on the way out: {err}");
     for e in expect {
         assert!(err.contains(e), "{args:?}: stderr should mention '{e}': {err}");
     }
