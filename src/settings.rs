@@ -818,8 +818,6 @@ mod tests {
         assert!(radius_rule_text(4.0, Some(16)).contains("4 x its local spacing d_16 / sqrt(16)"));
     }
 
-    /// Without --spatial-radius the disc scales with the image width (20 px at 1280, never under
-    /// 4 px); a given radius is kept at every width.
     #[test]
     fn workgroup_bounds_hold_on_the_command_line_and_in_code() {
         assert_eq!(parse_workgroup("16x4"), Ok([16, 4]));
@@ -838,6 +836,8 @@ mod tests {
         }
     }
 
+    /// Without --spatial-radius the disc scales with the image width (20 px at 1280, never under
+    /// 4 px); a given radius is kept at every width.
     #[test]
     fn spatial_radius_scales_with_width_unless_given() {
         let auto = RestirSettings::default();

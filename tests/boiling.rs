@@ -63,8 +63,8 @@ fn boiling_filter_cuts_fireflies_at_a_bounded_bias() {
     let (off, on) = (restir(0.0), restir(0.8));
     common::assert_no_validation_errors(&ctx);
     // Paired over the seeds (the same pixel seeds with the filter off and on): the mean of each
-    // per-seed difference off − on and its standard error from their spread (t with 7 degrees of
-    // freedom: 15). A difference more than 3 standard errors above 0 is one that a filter doing
+    // per-seed difference off − on and its standard error from their spread (t with 15 degrees of
+    // freedom). A difference more than 3 standard errors above 0 is one that a filter doing
     // nothing gives with probability < 0.5 %.
     let paired = |k: usize| {
         let d: Vec<f64> = off.iter().zip(&on).map(|(a, b)| a[k] - b[k]).collect();

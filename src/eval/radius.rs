@@ -7,7 +7,7 @@
 //!
 //! Protocol (per scene): one renderer per rule, all sharing the device and scene; `runs` runs with
 //! independent pixel seeds (same VPL set), averaged. The reference is the path tracer with default
-//! settings (8 bounces, like the photons), cached in `out/references`.
+//! settings (8 bounces; the photons' default 7 gives the VPL images the same light paths), cached in `out/references`.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -215,7 +215,7 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
     let _ = writeln!(
         s,
         "ReSTIR (unbiased, default settings) with each Yuksel radius rule against a {}-frame path-traced reference \
-         (8 bounces, as the photons). Scenes: {}. VPLs: {} direct + {} indirect (one VPL set per rule; the mean VPL \
+         (8 bounces; the photons' 7 give the VPL images the same light paths). Scenes: {}. VPLs: {} direct + {} indirect (one VPL set per rule; the mean VPL \
          spacing is √(A/(πN))). {} run(s) with independent pixel seeds averaged; t = 1 is the first frame, t = {} the \
          mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames. Frame variance: mean per-pixel variance \
          of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. Per-VPL \
