@@ -322,6 +322,47 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
     common::assert_no_validation_errors(&ctx);
 }
 
+/// `--view vpl-kind` shows, per pixel, the kind of the VPL the final reservoir holds (blue direct,
+/// cyan point light, red indirect; black without a sample), checked against the reservoirs and the
+/// VPL set read back; the Cornell box's view has both direct and indirect picks.
+#[test]
+fn vpl_kind_view_shows_the_kind_of_each_pixels_sample() {
+    use restir_vpl::gpu_types::{RESERVOIR_EMPTY, VPL_DIRECT_AREA, VPL_DIRECT_POINT, VPL_INDIRECT};
+    use restir_vpl::settings::View;
+    let ctx = common::context();
+    let scene = cornell(&ctx);
+    let mut r = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { view: View::VplKind, ..settings(Mode::Restir, 32, 32, 300, 600) }).unwrap();
+    render(&mut r, 3);
+    let image = r.read_frame_samples().unwrap();
+    let reservoirs = r.read_reservoirs().unwrap().expect("restir keeps reservoirs");
+    let vpls = r.read_vpls().unwrap().expect("restir has a VPL set");
+    let mut seen = [0usize; 3];
+    for (i, (p, res)) in image.iter().zip(&reservoirs).enumerate() {
+        let want = if res.vpl == RESERVOIR_EMPTY || !(res.ucw > 0.0) {
+            [0.0, 0.0, 0.0]
+        } else {
+            match vpls[res.vpl as usize].kind {
+                VPL_INDIRECT => {
+                    seen[2] += 1;
+                    [1.0, 0.1, 0.05]
+                }
+                VPL_DIRECT_POINT => {
+                    seen[1] += 1;
+                    [0.1, 0.9, 1.0]
+                }
+                k => {
+                    assert_eq!(k, VPL_DIRECT_AREA);
+                    seen[0] += 1;
+                    [0.1, 0.25, 1.0]
+                }
+            }
+        };
+        assert_eq!(*p, want, "pixel {i}: reservoir {res:?}");
+    }
+    assert!(seen[0] > 10 && seen[2] > 10, "direct and indirect picks expected: {seen:?}");
+    common::assert_no_validation_errors(&ctx);
+}
+
 /// Inverse-square attenuation puts huge values next to VPLs; no mode may write NaN/Inf, and every
 /// debug view renders.
 #[test]
