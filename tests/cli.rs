@@ -571,3 +571,28 @@ fn a_validation_error_fails_headless_and_reference_runs() {
         assert!(o.status.success(), "{what} without validation: {}", stderr(&o));
     }
 }
+
+/// No Vulkan driver at all (the loader pointed at a driver file that does not exist): every
+/// command that needs a device says that no device qualifies, and why, with exit code 2 (as for
+/// devices without ray queries); `--list-devices` lists none and succeeds. Before, the loader's
+/// answers came out as "vkCreateInstance failed" or "vkEnumeratePhysicalDevices failed", exit 1.
+#[test]
+fn no_vulkan_driver_is_reported_as_no_device_with_exit_code_2() {
+    let without_driver = |args: &[&str]| {
+        bin()
+            .args(args)
+            .env("VK_ICD_FILENAMES", "/nonexistent/restir-vpl-test-icd.json")
+            .env("VK_DRIVER_FILES", "/nonexistent/restir-vpl-test-icd.json")
+            .env_remove("RESTIR_VPL_VALIDATE")
+            .output()
+            .unwrap()
+    };
+    let o = without_driver(&["--headless", "--width", "8", "--height", "8", "--frames", "1"]);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("no Vulkan device supports ray queries") && err.contains("found no driver"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let o = without_driver(&["--list-devices"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("no Vulkan devices found"), "{:?}", o);
+}

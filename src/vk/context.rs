@@ -309,14 +309,30 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
         .enabled_layer_names(&layer_ptrs)
         .enabled_extension_names(&ext_ptrs);
     // SAFETY: the create info points at locals that outlive the call.
-    let instance = unsafe { entry.create_instance(&info, None) }.context("vkCreateInstance failed")?;
+    let instance = match unsafe { entry.create_instance(&info, None) } {
+        Ok(instance) => instance,
+        // The loader found no driver at all: no device, said as such (exit code 2).
+        Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
+            return Err(NoRayQueryDevice {
+                devices: Vec::new(),
+                hint: Some("the Vulkan loader found no driver (VK_ICD_FILENAMES / VK_DRIVER_FILES, or install one: scripts/setup.sh)".into()),
+            }
+            .into())
+        }
+        Err(e) => return Err(e).context("vkCreateInstance failed"),
+    };
     Ok((instance, use_validation, has_debug_utils))
 }
 
 /// Lists every physical device with what it lacks (for `--list-devices` and error messages).
 pub fn list_devices() -> Result<Vec<DeviceReport>> {
     let entry = load_entry()?;
-    let (instance, _, _) = create_instance(&entry, false, None)?;
+    let (instance, _, _) = match create_instance(&entry, false, None) {
+        Ok(created) => created,
+        // No driver at all: an empty list, as when drivers find no device.
+        Err(e) if e.downcast_ref::<NoRayQueryDevice>().is_some() => return Ok(Vec::new()),
+        Err(e) => return Err(e),
+    };
     // SAFETY: the instance is valid; destroyed below after use.
     let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
     let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd).0).collect();
@@ -369,7 +385,13 @@ impl Context {
             None => None,
         };
         // SAFETY: valid instance.
-        let pds = unsafe { instance.enumerate_physical_devices() }.context("vkEnumeratePhysicalDevices failed")?;
+        let pds = match unsafe { instance.enumerate_physical_devices() } {
+            Ok(pds) => pds,
+            // The loader answers "no driver found a device" with an initialisation failure: that
+            // is no device, reported below as such (exit code 2), not a cryptic error.
+            Err(vk::Result::ERROR_INITIALIZATION_FAILED) => Vec::new(),
+            Err(e) => return Err(e).context("vkEnumeratePhysicalDevices failed"),
+        };
         let inspected: Vec<(DeviceReport, u32, vk::PhysicalDevice)> = pds
             .iter()
             .enumerate()
