@@ -956,9 +956,7 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
         }
     })?;
     eprintln!();
-    if settings.validate {
-        check_validation(&ctx)?;
-    }
+    check_validation(&ctx)?;
     let meta = &made.meta;
     println!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
     println!("frames: {}", meta.describe_frames());

@@ -127,7 +127,7 @@ pub struct Context {
     pub presentation: Option<Presentation>,
     /// Non-finite samples the accumulation replaced by 0 in any renderer on this context (the
     /// renderers report them as their frames complete): a shader bug, checked beside the
-    /// validation errors by strict runs (`RESTIR_VPL_VALIDATE=1`).
+    /// validation errors by runs under validation (`--validate`, `RESTIR_VPL_VALIDATE=1`).
     nonfinite_samples: AtomicU64,
 }
 
