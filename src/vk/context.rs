@@ -63,7 +63,8 @@ impl std::fmt::Display for DeviceReport {
 #[derive(Debug, thiserror::Error)]
 #[error("no Vulkan device supports ray queries (VK_KHR_ray_query + VK_KHR_acceleration_structure + \
 VK_KHR_deferred_host_operations + bufferDeviceAddress); devices found:\n{}{}",
-    if devices.is_empty() { "  (none: is a Vulkan driver installed? run scripts/setup.sh)".to_string() }
+    if devices.is_empty() && hint.is_some() { "  (none)".to_string() }
+    else if devices.is_empty() { "  (none: is a Vulkan driver installed? run scripts/setup.sh)".to_string() }
     else { devices.iter().map(|d| format!("  {d}")).collect::<Vec<_>>().join("\n") },
     hint.as_deref().map(|h| format!("\n{h}")).unwrap_or_default())]
 pub struct NoRayQueryDevice {
@@ -304,10 +305,26 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
             .context("this window system has no Vulkan surface extension")?;
         ext_ptrs.extend_from_slice(surface_exts);
     }
-    let info = vk::InstanceCreateInfo::default()
+    // Synchronization validation (missing or wrong barriers between passes: hazards lavapipe's
+    // in-order queue forgives and a GPU does not) with the layer's default checks, when the layer
+    // offers VK_EXT_validation_features.
+    let sync_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+    let mut features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&sync_features);
+    let layer_has_features = use_validation && {
+        // SAFETY: plain enumeration call on a loaded entry.
+        let layer_exts = unsafe { entry.enumerate_instance_extension_properties(Some(VALIDATION_LAYER)) }.unwrap_or_default();
+        layer_exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::validation_features::NAME))
+    };
+    if layer_has_features {
+        ext_ptrs.push(ash::ext::validation_features::NAME.as_ptr());
+    }
+    let mut info = vk::InstanceCreateInfo::default()
         .application_info(&app)
         .enabled_layer_names(&layer_ptrs)
         .enabled_extension_names(&ext_ptrs);
+    if layer_has_features {
+        info = info.push_next(&mut features);
+    }
     // SAFETY: the create info points at locals that outlive the call.
     let instance = match unsafe { entry.create_instance(&info, None) } {
         Ok(instance) => instance,
