@@ -73,6 +73,8 @@ fn build(
     let raw = unsafe { ctx.accel.create_acceleration_structure(&create, None) }
         .with_context(|| format!("vkCreateAccelerationStructureKHR '{name}'"))?;
     ctx.set_name(raw, name);
+    // Owned from here on, so that a failure below destroys it.
+    let mut accel = AccelerationStructure { ctx: ctx.clone(), raw, buffer, address: 0 };
     let align = ctx.as_properties.min_scratch_offset_alignment as u64;
     let scratch = Buffer::new(
         ctx,
@@ -93,12 +95,12 @@ fn build(
         ctx.end_label(cmd);
     })?;
     // SAFETY: raw is a valid acceleration structure.
-    let address = unsafe {
+    accel.address = unsafe {
         ctx.accel.get_acceleration_structure_device_address(
             &vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(raw),
         )
     };
-    Ok(AccelerationStructure { ctx: ctx.clone(), raw, buffer, address })
+    Ok(accel)
 }
 
 /// One instance of a mesh in the scene.

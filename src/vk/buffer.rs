@@ -45,10 +45,22 @@ impl Buffer {
         let raw = unsafe { device.create_buffer(&info, None) }.with_context(|| format!("vkCreateBuffer '{name}'"))?;
         // SAFETY: raw was just created.
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
-        let allocation = ctx.allocate(name, requirements, location, true)?;
+        // On failure the buffer (and its memory) is released here: no Self owns it yet.
+        let allocation = match ctx.allocate(name, requirements, location, true) {
+            Ok(allocation) => allocation,
+            Err(e) => {
+                // SAFETY: raw was just created and is used by nothing.
+                unsafe { device.destroy_buffer(raw, None) };
+                return Err(e);
+            }
+        };
         // SAFETY: memory comes from the allocator for this buffer's requirements.
-        unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }
-            .with_context(|| format!("binding memory of '{name}'"))?;
+        if let Err(e) = unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
+            ctx.free(allocation);
+            // SAFETY: as above.
+            unsafe { device.destroy_buffer(raw, None) };
+            return Err(e).with_context(|| format!("binding memory of '{name}'"));
+        }
         ctx.set_name(raw, name);
         let address = usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS).then(|| {
             // SAFETY: the buffer has SHADER_DEVICE_ADDRESS usage and bound memory.

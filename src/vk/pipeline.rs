@@ -105,16 +105,26 @@ impl DescriptorSet {
             if sizes.is_empty() {
                 sizes.push(vk::DescriptorPoolSize { ty: vk::DescriptorType::STORAGE_BUFFER, descriptor_count: 1 });
             }
-            let pool = device
-                .create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(count).pool_sizes(&sizes), None)
-                .with_context(|| format!("descriptor pool '{name}'"))?;
+            // On failure, what was created before is destroyed (no Self owns it yet).
+            let pool = match device.create_descriptor_pool(&vk::DescriptorPoolCreateInfo::default().max_sets(count).pool_sizes(&sizes), None) {
+                Ok(pool) => pool,
+                Err(e) => {
+                    device.destroy_descriptor_set_layout(layout, None);
+                    return Err(e).with_context(|| format!("descriptor pool '{name}'"));
+                }
+            };
             ctx.set_name(pool, name);
             let layouts = vec![layout; count as usize];
-            let variants = device
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts),
-                )
-                .with_context(|| format!("descriptor set '{name}'"))?;
+            let variants = match device
+                .allocate_descriptor_sets(&vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts))
+            {
+                Ok(variants) => variants,
+                Err(e) => {
+                    device.destroy_descriptor_pool(pool, None);
+                    device.destroy_descriptor_set_layout(layout, None);
+                    return Err(e).with_context(|| format!("descriptor set '{name}'"));
+                }
+            };
             for (i, set) in variants.iter().enumerate() {
                 if count == 1 {
                     ctx.set_name(*set, name);
@@ -291,7 +301,13 @@ impl ComputePipeline {
                 .size(push_size.max(4))];
             let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
             let layout_info = if push_size > 0 { layout_info.push_constant_ranges(&ranges) } else { layout_info };
-            let layout = device.create_pipeline_layout(&layout_info, None).with_context(|| format!("pipeline layout '{name}'"))?;
+            let layout = match device.create_pipeline_layout(&layout_info, None) {
+                Ok(layout) => layout,
+                Err(e) => {
+                    device.destroy_shader_module(module, None);
+                    return Err(e).with_context(|| format!("pipeline layout '{name}'"));
+                }
+            };
             ctx.set_name(layout, name);
             let spec_entries = [
                 vk::SpecializationMapEntry { constant_id: 0, offset: 0, size: 4 },
@@ -307,7 +323,13 @@ impl ComputePipeline {
             let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
             let result = device.create_compute_pipelines(ctx.pipeline_cache, &info, None);
             device.destroy_shader_module(module, None);
-            let pipeline = result.map_err(|(_, e)| anyhow::anyhow!("compute pipeline '{name}': {e}"))?[0];
+            let pipeline = match result {
+                Ok(pipelines) => pipelines[0],
+                Err((_, e)) => {
+                    device.destroy_pipeline_layout(layout, None);
+                    return Err(anyhow::anyhow!("compute pipeline '{name}': {e}"));
+                }
+            };
             ctx.set_name(pipeline, name);
             Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size })
         }
