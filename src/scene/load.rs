@@ -471,6 +471,7 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
                 bytes.len()
             );
         }
+        check_glb_chunks(&bytes[..declared])?;
     }
     let parsed = gltf::Gltf::from_slice_without_validation(bytes).or_else(|e| with_scene_nodes_defaulted(bytes).ok_or(e));
     let gltf = match parsed {
@@ -501,6 +502,34 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
     }
     check_sources(root)?;
     Ok((gltf.document, gltf.blob))
+}
+
+/// Walks a GLB's chunks (the header already checked) so that a chunk whose length field runs
+/// past the file, or a file that ends inside a chunk header, is named with its byte offset: the
+/// gltf crate says only "failed to fill whole buffer" for some of these.
+fn check_glb_chunks(glb: &[u8]) -> Result<()> {
+    let mut at = 12;
+    let mut k = 0;
+    while at < glb.len() {
+        let header = glb
+            .get(at..at + 8)
+            .ok_or_else(|| anyhow!("GLB chunk {k} at byte {at}: the file ends inside its 8-byte header"))?;
+        let length = u32::from_le_bytes([header[0], header[1], header[2], header[3]]) as usize;
+        let kind = String::from_utf8_lossy(&header[4..8]).trim_end_matches('\0').to_string();
+        let left = glb.len() - at - 8;
+        if length > left {
+            bail!("GLB chunk {k} ({kind:?}) at byte {at} declares {length} bytes but only {left} follow its header");
+        }
+        if k == 0 && &header[4..8] != b"JSON" {
+            bail!("GLB chunk 0 is {kind:?}; the first chunk must be JSON");
+        }
+        at += 8 + length;
+        k += 1;
+    }
+    if k == 0 {
+        bail!("GLB file has no chunks (a JSON chunk must follow the 12-byte header)");
+    }
+    Ok(())
 }
 
 /// `scene.nodes` is optional in glTF 2.0, but the gltf crate (1.4) requires it: the document

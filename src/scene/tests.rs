@@ -943,6 +943,23 @@ fn glb_round_trip() {
         Scene::from_gltf_slice(&no_bin, None, "tiny.glb").unwrap_err()
     );
     assert_contains(&err, &["tiny.glb", "buffer 0"]);
+
+    // Chunk lengths that lie (the header's total length kept consistent with the file), each
+    // named with its chunk and byte offset; before, some came out as "failed to fill whole buffer".
+    let chunk_err = |bytes: &[u8]| format!("{:#}", Scene::from_gltf_slice(bytes, None, "tiny.glb").unwrap_err());
+    let mut long_json = glb.clone();
+    long_json[12..16].copy_from_slice(&((glb.len() - 20 + 1) as u32).to_le_bytes());
+    assert_contains(&chunk_err(&long_json), &["tiny.glb", "GLB chunk 0 (\"JSON\") at byte 12 declares", "only"]);
+    let mut short_json = glb.clone();
+    short_json[12..16].copy_from_slice(&((json_len - 3) as u32).to_le_bytes());
+    assert_contains(&chunk_err(&short_json), &["tiny.glb", "GLB chunk"]);
+    let bin_at = 12 + 8 + json_len;
+    let mut long_bin = glb.clone();
+    long_bin[bin_at..bin_at + 4].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert_contains(&chunk_err(&long_bin), &["GLB chunk 1 (\"BIN\") at byte", "declares 4294967295 bytes"]);
+    let mut bin_first = glb.clone();
+    bin_first[16..20].copy_from_slice(b"BIN\0");
+    assert_contains(&chunk_err(&bin_first), &["GLB chunk 0 is \"BIN\"", "must be JSON"]);
 }
 
 #[test]
