@@ -254,3 +254,23 @@ fn compare_maps_to_8_bits_as_the_png_preview_does() {
     assert!(off.len() * 100 <= ours.len(), "{} of {} channels differ by a step", off.len(), ours.len());
     assert!(png.iter().any(|&v| v > 0 && v < 255), "a lit, unsaturated image");
 }
+
+/// An image of more than 65,535 × 64 pixels: the per-pixel 1-D passes (accumulate, tonemap) need
+/// more workgroups along x than Vulkan guarantees (maxComputeWorkGroupCount[0] = 65,535 on
+/// lavapipe and Intel), so `dispatch_1d` folds them into rows. Before, this was a validation error
+/// (VUID-vkCmdDispatch-groupCountX-00386) and undefined on such devices. The bottom rows (items
+/// past the first 65,535 groups) must be rendered like the top ones.
+#[test]
+fn images_over_4_megapixels_dispatch_within_the_workgroup_count_limit() {
+    let (w, h) = (2100u32, 2000u32);
+    assert!(u64::from(w) * u64::from(h) > 65_535 * 64);
+    let settings = RenderSettings { mode: restir_vpl::settings::Mode::Uniform, ..small(w, h, 1) };
+    let out = render(&cornell(), &settings);
+    let row_mean = |rows: std::ops::Range<u32>| {
+        let px = &out.mean[(rows.start * w) as usize..(rows.end * w) as usize];
+        px.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>() / px.len() as f64
+    };
+    // The floor fills the bottom rows and the ceiling (with the light) the top ones; both lit.
+    let (top, bottom) = (row_mean(0..200), row_mean(h - 200..h));
+    assert!(top > 0.01 && bottom > 0.01, "top rows {top}, bottom rows {bottom}");
+}

@@ -10,6 +10,7 @@
 #include "texel_records.glsl"
 #include "../lib/sampling.glsl"
 #include "../lib/camera.glsl"
+#include "../lib/finite.glsl"
 #ifdef SCENE_TEXTURES
 #include "../lib/texture.glsl"
 #endif
@@ -64,10 +65,11 @@ vec3 project_to_previous_frame(vec3 x) {
 // The previous frame's pixel of a point projected there (q from project_to_previous_frame): false
 // when it lies behind the previous camera or off its image. The tests are made on the floats
 // before any conversion: converting a float beyond int's range (a point barely in front of the
-// camera) is undefined, and NaN fails every comparison.
+// camera) is undefined, and a NaN is refused on its bits (lib/finite.glsl: a compiler may
+// assume no NaN and fold the comparisons).
 bool previous_pixel(vec3 q, out ivec2 pq) {
     pq = ivec2(0);
-    if (!(q.z > 0.0 && q.x >= 0.0 && q.y >= 0.0 && q.x < float(frame.width) && q.y < float(frame.height))) {
+    if (!is_finite(q) || !(q.z > 0.0 && q.x >= 0.0 && q.y >= 0.0 && q.x < float(frame.width) && q.y < float(frame.height))) {
         return false;
     }
     pq = min(ivec2(floor(q.xy)), ivec2(frame.width, frame.height) - 1);

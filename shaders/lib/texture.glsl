@@ -22,10 +22,12 @@ void bilinear_footprint(vec2 uv, uvec2 size, out uvec2 x, out uvec2 y, out vec2 
     vec2 p = fract(uv) * vec2(size) - 0.5;
     vec2 base = floor(p);
     f = p - base;
-    ivec2 i0 = ivec2(base);
-    ivec2 s = ivec2(size);
-    ivec2 w0 = (i0 % s + s) % s;
-    ivec2 w1 = (w0 + 1) % s;
+    // base is in [-1, size - 1] (fract < 1), so base + size is not negative, and the wrap is an
+    // unsigned remainder: GLSL's % of a negative int is undefined in Vulkan (OpSMod with a
+    // negative operand), where lavapipe happened to give the mathematical answer. Unsigned, any
+    // value (even from a NaN uv) lands in [0, size).
+    uvec2 w0 = uvec2(ivec2(base) + ivec2(size)) % size;
+    uvec2 w1 = (w0 + 1u) % size;
     x = uvec2(w0.x, w1.x);
     y = uvec2(w0.y, w1.y);
 }

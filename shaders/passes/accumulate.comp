@@ -5,8 +5,11 @@
 #extension GL_GOOGLE_include_directive : require
 
 #include "../common/scene.glsl"
+#include "../lib/finite.glsl"
 
 layout(local_size_x = 64) in;
+// after the local size: dispatch_index() reads gl_WorkGroupSize
+#include "../lib/dispatch.glsl"
 
 layout(set = 1, binding = 0, std430) readonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 1, std430) buffer SumBuffer { vec4 sums[]; };
@@ -20,12 +23,12 @@ layout(push_constant) uniform Push {
 };
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    uint i = dispatch_index();
     if (i >= frame.width * frame.height) {
         return;
     }
     vec3 x = samples[i].rgb;
-    if (any(isnan(x)) || any(isinf(x))) {
+    if (!is_finite(x)) {
         atomicAdd(nonfinite_samples, 1u);
         x = vec3(0.0);
     }

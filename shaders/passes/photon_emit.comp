@@ -18,6 +18,8 @@
 #include "../lib/packing.glsl"
 
 layout(local_size_x = 64) in;
+// after the local size: dispatch_index() reads gl_WorkGroupSize
+#include "../lib/dispatch.glsl"
 
 layout(set = 1, binding = 0, std430) buffer VplBuffer { Vpl vpls[]; };
 // indirect_count: VPL slots taken; next_path: paths of this dispatch handed out; rays: closest-hit
@@ -208,7 +210,7 @@ void photon_paths() {
 }
 
 void main() {
-    uint k = gl_GlobalInvocationID.x;
+    uint k = dispatch_index();
     if (k >= count) {
         return;
     }

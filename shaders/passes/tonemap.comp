@@ -3,8 +3,11 @@
 #extension GL_GOOGLE_include_directive : require
 
 #include "../common/scene.glsl"
+#include "../lib/finite.glsl"
 
 layout(local_size_x = 64) in;
+// after the local size: dispatch_index() reads gl_WorkGroupSize
+#include "../lib/dispatch.glsl"
 
 layout(set = 1, binding = 0, std430) readonly buffer MeanBuffer { vec4 means[]; };
 layout(set = 1, binding = 1, std430) writeonly buffer PreviewBuffer { uint preview[]; };
@@ -15,13 +18,13 @@ float srgb_encode(float c) {
 }
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    uint i = dispatch_index();
     if (i >= frame.width * frame.height) {
         return;
     }
     vec3 c = means[i].rgb * frame.exposure;
-    // NaN-safe: a NaN compares false and becomes 0.
-    c = vec3(c.x > 0.0 ? c.x : 0.0, c.y > 0.0 ? c.y : 0.0, c.z > 0.0 ? c.z : 0.0);
+    // A NaN or infinity becomes 0 (tested on the bits, lib/finite.glsl), a negative value too.
+    c = vec3(is_finite(c.x) && c.x > 0.0 ? c.x : 0.0, is_finite(c.y) && c.y > 0.0 ? c.y : 0.0, is_finite(c.z) && c.z > 0.0 ? c.z : 0.0);
     uvec3 q = uvec3(round(vec3(srgb_encode(c.x), srgb_encode(c.y), srgb_encode(c.z)) * 255.0));
     preview[i] = q.x | (q.y << 8) | (q.z << 16) | (255u << 24);
 }

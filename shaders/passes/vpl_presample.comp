@@ -15,6 +15,8 @@
 #include "../common/texel_records.glsl"
 
 layout(local_size_x = 64) in;
+// after the local size: dispatch_index() reads gl_WorkGroupSize
+#include "../lib/dispatch.glsl"
 
 // Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
 layout(set = 1, binding = 0) uniform utextureBuffer vpls;  // Vpl, 3 texels each
@@ -29,7 +31,7 @@ layout(push_constant) uniform Push {
 const uint SALT_PRESAMPLE = 0x7073u;
 
 void main() {
-    uint e = gl_GlobalInvocationID.x;
+    uint e = dispatch_index();
     if (e >= pc.tiles * PRESAMPLE_TILE_SIZE || pc.params.vpl_count == 0u) {
         return;
     }

@@ -13,6 +13,8 @@
 #include "../common/texel_records.glsl"
 
 layout(local_size_x = 64) in;
+// after the local size: dispatch_index() reads gl_WorkGroupSize
+#include "../lib/dispatch.glsl"
 
 // Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
 layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFACE_TEXELS (4) texels each
@@ -88,7 +90,7 @@ void splat(uint v, bool record) {
 }
 
 void main() {
-    uint k = gl_GlobalInvocationID.x;
+    uint k = dispatch_index();
     uint pixels = frame.width * frame.height;
     if (mode == VPL_VIEW_CLEAR) {
         if (k < pixels) {

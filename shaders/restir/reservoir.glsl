@@ -6,6 +6,7 @@
 #define RESERVOIR_GLSL
 
 #include "../common/types.glsl"
+#include "../lib/finite.glsl"
 
 // A reservoir while candidates stream in.
 struct ReservoirStream {
@@ -47,7 +48,7 @@ Reservoir stream_finish(ReservoirStream s) {
     r.ucw = ok ? s.w_sum / s.target : 0.0;
     r.confidence = s.confidence;
     r.target = ok ? s.target : 0.0;
-    if (isinf(r.ucw) || isnan(r.ucw)) {
+    if (!is_finite(r.ucw)) {
         r.vpl = RESERVOIR_EMPTY;
         r.ucw = 0.0;
         r.target = 0.0;

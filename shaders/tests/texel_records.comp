@@ -10,6 +10,8 @@
 #include "../common/texel_records.glsl"
 
 layout(local_size_x = 64) in;
+// after the local size: dispatch_index() reads gl_WorkGroupSize
+#include "../lib/dispatch.glsl"
 
 layout(set = 1, binding = 0) uniform utextureBuffer records;
 layout(set = 1, binding = 1, std430) writeonly buffer OutSurfaces { Surface out_surfaces[]; };
@@ -29,7 +31,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    uint i = dispatch_index();
     if (i >= pc.count) {
         return;
     }

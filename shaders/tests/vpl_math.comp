@@ -17,6 +17,8 @@
 #include "../restir/reservoir.glsl"
 
 layout(local_size_x = 64) in;
+// after the local size: dispatch_index() reads gl_WorkGroupSize
+#include "../lib/dispatch.glsl"
 
 layout(set = 1, binding = 0, std430) readonly buffer Inputs { vec4 inputs[]; };
 layout(set = 1, binding = 1, std430) readonly buffer Vpls { Vpl vpls[]; };
@@ -33,7 +35,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 void main() {
-    uint i = gl_GlobalInvocationID.x;
+    uint i = dispatch_index();
     if (i >= pc.count) {
         return;
     }

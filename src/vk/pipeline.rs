@@ -382,9 +382,12 @@ impl ComputePipeline {
         self.dispatch_variant(cmd, variant, scene_set, push, groups);
     }
 
-    /// Dispatches one invocation per item of a 1-D range of `count` items.
+    /// Dispatches one invocation per item of a 1-D range of `count` items. The shader indexes
+    /// items with `dispatch_index()` (shaders/lib/dispatch.glsl) and skips indices ≥ `count`.
     pub fn dispatch_1d(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], count: u32) {
-        self.dispatch(cmd, scene_set, push, [count.div_ceil(self.local_size[0]).max(1), 1, 1]);
+        let groups = count.div_ceil(self.local_size[0]).max(1);
+        let max_x = self.ctx.properties.limits.max_compute_work_group_count[0];
+        self.dispatch(cmd, scene_set, push, grid_1d(groups, max_x));
     }
 }
 
@@ -396,6 +399,18 @@ impl Drop for ComputePipeline {
             self.ctx.device.destroy_pipeline_layout(self.layout, None);
         }
     }
+}
+
+/// `groups` workgroups of a 1-D dispatch as a grid whose x count is at most `max_x`
+/// (maxComputeWorkGroupCount[0], 65,535 on lavapipe and Intel): rows along y of equal length,
+/// the last one possibly running past `groups`. A u32 item count needs at most 1,025 rows, within
+/// every device's y limit (also at least 65,535).
+pub fn grid_1d(groups: u32, max_x: u32) -> [u32; 3] {
+    if groups <= max_x {
+        return [groups, 1, 1];
+    }
+    let rows = groups.div_ceil(max_x);
+    [groups.div_ceil(rows), rows, 1]
 }
 
 /// A full compute→compute (and →transfer) memory barrier between passes.
@@ -415,4 +430,25 @@ pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
             &[],
         )
     };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::grid_1d;
+
+    #[test]
+    fn grid_1d_covers_every_group_within_the_x_limit() {
+        for &max_x in &[65_535u32, 1, 7, 1 << 31] {
+            for &groups in &[1u32, 2, 65_535, 65_536, 65_625, 131_070, 131_071, 1_000_003, u32::MAX / 64 + 1] {
+                let [x, y, z] = grid_1d(groups, max_x);
+                assert!(x <= max_x && x >= 1 && z == 1, "{groups} groups, max {max_x}: {x}x{y}");
+                let total = u64::from(x) * u64::from(y);
+                // Every group is dispatched, and the overshoot is less than one row.
+                assert!(total >= u64::from(groups) && total - u64::from(groups) < u64::from(x), "{groups} groups, max {max_x}: {x}x{y}");
+                if max_x >= 65_535 {
+                    assert!(y <= 65_535, "{groups} groups: {y} rows");
+                }
+            }
+        }
+    }
 }
