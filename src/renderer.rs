@@ -988,8 +988,9 @@ impl Renderer {
             )?;
         }
         slot.timer.reset(slot.cmd);
-        // Orders this frame after the previous one's last reads of the shared targets.
-        crate::vk::pipeline::compute_barrier(&ctx, slot.cmd);
+        // Orders this frame after the previous one's last reads of the shared targets, and makes
+        // what earlier submissions wrote (uploads, acceleration structures, photons) visible.
+        crate::vk::pipeline::submission_start_barrier(&ctx, slot.cmd);
         let mut metas = Vec::new();
         if capture {
             let targets = &self.parts.targets;
@@ -1027,6 +1028,8 @@ impl Renderer {
                 slot.readback.raw,
                 &[vk::BufferCopy::default().size(4).dst_offset(counters_size)],
             );
+            // The host reads the counters (and any capture) after the fence.
+            crate::vk::pipeline::host_read_barrier(&ctx, slot.cmd);
             d.end_command_buffer(slot.cmd)?;
             let cmds = [slot.cmd];
             let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];

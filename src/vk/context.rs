@@ -686,7 +686,9 @@ impl Context {
                 .device
                 .begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))
                 .and_then(|_| {
+                    crate::vk::pipeline::submission_start_barrier(self, cmd);
                     record(cmd);
+                    crate::vk::pipeline::host_read_barrier(self, cmd);
                     self.device.end_command_buffer(cmd)
                 })
                 .and_then(|_| {

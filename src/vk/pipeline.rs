@@ -413,11 +413,62 @@ pub fn grid_1d(groups: u32, max_x: u32) -> [u32; 3] {
     [groups.div_ceil(rows), rows, 1]
 }
 
-/// A full compute→compute (and →transfer) memory barrier between passes.
+/// First in every command buffer the renderer submits: the device writes of earlier submissions
+/// (uploads, acceleration-structure builds, the photon pass, the previous frame) made visible to
+/// this one. Waiting on a fence between the two does not do it: a fence's signal makes writes
+/// available but visible to no later command (its second scope is empty), and a submission's
+/// implicit ordering covers host writes only. lavapipe needs none of this; a GPU's caches may.
+pub fn submission_start_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    let stages = vk::PipelineStageFlags::COMPUTE_SHADER
+        | vk::PipelineStageFlags::TRANSFER
+        | vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR;
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(
+            vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
+        )
+        .dst_access_mask(
+            vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::SHADER_WRITE
+                | vk::AccessFlags::TRANSFER_READ
+                | vk::AccessFlags::TRANSFER_WRITE
+                | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR
+                | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
+        )];
+    // SAFETY: cmd is recording.
+    unsafe { ctx.device.cmd_pipeline_barrier(cmd, stages, stages, vk::DependencyFlags::empty(), &barrier, &[], &[]) };
+}
+
+/// Last in a command buffer whose results the host reads after its fence: the device writes made
+/// visible to host reads (a fence wait alone makes them available, not visible).
+pub fn host_read_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    let barrier = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(vk::AccessFlags::HOST_READ)];
+    // SAFETY: cmd is recording.
+    unsafe {
+        ctx.device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::HOST,
+            vk::DependencyFlags::empty(),
+            &barrier,
+            &[],
+            &[],
+        )
+    };
+}
+
+/// A full compute→compute (and →transfer) memory barrier between passes (transfer writes after
+/// shader writes included: a counter cleared by vkCmdFillBuffer after a pass's atomics).
 pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
     let barrier = [vk::MemoryBarrier::default()
         .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-        .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ)];
+        .dst_access_mask(
+            vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::SHADER_WRITE
+                | vk::AccessFlags::TRANSFER_READ
+                | vk::AccessFlags::TRANSFER_WRITE,
+        )];
     // SAFETY: cmd is recording.
     unsafe {
         ctx.device.cmd_pipeline_barrier(

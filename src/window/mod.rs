@@ -848,19 +848,8 @@ impl Presenter {
             d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())?;
             d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
             ctx.begin_label(cmd, "present");
-            // The renderer's tonemap wrote the preview with compute shaders earlier on this queue.
-            let barrier = [vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-                .dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
-            d.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::COMPUTE_SHADER,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &barrier,
-                &[],
-                &[],
-            );
+            // The renderer's tonemap wrote the preview with compute shaders in an earlier submission.
+            crate::vk::pipeline::submission_start_barrier(ctx, cmd);
             transition(ctx, cmd, self.staging.raw, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
             let copy = [vk::BufferImageCopy::default()
                 .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
