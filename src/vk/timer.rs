@@ -19,6 +19,9 @@ pub struct GpuTimer {
     open: Vec<Option<(&'static str, u32)>>,
     period_ns: f64,
     valid: bool,
+    /// The bits of a timestamp that count (timestampValidBits: 36 on some Intel GPUs, 64 here):
+    /// a difference across a wrap is taken modulo 2^bits.
+    mask: u64,
 }
 
 impl GpuTimer {
@@ -31,8 +34,9 @@ impl GpuTimer {
         ctx.set_name(pool, "gpu_timer");
         // SAFETY: families exist; index validated at context creation.
         let families = unsafe { ctx.instance.get_physical_device_queue_family_properties(ctx.physical_device) };
-        let valid = families[ctx.queue_family as usize].timestamp_valid_bits > 0
-            && ctx.properties.limits.timestamp_period > 0.0;
+        let bits = families[ctx.queue_family as usize].timestamp_valid_bits;
+        let valid = bits > 0 && ctx.properties.limits.timestamp_period > 0.0;
+        let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
         Ok(Self {
             ctx: ctx.clone(),
             pool,
@@ -42,6 +46,7 @@ impl GpuTimer {
             open: Vec::new(),
             period_ns: ctx.properties.limits.timestamp_period as f64,
             valid,
+            mask,
         })
     }
 
@@ -57,7 +62,8 @@ impl GpuTimer {
     /// Opens a debug label and a timestamp scope named `name`.
     pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &'static str) {
         self.ctx.begin_label(cmd, name);
-        if self.used + 2 <= self.capacity {
+        // No timestamps where the queue has none (VUID-vkCmdWriteTimestamp-timestampValidBits-00829).
+        if self.valid && self.used + 2 <= self.capacity {
             // SAFETY: query index within the pool.
             unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, self.used) };
             self.open.push(Some((name, self.used)));
@@ -97,7 +103,7 @@ impl GpuTimer {
             .scopes
             .iter()
             .map(|(name, q)| {
-                let ticks = data[*q as usize + 1].wrapping_sub(data[*q as usize]);
+                let ticks = data[*q as usize + 1].wrapping_sub(data[*q as usize]) & self.mask;
                 (*name, *q, ticks as f64 * self.period_ns * 1e-6)
             })
             .collect();
