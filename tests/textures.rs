@@ -132,3 +132,32 @@ fn texture_variants_are_used_only_when_needed() {
     }
     common::assert_no_validation_errors(&ctx);
 }
+
+/// Textures beyond the device's maxStorageBufferRange (all texels are one storage buffer) are
+/// refused at upload with the scene, the sizes and the largest texture named, and the way out
+/// (`--textures off`, which then uploads fine). Before, they were bound anyway: a validation error
+/// (VUID-VkWriteDescriptorSet-descriptorType-00333) and undefined reads past the range.
+#[test]
+fn textures_over_the_storage_buffer_range_are_refused_by_name() {
+    let ctx = context();
+    let range = u64::from(ctx.properties.limits.max_storage_buffer_range);
+    let mut scene = load_json(&wall_scene(1.0), "wall.gltf");
+    // One texture of 4-byte texels just over the range (a narrow strip, to keep it small where the
+    // range is 128 MiB; skipped where the range is too large to allocate a test texture over it).
+    if range > 1 << 30 {
+        eprintln!("maxStorageBufferRange is {range} bytes: not tested on this device");
+        return;
+    }
+    let texels = range / 4 + 1;
+    let (w, h) = (1024u32, texels.div_ceil(1024) as u32);
+    scene.textures[0] = restir_vpl::scene::Texture { name: "huge".into(), width: w, height: h, rgba8: vec![128; (w * h * 4) as usize] };
+    let err = match restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES) {
+        Ok(_) => panic!("{w}x{h} texels (over {range} bytes) were uploaded"),
+        Err(e) => format!("{e:#}"),
+    };
+    for part in ["wall.gltf", "maxStorageBufferRange", "--textures off", &format!("'huge' {w}x{h}")] {
+        assert!(err.contains(part), "{part:?} missing from: {err}");
+    }
+    assert!(restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, false, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES).is_ok());
+    common::assert_no_validation_errors(&ctx);
+}
