@@ -16,7 +16,7 @@ pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> 
     let resolved = follow_links(path);
     match std::fs::metadata(&resolved) {
         Ok(m) if m.is_dir() => anyhow::bail!("writing {}: it is a directory", path.display()),
-        Ok(m) if !m.is_file() => return write(&resolved).with_context(|| format!("writing {}", path.display())),
+        Ok(m) if !m.is_file() => return write_in_place(&resolved, write).with_context(|| format!("writing {}", path.display())),
         _ => {}
     }
     let path = resolved.as_path();
@@ -32,6 +32,24 @@ pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> 
         let _ = std::fs::remove_file(&partial);
     }
     written.with_context(|| format!("writing {}", path.display()))
+}
+
+/// A device or a pipe written in place: the bytes are made in a temporary file first and then
+/// copied in, because a writer that fails removes its output (the exr crate does), and a device
+/// node removed that way (`/dev/full` when the write fails) is gone for every program.
+fn write_in_place(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    use std::io::Write as _;
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let tmp = std::env::temp_dir().join(format!(".restir-vpl-{}-{n}-{name}.partial", std::process::id()));
+    let bytes = write(&tmp).and_then(|()| std::fs::read(&tmp).with_context(|| format!("reading back {}", tmp.display())));
+    let _ = std::fs::remove_file(&tmp);
+    let bytes = bytes?;
+    let mut out = std::fs::OpenOptions::new().write(true).open(target)?;
+    out.write_all(&bytes)?;
+    out.flush()?;
+    Ok(())
 }
 
 /// `path` with symbolic links followed (also a link to a file not written yet); `path` itself when
@@ -82,6 +100,16 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
             }
             rest.push(at.file_name()?.to_owned());
             at = at.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        }
+    }
+    // Two names of one file that resolve differently: hard links, bind mounts.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt;
+        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+            if x.dev() == y.dev() && x.ino() == y.ino() {
+                return true;
+            }
         }
     }
     matches!((resolve(a), resolve(b)), (Some(x), Some(y)) if x == y)
@@ -191,7 +219,18 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
 /// Writes an RGBA8 buffer as PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
     write_replacing(path, |partial| {
-        image::save_buffer_with_format(partial, rgba, width, height, image::ColorType::Rgba8, image::ImageFormat::Png).map_err(anyhow::Error::from)
+        // Encoded in memory and written with fs::write: image's save_buffer writes through a
+        // BufWriter that it never flushes, so a full disk gave an empty file and no error.
+        let mut png = Vec::new();
+        image::ImageEncoder::write_image(
+            image::codecs::png::PngEncoder::new(&mut png),
+            rgba,
+            width,
+            height,
+            image::ExtendedColorType::Rgba8,
+        )?;
+        std::fs::write(partial, png)?;
+        Ok(())
     })
 }
 
@@ -247,6 +286,47 @@ mod tests {
         let e = format!("{:#}", write_replacing(dir.path(), |p| Ok(std::fs::write(p, b"x")?)).unwrap_err());
         assert!(e.contains("directory"), "{e}");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3, "no partial file left behind");
+    }
+
+    /// A device is never handed to the writer itself: a writer that removes its output when it
+    /// fails (the exr crate's) removed the device node, `/dev/full` included. And a failed write
+    /// to a device is an error: a PNG written to `/dev/full` said nothing (image's unflushed
+    /// BufWriter) and left an empty file on a full disk.
+    #[cfg(unix)]
+    #[test]
+    fn devices_are_written_through_a_copy_and_their_errors_reported() {
+        let dir = tempfile::tempdir().unwrap();
+        let null = dir.path().join("out.exr");
+        std::os::unix::fs::symlink("/dev/null", &null).unwrap();
+        let mut given = PathBuf::new();
+        let e = write_replacing(&null, |p| {
+            given = p.to_path_buf();
+            std::fs::write(p, b"half")?;
+            std::fs::remove_file(p)?;
+            anyhow::bail!("the writer failed")
+        })
+        .unwrap_err();
+        assert!(format!("{e:#}").contains("the writer failed"), "{e:#}");
+        assert!(!given.starts_with("/dev") && given != null, "the writer was given {}", given.display());
+        assert!(std::fs::metadata("/dev/null").is_ok_and(|m| !m.is_file()), "/dev/null is still a device");
+        if Path::new("/dev/full").exists() {
+            let e = write_png(Path::new("/dev/full"), 2, 2, &[7; 16]).unwrap_err();
+            assert!(format!("{e:#}").contains("/dev/full"), "{e:#}");
+        }
+    }
+
+    /// A hard link of an input is the input: an output written there would overwrite it (the
+    /// canonical paths differ, so only the inode tells).
+    #[cfg(unix)]
+    #[test]
+    fn a_hard_link_is_the_same_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b, c) = (dir.path().join("scene.gltf"), dir.path().join("link.gltf"), dir.path().join("other.gltf"));
+        std::fs::write(&a, b"{}").unwrap();
+        std::fs::hard_link(&a, &b).unwrap();
+        std::fs::write(&c, b"{}").unwrap();
+        assert!(same_file(&a, &b) && same_file(&b, &a));
+        assert!(!same_file(&a, &c));
     }
 
     /// An EXR whose header claims a huge image is refused from its header, before an allocation of
