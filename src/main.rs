@@ -28,7 +28,7 @@ struct Cli {
     #[command(flatten)]
     render: RenderArgs,
     /// Output directory (final.exr, final.png, accum_NNNN.exr, summary.json).
-    #[arg(long, default_value = "out")]
+    #[arg(value_parser = Utf8Path, long, default_value = "out")]
     out: PathBuf,
     /// List Vulkan devices and what each lacks, then exit.
     #[arg(long)]
@@ -38,7 +38,7 @@ struct Cli {
     present_mode: Option<PresentMode>,
     /// Window only: a reference EXR of the same camera and size (`reference` writes one); shown on
     /// the right of a split screen, with the live RMSE and FLIP of the image against it.
-    #[arg(long, value_name = "REF.exr")]
+    #[arg(value_parser = Utf8Path, long, value_name = "REF.exr")]
     reference: Option<PathBuf>,
 }
 
@@ -46,7 +46,7 @@ struct Cli {
 #[derive(Debug, clap::Args)]
 struct RenderArgs {
     /// glTF 2.0 scene (.gltf or .glb).
-    #[arg(long, default_value_os_t = DEFAULTS.scene.clone())]
+    #[arg(value_parser = Utf8Path, long, default_value_os_t = DEFAULTS.scene.clone())]
     scene: PathBuf,
     /// Estimator.
     #[arg(long, value_parser = named::<Mode>(), default_value_t = DEFAULTS.mode)]
@@ -89,7 +89,7 @@ struct RenderArgs {
     /// Camera path: {"keyframes": [{"frame": 0, "eye": [x,y,z], "target": [x,y,z], "up": [0,1,0],
     /// "fov": 40}, ...]} (fov vertical in degrees; linear interpolation; frames past the last
     /// keyframe hold it). Frame f of the run is seen from the path's camera at f.
-    #[arg(long, value_name = "FILE.json")]
+    #[arg(value_parser = Utf8Path, long, value_name = "FILE.json")]
     camera_path: Option<PathBuf>,
     /// Accumulate frames while the camera and settings stay (off: each image is one frame).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.progressive))]
@@ -111,7 +111,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = DEFAULTS.photon_max_bounces)]
     photon_max_bounces: u32,
     /// Write the VPLs as a PLY point cloud (opens in MeshLab/Blender).
-    #[arg(long, value_name = "FILE.ply")]
+    #[arg(value_parser = Utf8Path, long, value_name = "FILE.ply")]
     dump_vpls: Option<PathBuf>,
     /// Write every pass's outputs of these frames (`0,19`, `last` or `all`) to OUT/passes: EXR
     /// and PNG per output, manifest.json per frame, index.html (the inspector page).
@@ -235,7 +235,7 @@ enum Command {
     /// Throughput benchmark: primary rays and path tracing (Mrays/s, GPU ms per pass).
     #[command(allow_negative_numbers = true)]
     Bench {
-        #[arg(long, default_value_os_t = DEFAULTS.scene.clone())]
+        #[arg(value_parser = Utf8Path, long, default_value_os_t = DEFAULTS.scene.clone())]
         scene: PathBuf,
         /// Image width (default 512; with --modes, both sizes of the issue unless a size is given).
         #[arg(long)]
@@ -249,7 +249,7 @@ enum Command {
         #[arg(long)]
         device: Option<usize>,
         /// Also write the figures as JSON to this file.
-        #[arg(long)]
+        #[arg(value_parser = Utf8Path, long)]
         json: Option<PathBuf>,
         /// Instead: time the photon pass (100k + 100k VPLs) on this scene and on a generated
         /// scene of over 100k triangles.
@@ -310,7 +310,7 @@ enum Command {
         #[arg(long)]
         quick: bool,
         /// With --curves, --motion, --radius or --scaling: output directory.
-        #[arg(long, default_value = "bench-out")]
+        #[arg(value_parser = Utf8Path, long, default_value = "bench-out")]
         out: PathBuf,
         /// With --curves: checkpoints (accumulated frames), comma separated [default: 1,2,5,10,20].
         #[arg(long, value_delimiter = ',', requires = "curves")]
@@ -332,10 +332,10 @@ enum Command {
     #[command(allow_negative_numbers = true)]
     Compare {
         /// Test image (EXR).
-        #[arg(value_name = "A.exr")]
+        #[arg(value_parser = Utf8Path, value_name = "A.exr")]
         test: PathBuf,
         /// Reference image (EXR).
-        #[arg(value_name = "B.exr")]
+        #[arg(value_parser = Utf8Path, value_name = "B.exr")]
         reference: PathBuf,
         /// Exposure in EV of FLIP's 8-bit mapping (as --exposure of the PNG preview).
         #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
@@ -347,10 +347,10 @@ enum Command {
         #[arg(long, default_value_t = 67.0)]
         ppd: f32,
         /// Write FLIP's error map as a false-colour PNG (magma: black = no error).
-        #[arg(long, value_name = "OUT.png")]
+        #[arg(value_parser = Utf8Path, long, value_name = "OUT.png")]
         error_image: Option<PathBuf>,
         /// Also write the metrics as JSON.
-        #[arg(long, value_name = "OUT.json")]
+        #[arg(value_parser = Utf8Path, long, value_name = "OUT.json")]
         json: Option<PathBuf>,
     },
     /// Merge partial references (EXRs with restir-vpl reference metadata) rendered over disjoint
@@ -361,10 +361,10 @@ enum Command {
     #[command(allow_negative_numbers = true)]
     MergeReferences {
         /// Partial references.
-        #[arg(required = true, value_name = "REF.exr")]
+        #[arg(value_parser = Utf8Path, required = true, value_name = "REF.exr")]
         inputs: Vec<PathBuf>,
         /// Merged reference to write (a new file unless --overwrite).
-        #[arg(long, value_name = "C.exr")]
+        #[arg(value_parser = Utf8Path, long, value_name = "C.exr")]
         out: PathBuf,
         /// Replace --out when it exists (never one of the inputs).
         #[arg(long)]
@@ -382,7 +382,7 @@ enum Command {
         render: RenderArgs,
         /// The reference to write (with --resume: to extend). An existing file is never overwritten
         /// without --resume.
-        #[arg(long, value_name = "REF.exr")]
+        #[arg(value_parser = Utf8Path, long, value_name = "REF.exr")]
         out: PathBuf,
         /// Index of the first frame: give each machine its own range.
         #[arg(long, default_value_t = 0)]
@@ -398,7 +398,7 @@ enum Command {
     #[command(allow_negative_numbers = true)]
     Results {
         /// Output directory (results.md, curves.csv, frame_times.csv, plots/, references/).
-        #[arg(long, default_value = "docs")]
+        #[arg(value_parser = Utf8Path, long, default_value = "docs")]
         out: PathBuf,
         /// Image sizes as a fraction of the thesis's (Cornell box 1280×1280, others 1280×720).
         #[arg(long, default_value_t = 0.25)]
@@ -497,6 +497,29 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
         }
     }
     Ok(Vec3::from_array(v))
+}
+
+/// Every path flag and argument: refused up front when not UTF-8 (the outputs' summaries and
+/// reference files record their paths as text; such a path failed after the render, naming no flag).
+#[derive(Clone)]
+struct Utf8Path;
+
+impl clap::builder::TypedValueParser for Utf8Path {
+    type Value = PathBuf;
+
+    fn parse_ref(&self, cmd: &clap::Command, arg: Option<&clap::Arg>, value: &std::ffi::OsStr) -> Result<PathBuf, clap::Error> {
+        match value.to_str() {
+            Some(s) => Ok(PathBuf::from(s)),
+            None => {
+                let name = arg.map_or_else(|| "a path".to_string(), ToString::to_string);
+                let message = format!(
+                    "{name}: '{}' is not valid UTF-8 (summaries and reference files record their paths as text): use a UTF-8 path\n",
+                    value.to_string_lossy()
+                );
+                Err(clap::Error::raw(clap::error::ErrorKind::InvalidUtf8, message).with_cmd(cmd))
+            }
+        }
+    }
 }
 
 fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSettings> {

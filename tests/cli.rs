@@ -597,3 +597,24 @@ fn no_vulkan_driver_is_reported_as_no_device_with_exit_code_2() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(String::from_utf8_lossy(&o.stdout).contains("no Vulkan devices found"), "{:?}", o);
 }
+
+/// A path that is not UTF-8 is refused before any work, naming its flag or argument (the summary
+/// and reference files record paths as text: before, a headless run rendered, wrote its images and
+/// then failed on summary.json, naming nothing).
+#[cfg(unix)]
+#[test]
+fn non_utf8_paths_are_refused_naming_the_flag() {
+    use std::os::unix::ffi::OsStrExt;
+    let bad = std::ffi::OsStr::from_bytes(b"/tmp/restir-vpl-test-\xff");
+    for (args, name) in [
+        (vec!["--headless", "--frames", "1", "--out"], "--out"),
+        (vec!["--headless", "--frames", "1", "--scene"], "--scene"),
+        (vec!["compare", "/tmp/a.exr"], "<B.exr>"),
+    ] {
+        let o = bin().args(&args).arg(bad).output().unwrap();
+        let err = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(name) && err.contains("not valid UTF-8"), "{args:?}: {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
