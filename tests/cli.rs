@@ -618,3 +618,38 @@ fn non_utf8_paths_are_refused_naming_the_flag() {
         assert!(!err.contains("panicked"), "{err}");
     }
 }
+
+/// The pipeline cache goes to an absolute directory only: an empty RESTIR_VPL_CACHE_DIR is unset,
+/// and a relative XDG_CACHE_HOME is ignored (the XDG base directory spec), so HOME's .cache is
+/// used. Before, both put the cache file in the working directory.
+#[test]
+fn an_empty_or_relative_cache_variable_is_not_the_working_directory() {
+    let (cwd, home) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+    let out = cwd.path().join("out");
+    let scene = repo_path("scenes/cornell_box.gltf");
+    let o = bin()
+        .current_dir(cwd.path())
+        .env_remove("RESTIR_VPL_PIPELINE_CACHE")
+        .env("RESTIR_VPL_CACHE_DIR", "")
+        .env("XDG_CACHE_HOME", "relative-cache")
+        .env("HOME", home.path())
+        .args(["--headless", "--frames", "1", "--width", "8", "--height", "8", "--scene"])
+        .arg(&scene)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    // (Mesa's own shader cache does follow a relative XDG_CACHE_HOME: only ours is checked.)
+    fn ours(dir: &Path) -> Vec<std::path::PathBuf> {
+        std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .flat_map(|p| if p.is_dir() { ours(&p) } else { vec![p] })
+            .filter(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("pipelines-")))
+            .collect()
+    }
+    assert_eq!(ours(cwd.path()), Vec::<std::path::PathBuf>::new(), "pipeline cache under the working directory");
+    let cache = home.path().join(".cache/restir-vpl");
+    assert!(std::fs::read_dir(&cache).is_ok_and(|mut d| d.next().is_some()), "no cache file in {}", cache.display());
+}

@@ -18,10 +18,12 @@ pub fn cache_path(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
     if std::env::var("RESTIR_VPL_PIPELINE_CACHE").is_ok_and(|v| v == "off") {
         return None;
     }
-    let dir = std::env::var_os("RESTIR_VPL_CACHE_DIR")
-        .map(PathBuf::from)
-        .or_else(|| std::env::var_os("XDG_CACHE_HOME").map(|d| PathBuf::from(d).join("restir-vpl")))
-        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache").join("restir-vpl")))?;
+    // An empty variable is unset; XDG_CACHE_HOME and HOME count only when absolute (the XDG base
+    // directory spec says to ignore a relative one: it put the cache in the working directory).
+    let var = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty()).map(PathBuf::from);
+    let dir = var("RESTIR_VPL_CACHE_DIR")
+        .or_else(|| var("XDG_CACHE_HOME").filter(|d| d.is_absolute()).map(|d| d.join("restir-vpl")))
+        .or_else(|| var("HOME").filter(|h| h.is_absolute()).map(|h| h.join(".cache").join("restir-vpl")))?;
     let uuid: String = props.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
     Some(dir.join(format!(
         "pipelines-{:04x}-{:04x}-{:x}-{uuid}-{:016x}.bin",
