@@ -533,6 +533,23 @@ impl RenderSettings {
                 {
                     format!("it sets ReSTIR's reuse, and --mode {mode} reuses no reservoirs")
                 }
+                "mcap" | "boiling_filter" if self.mode == Mode::Restir && !self.restir.temporal => {
+                    "it sets temporal reuse, which --temporal off turns off".to_string()
+                }
+                "spatial_radius" | "spatial_neighbours" if self.mode == Mode::Restir && self.restir.spatial_passes == 0 => {
+                    "it sets spatial reuse, which --spatial-passes 0 turns off".to_string()
+                }
+                "spatial_radius" | "spatial_passes" if self.mode == Mode::Restir && self.restir.spatial_neighbours == 0 => {
+                    "it sets spatial reuse, which --spatial-neighbours 0 turns off".to_string()
+                }
+                "normal_threshold" | "depth_threshold" | "bias" | "fuse_passes"
+                    if self.mode == Mode::Restir && !self.restir.temporal && !self.reuses_spatially() =>
+                {
+                    "it sets reservoir reuse, and with --temporal off and no spatial reuse there is none".to_string()
+                }
+                "view" if self.view == View::Indirect && !self.gi => {
+                    "--view indirect shows the indirect VPLs' light, and --no-gi traces none (the image is black)".to_string()
+                }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
                 "vpls_indirect" | "photon_min_bounces" | "photon_max_bounces" if !self.gi => {
                     "it shapes the indirect VPLs, and --no-gi traces none".to_string()
@@ -549,6 +566,11 @@ impl RenderSettings {
             out.push(format!("{} has no effect here: {why}", flag(id)));
         }
         out
+    }
+
+    /// Whether ReSTIR's settings ask for spatial reuse (passes and neighbours both above 0).
+    pub fn reuses_spatially(&self) -> bool {
+        self.restir.spatial_passes > 0 && self.restir.spatial_neighbours > 0
     }
 
     pub fn needs_vpls(&self) -> bool {
@@ -809,6 +831,24 @@ mod tests {
         let view = RenderSettings { view: View::Vpls, ..restir.clone() };
         assert_eq!(named(&view, &["mcap", "candidates", "compensate", "vpl_radius", "vpls_direct"]), ["--mcap", "--candidates", "--compensate"]);
         assert!(view.unused_flags(&["mcap"])[0].contains("--view vpls draws the VPLs"));
+        // ReSTIR with parts of its reuse turned off: the flags of the parts that are off.
+        let reuse = ["mcap", "boiling_filter", "spatial_radius", "spatial_neighbours", "spatial_passes", "normal_threshold", "bias", "candidates"];
+        let no_temporal = RenderSettings { restir: RestirSettings { temporal: false, ..Default::default() }, ..restir.clone() };
+        assert_eq!(named(&no_temporal, &reuse), ["--mcap", "--boiling-filter"]);
+        let no_spatial = RenderSettings { restir: RestirSettings { spatial_passes: 0, ..Default::default() }, ..restir.clone() };
+        assert_eq!(named(&no_spatial, &reuse), ["--spatial-radius", "--spatial-neighbours"]);
+        let no_neighbours = RenderSettings { restir: RestirSettings { spatial_neighbours: 0, ..Default::default() }, ..restir.clone() };
+        assert_eq!(named(&no_neighbours, &reuse), ["--spatial-radius", "--spatial-passes"]);
+        let no_reuse = RenderSettings { restir: RestirSettings { temporal: false, spatial_passes: 0, ..Default::default() }, ..restir.clone() };
+        assert_eq!(
+            named(&no_reuse, &reuse),
+            ["--mcap", "--boiling-filter", "--spatial-radius", "--spatial-neighbours", "--normal-threshold", "--bias"]
+        );
+        assert!(named(&restir, &reuse).is_empty());
+        // --view indirect with --no-gi is black.
+        let black = RenderSettings { view: View::Indirect, ..no_gi.clone() };
+        assert_eq!(named(&black, &["view"]), ["--view"]);
+        assert!(named(&RenderSettings { view: View::Indirect, ..restir.clone() }, &["view"]).is_empty());
     }
 
     #[test]
