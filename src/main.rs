@@ -646,6 +646,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         // Checked before any reference renders, naming the flag (these were caught late, under
         // another flag's name).
         check_counts(&[("--runs", *runs), ("--pt-frames", *pt_frames), ("--vpl-frames", *vpl_frames)], checkpoints.as_deref())?;
+        restir_vpl::output::prepare_output_dir("--out", out)?;
         opts.out_dir = out.clone();
         opts.runs = runs.unwrap_or(opts.runs);
         opts.pt_reference_frames = pt_frames.unwrap_or(opts.pt_reference_frames);
@@ -690,6 +691,13 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 unused.join(", "),
                 uses.iter().map(|u| format!("--{u}")).collect::<Vec<_>>().join(", ")
             );
+        }
+        // Outputs checked before the run, not when it ends.
+        if let Some(path) = json {
+            restir_vpl::output::prepare_output_file(path).map_err(|e| anyhow::anyhow!("--json {}: {e:#}", path.display()))?;
+        }
+        if *curves || *motion || *radius || *scaling {
+            restir_vpl::output::prepare_output_dir("--out", out)?;
         }
         if *scaling {
             if runs.is_some() {

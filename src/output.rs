@@ -115,6 +115,13 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
     matches!((resolve(a), resolve(b)), (Some(x), Some(y)) if x == y)
 }
 
+/// Creates the output directory `dir` of `flag` before a long run writes into it (a file there,
+/// or a directory that cannot be made, was found only when the run ended).
+pub fn prepare_output_dir(flag: &str, dir: &Path) -> Result<()> {
+    anyhow::ensure!(!dir.exists() || dir.is_dir(), "{flag} {}: exists and is not a directory", dir.display());
+    std::fs::create_dir_all(dir).with_context(|| format!("{flag} {}: cannot create the directory", dir.display()))
+}
+
 /// Creates `path`'s directory and checks that it takes the file ([`check_writable`]): called
 /// before a long render whose result goes to `path`.
 pub fn prepare_output_file(path: &Path) -> Result<()> {

@@ -653,3 +653,18 @@ fn an_empty_or_relative_cache_variable_is_not_the_working_directory() {
     let cache = home.path().join(".cache/restir-vpl");
     assert!(std::fs::read_dir(&cache).is_ok_and(|mut d| d.next().is_some()), "no cache file in {}", cache.display());
 }
+
+/// Outputs that cannot be written are refused before the work, naming the flag: a bench's --json
+/// naming a directory, an --out that is a file, compare's --error-image naming a directory (each
+/// failed only after the benchmark, the references or FLIP had run).
+#[test]
+fn unwritable_outputs_are_refused_before_the_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let (d, f) = (dir.path().to_str().unwrap(), file.to_str().unwrap());
+    assert_fails(&["bench", "--json", d, "--frames", "1", "--width", "8", "--height", "8"], &["--json", "is a directory"]);
+    assert_fails(&["bench", "--curves", "--quick", "--out", f], &["--out", "exists and is not a directory"]);
+    assert_fails(&["results", "--quick", "--out", f], &["--out", "exists and is not a directory"]);
+    assert_fails(&["compare", "a.exr", "b.exr", "--error-image", d], &["--error-image", "is a directory"]);
+}

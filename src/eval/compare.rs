@@ -375,6 +375,12 @@ pub fn run_cli(
             bail!("--error-image and --json both name {}; give two files", e.display());
         }
     }
+    // Outputs checked before the comparison (FLIP takes a while on large images).
+    for (flag, out) in [("--error-image", error_image), ("--json", json)] {
+        if let Some(out) = out {
+            crate::output::prepare_output_file(out).with_context(|| format!("{flag} {}", out.display()))?;
+        }
+    }
     let a = crate::output::read_exr(a_path).context("test image")?;
     let b = crate::output::read_exr(b_path).context("reference")?;
     let need_map = opts.flip || error_image.is_some();
