@@ -194,6 +194,12 @@ bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t)
 bool segment_visible(vec3 from, vec3 to) {
     vec3 d = to - from;
     float len = length(d);
+    // A ray query's origin, direction and t range must be finite (undefined otherwise: lavapipe
+    // forgives it, hardware traversal need not): endpoints ~1e19 apart (len overflows) or not
+    // finite are taken as blocked, so they add nothing.
+    if (!is_finite(len) || !is_finite(from)) {
+        return false;
+    }
     if (len <= 0.0) {
         return true;
     }

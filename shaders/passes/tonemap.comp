@@ -25,6 +25,7 @@ void main() {
     vec3 c = means[i].rgb * frame.exposure;
     // A NaN or infinity becomes 0 (tested on the bits, lib/finite.glsl), a negative value too.
     c = vec3(is_finite(c.x) && c.x > 0.0 ? c.x : 0.0, is_finite(c.y) && c.y > 0.0 ? c.y : 0.0, is_finite(c.z) && c.z > 0.0 ? c.z : 0.0);
-    uvec3 q = uvec3(round(vec3(srgb_encode(c.x), srgb_encode(c.y), srgb_encode(c.z)) * 255.0));
+    // floor(x + 0.5), not round(): round()'s direction at .5 is the implementation's choice.
+    uvec3 q = uvec3(floor(vec3(srgb_encode(c.x), srgb_encode(c.y), srgb_encode(c.z)) * 255.0 + 0.5));
     preview[i] = q.x | (q.y << 8) | (q.z << 16) | (255u << 24);
 }
