@@ -26,3 +26,27 @@ fn an_invalid_command_is_counted_as_a_validation_error() {
     let first = ctx.first_validation_error().unwrap_or_default();
     assert!(first.contains("00029") || first.contains("TRANSFER_DST"), "an unexpected first error: {first}");
 }
+
+/// Synchronization validation is on: a missing barrier (a buffer filled, then copied from, with no
+/// dependency between the two) is counted as an error, so the suite's "0 errors" also means no
+/// hazard between passes (which lavapipe's in-order queue forgives and a GPU does not).
+#[test]
+fn a_missing_barrier_is_counted_as_a_hazard() {
+    if !validate() {
+        eprintln!("SKIPPED: no validation layer installed (CI requires one)");
+        return;
+    }
+    let ctx = context();
+    let usage = vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
+    let a = Buffer::new(&ctx, "hazard_a", 256, usage, MemoryLocation::GpuOnly).unwrap();
+    let b = Buffer::new(&ctx, "hazard_b", 256, usage, MemoryLocation::GpuOnly).unwrap();
+    // SAFETY: cmd is recording; both buffers outlive the one-shot submission.
+    ctx.one_shot(|cmd| unsafe {
+        ctx.device.cmd_fill_buffer(cmd, a.raw, 0, 256, 7);
+        ctx.device.cmd_copy_buffer(cmd, a.raw, b.raw, &[vk::BufferCopy::default().size(256)]);
+    })
+    .unwrap();
+    assert!(ctx.validation_errors() >= 1, "the unsynchronised copy was not reported: synchronization validation is off");
+    let first = ctx.first_validation_error().unwrap_or_default();
+    assert!(first.contains("SYNC-HAZARD-READ-AFTER-WRITE"), "an unexpected first error: {first}");
+}

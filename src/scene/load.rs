@@ -607,6 +607,21 @@ fn check_version(version: &str, min_version: Option<&str>) -> Result<()> {
 /// unchecked, and to report a missing POSITION with the mesh name.
 fn precheck(root: &gltf::json::Root) -> Result<()> {
     use gltf::json::validation::Checked;
+    // A view must lie inside its buffer's declared byteLength (the data may hold more: a view
+    // past the declared length was read from the extra bytes without a word).
+    for (vi, view) in root.buffer_views.iter().enumerate() {
+        let Some(buffer) = root.buffers.get(view.buffer.value()) else { continue };
+        let start = view.byte_offset.map_or(0, |o| o.0);
+        let end = start.saturating_add(view.byte_length.0);
+        if end > buffer.byte_length.0 {
+            bail!(
+                "buffer view {vi} (offset {start}, length {}) exceeds buffer {}'s byteLength ({} bytes)",
+                view.byte_length.0,
+                view.buffer.value(),
+                buffer.byte_length.0
+            );
+        }
+    }
     for (mi, mesh) in root.meshes.iter().enumerate() {
         let name = mesh.name.clone().unwrap_or_else(|| format!("mesh{mi}"));
         for (pi, prim) in mesh.primitives.iter().enumerate() {

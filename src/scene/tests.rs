@@ -419,6 +419,11 @@ fn error_bad_buffers_do_not_panic() {
     let mut doc = triangle_doc();
     doc["buffers"][0]["uri"] = json!("data.bin");
     assert_contains(&load_err(&doc), &["data.bin", "base directory"]);
+    // A bufferView past its buffer's declared byteLength (the data itself holds the bytes).
+    let mut doc = triangle_doc();
+    let declared = doc["buffers"][0]["byteLength"].as_u64().unwrap();
+    doc["buffers"][0]["byteLength"] = json!(declared - 4);
+    assert_contains(&load_err(&doc), &["buffer view", "exceeds buffer 0's byteLength"]);
     // Truncated / lying GLB headers.
     for bytes in [
         &b"glTF"[..],
