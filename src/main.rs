@@ -1108,6 +1108,9 @@ fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
     for w in settings.unused_flags(&given) {
         log::warn!("{w}");
     }
+    if settings.view == restir_vpl::settings::View::Indirect && !settings.gi {
+        log::warn!("--view indirect with --no-gi: the image is black (--no-gi traces no indirect VPLs)");
+    }
 }
 
 /// Flags whose values may start with a minus sign without being plain numbers ("-1,0,0", "-.5",

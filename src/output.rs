@@ -41,15 +41,23 @@ fn write_in_place(target: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
     use std::io::Write as _;
     static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
     let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let name = target.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let tmp = std::env::temp_dir().join(format!(".restir-vpl-{}-{n}-{name}.partial", std::process::id()));
-    let bytes = write(&tmp).and_then(|()| std::fs::read(&tmp).with_context(|| format!("reading back {}", tmp.display())));
-    let _ = std::fs::remove_file(&tmp);
-    let bytes = bytes?;
-    let mut out = std::fs::OpenOptions::new().write(true).open(target)?;
-    out.write_all(&bytes)?;
-    out.flush()?;
-    Ok(())
+    // A directory of our own (create_dir fails if the name exists, so nothing planted in a shared
+    // /tmp is followed), private on Unix; the file inside it keeps the target's name.
+    let dir = std::env::temp_dir().join(format!(".restir-vpl-{}-{n}", std::process::id()));
+    let mut builder = std::fs::DirBuilder::new();
+    #[cfg(unix)]
+    std::os::unix::fs::DirBuilderExt::mode(&mut builder, 0o700);
+    builder.create(&dir).with_context(|| format!("creating the temporary directory {}", dir.display()))?;
+    let tmp = dir.join(target.file_name().unwrap_or(std::ffi::OsStr::new("output")));
+    let copied = write(&tmp).and_then(|()| {
+        let mut from = std::fs::File::open(&tmp).with_context(|| format!("reading back {}", tmp.display()))?;
+        let mut out = std::fs::OpenOptions::new().write(true).open(target)?;
+        std::io::copy(&mut from, &mut out)?;
+        out.flush()?;
+        Ok(())
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    copied
 }
 
 /// `path` with symbolic links followed (also a link to a file not written yet); `path` itself when
@@ -135,6 +143,11 @@ pub fn prepare_output_file(path: &Path) -> Result<()> {
 /// takes a new file (created and removed again here), and `path` is not a directory.
 pub fn check_writable(path: &Path) -> Result<()> {
     anyhow::ensure!(!path.is_dir(), "{} is a directory; name a file", path.display());
+    // A device or pipe (/dev/null, /dev/stdout) is written in place, with no file beside it: no
+    // probe in /dev (not opened either: a pipe with no reader would block here).
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        return Ok(());
+    }
     let probe = {
         let name = path.file_name().with_context(|| format!("{} names no file", path.display()))?;
         let mut n = std::ffi::OsString::from(".");
@@ -307,9 +320,10 @@ mod tests {
         std::os::unix::fs::symlink("/dev/null", &null).unwrap();
         let mut given = PathBuf::new();
         let e = write_replacing(&null, |p| {
+            // (A writer that removes its output on failure is what hurt; this one does not, so
+            // that a regression cannot remove /dev/null: the path it was given is checked.)
             given = p.to_path_buf();
             std::fs::write(p, b"half")?;
-            std::fs::remove_file(p)?;
             anyhow::bail!("the writer failed")
         })
         .unwrap_err();

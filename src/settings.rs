@@ -536,19 +536,30 @@ impl RenderSettings {
                 "mcap" | "boiling_filter" if self.mode == Mode::Restir && !self.restir.temporal => {
                     "it sets temporal reuse, which --temporal off turns off".to_string()
                 }
-                "spatial_radius" | "spatial_neighbours" if self.mode == Mode::Restir && self.restir.spatial_passes == 0 => {
+                // (Both set to 0 is the user turning spatial reuse off twice: not worth a word.)
+                "spatial_radius" | "spatial_neighbours"
+                    if self.mode == Mode::Restir
+                        && self.restir.spatial_passes == 0
+                        && (id == "spatial_radius" || self.restir.spatial_neighbours > 0) =>
+                {
                     "it sets spatial reuse, which --spatial-passes 0 turns off".to_string()
                 }
-                "spatial_radius" | "spatial_passes" if self.mode == Mode::Restir && self.restir.spatial_neighbours == 0 => {
+                "spatial_radius" | "spatial_passes"
+                    if self.mode == Mode::Restir
+                        && self.restir.spatial_neighbours == 0
+                        && (id == "spatial_radius" || self.restir.spatial_passes > 0) =>
+                {
                     "it sets spatial reuse, which --spatial-neighbours 0 turns off".to_string()
                 }
-                "normal_threshold" | "depth_threshold" | "bias" | "fuse_passes"
-                    if self.mode == Mode::Restir && !self.restir.temporal && !self.reuses_spatially() =>
+                // (--bias still decides whether the shade pass re-traces a shadow ray after
+                // --initial-visibility, and --view motion reads the thresholds.)
+                "normal_threshold" | "depth_threshold" | "fuse_passes"
+                    if self.mode == Mode::Restir
+                        && !self.restir.temporal
+                        && !self.reuses_spatially()
+                        && (id == "fuse_passes" || self.view != View::Motion) =>
                 {
                     "it sets reservoir reuse, and with --temporal off and no spatial reuse there is none".to_string()
-                }
-                "view" if self.view == View::Indirect && !self.gi => {
-                    "--view indirect shows the indirect VPLs' light, and --no-gi traces none (the image is black)".to_string()
                 }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
                 "vpls_indirect" | "photon_min_bounces" | "photon_max_bounces" if !self.gi => {
@@ -840,15 +851,14 @@ mod tests {
         let no_neighbours = RenderSettings { restir: RestirSettings { spatial_neighbours: 0, ..Default::default() }, ..restir.clone() };
         assert_eq!(named(&no_neighbours, &reuse), ["--spatial-radius", "--spatial-passes"]);
         let no_reuse = RenderSettings { restir: RestirSettings { temporal: false, spatial_passes: 0, ..Default::default() }, ..restir.clone() };
-        assert_eq!(
-            named(&no_reuse, &reuse),
-            ["--mcap", "--boiling-filter", "--spatial-radius", "--spatial-neighbours", "--normal-threshold", "--bias"]
-        );
+        assert_eq!(named(&no_reuse, &reuse), ["--mcap", "--boiling-filter", "--spatial-radius", "--spatial-neighbours", "--normal-threshold"]);
+        // --view motion reads the thresholds; spatial reuse turned off by both of its flags is not
+        // a contradiction.
+        let motion = RenderSettings { view: View::Motion, ..no_reuse.clone() };
+        assert_eq!(named(&motion, &["normal_threshold", "depth_threshold", "fuse_passes"]), ["--fuse-passes"]);
+        let both_off = RenderSettings { restir: RestirSettings { spatial_passes: 0, spatial_neighbours: 0, ..Default::default() }, ..restir.clone() };
+        assert_eq!(named(&both_off, &["spatial_passes", "spatial_neighbours", "spatial_radius"]), ["--spatial-radius"]);
         assert!(named(&restir, &reuse).is_empty());
-        // --view indirect with --no-gi is black.
-        let black = RenderSettings { view: View::Indirect, ..no_gi.clone() };
-        assert_eq!(named(&black, &["view"]), ["--view"]);
-        assert!(named(&RenderSettings { view: View::Indirect, ..restir.clone() }, &["view"]).is_empty());
     }
 
     #[test]

@@ -22,9 +22,12 @@ void main() {
     if (i >= frame.width * frame.height) {
         return;
     }
-    vec3 c = means[i].rgb * frame.exposure;
-    // A NaN or infinity becomes 0 (tested on the bits, lib/finite.glsl), a negative value too.
-    c = vec3(is_finite(c.x) && c.x > 0.0 ? c.x : 0.0, is_finite(c.y) && c.y > 0.0 ? c.y : 0.0, is_finite(c.z) && c.z > 0.0 ? c.z : 0.0);
+    // A pixel with a non-finite channel is black (tested on the bits, lib/finite.glsl), as in
+    // compare's CPU mapping (eval::compare::to_srgb8); negative channels become 0, and one that
+    // the exposure takes past f32's range is white after srgb_encode's clamp.
+    vec3 m = means[i].rgb;
+    vec3 c = is_finite(m) ? m * frame.exposure : vec3(0.0);
+    c = vec3(c.x > 0.0 ? c.x : 0.0, c.y > 0.0 ? c.y : 0.0, c.z > 0.0 ? c.z : 0.0);
     // floor(x + 0.5), not round(): round()'s direction at .5 is the implementation's choice.
     uvec3 q = uvec3(floor(vec3(srgb_encode(c.x), srgb_encode(c.y), srgb_encode(c.z)) * 255.0 + 0.5));
     preview[i] = q.x | (q.y << 8) | (q.z << 16) | (255u << 24);
