@@ -160,6 +160,13 @@ pub fn check_writable(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// An RGBA8 image (row-major, row 0 at the top) encoded as PNG bytes.
+pub fn encode_png(width: u32, height: u32, rgba: &[u8]) -> Result<Vec<u8>> {
+    let mut png = Vec::new();
+    image::ImageEncoder::write_image(image::codecs::png::PngEncoder::new(&mut png), rgba, width, height, image::ExtendedColorType::Rgba8)?;
+    Ok(png)
+}
+
 /// Writes a float32 RGB OpenEXR file; `pixels` are row-major with row 0 at the top.
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<()> {
     anyhow::ensure!(pixels.len() == (width * height) as usize, "image size mismatch writing {}", path.display());
@@ -241,15 +248,7 @@ pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()
     write_replacing(path, |partial| {
         // Encoded in memory and written with fs::write: image's save_buffer writes through a
         // BufWriter that it never flushes, so a full disk gave an empty file and no error.
-        let mut png = Vec::new();
-        image::ImageEncoder::write_image(
-            image::codecs::png::PngEncoder::new(&mut png),
-            rgba,
-            width,
-            height,
-            image::ExtendedColorType::Rgba8,
-        )?;
-        std::fs::write(partial, png)?;
+        std::fs::write(partial, encode_png(width, height, rgba)?)?;
         Ok(())
     })
 }

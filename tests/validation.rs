@@ -9,13 +9,19 @@ use common::*;
 use gpu_allocator::MemoryLocation;
 use restir_vpl::vk::Buffer;
 
-#[test]
-fn an_invalid_command_is_counted_as_a_validation_error() {
+/// A context under the validation layer, or None (said) where the layer is not installed (CI
+/// requires it: `common::validate`).
+fn validated_context() -> Option<std::sync::Arc<restir_vpl::vk::Context>> {
     if !validate() {
         eprintln!("SKIPPED: no validation layer installed (CI requires one)");
-        return;
+        return None;
     }
-    let ctx = context();
+    Some(context())
+}
+
+#[test]
+fn an_invalid_command_is_counted_as_a_validation_error() {
+    let Some(ctx) = validated_context() else { return };
     assert_eq!(ctx.validation_errors(), 0, "a fresh context has no errors: {:?}", ctx.first_validation_error());
     // vkCmdFillBuffer on a buffer created without TRANSFER_DST usage
     // (VUID-vkCmdFillBuffer-dstBuffer-00029); drivers ignore usage flags, so it is harmless.
@@ -32,11 +38,8 @@ fn an_invalid_command_is_counted_as_a_validation_error() {
 /// hazard between passes (which lavapipe's in-order queue forgives and a GPU does not).
 #[test]
 fn a_missing_barrier_is_counted_as_a_hazard() {
-    if !validate() {
-        eprintln!("SKIPPED: no validation layer installed (CI requires one)");
-        return;
-    }
-    let ctx = context();
+    let Some(ctx) = validated_context() else { return };
+    assert_eq!(ctx.validation_errors(), 0, "a fresh context has no errors: {:?}", ctx.first_validation_error());
     let usage = vk::BufferUsageFlags::TRANSFER_SRC | vk::BufferUsageFlags::TRANSFER_DST;
     let a = Buffer::new(&ctx, "hazard_a", 256, usage, MemoryLocation::GpuOnly).unwrap();
     let b = Buffer::new(&ctx, "hazard_b", 256, usage, MemoryLocation::GpuOnly).unwrap();

@@ -800,15 +800,7 @@ fn lights_cameras_and_warnings() {
 
 /// A PNG (RGBA8) as a base64 data URI.
 fn png_data_uri(width: u32, height: u32, rgba: &[u8]) -> String {
-    let mut bytes = Vec::new();
-    image::ImageEncoder::write_image(
-        image::codecs::png::PngEncoder::new(&mut bytes),
-        rgba,
-        width,
-        height,
-        image::ExtendedColorType::Rgba8,
-    )
-    .unwrap();
+    let bytes = crate::output::encode_png(width, height, rgba).unwrap();
     format!("data:image/png;base64,{}", base64::encode(&bytes))
 }
 

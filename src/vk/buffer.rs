@@ -45,22 +45,16 @@ impl Buffer {
         let raw = unsafe { device.create_buffer(&info, None) }.with_context(|| format!("vkCreateBuffer '{name}'"))?;
         // SAFETY: raw was just created.
         let requirements = unsafe { device.get_buffer_memory_requirements(raw) };
-        // On failure the buffer (and its memory) is released here: no Self owns it yet.
-        let allocation = match ctx.allocate(name, requirements, location, true) {
-            Ok(allocation) => allocation,
-            Err(e) => {
-                // SAFETY: raw was just created and is used by nothing.
-                unsafe { device.destroy_buffer(raw, None) };
-                return Err(e);
-            }
-        };
-        // SAFETY: memory comes from the allocator for this buffer's requirements.
-        if let Err(e) = unsafe { device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) } {
-            ctx.free(allocation);
-            // SAFETY: as above.
-            unsafe { device.destroy_buffer(raw, None) };
-            return Err(e).with_context(|| format!("binding memory of '{name}'"));
-        }
+        let allocation = ctx.allocate_bound(
+            name,
+            requirements,
+            location,
+            true,
+            // SAFETY: memory comes from the allocator for this buffer's requirements.
+            |a| unsafe { device.bind_buffer_memory(raw, a.memory(), a.offset()) },
+            // SAFETY: raw was just created and is used by nothing.
+            || unsafe { device.destroy_buffer(raw, None) },
+        )?;
         ctx.set_name(raw, name);
         let address = usage.contains(vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS).then(|| {
             // SAFETY: the buffer has SHADER_DEVICE_ADDRESS usage and bound memory.
@@ -187,24 +181,10 @@ pub fn read_back(ctx: &Arc<Context>, src: &Buffer) -> Result<Vec<u8>> {
         MemoryLocation::GpuToCpu,
     )?;
     let region = [vk::BufferCopy::default().size(src.size)];
-    ctx.one_shot(|cmd| {
-        let barrier = [vk::MemoryBarrier::default()
-            .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-            .dst_access_mask(vk::AccessFlags::TRANSFER_READ)];
-        // SAFETY: both buffers are alive until one_shot's wait returns.
-        unsafe {
-            ctx.device.cmd_pipeline_barrier(
-                cmd,
-                vk::PipelineStageFlags::ALL_COMMANDS,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::DependencyFlags::empty(),
-                &barrier,
-                &[],
-                &[],
-            );
-            ctx.device.cmd_copy_buffer(cmd, src.raw, staging.raw, &region);
-        }
-    })?;
+    // one_shot's submission_start_barrier makes the source's writes (earlier submissions) visible
+    // to the copy, and its host_read_barrier the copy to the read below.
+    // SAFETY: both buffers are alive until one_shot's wait returns.
+    ctx.one_shot(|cmd| unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, staging.raw, &region) })?;
     staging.read(0, src.size as usize)
 }
 

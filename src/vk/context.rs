@@ -619,6 +619,32 @@ impl Context {
             .with_context(|| format!("allocating {} bytes for '{name}'", requirements.size))
     }
 
+    /// Memory for an object just created (a buffer or image), bound to it by `bind`. On failure
+    /// the object is released by `destroy` (and the memory freed): no owner holds it yet.
+    pub fn allocate_bound(
+        &self,
+        name: &str,
+        requirements: vk::MemoryRequirements,
+        location: MemoryLocation,
+        linear: bool,
+        bind: impl FnOnce(&Allocation) -> ash::prelude::VkResult<()>,
+        destroy: impl FnOnce(),
+    ) -> Result<Allocation> {
+        let allocation = match self.allocate(name, requirements, location, linear) {
+            Ok(allocation) => allocation,
+            Err(e) => {
+                destroy();
+                return Err(e);
+            }
+        };
+        if let Err(e) = bind(&allocation) {
+            self.free(allocation);
+            destroy();
+            return Err(e).with_context(|| format!("binding memory of '{name}'"));
+        }
+        Ok(allocation)
+    }
+
     /// Returns an allocation made by [`Self::allocate`] (after its object is destroyed).
     pub fn free(&self, allocation: Allocation) {
         if let Ok(mut alloc) = self.allocator.lock() {

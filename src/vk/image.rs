@@ -38,22 +38,16 @@ impl Image {
         let raw = unsafe { device.create_image(&info, None) }.with_context(|| format!("vkCreateImage '{name}'"))?;
         // SAFETY: raw was just created.
         let requirements = unsafe { device.get_image_memory_requirements(raw) };
-        // On failure the image (and its memory) is released here: no Self owns it yet.
-        let allocation = match ctx.allocate(name, requirements, MemoryLocation::GpuOnly, false) {
-            Ok(allocation) => allocation,
-            Err(e) => {
-                // SAFETY: raw was just created and is used by nothing.
-                unsafe { device.destroy_image(raw, None) };
-                return Err(e);
-            }
-        };
-        // SAFETY: memory comes from the allocator for this image's requirements.
-        if let Err(e) = unsafe { device.bind_image_memory(raw, allocation.memory(), allocation.offset()) } {
-            ctx.free(allocation);
-            // SAFETY: as above.
-            unsafe { device.destroy_image(raw, None) };
-            return Err(e).with_context(|| format!("binding memory of '{name}'"));
-        }
+        let allocation = ctx.allocate_bound(
+            name,
+            requirements,
+            MemoryLocation::GpuOnly,
+            false,
+            // SAFETY: memory comes from the allocator for this image's requirements.
+            |a| unsafe { device.bind_image_memory(raw, a.memory(), a.offset()) },
+            // SAFETY: raw was just created and is used by nothing.
+            || unsafe { device.destroy_image(raw, None) },
+        )?;
         ctx.set_name(raw, name);
         Ok(Self { ctx: ctx.clone(), raw, allocation: Some(allocation), extent, format, name: name.to_string() })
     }

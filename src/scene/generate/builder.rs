@@ -125,15 +125,8 @@ impl GltfBuilder {
             width as usize * height as usize * 4,
             "texture '{name}': RGBA8 data does not match {width}x{height}"
         );
-        let mut png = Vec::new();
-        image::ImageEncoder::write_image(
-            image::codecs::png::PngEncoder::new(&mut png),
-            rgba8,
-            width,
-            height,
-            image::ExtendedColorType::Rgba8,
-        )
-        .unwrap_or_else(|e| panic!("texture '{name}': PNG encoding failed: {e}"));
+        let png = crate::output::encode_png(width, height, rgba8)
+            .unwrap_or_else(|e| panic!("texture '{name}': PNG encoding failed: {e}"));
         let view = self.push_view(&png, None);
         // Keep the buffer 4-byte aligned after the image for the accessors that follow.
         self.pad_buffer();
