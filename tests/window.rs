@@ -279,6 +279,9 @@ fn keys_change_mode_move_camera_resize_and_quit() {
         .unwrap()
         .to_string();
     xdotool(d, &["windowfocus", "--sync", &wid]);
+    // Tab first: it must not hand the keyboard to the overlay (it gave its collapsed title button
+    // focus, and every key after it went there, with no sign, until Esc or a click in the image).
+    xdotool(d, &["key", "Tab"]);
     // 3: ReSTIR.
     press_until_title(d, &wid, "3", "restir ·", Duration::from_secs(60));
     // Key events are read between frames: wait until the first frames (which compile the shaders

@@ -242,7 +242,11 @@ impl App {
             // pointer over the panel, a resize) shows the last frame again with them redrawn.
             r.refresh = true;
         }
-        if r.overlay && !matches!(event, WindowEvent::RedrawRequested) {
+        // Tab is kept from the panel: egui moves keyboard focus to its next widget on Tab, and the
+        // keys then went to that widget (a collapsed panel's title button, with no sign of it)
+        // instead of the shortcuts until Esc or a click in the image.
+        let tab = matches!(&event, WindowEvent::KeyboardInput { event, .. } if event.physical_key == PhysicalKey::Code(KeyCode::Tab));
+        if r.overlay && !tab && !matches!(event, WindowEvent::RedrawRequested) {
             // The panel takes the pointer over it, and the keys while one of its widgets has focus.
             let consumed = r.ui.on_window_event(&r.window, &event);
             let keyboard = matches!(event, WindowEvent::KeyboardInput { .. });
