@@ -391,9 +391,10 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
         } else {
             ui.label(format!("{:.2} rays/px", stats.rays as f64 / pixels));
         }
-        if !info.message.is_empty() {
-            ui.colored_label(egui::Color32::LIGHT_YELLOW, info.message);
-        }
+        // Always one line, empty or not, and truncated (the title has it whole): a message that
+        // came and went moved every row below it, so a click meant for one setting landed on
+        // the one above (spatial passes → boiling filter).
+        ui.add(egui::Label::new(egui::RichText::new(info.message).color(egui::Color32::LIGHT_YELLOW)).truncate());
         if let Some(r) = reference {
             ui.separator();
             if (s.width, s.height) != (r.image.width, r.image.height) {
