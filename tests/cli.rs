@@ -88,6 +88,7 @@ fn unwritable_outputs_fail_before_rendering() {
     std::fs::write(&file, b"x").unwrap();
     let file = file.display().to_string();
     assert_fails(&["--headless", "--width", "8", "--height", "8", "--frames", "1", "--out", &file], &["--out", "is a file"]);
+    assert_fails(&["--headless", "--width", "8", "--height", "8", "--frames", "1", "--out", "/dev/null"], &["--out /dev/null", "exists and is not a directory"]);
 }
 
 #[test]
