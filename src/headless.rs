@@ -126,10 +126,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         warnings.push(w);
     }
     if let Some(dir) = &settings.out_dir {
-        // (A device such as /dev/null, or a file: "cannot create the directory: File exists" before.)
-        let what = if dir.is_file() { "is a file" } else { "exists and is not a directory" };
-        anyhow::ensure!(!dir.exists() || dir.is_dir(), "--out {}: {what}; name a directory (it is created if missing)", dir.display());
-        std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
+        crate::output::prepare_output_dir("--out", dir)?;
         // Checked before the frames, not after them.
         for name in RUN_OUTPUT_FILES {
             crate::output::check_writable(&dir.join(name)).with_context(|| format!("--out {}", dir.display()))?;

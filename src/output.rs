@@ -126,7 +126,9 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 /// Creates the output directory `dir` of `flag` before a long run writes into it (a file there,
 /// or a directory that cannot be made, was found only when the run ended).
 pub fn prepare_output_dir(flag: &str, dir: &Path) -> Result<()> {
-    anyhow::ensure!(!dir.exists() || dir.is_dir(), "{flag} {}: exists and is not a directory", dir.display());
+    // (A device such as /dev/null, or a file, said "cannot create the directory: File exists".)
+    let what = if dir.is_file() { "is a file (it exists and is not a directory)" } else { "exists and is not a directory" };
+    anyhow::ensure!(!dir.exists() || dir.is_dir(), "{flag} {}: {what}; name a directory (it is created if missing)", dir.display());
     std::fs::create_dir_all(dir).with_context(|| format!("{flag} {}: cannot create the directory", dir.display()))
 }
 

@@ -422,65 +422,38 @@ pub fn submission_start_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
     let stages = vk::PipelineStageFlags::COMPUTE_SHADER
         | vk::PipelineStageFlags::TRANSFER
         | vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR;
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(
-            vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
-        )
-        .dst_access_mask(
-            vk::AccessFlags::SHADER_READ
-                | vk::AccessFlags::SHADER_WRITE
-                | vk::AccessFlags::TRANSFER_READ
-                | vk::AccessFlags::TRANSFER_WRITE
-                | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR
-                | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR,
-        )];
-    // SAFETY: cmd is recording.
-    unsafe { ctx.device.cmd_pipeline_barrier(cmd, stages, stages, vk::DependencyFlags::empty(), &barrier, &[], &[]) };
+    let writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR;
+    let reads = vk::AccessFlags::SHADER_READ | vk::AccessFlags::TRANSFER_READ | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR;
+    memory_barrier(ctx, cmd, (stages, writes), (stages, reads | writes));
 }
 
 /// Last in a command buffer whose results the host reads after its fence: the device writes made
 /// visible to host reads (a fence wait alone makes them available, not visible).
 pub fn host_read_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-        .dst_access_mask(vk::AccessFlags::HOST_READ)];
-    // SAFETY: cmd is recording.
-    unsafe {
-        ctx.device.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::HOST,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        )
-    };
+    let device_stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
+    let device_writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE;
+    memory_barrier(ctx, cmd, (device_stages, device_writes), (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ));
 }
 
 /// A full compute→compute (and →transfer) memory barrier between passes (transfer writes after
 /// shader writes included: a counter cleared by vkCmdFillBuffer after a pass's atomics).
 pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let barrier = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
-        .dst_access_mask(
-            vk::AccessFlags::SHADER_READ
-                | vk::AccessFlags::SHADER_WRITE
-                | vk::AccessFlags::TRANSFER_READ
-                | vk::AccessFlags::TRANSFER_WRITE,
-        )];
+    let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
+    let writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE;
+    let reads = vk::AccessFlags::SHADER_READ | vk::AccessFlags::TRANSFER_READ;
+    memory_barrier(ctx, cmd, (stages, writes), (stages, reads | writes));
+}
+
+/// One global memory barrier: `src` (stages, accesses) before `dst` (stages, accesses).
+fn memory_barrier(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let barrier = [vk::MemoryBarrier::default().src_access_mask(src.1).dst_access_mask(dst.1)];
     // SAFETY: cmd is recording.
-    unsafe {
-        ctx.device.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::DependencyFlags::empty(),
-            &barrier,
-            &[],
-            &[],
-        )
-    };
+    unsafe { ctx.device.cmd_pipeline_barrier(cmd, src.0, dst.0, vk::DependencyFlags::empty(), &barrier, &[], &[]) };
 }
 
 #[cfg(test)]
