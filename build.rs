@@ -1,10 +1,15 @@
-//! Compiles every compute shader under `shaders/` to SPIR-V 1.5 (Vulkan 1.2 target) with glslang and
-//! generates `$OUT_DIR/shaders.rs`, which embeds each module with `include_bytes!`.
+//! Compiles every shader under `shaders/` (compute `.comp`, and the ray-tracing pipeline's closest-hit
+//! `.rchit` and miss `.rmiss`) to SPIR-V 1.5 (Vulkan 1.2 target) with glslang and generates
+//! `$OUT_DIR/shaders.rs`, which embeds each module with `include_bytes!`.
 //!
 //! - `#include "x.glsl"` resolves relative to the including file, then relative to `shaders/`.
 //! - Every file read (sources and includes) gets a `cargo:rerun-if-changed`.
 //! - A compile error prints glslang's whole log and fails the build.
 //! - Shader variants are listed in `VARIANTS`: (source, variant name, defines).
+//! - The passes that trace rays are also compiled as ray-generation shaders (`RAYGEN`: variant
+//!   `raygen`, and `textured_raygen` where a textured variant exists), with `RT_PIPELINE` defined:
+//!   shaders/common/trace.glsl then traces through a ray-tracing pipeline, for devices without ray
+//!   queries.
 
 use std::collections::BTreeSet;
 use std::fmt::Write as _;
@@ -26,6 +31,32 @@ const VARIANTS: &[(&str, &str, &[(&str, &str)])] = &[
     ("passes/photon_emit.comp", "textured", &[("SCENE_TEXTURES", "1")]),
     ("passes/vpl_compensate.comp", "textured", &[("SCENE_TEXTURES", "1")]),
 ];
+
+/// The passes that trace rays (they include shaders/common/trace.glsl), compiled a second time as
+/// ray-generation shaders for the ray-tracing-pipeline implementation (`src/vk/pipeline.rs`).
+const RAYGEN: &[&str] = &[
+    "passes/gbuffer.comp",
+    "passes/pathtrace.comp",
+    "passes/photon_emit.comp",
+    "passes/vpl_compensate.comp",
+    "passes/vpl_shade.comp",
+    "passes/vpl_bruteforce.comp",
+    "passes/restir_initial.comp",
+    "passes/restir_initial_temporal.comp",
+    "passes/restir_temporal.comp",
+    "passes/restir_spatial.comp",
+    "passes/restir_spatial_shade.comp",
+];
+
+/// The stage a source compiles to, from its extension.
+fn stage_of(path: &Path) -> Option<ShaderStage> {
+    match path.extension()?.to_str()? {
+        "comp" => Some(ShaderStage::Compute),
+        "rchit" => Some(ShaderStage::ClosestHit),
+        "rmiss" => Some(ShaderStage::Miss),
+        _ => None,
+    }
+}
 
 struct Includer {
     root: PathBuf,
@@ -62,7 +93,7 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
     for p in entries {
         if p.is_dir() {
             collect(&p, out);
-        } else if p.extension().is_some_and(|e| e == "comp") {
+        } else if stage_of(&p).is_some() {
             out.push(p);
         }
     }
@@ -87,6 +118,7 @@ fn compile(
     root: &Path,
     path: &Path,
     defines: &[(&str, &str)],
+    stage: ShaderStage,
     includes: &mut BTreeSet<PathBuf>,
 ) -> Result<Vec<u32>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
@@ -101,12 +133,12 @@ fn compile(
     let main_dir = path.parent().map(Path::to_path_buf).unwrap_or_else(|| root.to_path_buf());
     let mut includer = Includer { root: root.to_path_buf(), main_dir, seen: BTreeSet::new() };
     let result = (|| {
-        let input = ShaderInput::new(&source, ShaderStage::Compute, &options, Some(&defs[..]), Some(&mut includer))
+        let input = ShaderInput::new(&source, stage, &options, Some(&defs[..]), Some(&mut includer))
             .map_err(|e| format!("{e}"))?;
         let shader = glslang::Shader::new(compiler, input).parse().map_err(|e| full_log(&e))?;
         let mut program = Program::new(compiler);
         program.add_shader(&shader);
-        program.compile(ShaderStage::Compute).map_err(|e| full_log(&e))
+        program.compile(stage).map_err(|e| full_log(&e))
     })();
     includes.extend(includer.seen);
     result.map_err(|log| format!("{}\n{log}", path.display()))
@@ -143,20 +175,30 @@ fn main() {
     collect(&root, &mut sources);
     let compiler = Compiler::acquire().expect("glslang compiler can be acquired once per process");
 
-    let mut jobs: Vec<(PathBuf, String, Vec<(&str, &str)>)> =
-        sources.iter().map(|p| (p.clone(), String::new(), Vec::new())).collect();
+    let mut jobs: Vec<(PathBuf, String, Vec<(&str, &str)>, ShaderStage)> = sources
+        .iter()
+        .map(|p| (p.clone(), String::new(), Vec::new(), stage_of(p).expect("collect keeps known stages")))
+        .collect();
     for (src, variant, defines) in VARIANTS {
-        jobs.push((root.join(src), (*variant).to_string(), defines.to_vec()));
+        jobs.push((root.join(src), (*variant).to_string(), defines.to_vec(), ShaderStage::Compute));
+    }
+    for src in RAYGEN {
+        let rt = ("RT_PIPELINE", "1");
+        jobs.push((root.join(src), "raygen".to_string(), vec![rt], ShaderStage::RayGeneration));
+        for (_, variant, defines) in VARIANTS.iter().filter(|v| v.0 == *src) {
+            let defines = defines.iter().copied().chain([rt]).collect();
+            jobs.push((root.join(src), format!("{variant}_raygen"), defines, ShaderStage::RayGeneration));
+        }
     }
 
-    let mut generated = String::from("// @generated by build.rs: SPIR-V of every compute shader under shaders/.\n");
+    let mut generated = String::from("// @generated by build.rs: SPIR-V of every shader under shaders/.\n");
     let mut includes = BTreeSet::new();
     let mut errors = Vec::new();
     let mut spirv_hash: u64 = 0xcbf2_9ce4_8422_2325;
-    for (path, variant, defines) in &jobs {
+    for (path, variant, defines, stage) in &jobs {
         println!("cargo:rerun-if-changed={}", path.display());
         let rel = path.strip_prefix(&root).expect("shader sources are under shaders/");
-        match compile(compiler, &root, path, defines, &mut includes) {
+        match compile(compiler, &root, path, defines, *stage, &mut includes) {
             Ok(words) => {
                 let name = const_name(rel, variant);
                 let file = out_dir.join(format!("{}.spv", name.to_ascii_lowercase()));

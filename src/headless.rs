@@ -112,7 +112,12 @@ pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
     settings.validate()?;
     let start = Instant::now();
     let scene = Scene::load(&settings.scene)?;
-    let ctx = Arc::new(Context::new(&ContextOptions { validate: settings.validate, device_index: settings.device_index, ..Default::default() })?);
+    let ctx = Arc::new(Context::new(&ContextOptions {
+        validate: settings.validate,
+        device_index: settings.device_index,
+        tracing: settings.tracing,
+        ..Default::default()
+    })?);
     let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas).context("uploading the scene")?);
     run_with(ctx, scene, settings, start)
 }

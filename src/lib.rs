@@ -30,4 +30,4 @@ pub mod shaders {
 
 pub use headless::{run, RunOutput, Summary};
 pub use settings::{Mode, RenderSettings};
-pub use vk::NoRayQueryDevice;
+pub use vk::NoTracingDevice;

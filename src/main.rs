@@ -13,7 +13,8 @@ use restir_vpl::settings::{
     Attenuation, Bias, CameraOverride, CandidateSource, Mode, NamedEnum, PresentMode, RenderSettings, RestirSettings,
     View,
 };
-use restir_vpl::vk::NoRayQueryDevice;
+use restir_vpl::vk::context::Tracing;
+use restir_vpl::vk::NoTracingDevice;
 
 /// GPU global illumination: photon-traced VPLs + ReSTIR DI on Vulkan ray queries, with a path-traced
 /// ground truth.
@@ -222,6 +223,12 @@ struct RenderArgs {
     /// Vulkan device index (see --list-devices).
     #[arg(long)]
     device: Option<usize>,
+    /// How rays are traced: ray queries (inline in compute shaders), ray-tracing pipelines (for
+    /// GPUs without ray queries, as NVIDIA's datacenter GPUs; no --boiling-filter), or auto: ray
+    /// queries where the device has them (or RESTIR_VPL_TRACE, which the benchmarks and `results`
+    /// read).
+    #[arg(long, value_enum)]
+    trace: Option<TraceArg>,
     /// Enable the Khronos validation layer (also RESTIR_VPL_VALIDATE=1).
     #[arg(long)]
     validate: bool,
@@ -457,6 +464,24 @@ impl std::fmt::Display for Workgroup {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum TraceArg {
+    Auto,
+    Query,
+    Pipeline,
+}
+
+impl TraceArg {
+    /// None: auto (`RESTIR_VPL_TRACE` if set, else the device's best).
+    fn tracing(self) -> Option<Tracing> {
+        match self {
+            TraceArg::Auto => None,
+            TraceArg::Query => Some(Tracing::Query),
+            TraceArg::Pipeline => Some(Tracing::Pipeline),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 enum Toggle {
     On,
     Off,
@@ -559,6 +584,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         out_dir,
         validate,
         device_index: cli.device,
+        tracing: cli.trace.and_then(TraceArg::tracing),
         progress: true,
         vpls_direct: cli.vpls_direct,
         vpls_indirect: cli.vpls_indirect,
@@ -865,7 +891,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         return Ok(());
     }
     if cli.list_devices {
-        let devices = restir_vpl::vk::context::list_devices()?;
+        let devices = restir_vpl::vk::context::list_devices(cli.render.trace.and_then(TraceArg::tracing))?;
         if devices.is_empty() {
             println!("no Vulkan devices found (is a Vulkan driver installed? run scripts/setup.sh)");
         }
@@ -1055,6 +1081,7 @@ fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::C
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
         validate: settings.validate,
         device_index: settings.device_index,
+        tracing: settings.tracing,
         ..Default::default()
     })?);
     let gpu = restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas)?;
@@ -1156,7 +1183,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<NoRayQueryDevice>().is_some() {
+            if e.downcast_ref::<NoTracingDevice>().is_some() {
                 ExitCode::from(2)
             } else if e.downcast_ref::<restir_vpl::eval::compare::NonFiniteInput>().is_some() {
                 ExitCode::from(3)

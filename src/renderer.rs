@@ -9,7 +9,7 @@ use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{Context as _, Result};
+use anyhow::{bail, Context as _, Result};
 use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
@@ -28,6 +28,7 @@ use crate::lights::{LightSet, PointEmitter};
 use crate::scene_gpu::{LightBuffers, SceneGpu};
 use crate::settings::{Attenuation, Bias, CandidateSource, Mode, RenderSettings, View};
 use crate::vk::buffer::{read_back, read_back_records};
+use crate::vk::context::Tracing;
 use crate::vk::{Buffer, Context, DescriptorSet, GpuTimer};
 
 /// Statistics of one rendered frame.
@@ -361,11 +362,26 @@ fn dispatch_output<'a>(
     })
 }
 
+/// Settings that the context's way of tracing rays cannot run: the boiling filter averages over
+/// a workgroup in shared memory, which ray-generation shaders lack ([`Tracing::Pipeline`]).
+fn check_tracing(ctx: &Context, settings: &RenderSettings) -> Result<()> {
+    if ctx.tracing == Tracing::Pipeline && settings.mode == Mode::Restir && settings.restir.temporal && settings.restir.boiling_filter > 0.0 {
+        bail!(
+            "--boiling-filter {}: the filter averages over a workgroup in shared memory, and this run traces rays with \
+             ray-tracing pipelines (--trace pipeline, RESTIR_VPL_TRACE, or a device without ray queries), whose \
+             ray-generation shaders have neither; use --boiling-filter 0 or ray queries",
+            settings.restir.boiling_filter
+        );
+    }
+    Ok(())
+}
+
 impl Renderer {
     /// A renderer of `scene` (uploaded once by the caller and shared) with `settings`: frame
     /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
     pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
         settings.validate()?;
+        check_tracing(&ctx, &settings)?;
         if std::env::var("RESTIR_VPL_DEBUG_POISON").as_deref() == Ok("validation") {
             record_invalid_command(&ctx)?;
         }
@@ -532,6 +548,7 @@ impl Renderer {
     /// device to be idle first (a caller's own work on the renderer's buffers included).
     pub fn apply_settings(&mut self, settings: RenderSettings) -> Result<()> {
         settings.validate()?;
+        check_tracing(&self.ctx, &settings)?;
         // A change of nothing, or of the exposure alone (applied by tonemap to the accumulated
         // mean), keeps the passes and the accumulation: dragging the exposure slider restarted it.
         if (RenderSettings { exposure: self.settings.exposure, ..settings.clone() }) == self.settings {

@@ -325,6 +325,9 @@ pub struct RenderSettings {
     pub out_dir: Option<PathBuf>,
     pub validate: bool,
     pub device_index: Option<usize>,
+    /// `--trace query|pipeline`; None: auto (RESTIR_VPL_TRACE if set, else the device's best).
+    #[serde(default)]
+    pub tracing: Option<crate::vk::context::Tracing>,
     /// Show a progress bar (only on a terminal, and only for runs over a second).
     pub progress: bool,
     /// Direct VPLs (they replace the area lights).
@@ -421,6 +424,7 @@ impl Default for RenderSettings {
             out_dir: None,
             validate: false,
             device_index: None,
+            tracing: None,
             progress: false,
             vpls_direct: 100_000,
             vpls_indirect: 100_000,

@@ -252,6 +252,34 @@ fn list_devices_reports_each_device() {
     assert!(s.contains("[0]"), "{s}");
 }
 
+/// How rays are traced: `--trace` and `RESTIR_VPL_TRACE` pick it, `--list-devices` says it, a bad
+/// value is refused by name, and `bench --rays` (a ray-query kernel) refuses the pipelines.
+#[test]
+fn trace_choice_is_listed_and_checked() {
+    for (args, env, expect) in [
+        (&["--list-devices"][..], None, "(ray queries)"),
+        (&["--list-devices", "--trace", "pipeline"][..], None, "(ray-tracing pipelines)"),
+        (&["--list-devices"][..], Some("pipeline"), "(ray-tracing pipelines)"),
+        (&["--list-devices", "--trace", "query"][..], Some("pipeline"), "(ray queries)"),
+    ] {
+        let mut c = bin();
+        c.args(args);
+        if let Some(v) = env {
+            c.env("RESTIR_VPL_TRACE", v);
+        }
+        let o = c.output().expect("binary runs");
+        let out = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success() && out.contains(expect), "{args:?} RESTIR_VPL_TRACE={env:?}: {out} {}", stderr(&o));
+    }
+    assert_fails(&["--headless", "--trace", "rays", "--frames", "1"], &["--trace", "rays"]);
+    let o = bin().args(["--list-devices"]).env("RESTIR_VPL_TRACE", "fast").output().expect("binary runs");
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("RESTIR_VPL_TRACE=\"fast\"") && !err.contains("panicked"), "{err}");
+    let o = bin().args(["bench", "--rays", "--width", "8", "--height", "8"]).env("RESTIR_VPL_TRACE", "pipeline").output().expect("binary runs");
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("bench --rays measures ray queries") && !err.contains("panicked"), "{err}");
+}
+
 #[test]
 fn vpl_count_errors() {
     assert_fails(&["--headless", "--vpls-direct", "0", "--frames", "1"], &["--vpls-direct 0"]);

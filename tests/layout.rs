@@ -8,7 +8,10 @@
 //!   by `offset_of!`).
 //! - Passes: for every `PassDesc` (`passes::ALL_PASSES`) and every SPIR-V variant of it, the set-1
 //!   bindings, the push-constant block and the local size in the SPIR-V equal the desc's; set 0
-//!   equals the scene's table (`SCENE_BINDINGS`, or `SCENE_BINDINGS_TEXTURED` for `textured` variants).
+//!   equals the scene's table (`SCENE_BINDINGS`, or `SCENE_BINDINGS_TEXTURED` for `textured` variants;
+//!   the TLAS only where the pass traces). A `raygen` variant is a ray-generation shader, without a
+//!   local size; every pass that traces has one, and no other pass declares a ray-tracing
+//!   capability (a device with ray-tracing pipelines only would refuse the module).
 //! - Constants: every `const uint` of the header has a Rust twin of the same name and value
 //!   (`passes::glsl_constants()`), and every Rust one is in the header.
 //!
@@ -18,7 +21,7 @@
 use std::collections::{BTreeMap, HashMap};
 
 use rspirv::dr::{Instruction, Operand};
-use rspirv::spirv::{Decoration, Dim, ExecutionMode, Op, StorageClass};
+use rspirv::spirv::{Capability, Decoration, Dim, ExecutionMode, ExecutionModel, Op, StorageClass};
 
 use restir_vpl::gpu_types::*;
 use restir_vpl::passes::desc::{PassDesc, PushLayout};
@@ -39,6 +42,8 @@ struct Spirv {
     /// Result id -> index in `globals`.
     by_id: HashMap<u32, usize>,
     local_size: Option<[u32; 3]>,
+    capabilities: Vec<Capability>,
+    execution_models: Vec<ExecutionModel>,
 }
 
 fn lit_u32(op: &Operand) -> u32 {
@@ -60,6 +65,22 @@ impl Spirv {
             globals: module.types_global_values.clone(),
             by_id: HashMap::new(),
             local_size: None,
+            capabilities: module
+                .capabilities
+                .iter()
+                .filter_map(|i| match i.operands.first() {
+                    Some(Operand::Capability(c)) => Some(*c),
+                    _ => None,
+                })
+                .collect(),
+            execution_models: module
+                .entry_points
+                .iter()
+                .filter_map(|i| match i.operands.first() {
+                    Some(Operand::ExecutionModel(m)) => Some(*m),
+                    _ => None,
+                })
+                .collect(),
         };
         for inst in &module.debug_names {
             match (inst.class.opcode, inst.operands.as_slice()) {
@@ -270,7 +291,7 @@ type ShaderBindings = BTreeMap<u32, (Result<BindingKind, String>, String)>;
 /// per mismatch: set-1 bindings and set 0's against the scene's table (number, kind, name = the
 /// block's first member or the variable's name), the push-constant block (member names, offsets, size) and the local size.
 fn pass_mismatches(desc: &PassDesc, variant: &str, spirv: &[u8]) -> Vec<String> {
-    let scene = if variant == "textured" { SCENE_BINDINGS_TEXTURED } else { SCENE_BINDINGS };
+    let scene = if variant.starts_with("textured") { SCENE_BINDINGS_TEXTURED } else { SCENE_BINDINGS };
     pass_mismatches_against(desc, variant, spirv, scene)
 }
 
@@ -334,7 +355,11 @@ fn pass_mismatches_against(desc: &PassDesc, variant: &str, spirv: &[u8], scene: 
     let [scene_shader, own_shader] = shader;
     binding_mismatches(&at, "", desc.bindings, &own_shader, &mut out);
     if !scene_shader.is_empty() {
-        binding_mismatches(&at, "set 0 ", scene, &scene_shader, &mut out);
+        // The TLAS is declared by shaders/common/trace.glsl, which only the passes that trace
+        // include (checked by `passes_that_trace_have_a_raygen_variant_and_no_other_traces`).
+        let traces = scene_shader.values().any(|(kind, _)| *kind == Ok(BindingKind::AccelerationStructure));
+        let scene: Vec<Binding> = scene.iter().copied().filter(|b| traces || b.kind != BindingKind::AccelerationStructure).collect();
+        binding_mismatches(&at, "set 0 ", &scene, &scene_shader, &mut out);
     }
     // Push constants: top-level members and the block's size.
     match (push.as_slice(), desc.push.size) {
@@ -359,6 +384,15 @@ fn pass_mismatches_against(desc: &PassDesc, variant: &str, spirv: &[u8], scene: 
         }
     }
 
+    // A ray-generation variant: no workgroup (its launch covers the same invocations).
+    let raygen = variant.ends_with("raygen");
+    let model = if raygen { ExecutionModel::RayGenerationKHR } else { ExecutionModel::GLCompute };
+    if m.execution_models != [model] {
+        out.push(format!("{at}: the entry points are {:?}, expected [{model:?}]", m.execution_models));
+    }
+    if raygen {
+        return out;
+    }
     // Workgroup size.
     match m.local_size {
         Some(size) if size == desc.local_size => {}
@@ -425,6 +459,47 @@ fn all_mismatches(desc: &PassDesc) -> Vec<String> {
 fn every_pass_desc_matches_its_spirv() {
     let mismatches: Vec<String> = passes::all_pass_descs().into_iter().flat_map(all_mismatches).collect();
     assert!(mismatches.is_empty(), "pass descs and SPIR-V differ:\n{}", mismatches.join("\n"));
+}
+
+/// Whether a module declares the ray-query / ray-tracing-pipeline capability.
+fn capabilities(spirv: &[u8]) -> (bool, bool) {
+    let m = Spirv::parse(spirv).expect("build.rs's SPIR-V parses");
+    (m.capabilities.contains(&Capability::RayQueryKHR), m.capabilities.contains(&Capability::RayTracingKHR))
+}
+
+/// A pass that traces (its compute SPIR-V uses ray queries) has a ray-generation variant for every
+/// compute variant, and that variant traces through the pipeline (no ray queries); a pass that does
+/// not trace declares neither capability, so that a device with ray-tracing pipelines and no ray
+/// queries (NVIDIA's H100) accepts every module it is given.
+#[test]
+fn passes_that_trace_have_a_raygen_variant_and_no_other_traces() {
+    let mut problems = Vec::new();
+    let mut tracing = 0;
+    for d in passes::all_pass_descs() {
+        let (query, pipeline) = capabilities(d.spirv);
+        if pipeline {
+            problems.push(format!("{}: the compute variant declares RayTracingKHR", d.name));
+        }
+        if query != d.raygen.is_some() {
+            problems.push(format!("{}: ray queries {query}, raygen variant {}", d.name, d.raygen.is_some()));
+        }
+        if d.raygen.is_some() && d.textured.is_some() != d.textured_raygen.is_some() {
+            problems.push(format!("{}: a textured variant without its raygen twin, or the reverse", d.name));
+        }
+        for (variant, spirv) in [("raygen", d.raygen), ("textured_raygen", d.textured_raygen)] {
+            if let Some(spirv) = spirv {
+                match capabilities(spirv) {
+                    (false, true) => {}
+                    other => problems.push(format!("{} ({variant}): (ray query, ray tracing) capabilities {other:?}", d.name)),
+                }
+            }
+        }
+        tracing += usize::from(query);
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    // The passes that trace: gbuffer, pathtrace, photon_emit, vpl_compensate, vpl_shade,
+    // vpl_bruteforce and the five ReSTIR passes.
+    assert_eq!(tracing, 11, "passes with ray queries");
 }
 
 /// `bench --rays`' kernel (shaders/bench/ray_rate.comp) is not a frame pass but has the same
@@ -497,7 +572,7 @@ fn a_drifted_binding_table_is_detected() {
 #[test]
 fn a_drifted_scene_table_is_detected() {
     let spirv = GbufferPass::DESC.spirv_variants();
-    let [(_, plain), (_, textured)] = spirv.as_slice() else { panic!("gbuffer has a default and a textured variant") };
+    let [(_, plain), (_, textured), ..] = spirv.as_slice() else { panic!("gbuffer has a default and a textured variant") };
     let at = |scene: &[Binding], spirv: &[u8]| pass_mismatches_against(&GbufferPass::DESC, "default", spirv, scene);
     // The textured variant's texture bindings against the plain table.
     assert!(at(SCENE_BINDINGS, textured).iter().any(|m| m.contains("set 0 binding 9 ('textures') is in the shader but not in the table")));
@@ -541,6 +616,12 @@ fn a_drifted_local_size_is_detected() {
     assert_reported(&wide, "local size is [8, 8, 1] in the shader, [16, 8, 1] in the desc");
     let flat = PassDesc { local_size: [8, 8, 1], ..AccumulatePass::DESC };
     assert_reported(&flat, "local size is [64, 1, 1] in the shader");
+}
+
+#[test]
+fn a_raygen_variant_that_is_a_compute_shader_is_detected() {
+    let wrong = PassDesc { raygen: Some(GbufferPass::DESC.spirv), ..GbufferPass::DESC };
+    assert_reported(&wrong, "gbuffer (raygen): the entry points are [GLCompute], expected [RayGenerationKHR]");
 }
 
 #[test]

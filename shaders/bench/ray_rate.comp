@@ -8,7 +8,7 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
-#include "../common/scene.glsl"
+#include "../common/trace.glsl"
 #include "../lib/random.glsl"
 
 layout(local_size_x = 8, local_size_y = 8) in;

@@ -5,7 +5,7 @@
 #ifndef DIRECT_LIGHT_GLSL
 #define DIRECT_LIGHT_GLSL
 
-#include "scene.glsl"
+#include "trace.glsl"
 #include "../lib/brdf.glsl"
 #include "../lib/random.glsl"
 #include "../lib/sampling.glsl"

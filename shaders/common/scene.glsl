@@ -1,10 +1,9 @@
-// Set 0: the scene, declared once for every pass (TLAS, geometry, materials, lights, frame
-// constants), plus the loads and ray queries every pass shares. Binding numbers match
-// `SCENE_BINDINGS` in src/scene_gpu.rs.
+// Set 0: the scene, declared once for every pass (geometry, materials, lights, frame constants),
+// plus the loads every pass shares. Binding numbers match `SCENE_BINDINGS` in src/scene_gpu.rs.
+// The TLAS (binding 0) and the two kinds of ray are in trace.glsl, included by the passes that
+// trace: a pass that does not declares no ray-tracing capability.
 #ifndef SCENE_GLSL
 #define SCENE_GLSL
-
-#extension GL_EXT_ray_query : require
 
 #include "types.glsl"
 #include "texel_records.glsl"
@@ -15,7 +14,6 @@
 #include "../lib/texture.glsl"
 #endif
 
-layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
 // Geometry, materials, instances and lights are read at per-lane addresses (the hit a lane's ray
 // found, the light it drew), so through texel views (texel_records.glsl says why).
 layout(set = 0, binding = 1) uniform utextureBuffer vertices;  // Vertex, 2 RGBA32UI texels each
@@ -170,45 +168,6 @@ vec3 hit_albedo(Hit h) {
     }
 #endif
     return m.albedo;
-}
-
-// Closest hit along a ray; false when it leaves the scene.
-bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t) {
-    rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT, 0xFFu, origin, 0.0, dir, t_max);
-    while (rayQueryProceedEXT(rq)) {
-    }
-    if (rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionTriangleEXT) {
-        t = -1.0;
-        return false;
-    }
-    t = rayQueryGetIntersectionTEXT(rq, true);
-    uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
-    uint prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
-    vec2 bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
-    hit = fetch_hit(inst, prim, bary, dir);
-    return true;
-}
-
-// Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
-bool segment_visible(vec3 from, vec3 to) {
-    vec3 d = to - from;
-    float len = length(d);
-    // A ray query's origin, direction and t range must be finite (undefined otherwise: lavapipe
-    // forgives it, hardware traversal need not): endpoints ~1e19 apart (len overflows) or not
-    // finite are taken as blocked, so they add nothing.
-    if (!is_finite(len) || !is_finite(from)) {
-        return false;
-    }
-    if (len <= 0.0) {
-        return true;
-    }
-    rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, from, 0.0,
-                          d / len, len);
-    while (rayQueryProceedEXT(rq)) {
-    }
-    return rayQueryGetIntersectionTypeEXT(rq, true) == gl_RayQueryCommittedIntersectionNoneEXT;
 }
 
 // Picks a light in proportion to lum(power) through the alias table, from 32 random bits.

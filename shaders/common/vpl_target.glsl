@@ -1,11 +1,11 @@
 // The target function of the VPL passes at a G-buffer surface, with or without visibility. Every
 // pass evaluates p^ through this one function, so a sample whose target was positive at a pixel
 // (visibility included) is visible from it when re-evaluated: same origin, same ray, same answer.
-// Uses set 0 (the TLAS) through segment_visible; the passes load surfaces and VPLs themselves.
+// Uses set 0 (the TLAS) through segment_visible (trace.glsl); the passes load surfaces and VPLs themselves.
 #ifndef VPL_TARGET_GLSL
 #define VPL_TARGET_GLSL
 
-#include "scene.glsl"
+#include "trace.glsl"
 #include "../restir/vpl.glsl"
 
 // Shadow ray from the surface (offset along its geometric normal) to the VPL (already offset off

@@ -3,12 +3,15 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
-#include "../common/scene.glsl"
+#include "../common/trace.glsl"
 #include "../lib/random.glsl"
 #include "../lib/brdf.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
+#ifndef RT_PIPELINE
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
+#endif
+#include "../lib/dispatch.glsl"
 
 // Written as SURFACE_TEXELS uvec4 per Surface (texel_records.glsl's packed layout, which every
 // other pass reads through the buffer's texel view) through GBUFFER_CHUNKS storage buffers, each
@@ -50,7 +53,7 @@ void store_record(uint slot, uvec4 t[SURFACE_TEXELS]) {
 const uint SALT_GBUFFER = 0x6762u;
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy;
+    uvec2 pixel = dispatch_pixel();
     if (pixel.x >= frame.width || pixel.y >= frame.height) {
         return;
     }

@@ -12,12 +12,14 @@
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
-#include "../common/scene.glsl"
+#include "../common/trace.glsl"
 #include "../lib/random.glsl"
 #include "../lib/brdf.glsl"
 #include "../lib/packing.glsl"
 
+#ifndef RT_PIPELINE
 layout(local_size_x = 64) in;
+#endif
 // after the local size: dispatch_index() reads gl_WorkGroupSize
 #include "../lib/dispatch.glsl"
 

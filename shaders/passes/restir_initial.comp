@@ -7,7 +7,10 @@
 #include "restir_initial.glsl"
 
 // 8×8 unless the renderer specialises it (--workgroup; constants 0 and 1).
+#ifndef RT_PIPELINE
 layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id = 1) in;
+#endif
+#include "../lib/dispatch.glsl"
 
 // Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
 layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFACE_TEXELS (4) texels each
@@ -23,7 +26,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy;
+    uvec2 pixel = dispatch_pixel();
     if (pixel.x >= frame.width || pixel.y >= frame.height) {
         return;
     }

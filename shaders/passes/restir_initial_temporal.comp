@@ -11,7 +11,10 @@
 #include "restir_temporal.glsl"
 
 // Fixed 8x8: the boiling filter reduces over 64 invocations.
+#ifndef RT_PIPELINE
 layout(local_size_x = 8, local_size_y = 8) in;
+#endif
+#include "../lib/dispatch.glsl"
 
 // Both halves of the G-buffer ping-pong: surface_slot() and prev_surface_slot() pick them.
 // Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
@@ -33,7 +36,7 @@ layout(push_constant) uniform Push {
 } pc;
 
 void main() {
-    uvec2 pixel = gl_GlobalInvocationID.xy;
+    uvec2 pixel = dispatch_pixel();
     bool inside = pixel.x < frame.width && pixel.y < frame.height;
     uint index = inside ? pixel.y * frame.width + pixel.x : 0u;
     uint rays = 0u;

@@ -100,6 +100,13 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams 
     return true;
 }
 
+#ifdef RT_PIPELINE
+// A ray-generation shader has no workgroups and no shared memory: on the ray-tracing-pipeline
+// implementation (trace.glsl) the renderer refuses --boiling-filter, so this never drops one.
+bool boiling_filter_rejects(Reservoir r, float strength) {
+    return false;
+}
+#else
 // The boiling filter's workgroup reduction: 8x8 invocations (the passes that include this file
 // have that fixed workgroup).
 shared float group_w[64];
@@ -124,5 +131,7 @@ bool boiling_filter_rejects(Reservoir r, float strength) {
     float mean = group_n[0] > 0u ? group_w[0] / float(group_n[0]) : 0.0;
     return boiling_rejects(w, mean, strength);
 }
+
+#endif
 
 #endif

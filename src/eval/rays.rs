@@ -100,6 +100,13 @@ pub const PHOTONS_LABEL: &str = "photons";
 /// of [`MODES`], and traces the photons (100k + 100k VPLs, the defaults) `frames` times more.
 pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, height: u32, dispatches: u32, frames: u32) -> Result<RayRate> {
     anyhow::ensure!(dispatches > 0 && frames > 0, "bench --rays needs at least one timed dispatch and frame");
+    // Its kernel is a ray-query compute shader (the raw rate of inline tracing, nothing else).
+    anyhow::ensure!(
+        ctx.tracing == crate::vk::context::Tracing::Query,
+        "bench --rays measures ray queries, and this run traces with {} ({}): it has no ray-generation version",
+        ctx.tracing.describe(),
+        if std::env::var_os("RESTIR_VPL_TRACE").is_some() { "RESTIR_VPL_TRACE" } else { "the device has no VK_KHR_ray_query" }
+    );
     let scene = Scene::load(scene_path)?;
     let gpu = Arc::new(SceneGpu::new(ctx, &scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES)?);
     let set = DescriptorSet::with_variants(ctx, "ray_rate.scene", gpu.bindings, 1)?;

@@ -9,6 +9,7 @@ use std::sync::Arc;
 use anyhow::{ensure, Context as _, Result};
 use ash::vk;
 
+use crate::vk::context::Tracing;
 use crate::vk::{Binding, Buffer, ComputePipeline, Context};
 
 use super::Reservoirs;
@@ -53,6 +54,10 @@ pub struct PassDesc {
     pub spirv: &'static [u8],
     /// SPIR-V of its `textured` variant (reads base-colour textures from set 0), where one exists.
     pub textured: Option<&'static [u8]>,
+    /// A pass that traces rays: its `raygen` and `textured_raygen` variants (build.rs `RAYGEN`),
+    /// the pass as a ray-generation shader, for a context that traces with ray-tracing pipelines.
+    pub raygen: Option<&'static [u8]>,
+    pub textured_raygen: Option<&'static [u8]>,
     /// Set 1, as the shader declares it.
     pub bindings: &'static [Binding],
     pub push: PushLayout,
@@ -67,7 +72,17 @@ impl PassDesc {
     /// A pass without set-1 bindings, push constants or a textured variant; the `with_*` methods
     /// add them.
     pub const fn new(name: &'static str, spirv: &'static [u8], local_size: [u32; 3]) -> Self {
-        Self { name, spirv, textured: None, bindings: &[], push: PushLayout::NONE, local_size, workgroup_spec: false }
+        Self {
+            name,
+            spirv,
+            textured: None,
+            raygen: None,
+            textured_raygen: None,
+            bindings: &[],
+            push: PushLayout::NONE,
+            local_size,
+            workgroup_spec: false,
+        }
     }
 
     /// The shader's x and y local size are specialisation constants 0 and 1.
@@ -77,6 +92,15 @@ impl PassDesc {
 
     pub const fn with_textured(self, spirv: &'static [u8]) -> Self {
         Self { textured: Some(spirv), ..self }
+    }
+
+    /// The pass traces rays: its ray-generation variant.
+    pub const fn with_raygen(self, spirv: &'static [u8]) -> Self {
+        Self { raygen: Some(spirv), ..self }
+    }
+
+    pub const fn with_textured_raygen(self, spirv: &'static [u8]) -> Self {
+        Self { textured_raygen: Some(spirv), ..self }
     }
 
     pub const fn with_bindings(self, bindings: &'static [Binding]) -> Self {
@@ -97,10 +121,13 @@ impl PassDesc {
         }
     }
 
-    /// (variant name, SPIR-V) of every compiled variant: `default`, then `textured` where it exists.
+    /// (variant name, SPIR-V) of every compiled variant: `default`, then `textured`, `raygen` and
+    /// `textured_raygen` where they exist.
     pub fn spirv_variants(&self) -> Vec<(&'static str, &'static [u8])> {
         let mut out = vec![("default", self.spirv)];
         out.extend(self.textured.map(|spirv| ("textured", spirv)));
+        out.extend(self.raygen.map(|spirv| ("raygen", spirv)));
+        out.extend(self.textured_raygen.map(|spirv| ("textured_raygen", spirv)));
         out
     }
 
@@ -179,26 +206,37 @@ impl<'a> PipelineBuilder<'a> {
                 ensure!(times == 1, "pass '{}': binding {} ('{}') of variant {v} is bound {times} times", d.name, row.binding, row.name);
             }
         }
-        let spirv = if self.textured {
-            d.textured.with_context(|| format!("pass '{}' has no textured variant", d.name))?
-        } else {
-            d.spirv
+        let textured = |spirv: Option<&'static [u8]>, plain: &'static [u8]| match self.textured {
+            true => spirv.with_context(|| format!("pass '{}' has no textured variant", d.name)),
+            false => Ok(plain),
         };
         let push_size = u32::try_from(d.push.size).context("push-constant size")?;
         let workgroup = self.workgroup.unwrap_or([d.local_size[0], d.local_size[1]]);
         let local_size = d.local_size_with(workgroup);
         ensure!(local_size[..2] == workgroup, "pass '{}' has a fixed {:?} workgroup, not {workgroup:?}", d.name, d.local_size);
-        let pipeline = ComputePipeline::with_variants(
-            self.ctx,
-            d.name,
-            spirv,
-            self.scene_layout,
-            d.bindings,
-            push_size,
-            local_size,
-            d.workgroup_spec,
-            variants as u32,
-        )?;
+        let pipeline = match (self.ctx.tracing, d.raygen) {
+            (Tracing::Pipeline, Some(raygen)) => ComputePipeline::ray_tracing(
+                self.ctx,
+                d.name,
+                textured(d.textured_raygen, raygen)?,
+                self.scene_layout,
+                d.bindings,
+                push_size,
+                local_size,
+                variants as u32,
+            )?,
+            _ => ComputePipeline::with_variants(
+                self.ctx,
+                d.name,
+                textured(d.textured, d.spirv)?,
+                self.scene_layout,
+                d.bindings,
+                push_size,
+                local_size,
+                d.workgroup_spec,
+                variants as u32,
+            )?,
+        };
         for &(binding, buffer) in &self.shared {
             pipeline.set1.write_buffer(binding, buffer)?;
         }

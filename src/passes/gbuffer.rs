@@ -29,6 +29,8 @@ pub struct GbufferPass {
 impl GbufferPass {
     pub const NAME: &'static str = "gbuffer";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_GBUFFER, [8, 8, 1])
+        .with_raygen(shaders::PASSES_GBUFFER_RAYGEN)
+        .with_textured_raygen(shaders::PASSES_GBUFFER_TEXTURED_RAYGEN)
         .with_workgroup_spec()
         .with_textured(shaders::PASSES_GBUFFER_TEXTURED)
         .with_push(Push::LAYOUT)

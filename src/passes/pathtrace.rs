@@ -18,6 +18,8 @@ pub struct PathtracePass { pipeline: ComputePipeline }
 impl PathtracePass {
     pub const NAME: &'static str = "pathtrace";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_PATHTRACE, [8, 8, 1])
+        .with_raygen(shaders::PASSES_PATHTRACE_RAYGEN)
+        .with_textured_raygen(shaders::PASSES_PATHTRACE_TEXTURED_RAYGEN)
         .with_workgroup_spec()
         .with_textured(shaders::PASSES_PATHTRACE_TEXTURED)
         .with_bindings(&[texels(0, "surfaces"), storage(1, "samples"), storage(2, "ray_count")]);

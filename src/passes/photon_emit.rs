@@ -165,6 +165,8 @@ pub struct PhotonEmitPass {
 impl PhotonEmitPass {
     pub const NAME: &'static str = "photon_emit";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_PHOTON_EMIT, [64, 1, 1])
+        .with_raygen(shaders::PASSES_PHOTON_EMIT_RAYGEN)
+        .with_textured_raygen(shaders::PASSES_PHOTON_EMIT_TEXTURED_RAYGEN)
         .with_textured(shaders::PASSES_PHOTON_EMIT_TEXTURED)
         .with_push(Push::LAYOUT)
         .with_bindings(&[storage(0, "vpls"), storage(1, "indirect_count"), storage(2, "light_cdf")]);

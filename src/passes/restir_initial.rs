@@ -29,6 +29,7 @@ pub struct RestirInitialPass { pipeline: ComputePipeline }
 impl RestirInitialPass {
     pub const NAME: &'static str = "restir_initial";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_INITIAL, [8, 8, 1])
+        .with_raygen(shaders::PASSES_RESTIR_INITIAL_RAYGEN)
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[

@@ -39,6 +39,7 @@ impl RestirInitialTemporalPass {
     pub const NAME: &'static str = "restir_initial_temporal";
     /// Fixed 8×8 (as `restir_temporal`): the boiling filter reduces over 64 invocations.
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_INITIAL_TEMPORAL, [8, 8, 1])
+        .with_raygen(shaders::PASSES_RESTIR_INITIAL_TEMPORAL_RAYGEN)
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"), texels(3, "tiles"),

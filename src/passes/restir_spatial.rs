@@ -48,6 +48,7 @@ pub struct RestirSpatialPass { pipeline: ComputePipeline }
 impl RestirSpatialPass {
     pub const NAME: &'static str = "restir_spatial";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_SPATIAL, [8, 8, 1])
+        .with_raygen(shaders::PASSES_RESTIR_SPATIAL_RAYGEN)
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[texels(0, "surfaces"), texels(1, "vpls"), texels(2, "src"), storage(3, "dst"), storage(4, "ray_count")]);

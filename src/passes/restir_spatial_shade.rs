@@ -25,6 +25,7 @@ pub struct RestirSpatialShadePass { pipeline: ComputePipeline }
 impl RestirSpatialShadePass {
     pub const NAME: &'static str = "restir_spatial_shade";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_SPATIAL_SHADE, [8, 8, 1])
+        .with_raygen(shaders::PASSES_RESTIR_SPATIAL_SHADE_RAYGEN)
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[

@@ -32,6 +32,7 @@ pub struct RestirTemporalPass { pipeline: ComputePipeline }
 impl RestirTemporalPass {
     pub const NAME: &'static str = "restir_temporal";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_TEMPORAL, [8, 8, 1])
+        .with_raygen(shaders::PASSES_RESTIR_TEMPORAL_RAYGEN)
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), storage(2, "reservoirs"), texels(3, "history"),

@@ -34,6 +34,7 @@ pub struct VplBruteforcePass {
 impl VplBruteforcePass {
     pub const NAME: &'static str = "vpl_bruteforce";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_BRUTEFORCE, [8, 8, 1])
+        .with_raygen(shaders::PASSES_VPL_BRUTEFORCE_RAYGEN)
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[texels(0, "surfaces"), storage(1, "vpls"), storage(2, "samples"), storage(3, "ray_count")]);

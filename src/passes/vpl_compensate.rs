@@ -29,6 +29,8 @@ pub struct VplCompensatePass { pipeline: ComputePipeline }
 impl VplCompensatePass {
     pub const NAME: &'static str = "vpl_compensate";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_COMPENSATE, [8, 8, 1])
+        .with_raygen(shaders::PASSES_VPL_COMPENSATE_RAYGEN)
+        .with_textured_raygen(shaders::PASSES_VPL_COMPENSATE_TEXTURED_RAYGEN)
         .with_workgroup_spec()
         .with_textured(shaders::PASSES_VPL_COMPENSATE_TEXTURED)
         .with_push(Push::LAYOUT)

@@ -32,6 +32,7 @@ pub struct VplShadePass { pipeline: ComputePipeline }
 impl VplShadePass {
     pub const NAME: &'static str = "vpl_shade";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_VPL_SHADE, [8, 8, 1])
+        .with_raygen(shaders::PASSES_VPL_SHADE_RAYGEN)
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[

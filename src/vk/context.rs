@@ -1,6 +1,6 @@
 //! Vulkan instance, device selection and the objects every pass shares (queue, allocator, debug
-//! utils). Device selection requires ray queries; [`NoRayQueryDevice`] is the typed error a caller
-//! branches on (exit code 2).
+//! utils). Device selection requires a way to trace rays, ray queries or else ray-tracing pipelines
+//! ([`Tracing`]); [`NoTracingDevice`] is the typed error a caller branches on (exit code 2).
 
 use std::ffi::{c_void, CStr, CString};
 use std::mem::ManuallyDrop;
@@ -24,6 +24,49 @@ pub struct DeviceReport {
     pub driver: String,
     /// Missing extensions / features; empty when the device qualifies.
     pub missing: Vec<String>,
+    /// How it would trace rays (None: it cannot).
+    pub tracing: Option<Tracing>,
+}
+
+/// How rays are traced: the two implementations of shaders/common/trace.glsl, with the same
+/// results (tests/trace_pipeline.rs compares them).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Tracing {
+    /// `VK_KHR_ray_query`: inline in the compute passes. Chosen wherever a device has it.
+    Query,
+    /// `VK_KHR_ray_tracing_pipeline`: the passes that trace run as ray-generation shaders (one hit
+    /// group, two miss shaders), for devices without ray queries, as NVIDIA's datacenter GPUs.
+    /// No boiling filter there (it needs a workgroup's shared memory).
+    Pipeline,
+}
+
+impl Tracing {
+    /// The value of `--trace` / `RESTIR_VPL_TRACE` ("auto": None, the device's best).
+    pub fn parse(s: &str) -> Option<Option<Tracing>> {
+        match s {
+            "auto" | "" => Some(None),
+            "query" => Some(Some(Tracing::Query)),
+            "pipeline" => Some(Some(Tracing::Pipeline)),
+            _ => None,
+        }
+    }
+
+    pub fn describe(self) -> &'static str {
+        match self {
+            Tracing::Query => "ray queries",
+            Tracing::Pipeline => "ray-tracing pipelines",
+        }
+    }
+}
+
+/// `RESTIR_VPL_TRACE` (query, pipeline or auto/unset), the choice of [`Tracing`] for every command.
+pub fn tracing_from_env() -> Result<Option<Tracing>> {
+    match std::env::var("RESTIR_VPL_TRACE") {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Err(std::env::VarError::NotUnicode(v)) => bail!("RESTIR_VPL_TRACE={v:?}: expected query, pipeline or auto"),
+        Ok(v) => Tracing::parse(&v).with_context(|| format!("RESTIR_VPL_TRACE={v:?}: expected query, pipeline or auto")),
+    }
 }
 
 impl DeviceReport {
@@ -34,16 +77,16 @@ impl DeviceReport {
 
 /// The note printed under the device table when no device qualifies and an NVIDIA device lacks ray
 /// queries. NVIDIA's drivers expose `VK_KHR_ray_query` only on GPUs with RT cores (an NVIDIA
-/// engineer in KhronosGroup/Vulkan-Docs#1241); DXC's PR #5307 reports A100s with ray-tracing
-/// pipelines only. No H100/H200 was inspected by this project, so the note says "expected".
+/// engineer in KhronosGroup/Vulkan-Docs#1241); datacenter GPUs have ray-tracing pipelines instead:
+/// seen here on an H100 (driver 580.159.04), reported for the A100 (DXC's PR #5307).
 pub fn no_device_hint(reports: &[DeviceReport]) -> Option<String> {
     let nvidia_without = reports.iter().any(|r| {
         r.name.to_ascii_uppercase().contains("NVIDIA") && r.missing.iter().any(|m| m.contains("ray_query") || m.contains("rayQuery"))
     });
     nvidia_without.then(|| {
         "note: NVIDIA drivers expose VK_KHR_ray_query only on GPUs with RT cores (GeForce/Quadro RTX and later); \
-         datacenter GPUs without them (A100, H100, H200) are not expected to qualify (reported for the A100, \
-         not verified on H100/H200 by this project)"
+         datacenter GPUs (A100, H100, H200) have ray-tracing pipelines instead (an H100 with driver 580.159.04 \
+         does), which `--trace pipeline` uses and `--trace auto` (the default) falls back to"
             .to_string()
     })
 }
@@ -52,22 +95,26 @@ impl std::fmt::Display for DeviceReport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "[{}] {} ({}, Vulkan {}, {})", self.index, self.name, self.kind, self.api_version, self.driver)?;
         if self.missing.is_empty() {
-            write!(f, ": ok")
+            write!(f, ": ok")?;
+            match self.tracing {
+                Some(t) => write!(f, " ({})", t.describe()),
+                None => Ok(()),
+            }
         } else {
             write!(f, ": lacks {}", self.missing.join(", "))
         }
     }
 }
 
-/// No physical device supports what the renderer needs (ray queries and friends).
+/// No physical device supports what the renderer needs (a way to trace rays and friends).
 #[derive(Debug, thiserror::Error)]
-#[error("no Vulkan device supports ray queries (VK_KHR_ray_query + VK_KHR_acceleration_structure + \
-VK_KHR_deferred_host_operations + bufferDeviceAddress); devices found:\n{}{}",
+#[error("no Vulkan device can trace rays (VK_KHR_acceleration_structure + VK_KHR_deferred_host_operations + \
+bufferDeviceAddress, with VK_KHR_ray_query or VK_KHR_ray_tracing_pipeline); devices found:\n{}{}",
     if devices.is_empty() && hint.is_some() { "  (none)".to_string() }
     else if devices.is_empty() { "  (none: is a Vulkan driver installed? run scripts/setup.sh)".to_string() }
     else { devices.iter().map(|d| format!("  {d}")).collect::<Vec<_>>().join("\n") },
     hint.as_deref().map(|h| format!("\n{h}")).unwrap_or_default())]
-pub struct NoRayQueryDevice {
+pub struct NoTracingDevice {
     pub devices: Vec<DeviceReport>,
     pub hint: Option<String>,
 }
@@ -82,6 +129,8 @@ pub struct ContextOptions {
     /// Present to this window: the instance gets the platform's surface extensions, the device
     /// `VK_KHR_swapchain` and a queue family that can present to it.
     pub window: Option<WindowHandles>,
+    /// How to trace rays (`--trace`); None: `RESTIR_VPL_TRACE`, else the device's best.
+    pub tracing: Option<Tracing>,
 }
 
 /// The raw handles of a window to present to (from `raw-window-handle`).
@@ -115,6 +164,10 @@ pub struct Context {
     pub report: DeviceReport,
     pub properties: vk::PhysicalDeviceProperties,
     pub as_properties: AccelProperties,
+    /// How this context traces rays.
+    pub tracing: Tracing,
+    /// The ray-tracing-pipeline loader and limits, when `tracing` is [`Tracing::Pipeline`].
+    pub ray_tracing: Option<RayTracingPipelines>,
     /// Whether the validation layer is active.
     pub validation_enabled: bool,
     validation: Arc<ValidationCounter>,
@@ -136,6 +189,15 @@ pub struct Context {
 #[derive(Clone, Copy, Debug)]
 pub struct AccelProperties {
     pub min_scratch_offset_alignment: u32,
+}
+
+/// What the ray-tracing-pipeline implementation needs of `VK_KHR_ray_tracing_pipeline`.
+pub struct RayTracingPipelines {
+    pub loader: ash::khr::ray_tracing_pipeline::Device,
+    pub handle_size: u32,
+    pub handle_alignment: u32,
+    pub base_alignment: u32,
+    pub max_invocations: u32,
 }
 
 /// Counts validation-layer messages by severity (the debug messenger's user data).
@@ -191,18 +253,16 @@ fn device_kind(t: vk::PhysicalDeviceType) -> (&'static str, u32) {
     }
 }
 
-const REQUIRED_EXTENSIONS: [&CStr; 3] = [
-    ash::khr::acceleration_structure::NAME,
-    ash::khr::ray_query::NAME,
-    ash::khr::deferred_host_operations::NAME,
-];
+/// Required whichever way rays are traced; [`Tracing`] adds its own.
+const REQUIRED_EXTENSIONS: [&CStr; 2] = [ash::khr::acceleration_structure::NAME, ash::khr::deferred_host_operations::NAME];
 
 /// Storage buffers a shader stage must be able to see (`maxPerStageDescriptorStorageBuffers`;
 /// Vulkan guarantees only 4): `passes::storage_buffers_per_stage()`, which a test keeps equal.
 pub const REQUIRED_STORAGE_BUFFERS_PER_STAGE: u32 = 10;
 
-/// Inspects one physical device.
-fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (DeviceReport, u32) {
+/// Inspects one physical device: what it lacks, and how it would trace rays when asked for
+/// `request` (None: ray queries, else ray-tracing pipelines).
+fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice, request: Option<Tracing>) -> (DeviceReport, u32) {
     // SAFETY: `pd` comes from `enumerate_physical_devices` of this instance.
     let props = unsafe { instance.get_physical_device_properties(pd) };
     let name = props.device_name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
@@ -219,6 +279,14 @@ fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (D
             missing.push(n.to_string_lossy().into_owned());
         }
     }
+    let mut query_missing = Vec::new();
+    let mut pipeline_missing = Vec::new();
+    if !has_ext(ash::khr::ray_query::NAME) {
+        query_missing.push(ash::khr::ray_query::NAME.to_string_lossy().into_owned());
+    }
+    if !has_ext(ash::khr::ray_tracing_pipeline::NAME) {
+        pipeline_missing.push(ash::khr::ray_tracing_pipeline::NAME.to_string_lossy().into_owned());
+    }
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
     let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
     // SAFETY: as above; Vulkan 1.1+ core query.
@@ -229,12 +297,16 @@ fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (D
         let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
         let mut frq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
+        let mut frt = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default();
         let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
         if has_ext(ash::khr::acceleration_structure::NAME) {
             f2 = f2.push_next(&mut fas);
         }
         if has_ext(ash::khr::ray_query::NAME) {
             f2 = f2.push_next(&mut frq);
+        }
+        if has_ext(ash::khr::ray_tracing_pipeline::NAME) {
+            f2 = f2.push_next(&mut frt);
         }
         // SAFETY: the chain only holds structs of extensions the device exposes.
         unsafe { instance.get_physical_device_features2(pd, &mut f2) };
@@ -245,9 +317,28 @@ fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (D
             missing.push("feature accelerationStructure".into());
         }
         if has_ext(ash::khr::ray_query::NAME) && frq.ray_query == 0 {
-            missing.push("feature rayQuery".into());
+            query_missing.push("feature rayQuery".into());
+        }
+        if has_ext(ash::khr::ray_tracing_pipeline::NAME) && frt.ray_tracing_pipeline == 0 {
+            pipeline_missing.push("feature rayTracingPipeline".into());
         }
     }
+    let tracing = match request {
+        Some(Tracing::Query) => {
+            missing.extend(query_missing);
+            Tracing::Query
+        }
+        Some(Tracing::Pipeline) => {
+            missing.extend(pipeline_missing);
+            Tracing::Pipeline
+        }
+        None if query_missing.is_empty() => Tracing::Query,
+        None if pipeline_missing.is_empty() => Tracing::Pipeline,
+        None => {
+            missing.push(format!("{} (or {})", query_missing.join(", "), pipeline_missing.join(", ")));
+            Tracing::Query
+        }
+    };
     let per_stage = props.limits.max_per_stage_descriptor_storage_buffers;
     if per_stage < REQUIRED_STORAGE_BUFFERS_PER_STAGE {
         missing.push(format!("{REQUIRED_STORAGE_BUFFERS_PER_STAGE} storage buffers per shader stage (has {per_stage})"));
@@ -263,6 +354,7 @@ fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice) -> (D
         kind: kind.into(),
         api_version: version_string(props.api_version),
         driver: if driver_info_empty(&driver_name) { driver_id } else { format!("{driver_id} {driver_name}") },
+        tracing: missing.is_empty().then_some(tracing),
         missing,
     };
     (report, rank)
@@ -330,7 +422,7 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
         Ok(instance) => instance,
         // The loader found no driver at all: no device, said as such (exit code 2).
         Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
-            return Err(NoRayQueryDevice {
+            return Err(NoTracingDevice {
                 devices: Vec::new(),
                 hint: Some("the Vulkan loader found no driver (VK_ICD_FILENAMES / VK_DRIVER_FILES, or install one: scripts/setup.sh)".into()),
             }
@@ -341,18 +433,23 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
     Ok((instance, use_validation, has_debug_utils))
 }
 
-/// Lists every physical device with what it lacks (for `--list-devices` and error messages).
-pub fn list_devices() -> Result<Vec<DeviceReport>> {
+/// Lists every physical device with what it lacks and how it would trace rays when asked for
+/// `request` (`--trace`; None: `RESTIR_VPL_TRACE`, else auto), for `--list-devices`.
+pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
+    let request = match request {
+        Some(t) => Some(t),
+        None => tracing_from_env()?,
+    };
     let entry = load_entry()?;
     let (instance, _, _) = match create_instance(&entry, false, None) {
         Ok(created) => created,
         // No driver at all: an empty list, as when drivers find no device.
-        Err(e) if e.downcast_ref::<NoRayQueryDevice>().is_some() => return Ok(Vec::new()),
+        Err(e) if e.downcast_ref::<NoTracingDevice>().is_some() => return Ok(Vec::new()),
         Err(e) => return Err(e),
     };
     // SAFETY: the instance is valid; destroyed below after use.
     let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
-    let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd).0).collect();
+    let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd, request).0).collect();
     // SAFETY: nothing created from the instance outlives this point.
     unsafe { instance.destroy_instance(None) };
     Ok(reports)
@@ -360,6 +457,10 @@ pub fn list_devices() -> Result<Vec<DeviceReport>> {
 
 impl Context {
     pub fn new(opts: &ContextOptions) -> Result<Self> {
+        let request = match opts.tracing {
+            Some(t) => Some(t),
+            None => tracing_from_env()?,
+        };
         let entry = load_entry()?;
         let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate, opts.window.as_ref())?;
         let validation = Arc::new(ValidationCounter::default());
@@ -413,7 +514,7 @@ impl Context {
             .iter()
             .enumerate()
             .map(|(i, pd)| {
-                let (mut r, rank) = inspect(&instance, i, *pd);
+                let (mut r, rank) = inspect(&instance, i, *pd, request);
                 if let Some((loader, raw)) = &surface {
                     if present_family(&instance, loader, *raw, *pd).is_none() {
                         r.missing.push("a compute and graphics queue that presents to the window (VK_KHR_swapchain)".into());
@@ -436,7 +537,7 @@ impl Context {
                 if !r.qualifies() {
                     destroy_surface(&surface);
                     destroy_instance(&instance, &debug_instance);
-                    return Err(NoRayQueryDevice {
+                    return Err(NoTracingDevice {
                         devices: reports,
                         hint: Some(format!("--device {i} picks a device that cannot run the renderer")),
                     }
@@ -452,17 +553,22 @@ impl Context {
                         destroy_surface(&surface);
                         destroy_instance(&instance, &debug_instance);
                         let hint = no_device_hint(&reports);
-                        return Err(NoRayQueryDevice { devices: reports, hint }.into());
+                        return Err(NoTracingDevice { devices: reports, hint }.into());
                     }
                 }
             }
         };
         let (report, physical_device) = chosen;
+        let tracing = report.tracing.expect("a device that qualifies has a way to trace rays");
 
         // SAFETY: valid physical device of this instance.
         let properties = unsafe { instance.get_physical_device_properties(physical_device) };
         let mut asp = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
+        let mut rtp = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
         let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut asp);
+        if tracing == Tracing::Pipeline {
+            p2 = p2.push_next(&mut rtp);
+        }
         // SAFETY: the device exposes VK_KHR_acceleration_structure (it qualified).
         unsafe { instance.get_physical_device_properties2(physical_device, &mut p2) };
         let as_properties =
@@ -483,6 +589,10 @@ impl Context {
         let priorities = [1.0f32];
         let queue_info = [vk::DeviceQueueCreateInfo::default().queue_family_index(queue_family).queue_priorities(&priorities)];
         let mut ext_ptrs: Vec<*const i8> = REQUIRED_EXTENSIONS.iter().map(|n| n.as_ptr()).collect();
+        ext_ptrs.push(match tracing {
+            Tracing::Query => ash::khr::ray_query::NAME.as_ptr(),
+            Tracing::Pipeline => ash::khr::ray_tracing_pipeline::NAME.as_ptr(),
+        });
         if surface.is_some() {
             ext_ptrs.push(ash::khr::swapchain::NAME.as_ptr());
         }
@@ -491,20 +601,31 @@ impl Context {
             .host_query_reset(true);
         let mut fas = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
         let mut frq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
+        let mut frt = vk::PhysicalDeviceRayTracingPipelineFeaturesKHR::default().ray_tracing_pipeline(true);
         let features = vk::PhysicalDeviceFeatures::default();
         let info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_info)
             .enabled_extension_names(&ext_ptrs)
             .enabled_features(&features)
             .push_next(&mut f12)
-            .push_next(&mut fas)
-            .push_next(&mut frq);
+            .push_next(&mut fas);
+        let info = match tracing {
+            Tracing::Query => info.push_next(&mut frq),
+            Tracing::Pipeline => info.push_next(&mut frt),
+        };
         // SAFETY: the create info references locals alive for the call; features were checked.
         let device = unsafe { instance.create_device(physical_device, &info, None) }
             .with_context(|| format!("vkCreateDevice failed on {}", report.name))?;
         // SAFETY: queue family and index exist (created above).
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let accel = ash::khr::acceleration_structure::Device::new(&instance, &device);
+        let ray_tracing = (tracing == Tracing::Pipeline).then(|| RayTracingPipelines {
+            loader: ash::khr::ray_tracing_pipeline::Device::new(&instance, &device),
+            handle_size: rtp.shader_group_handle_size,
+            handle_alignment: rtp.shader_group_handle_alignment.max(1),
+            base_alignment: rtp.shader_group_base_alignment.max(1),
+            max_invocations: rtp.max_ray_dispatch_invocation_count,
+        });
         let debug_utils = has_debug_utils.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -569,12 +690,31 @@ impl Context {
             report,
             properties,
             as_properties,
+            tracing,
+            ray_tracing,
             validation_enabled,
             validation,
             command_pool,
             presentation,
             nonfinite_samples: AtomicU64::new(0),
         })
+    }
+
+    /// The shader stages of a pass's descriptor sets and push constants: compute, and ray
+    /// generation where the passes that trace are ray-generation shaders.
+    pub fn pass_stages(&self) -> vk::ShaderStageFlags {
+        match self.tracing {
+            Tracing::Query => vk::ShaderStageFlags::COMPUTE,
+            Tracing::Pipeline => vk::ShaderStageFlags::COMPUTE | vk::ShaderStageFlags::RAYGEN_KHR,
+        }
+    }
+
+    /// The pipeline stages the passes run in, for barriers between them.
+    pub fn pass_pipeline_stages(&self) -> vk::PipelineStageFlags {
+        match self.tracing {
+            Tracing::Query => vk::PipelineStageFlags::COMPUTE_SHADER,
+            Tracing::Pipeline => vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+        }
     }
 
     /// Validation-layer errors reported so far (0 when the layer is off).
@@ -822,6 +962,7 @@ mod tests {
             api_version: "1.3.0".into(),
             driver: "test".into(),
             missing: missing.iter().map(|m| m.to_string()).collect(),
+            tracing: None,
         }
     }
 
@@ -829,7 +970,7 @@ mod tests {
     fn hint_names_rt_cores_for_an_nvidia_device_without_ray_queries() {
         let h100 = report("NVIDIA H100 80GB HBM3", &["VK_KHR_ray_query", "feature rayQuery"]);
         let hint = no_device_hint(&[h100]).expect("an NVIDIA device without ray queries gets the note");
-        assert!(hint.contains("RT cores") && hint.contains("not verified"), "{hint}");
+        assert!(hint.contains("RT cores") && hint.contains("--trace pipeline"), "{hint}");
         // Not for other vendors, nor for an NVIDIA device that lacks something else.
         assert_eq!(no_device_hint(&[report("AMD Radeon", &["VK_KHR_ray_query"])]), None);
         assert_eq!(no_device_hint(&[report("NVIDIA GeForce RTX 4090", &["Vulkan 1.2 (has 1.1.0)"])]), None);

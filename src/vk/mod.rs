@@ -13,6 +13,6 @@ pub mod timer;
 
 pub use buffer::{Buffer, TexelFormat};
 pub use image::Image;
-pub use context::{WindowHandles, Presentation, Context, ContextOptions, DeviceReport, NoRayQueryDevice};
+pub use context::{WindowHandles, Presentation, Context, ContextOptions, DeviceReport, NoTracingDevice};
 pub use pipeline::{Binding, BindingKind, ComputePipeline, DescriptorSet};
 pub use timer::GpuTimer;

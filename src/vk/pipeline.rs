@@ -2,6 +2,11 @@
 //! `crate::scene_gpu`), set 1 holds a pass's own resources, described by a binding table (a pass
 //! declares it in its `PassDesc`, see `crate::passes::desc`). Writing a resource checks it against
 //! that table.
+//!
+//! On a device that traces with ray-tracing pipelines ([`super::context::Tracing::Pipeline`]), a pass that traces
+//! rays is a ray-tracing pipeline instead: its `raygen` SPIR-V variant, the miss and closest-hit
+//! shaders of shaders/rt/, and a shader binding table; it is recorded with `vkCmdTraceRaysKHR`
+//! over the same invocations a dispatch would run, with the same sets and push constants.
 
 use std::io::Cursor;
 use std::sync::Arc;
@@ -85,7 +90,7 @@ impl DescriptorSet {
                     .binding(b.binding)
                     .descriptor_type(b.kind.vk())
                     .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+                    .stage_flags(ctx.pass_stages())
             })
             .collect();
         let device = &ctx.device;
@@ -244,7 +249,8 @@ impl Drop for DescriptorSet {
     }
 }
 
-/// A compute pipeline: set 0 = scene, set 1 = the pass's own table, plus push constants.
+/// A compute pipeline: set 0 = scene, set 1 = the pass's own table, plus push constants. Or, built
+/// by [`ComputePipeline::ray_tracing`], a ray-tracing pipeline with the same interface.
 pub struct ComputePipeline {
     ctx: Arc<Context>,
     pub name: String,
@@ -253,6 +259,21 @@ pub struct ComputePipeline {
     pub set1: DescriptorSet,
     pub push_size: u32,
     pub local_size: [u32; 3],
+    /// Some: a ray-tracing pipeline, traced through this table instead of dispatched.
+    sbt: Option<ShaderBindingTable>,
+}
+
+/// A ray-tracing pipeline's shader binding table: the ray-generation record, the two miss records
+/// (shaders/rt/payload.glsl's RT_CLOSEST_MISS and RT_SHADOW_MISS) and the one hit group.
+struct ShaderBindingTable {
+    _buffer: Buffer,
+    raygen: vk::StridedDeviceAddressRegionKHR,
+    miss: vk::StridedDeviceAddressRegionKHR,
+    hit: vk::StridedDeviceAddressRegionKHR,
+}
+
+fn align_up(x: u64, a: u64) -> u64 {
+    x.div_ceil(a) * a
 }
 
 impl ComputePipeline {
@@ -286,29 +307,17 @@ impl ComputePipeline {
         variants: u32,
     ) -> Result<Self> {
         let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
-        let code = ash::util::read_spv(&mut Cursor::new(spirv)).with_context(|| format!("SPIR-V of '{name}'"))?;
         let device = &ctx.device;
         // SAFETY: valid device; the SPIR-V was produced by glslang at build time.
         unsafe {
-            let module = device
-                .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None)
-                .with_context(|| format!("shader module '{name}'"))?;
-            ctx.set_name(module, name);
-            let set_layouts = [scene_layout, set1.layout];
-            let ranges = [vk::PushConstantRange::default()
-                .stage_flags(vk::ShaderStageFlags::COMPUTE)
-                .offset(0)
-                .size(push_size.max(4))];
-            let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
-            let layout_info = if push_size > 0 { layout_info.push_constant_ranges(&ranges) } else { layout_info };
-            let layout = match device.create_pipeline_layout(&layout_info, None) {
+            let module = shader_module(ctx, name, spirv)?;
+            let layout = match pipeline_layout(ctx, name, scene_layout, set1.layout, push_size) {
                 Ok(layout) => layout,
                 Err(e) => {
                     device.destroy_shader_module(module, None);
-                    return Err(e).with_context(|| format!("pipeline layout '{name}'"));
+                    return Err(e);
                 }
             };
-            ctx.set_name(layout, name);
             let spec_entries = [
                 vk::SpecializationMapEntry { constant_id: 0, offset: 0, size: 4 },
                 vk::SpecializationMapEntry { constant_id: 1, offset: 4, size: 4 },
@@ -331,8 +340,113 @@ impl ComputePipeline {
                 }
             };
             ctx.set_name(pipeline, name);
-            Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size })
+            Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: None })
         }
+    }
+
+    /// A ray-tracing pipeline of a pass compiled as a ray-generation shader (`raygen`, its
+    /// `raygen` SPIR-V variant), with the same sets, push constants and `variants` as
+    /// [`ComputePipeline::with_variants`]; `local_size` is the compute version's, whose invocations
+    /// a launch reproduces. Needs a context that traces with [`super::context::Tracing::Pipeline`].
+    #[allow(clippy::too_many_arguments)]
+    pub fn ray_tracing(
+        ctx: &Arc<Context>,
+        name: &str,
+        raygen: &[u8],
+        scene_layout: vk::DescriptorSetLayout,
+        table: &'static [Binding],
+        push_size: u32,
+        local_size: [u32; 3],
+        variants: u32,
+    ) -> Result<Self> {
+        let rt = ctx
+            .ray_tracing
+            .as_ref()
+            .with_context(|| format!("pass '{name}': a ray-tracing pipeline on a context that traces with {}", ctx.tracing.describe()))?;
+        let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
+        let device = &ctx.device;
+        let sources = [
+            (raygen, vk::ShaderStageFlags::RAYGEN_KHR, name.to_string()),
+            (crate::shaders::RT_MISS, vk::ShaderStageFlags::MISS_KHR, format!("{name}.miss")),
+            (crate::shaders::RT_SHADOW_MISS, vk::ShaderStageFlags::MISS_KHR, format!("{name}.shadow_miss")),
+            (crate::shaders::RT_CLOSEST_HIT, vk::ShaderStageFlags::CLOSEST_HIT_KHR, format!("{name}.closest_hit")),
+        ];
+        // SAFETY: valid device; the SPIR-V was produced by glslang at build time; every object
+        // made here is destroyed on the way out of an error.
+        unsafe {
+            let mut modules = Vec::new();
+            for (spirv, _, module_name) in &sources {
+                match shader_module(ctx, module_name, spirv) {
+                    Ok(m) => modules.push(m),
+                    Err(e) => {
+                        modules.iter().for_each(|m| device.destroy_shader_module(*m, None));
+                        return Err(e);
+                    }
+                }
+            }
+            let destroy_modules = || modules.iter().for_each(|m| device.destroy_shader_module(*m, None));
+            let layout = match pipeline_layout(ctx, name, scene_layout, set1.layout, push_size) {
+                Ok(layout) => layout,
+                Err(e) => {
+                    destroy_modules();
+                    return Err(e);
+                }
+            };
+            let stages: Vec<vk::PipelineShaderStageCreateInfo> = sources
+                .iter()
+                .zip(&modules)
+                .map(|((_, stage, _), module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(*module).name(c"main"))
+                .collect();
+            let general = |i: u32| {
+                vk::RayTracingShaderGroupCreateInfoKHR::default()
+                    .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
+                    .general_shader(i)
+                    .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                    .intersection_shader(vk::SHADER_UNUSED_KHR)
+            };
+            let groups = [
+                general(0),
+                general(1),
+                general(2),
+                vk::RayTracingShaderGroupCreateInfoKHR::default()
+                    .ty(vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP)
+                    .general_shader(vk::SHADER_UNUSED_KHR)
+                    .closest_hit_shader(3)
+                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                    .intersection_shader(vk::SHADER_UNUSED_KHR),
+            ];
+            // Recursion depth 1: only the ray-generation shader traces.
+            let info = [vk::RayTracingPipelineCreateInfoKHR::default()
+                .stages(&stages)
+                .groups(&groups)
+                .max_pipeline_ray_recursion_depth(1)
+                .layout(layout)];
+            let result = rt.loader.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), ctx.pipeline_cache, &info, None);
+            destroy_modules();
+            let pipeline = match result {
+                Ok(pipelines) => pipelines[0],
+                Err((_, e)) => {
+                    device.destroy_pipeline_layout(layout, None);
+                    return Err(anyhow::anyhow!("ray-tracing pipeline '{name}': {e}"));
+                }
+            };
+            ctx.set_name(pipeline, name);
+            let sbt = match shader_binding_table(ctx, name, pipeline, groups.len() as u32) {
+                Ok(sbt) => sbt,
+                Err(e) => {
+                    device.destroy_pipeline(pipeline, None);
+                    device.destroy_pipeline_layout(layout, None);
+                    return Err(e);
+                }
+            };
+            Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: Some(sbt) })
+        }
+    }
+
+    /// Whether this is a ray-tracing pipeline (recorded with vkCmdTraceRaysKHR).
+    pub fn is_ray_tracing(&self) -> bool {
+        self.sbt.is_some()
     }
 
     /// Binds the pipeline and both sets, pushes constants and dispatches `groups`.
@@ -349,17 +463,31 @@ impl ComputePipeline {
         push: &[u8],
         groups: [u32; 3],
     ) {
+        let size = [0, 1, 2].map(|i| groups[i] * self.local_size[i]);
+        self.launch(cmd, variant, scene_set, push, groups, size);
+    }
+
+    /// Binds the pipeline, set 0, set-1 variant `variant` and the push constants, then dispatches
+    /// `groups` (a compute pipeline) or traces a launch of `size` invocations (a ray-tracing one).
+    fn launch(&self, cmd: vk::CommandBuffer, variant: usize, scene_set: vk::DescriptorSet, push: &[u8], groups: [u32; 3], size: [u32; 3]) {
         let set1 = self.set1.variants[variant];
         debug_assert_eq!(push.len() as u32, self.push_size, "push constant size of '{}'", self.name);
         let d = &self.ctx.device;
+        let bind_point = if self.sbt.is_some() { vk::PipelineBindPoint::RAY_TRACING_KHR } else { vk::PipelineBindPoint::COMPUTE };
         // SAFETY: cmd is recording; all objects are alive for the command buffer's lifetime.
         unsafe {
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-            d.cmd_bind_descriptor_sets(cmd, vk::PipelineBindPoint::COMPUTE, self.layout, 0, &[scene_set, set1], &[]);
+            d.cmd_bind_pipeline(cmd, bind_point, self.pipeline);
+            d.cmd_bind_descriptor_sets(cmd, bind_point, self.layout, 0, &[scene_set, set1], &[]);
             if !push.is_empty() {
-                d.cmd_push_constants(cmd, self.layout, vk::ShaderStageFlags::COMPUTE, 0, push);
+                d.cmd_push_constants(cmd, self.layout, self.ctx.pass_stages(), 0, push);
             }
-            d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]);
+            match (&self.sbt, &self.ctx.ray_tracing) {
+                (Some(sbt), Some(rt)) => {
+                    let callable = vk::StridedDeviceAddressRegionKHR::default();
+                    rt.loader.cmd_trace_rays(cmd, &sbt.raygen, &sbt.miss, &sbt.hit, &callable, size[0], size[1], size[2]);
+                }
+                _ => d.cmd_dispatch(cmd, groups[0], groups[1], groups[2]),
+            }
         }
     }
 
@@ -379,7 +507,8 @@ impl ComputePipeline {
         height: u32,
     ) {
         let groups = [width.div_ceil(self.local_size[0]), height.div_ceil(self.local_size[1]), 1];
-        self.dispatch_variant(cmd, variant, scene_set, push, groups);
+        // A launch has no workgroups to fill: exactly the image.
+        self.launch(cmd, variant, scene_set, push, groups, [width, height, 1]);
     }
 
     /// Dispatches one invocation per item of a 1-D range of `count` items. The shader indexes
@@ -387,13 +516,88 @@ impl ComputePipeline {
     pub fn dispatch_1d(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, push: &[u8], count: u32) {
         let groups = count.div_ceil(self.local_size[0]).max(1);
         let max_x = self.ctx.properties.limits.max_compute_work_group_count[0];
+        // A launch folds the same way, in rows of the same length (dispatch_index() in
+        // shaders/lib/dispatch.glsl reads them alike).
         self.dispatch(cmd, scene_set, push, grid_1d(groups, max_x));
     }
 }
 
+/// A shader module of build.rs's SPIR-V, named `name`.
+///
+/// # Safety
+/// A valid context; the caller destroys the module.
+unsafe fn shader_module(ctx: &Context, name: &str, spirv: &[u8]) -> Result<vk::ShaderModule> {
+    let code = ash::util::read_spv(&mut Cursor::new(spirv)).with_context(|| format!("SPIR-V of '{name}'"))?;
+    // SAFETY: valid device (caller's contract); the code is whole words.
+    let module = unsafe { ctx.device.create_shader_module(&vk::ShaderModuleCreateInfo::default().code(&code), None) }
+        .with_context(|| format!("shader module '{name}'"))?;
+    ctx.set_name(module, name);
+    Ok(module)
+}
+
+/// The layout every pass has: set 0 (the scene), set 1 (its own) and `push_size` bytes of push
+/// constants, for the stages the passes run in.
+///
+/// # Safety
+/// A valid context and set layouts; the caller destroys the layout.
+unsafe fn pipeline_layout(
+    ctx: &Context,
+    name: &str,
+    scene_layout: vk::DescriptorSetLayout,
+    set1_layout: vk::DescriptorSetLayout,
+    push_size: u32,
+) -> Result<vk::PipelineLayout> {
+    let set_layouts = [scene_layout, set1_layout];
+    let ranges = [vk::PushConstantRange::default().stage_flags(ctx.pass_stages()).offset(0).size(push_size.max(4))];
+    let layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&set_layouts);
+    let layout_info = if push_size > 0 { layout_info.push_constant_ranges(&ranges) } else { layout_info };
+    // SAFETY: as above.
+    let layout = unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }.with_context(|| format!("pipeline layout '{name}'"))?;
+    ctx.set_name(layout, name);
+    Ok(layout)
+}
+
+/// The shader binding table of a ray-tracing pipeline with `groups` groups (ray generation, then
+/// the miss shaders, then the hit group, as [`ComputePipeline::ray_tracing`] makes them): each
+/// region starts at a multiple of shaderGroupBaseAlignment, each record takes a multiple of
+/// shaderGroupHandleAlignment. Host-visible: the handles are written once.
+fn shader_binding_table(ctx: &Arc<Context>, name: &str, pipeline: vk::Pipeline, groups: u32) -> Result<ShaderBindingTable> {
+    let rt = ctx.ray_tracing.as_ref().context("ray-tracing pipelines are not enabled")?;
+    let handle = u64::from(rt.handle_size);
+    let stride = align_up(handle, u64::from(rt.handle_alignment));
+    let base = u64::from(rt.base_alignment);
+    // SAFETY: the pipeline is a ray-tracing pipeline with `groups` groups.
+    let handles = unsafe { rt.loader.get_ray_tracing_shader_group_handles(pipeline, 0, groups, (handle * u64::from(groups)) as usize) }
+        .with_context(|| format!("shader group handles of '{name}'"))?;
+    let miss_count = u64::from(groups) - 2;
+    let miss_offset = align_up(stride, base);
+    let hit_offset = align_up(miss_offset + miss_count * stride, base);
+    let size = hit_offset + stride;
+    // One base alignment more, so that the table can start at an aligned address in the buffer.
+    let buffer = Buffer::new(
+        ctx,
+        &format!("{name}.sbt"),
+        size + base,
+        vk::BufferUsageFlags::SHADER_BINDING_TABLE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        gpu_allocator::MemoryLocation::CpuToGpu,
+    )?;
+    let start = align_up(buffer.address(), base);
+    let skip = start - buffer.address();
+    let record = |group: u64| &handles[(group * handle) as usize..((group + 1) * handle) as usize];
+    buffer.write(skip as usize, record(0))?;
+    for m in 0..miss_count {
+        buffer.write((skip + miss_offset + m * stride) as usize, record(1 + m))?;
+    }
+    buffer.write((skip + hit_offset) as usize, record(u64::from(groups) - 1))?;
+    let region = |offset: u64, count: u64| {
+        vk::StridedDeviceAddressRegionKHR::default().device_address(start + offset).stride(stride).size(count * stride)
+    };
+    Ok(ShaderBindingTable { raygen: region(0, 1), miss: region(miss_offset, miss_count), hit: region(hit_offset, 1), _buffer: buffer })
+}
+
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
-        // SAFETY: no pending work uses the pipeline.
+        // SAFETY: no pending work uses the pipeline (nor its binding table, dropped after it).
         unsafe {
             self.ctx.device.destroy_pipeline(self.pipeline, None);
             self.ctx.device.destroy_pipeline_layout(self.layout, None);
@@ -419,9 +623,7 @@ pub fn grid_1d(groups: u32, max_x: u32) -> [u32; 3] {
 /// available but visible to no later command (its second scope is empty), and a submission's
 /// implicit ordering covers host writes only. lavapipe needs none of this; a GPU's caches may.
 pub fn submission_start_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let stages = vk::PipelineStageFlags::COMPUTE_SHADER
-        | vk::PipelineStageFlags::TRANSFER
-        | vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR;
+    let stages = ctx.pass_pipeline_stages() | vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR;
     let writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR;
     let reads = vk::AccessFlags::SHADER_READ | vk::AccessFlags::TRANSFER_READ | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR;
     memory_barrier(ctx, cmd, (stages, writes), (stages, reads | writes));
@@ -430,15 +632,16 @@ pub fn submission_start_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
 /// Last in a command buffer whose results the host reads after its fence: the device writes made
 /// visible to host reads (a fence wait alone makes them available, not visible).
 pub fn host_read_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let device_stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
+    let device_stages = ctx.pass_pipeline_stages() | vk::PipelineStageFlags::TRANSFER;
     let device_writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE;
     memory_barrier(ctx, cmd, (device_stages, device_writes), (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ));
 }
 
 /// A full compute→compute (and →transfer) memory barrier between passes (transfer writes after
-/// shader writes included: a counter cleared by vkCmdFillBuffer after a pass's atomics).
+/// shader writes included: a counter cleared by vkCmdFillBuffer after a pass's atomics). With
+/// ray-tracing pipelines, their shader stage too.
 pub fn compute_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
+    let stages = ctx.pass_pipeline_stages() | vk::PipelineStageFlags::TRANSFER;
     let writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE;
     let reads = vk::AccessFlags::SHADER_READ | vk::AccessFlags::TRANSFER_READ;
     memory_barrier(ctx, cmd, (stages, writes), (stages, reads | writes));

@@ -183,6 +183,7 @@ impl App {
             validate: s.validate,
             device_index: s.device_index,
             window: Some(handles),
+            tracing: s.tracing,
         })?);
         let scene_cpu = self.scene.take().context("the scene was already uploaded")?;
         let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures, s.merge_blas).context("uploading the scene")?);

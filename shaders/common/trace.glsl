@@ -1,0 +1,91 @@
+// Ray tracing against set 0's TLAS: closest hits and shadow rays, the two kinds of ray the
+// renderer traces. One interface, two implementations:
+//  - ray queries (VK_KHR_ray_query), inline in a compute shader: the default;
+//  - with RT_PIPELINE defined, ray-tracing pipelines (VK_KHR_ray_tracing_pipeline): the pass is
+//    compiled as a ray-generation shader (build.rs, `raygen` variants) whose rays run the hit and
+//    miss shaders in shaders/rt/. For devices with ray-tracing pipelines and no ray queries, as
+//    NVIDIA's H100 (driver 580).
+// Both ask the same of the traversal (opaque triangles, the closest hit, or any hit for a shadow
+// ray) and return the same values, so a pass's code above this file is the same for both.
+#ifndef TRACE_GLSL
+#define TRACE_GLSL
+
+#ifdef RT_PIPELINE
+#extension GL_EXT_ray_tracing : require
+#else
+#extension GL_EXT_ray_query : require
+#endif
+
+#include "scene.glsl"
+#ifdef RT_PIPELINE
+#include "../rt/payload.glsl"
+#endif
+
+layout(set = 0, binding = 0) uniform accelerationStructureEXT tlas;
+
+#ifdef RT_PIPELINE
+layout(location = RT_CLOSEST_PAYLOAD) rayPayloadEXT ClosestPayload closest_payload;
+layout(location = RT_SHADOW_PAYLOAD) rayPayloadEXT uint shadow_payload;
+#endif
+
+// Closest hit along a ray; false when it leaves the scene.
+bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t) {
+#ifdef RT_PIPELINE
+    closest_payload.t = -1.0;
+    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT, 0xFFu, 0u, 0u, RT_CLOSEST_MISS, origin, 0.0, dir, t_max, RT_CLOSEST_PAYLOAD);
+    if (closest_payload.t < 0.0) {
+        t = -1.0;
+        return false;
+    }
+    t = closest_payload.t;
+    uint inst = closest_payload.instance;
+    uint prim = closest_payload.primitive;
+    vec2 bary = closest_payload.barycentrics;
+#else
+    rayQueryEXT rq;
+    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT, 0xFFu, origin, 0.0, dir, t_max);
+    while (rayQueryProceedEXT(rq)) {
+    }
+    if (rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionTriangleEXT) {
+        t = -1.0;
+        return false;
+    }
+    t = rayQueryGetIntersectionTEXT(rq, true);
+    uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, true));
+    uint prim = uint(rayQueryGetIntersectionPrimitiveIndexEXT(rq, true));
+    vec2 bary = rayQueryGetIntersectionBarycentricsEXT(rq, true);
+#endif
+    hit = fetch_hit(inst, prim, bary, dir);
+    return true;
+}
+
+// Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
+bool segment_visible(vec3 from, vec3 to) {
+    vec3 d = to - from;
+    float len = length(d);
+    // A ray's origin, direction and t range must be finite (undefined otherwise: lavapipe
+    // forgives it, hardware traversal need not): endpoints ~1e19 apart (len overflows) or not
+    // finite are taken as blocked, so they add nothing.
+    if (!is_finite(len) || !is_finite(from)) {
+        return false;
+    }
+    if (len <= 0.0) {
+        return true;
+    }
+#ifdef RT_PIPELINE
+    // Any hit ends the ray (no closest-hit shader runs); only the shadow miss shader sets 1.
+    shadow_payload = 0u;
+    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFFu,
+                0u, 0u, RT_SHADOW_MISS, from, 0.0, d / len, len, RT_SHADOW_PAYLOAD);
+    return shadow_payload != 0u;
+#else
+    rayQueryEXT rq;
+    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, from, 0.0,
+                          d / len, len);
+    while (rayQueryProceedEXT(rq)) {
+    }
+    return rayQueryGetIntersectionTypeEXT(rq, true) == gl_RayQueryCommittedIntersectionNoneEXT;
+#endif
+}
+
+#endif
