@@ -373,6 +373,28 @@ fn check_tracing(ctx: &Context, settings: &RenderSettings) -> Result<()> {
             settings.restir.boiling_filter
         );
     }
+    if let Some(rt) = &ctx.ray_tracing {
+        // A pass traces one launch of width × height invocations (maxRayDispatchInvocationCount:
+        // 2^26 on lavapipe, 2^30 on NVIDIA).
+        let pixels = u64::from(settings.width) * u64::from(settings.height);
+        if pixels > u64::from(rt.max_invocations) {
+            bail!(
+                "--width {} --height {}: {pixels} pixels, more than the {} rays one launch may start on this device \
+                 (maxRayDispatchInvocationCount; rays are traced with ray-tracing pipelines here)",
+                settings.width,
+                settings.height,
+                rt.max_invocations
+            );
+        }
+    }
+    if ctx.tracing == Tracing::Pipeline && settings.workgroup != RenderSettings::default().workgroup {
+        log::warn!(
+            "--workgroup {}x{} has no effect here: every pass it sizes traces rays, and runs as a ray-generation shader \
+             (ray-tracing pipelines), whose launch has no workgroups",
+            settings.workgroup[0],
+            settings.workgroup[1]
+        );
+    }
     Ok(())
 }
 

@@ -619,7 +619,7 @@ fn no_vulkan_driver_is_reported_as_no_device_with_exit_code_2() {
     let o = without_driver(&["--headless", "--width", "8", "--height", "8", "--frames", "1"]);
     let err = stderr(&o);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("no Vulkan device supports ray queries") && err.contains("found no driver"), "{err}");
+    assert!(err.contains("no Vulkan device can trace rays") && err.contains("found no driver"), "{err}");
     assert_eq!(err.matches("scripts/setup.sh").count(), 1, "the install hint is said once: {err}");
     assert!(!err.contains("panicked"), "{err}");
     let o = without_driver(&["--list-devices"]);

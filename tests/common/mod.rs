@@ -37,7 +37,7 @@ pub fn validate() -> bool {
 }
 
 pub fn context() -> Arc<Context> {
-    Arc::new(Context::new(&ContextOptions { validate: validate(), ..Default::default() }).expect("a ray-query device"))
+    Arc::new(Context::new(&ContextOptions { validate: validate(), ..Default::default() }).expect("a device that traces rays"))
 }
 
 /// Uploads `scene` to `ctx` (textures as `settings` says).
