@@ -54,6 +54,12 @@ fn lit_u32(op: &Operand) -> u32 {
     }
 }
 
+/// The first operand of each instruction, where `pick` recognises it (OpCapability's capability,
+/// OpEntryPoint's execution model).
+fn first_operands<T>(insts: &[Instruction], pick: impl Fn(&Operand) -> Option<T>) -> Vec<T> {
+    insts.iter().filter_map(|i| i.operands.first().and_then(&pick)).collect()
+}
+
 impl Spirv {
     fn parse(bytes: &[u8]) -> Result<Self, String> {
         let module = rspirv::dr::load_bytes(bytes).map_err(|e| format!("SPIR-V does not parse: {e}"))?;
@@ -65,22 +71,14 @@ impl Spirv {
             globals: module.types_global_values.clone(),
             by_id: HashMap::new(),
             local_size: None,
-            capabilities: module
-                .capabilities
-                .iter()
-                .filter_map(|i| match i.operands.first() {
-                    Some(Operand::Capability(c)) => Some(*c),
-                    _ => None,
-                })
-                .collect(),
-            execution_models: module
-                .entry_points
-                .iter()
-                .filter_map(|i| match i.operands.first() {
-                    Some(Operand::ExecutionModel(m)) => Some(*m),
-                    _ => None,
-                })
-                .collect(),
+            capabilities: first_operands(&module.capabilities, |o| match o {
+                Operand::Capability(c) => Some(*c),
+                _ => None,
+            }),
+            execution_models: first_operands(&module.entry_points, |o| match o {
+                Operand::ExecutionModel(m) => Some(*m),
+                _ => None,
+            }),
         };
         for inst in &module.debug_names {
             match (inst.class.opcode, inst.operands.as_slice()) {

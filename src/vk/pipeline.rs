@@ -306,18 +306,8 @@ impl ComputePipeline {
         specialise: bool,
         variants: u32,
     ) -> Result<Self> {
-        let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
-        let device = &ctx.device;
-        // SAFETY: valid device; the SPIR-V was produced by glslang at build time.
-        unsafe {
-            let module = shader_module(ctx, name, spirv)?;
-            let layout = match pipeline_layout(ctx, name, scene_layout, set1.layout, push_size) {
-                Ok(layout) => layout,
-                Err(e) => {
-                    device.destroy_shader_module(module, None);
-                    return Err(e);
-                }
-            };
+        let sources = [(spirv, name.to_string())];
+        let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
             let spec_entries = [
                 vk::SpecializationMapEntry { constant_id: 0, offset: 0, size: 4 },
                 vk::SpecializationMapEntry { constant_id: 1, offset: 4, size: 4 },
@@ -326,22 +316,17 @@ impl ComputePipeline {
             let spec = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
             let stage = vk::PipelineShaderStageCreateInfo::default()
                 .stage(vk::ShaderStageFlags::COMPUTE)
-                .module(module)
+                .module(modules[0])
                 .name(c"main");
             let stage = if specialise { stage.specialization_info(&spec) } else { stage };
             let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-            let result = device.create_compute_pipelines(ctx.pipeline_cache, &info, None);
-            device.destroy_shader_module(module, None);
-            let pipeline = match result {
-                Ok(pipelines) => pipelines[0],
-                Err((_, e)) => {
-                    device.destroy_pipeline_layout(layout, None);
-                    return Err(anyhow::anyhow!("compute pipeline '{name}': {e}"));
-                }
-            };
-            ctx.set_name(pipeline, name);
-            Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: None })
-        }
+            // SAFETY: valid device, module and layout (create_pass_pipeline's contract).
+            match unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache, &info, None) } {
+                Ok(pipelines) => Ok(pipelines[0]),
+                Err((_, e)) => Err(anyhow::anyhow!("compute pipeline '{name}': {e}")),
+            }
+        })?;
+        Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: None })
     }
 
     /// A ray-tracing pipeline of a pass compiled as a ray-generation shader (`raygen`, its
@@ -363,90 +348,67 @@ impl ComputePipeline {
             .ray_tracing
             .as_ref()
             .with_context(|| format!("pass '{name}': a ray-tracing pipeline on a context that traces with {}", ctx.tracing.describe()))?;
-        let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
-        let device = &ctx.device;
-        let sources = [
-            (raygen, vk::ShaderStageFlags::RAYGEN_KHR, name.to_string()),
-            (crate::shaders::RT_MISS, vk::ShaderStageFlags::MISS_KHR, format!("{name}.miss")),
-            (crate::shaders::RT_SHADOW_MISS, vk::ShaderStageFlags::MISS_KHR, format!("{name}.shadow_miss")),
-            (crate::shaders::RT_CLOSEST_HIT, vk::ShaderStageFlags::CLOSEST_HIT_KHR, format!("{name}.closest_hit")),
+        let stages = [
+            vk::ShaderStageFlags::RAYGEN_KHR,
+            vk::ShaderStageFlags::MISS_KHR,
+            vk::ShaderStageFlags::MISS_KHR,
+            vk::ShaderStageFlags::CLOSEST_HIT_KHR,
         ];
-        // SAFETY: valid device; the SPIR-V was produced by glslang at build time; every object
-        // made here is destroyed on the way out of an error.
-        unsafe {
-            let mut modules = Vec::new();
-            for (spirv, _, module_name) in &sources {
-                match shader_module(ctx, module_name, spirv) {
-                    Ok(m) => modules.push(m),
-                    Err(e) => {
-                        modules.iter().for_each(|m| device.destroy_shader_module(*m, None));
-                        return Err(e);
-                    }
-                }
-            }
-            let destroy_modules = || modules.iter().for_each(|m| device.destroy_shader_module(*m, None));
-            let layout = match pipeline_layout(ctx, name, scene_layout, set1.layout, push_size) {
-                Ok(layout) => layout,
-                Err(e) => {
-                    destroy_modules();
-                    return Err(e);
-                }
-            };
-            let stages: Vec<vk::PipelineShaderStageCreateInfo> = sources
+        let sources = [
+            (raygen, name.to_string()),
+            (crate::shaders::RT_MISS, format!("{name}.miss")),
+            (crate::shaders::RT_SHADOW_MISS, format!("{name}.shadow_miss")),
+            (crate::shaders::RT_CLOSEST_HIT, format!("{name}.closest_hit")),
+        ];
+        let general = |i: u32| {
+            vk::RayTracingShaderGroupCreateInfoKHR::default()
+                .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
+                .general_shader(i)
+                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+                .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                .intersection_shader(vk::SHADER_UNUSED_KHR)
+        };
+        let groups = [
+            general(0),
+            general(1),
+            general(2),
+            vk::RayTracingShaderGroupCreateInfoKHR::default()
+                .ty(vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP)
+                .general_shader(vk::SHADER_UNUSED_KHR)
+                .closest_hit_shader(3)
+                .any_hit_shader(vk::SHADER_UNUSED_KHR)
+                .intersection_shader(vk::SHADER_UNUSED_KHR),
+        ];
+        let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
+            let stages: Vec<vk::PipelineShaderStageCreateInfo> = stages
                 .iter()
-                .zip(&modules)
-                .map(|((_, stage, _), module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(*module).name(c"main"))
+                .zip(modules)
+                .map(|(stage, module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(*module).name(c"main"))
                 .collect();
-            let general = |i: u32| {
-                vk::RayTracingShaderGroupCreateInfoKHR::default()
-                    .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
-                    .general_shader(i)
-                    .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .intersection_shader(vk::SHADER_UNUSED_KHR)
-            };
-            let groups = [
-                general(0),
-                general(1),
-                general(2),
-                vk::RayTracingShaderGroupCreateInfoKHR::default()
-                    .ty(vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP)
-                    .general_shader(vk::SHADER_UNUSED_KHR)
-                    .closest_hit_shader(3)
-                    .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                    .intersection_shader(vk::SHADER_UNUSED_KHR),
-            ];
             // Recursion depth 1: only the ray-generation shader traces.
             let info = [vk::RayTracingPipelineCreateInfoKHR::default()
                 .stages(&stages)
                 .groups(&groups)
                 .max_pipeline_ray_recursion_depth(1)
                 .layout(layout)];
-            let result = rt.loader.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), ctx.pipeline_cache, &info, None);
-            destroy_modules();
-            let pipeline = match result {
-                Ok(pipelines) => pipelines[0],
-                Err((_, e)) => {
-                    device.destroy_pipeline_layout(layout, None);
-                    return Err(anyhow::anyhow!("ray-tracing pipeline '{name}': {e}"));
+            // SAFETY: valid device, modules and layout (create_pass_pipeline's contract).
+            match unsafe { rt.loader.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), ctx.pipeline_cache, &info, None) } {
+                Ok(pipelines) => Ok(pipelines[0]),
+                Err((_, e)) => Err(anyhow::anyhow!("ray-tracing pipeline '{name}': {e}")),
+            }
+        })?;
+        let sbt = match shader_binding_table(ctx, name, pipeline, groups.len() as u32) {
+            Ok(sbt) => sbt,
+            Err(e) => {
+                // SAFETY: nothing uses the pipeline yet.
+                unsafe {
+                    ctx.device.destroy_pipeline(pipeline, None);
+                    ctx.device.destroy_pipeline_layout(layout, None);
                 }
-            };
-            ctx.set_name(pipeline, name);
-            let sbt = match shader_binding_table(ctx, name, pipeline, groups.len() as u32) {
-                Ok(sbt) => sbt,
-                Err(e) => {
-                    device.destroy_pipeline(pipeline, None);
-                    device.destroy_pipeline_layout(layout, None);
-                    return Err(e);
-                }
-            };
-            Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: Some(sbt) })
-        }
-    }
-
-    /// Whether this is a ray-tracing pipeline (recorded with vkCmdTraceRaysKHR).
-    pub fn is_ray_tracing(&self) -> bool {
-        self.sbt.is_some()
+                return Err(e);
+            }
+        };
+        Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: Some(sbt) })
     }
 
     /// Binds the pipeline and both sets, pushes constants and dispatches `groups`.
@@ -519,6 +481,59 @@ impl ComputePipeline {
         // A launch folds the same way, in rows of the same length (dispatch_index() in
         // shaders/lib/dispatch.glsl reads them alike).
         self.dispatch(cmd, scene_set, push, grid_1d(groups, max_x));
+    }
+}
+
+/// What every pass pipeline is made of: set 1 (`variants` of `table`), a shader module per
+/// (SPIR-V, debug name) of `sources`, and the pass layout (set 0 = `scene_layout`, set 1, `push_size`
+/// bytes of push constants); `create` makes the pipeline from the layout and the modules. The
+/// modules are destroyed once it has run, the layout too when it fails.
+#[allow(clippy::too_many_arguments)]
+fn create_pass_pipeline(
+    ctx: &Arc<Context>,
+    name: &str,
+    scene_layout: vk::DescriptorSetLayout,
+    table: &'static [Binding],
+    push_size: u32,
+    variants: u32,
+    sources: &[(&[u8], String)],
+    create: impl FnOnce(vk::PipelineLayout, &[vk::ShaderModule]) -> Result<vk::Pipeline>,
+) -> Result<(DescriptorSet, vk::PipelineLayout, vk::Pipeline)> {
+    let set1 = DescriptorSet::with_variants(ctx, &format!("{name}.set1"), table, variants)?;
+    let device = &ctx.device;
+    let mut modules = Vec::with_capacity(sources.len());
+    // SAFETY: valid device; the SPIR-V was produced by glslang at build time; each module is
+    // destroyed below, on every path.
+    unsafe {
+        let destroy_modules = |modules: &[vk::ShaderModule]| modules.iter().for_each(|m| device.destroy_shader_module(*m, None));
+        for (spirv, module_name) in sources {
+            match shader_module(ctx, module_name, spirv) {
+                Ok(m) => modules.push(m),
+                Err(e) => {
+                    destroy_modules(&modules);
+                    return Err(e);
+                }
+            }
+        }
+        let layout = match pipeline_layout(ctx, name, scene_layout, set1.layout, push_size) {
+            Ok(layout) => layout,
+            Err(e) => {
+                destroy_modules(&modules);
+                return Err(e);
+            }
+        };
+        let pipeline = create(layout, &modules);
+        destroy_modules(&modules);
+        match pipeline {
+            Ok(pipeline) => {
+                ctx.set_name(pipeline, name);
+                Ok((set1, layout, pipeline))
+            }
+            Err(e) => {
+                device.destroy_pipeline_layout(layout, None);
+                Err(e)
+            }
+        }
     }
 }
 
