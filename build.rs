@@ -48,6 +48,14 @@ const RAYGEN: &[&str] = &[
     "passes/restir_spatial_shade.comp",
 ];
 
+/// One compilation: a source, its variant name ("" for the default), defines and stage.
+struct Job {
+    path: PathBuf,
+    variant: String,
+    defines: Vec<(&'static str, &'static str)>,
+    stage: ShaderStage,
+}
+
 /// The stage a source compiles to, from its extension.
 fn stage_of(path: &Path) -> Option<ShaderStage> {
     match path.extension()?.to_str()? {
@@ -175,19 +183,19 @@ fn main() {
     collect(&root, &mut sources);
     let compiler = Compiler::acquire().expect("glslang compiler can be acquired once per process");
 
-    let mut jobs: Vec<(PathBuf, String, Vec<(&str, &str)>, ShaderStage)> = sources
+    let mut jobs: Vec<Job> = sources
         .iter()
-        .map(|p| (p.clone(), String::new(), Vec::new(), stage_of(p).expect("collect keeps known stages")))
+        .map(|p| Job { path: p.clone(), variant: String::new(), defines: Vec::new(), stage: stage_of(p).expect("collect keeps known stages") })
         .collect();
     for (src, variant, defines) in VARIANTS {
-        jobs.push((root.join(src), (*variant).to_string(), defines.to_vec(), ShaderStage::Compute));
+        jobs.push(Job { path: root.join(src), variant: (*variant).to_string(), defines: defines.to_vec(), stage: ShaderStage::Compute });
     }
     for src in RAYGEN {
         let rt = ("RT_PIPELINE", "1");
-        jobs.push((root.join(src), "raygen".to_string(), vec![rt], ShaderStage::RayGeneration));
+        jobs.push(Job { path: root.join(src), variant: "raygen".to_string(), defines: vec![rt], stage: ShaderStage::RayGeneration });
         for (_, variant, defines) in VARIANTS.iter().filter(|v| v.0 == *src) {
             let defines = defines.iter().copied().chain([rt]).collect();
-            jobs.push((root.join(src), format!("{variant}_raygen"), defines, ShaderStage::RayGeneration));
+            jobs.push(Job { path: root.join(src), variant: format!("{variant}_raygen"), defines, stage: ShaderStage::RayGeneration });
         }
     }
 
@@ -195,7 +203,7 @@ fn main() {
     let mut includes = BTreeSet::new();
     let mut errors = Vec::new();
     let mut spirv_hash: u64 = 0xcbf2_9ce4_8422_2325;
-    for (path, variant, defines, stage) in &jobs {
+    for Job { path, variant, defines, stage } in &jobs {
         println!("cargo:rerun-if-changed={}", path.display());
         let rel = path.strip_prefix(&root).expect("shader sources are under shaders/");
         match compile(compiler, &root, path, defines, *stage, &mut includes) {
