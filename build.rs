@@ -46,6 +46,7 @@ const RAYGEN: &[&str] = &[
     "passes/restir_temporal.comp",
     "passes/restir_spatial.comp",
     "passes/restir_spatial_shade.comp",
+    "bench/ray_rate.comp",
 ];
 
 /// One compilation: a source, its variant name ("" for the default), defines and stage.

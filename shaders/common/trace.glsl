@@ -59,6 +59,29 @@ bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t)
     return true;
 }
 
+// Whether a ray hits anything within t_max: the closest hit, or with `any_hit` the first found
+// (a shadow ray: segment_visible). Nothing is fetched (`bench --rays` times it alone).
+bool trace_hits(vec3 origin, vec3 dir, float t_max, bool any_hit) {
+#ifdef RT_PIPELINE
+    if (any_hit) {
+        shadow_payload = 0u;
+        traceRayEXT(tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFFu,
+                    0u, 0u, RT_SHADOW_MISS, origin, 0.0, dir, t_max, RT_SHADOW_PAYLOAD);
+        return shadow_payload == 0u;
+    }
+    closest_payload.t = -1.0;
+    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT, 0xFFu, 0u, 0u, RT_CLOSEST_MISS, origin, 0.0, dir, t_max, RT_CLOSEST_PAYLOAD);
+    return closest_payload.t >= 0.0;
+#else
+    rayQueryEXT rq;
+    uint flags = any_hit ? gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT : gl_RayFlagsOpaqueEXT;
+    rayQueryInitializeEXT(rq, tlas, flags, 0xFFu, origin, 0.0, dir, t_max);
+    while (rayQueryProceedEXT(rq)) {
+    }
+    return rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionNoneEXT;
+#endif
+}
+
 // Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
 bool segment_visible(vec3 from, vec3 to) {
     vec3 d = to - from;
@@ -72,20 +95,7 @@ bool segment_visible(vec3 from, vec3 to) {
     if (len <= 0.0) {
         return true;
     }
-#ifdef RT_PIPELINE
-    // Any hit ends the ray (no closest-hit shader runs); only the shadow miss shader sets 1.
-    shadow_payload = 0u;
-    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFFu,
-                0u, 0u, RT_SHADOW_MISS, from, 0.0, d / len, len, RT_SHADOW_PAYLOAD);
-    return shadow_payload != 0u;
-#else
-    rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, from, 0.0,
-                          d / len, len);
-    while (rayQueryProceedEXT(rq)) {
-    }
-    return rayQueryGetIntersectionTypeEXT(rq, true) == gl_RayQueryCommittedIntersectionNoneEXT;
-#endif
+    return !trace_hits(from, d / len, len, true);
 }
 
 #endif

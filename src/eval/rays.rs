@@ -19,7 +19,7 @@ use crate::settings::{Mode, RenderSettings, RestirSettings};
 use crate::shaders;
 use crate::passes::desc::{push_constants, PassDesc};
 use crate::vk::pipeline::storage;
-use crate::vk::{Buffer, ComputePipeline, Context, DescriptorSet, GpuTimer};
+use crate::vk::{Buffer, Context, DescriptorSet, GpuTimer};
 
 push_constants! {
     struct Push {
@@ -32,6 +32,7 @@ push_constants! {
 
 /// The kernel's interface, checked against its SPIR-V by tests/layout.rs like every pass's.
 pub const RAY_RATE_DESC: PassDesc = PassDesc::new("ray_rate", shaders::BENCH_RAY_RATE, [8, 8, 1])
+    .with_raygen(shaders::BENCH_RAY_RATE_RAYGEN)
     .with_push(Push::LAYOUT)
     .with_bindings(&[storage(0, "sink")]);
 
@@ -100,13 +101,6 @@ pub const PHOTONS_LABEL: &str = "photons";
 /// of [`MODES`], and traces the photons (100k + 100k VPLs, the defaults) `frames` times more.
 pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, height: u32, dispatches: u32, frames: u32) -> Result<RayRate> {
     anyhow::ensure!(dispatches > 0 && frames > 0, "bench --rays needs at least one timed dispatch and frame");
-    // Its kernel is a ray-query compute shader (the raw rate of inline tracing, nothing else).
-    anyhow::ensure!(
-        ctx.tracing == crate::vk::context::Tracing::Query,
-        "bench --rays measures ray queries, and this run traces with {} ({}): it has no ray-generation version",
-        ctx.tracing.describe(),
-        if std::env::var_os("RESTIR_VPL_TRACE").is_some() { "RESTIR_VPL_TRACE" } else { "the device has no VK_KHR_ray_query" }
-    );
     let scene = Scene::load(scene_path)?;
     let gpu = Arc::new(SceneGpu::new(ctx, &scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES)?);
     let set = DescriptorSet::with_variants(ctx, "ray_rate.scene", gpu.bindings, 1)?;
@@ -117,9 +111,9 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
     set.write_buffer_in(0, 8, &frame_buffer)?;
     let pixels = width as u64 * height as u64;
     let sink = Buffer::with_data(ctx, "ray_rate.sink", &vec![0u8; (pixels * 4) as usize], vk::BufferUsageFlags::STORAGE_BUFFER)?;
-    let d = &RAY_RATE_DESC;
-    let pipeline = ComputePipeline::new(ctx, d.name, d.spirv, set.layout, d.bindings, d.push.size as u32, d.local_size)?;
-    pipeline.set1.write_buffer(0, &sink)?;
+    // A compute pipeline with ray queries, a ray-tracing pipeline otherwise: the raw rate of the
+    // way this context traces.
+    let pipeline = RAY_RATE_DESC.pipeline(ctx, set.layout).buffers(&[(0, &sink)]).build()?;
     let (lo, hi) = gpu.info.bounds;
     let mut timer = GpuTimer::new(ctx, 4)?;
     let mut rate = |mode: u32, index: u32| -> Result<f64> {
