@@ -518,6 +518,7 @@ impl Context {
                 if let Some((loader, raw)) = &surface {
                     if present_family(&instance, loader, *raw, *pd).is_none() {
                         r.missing.push("a compute and graphics queue that presents to the window (VK_KHR_swapchain)".into());
+                        r.tracing = None;
                     }
                 }
                 (r, rank, *pd)
