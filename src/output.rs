@@ -4,7 +4,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
 
-/// Writes `path` through `write`, which is handed a hidden sibling (`.NAME.PID.partial`) to fill;
+/// Writes `path` through `write`, which is handed a hidden sibling (`.NAME.PID.N.partial`, N counting
+/// the writes of this process, so that threads writing one file at once, as the contexts of a test
+/// binary saving the pipeline cache, each have their own) to fill;
 /// the sibling then replaces `path` by a rename. A reader polling the output (a script, the window
 /// test pressing Enter again and again, another run sharing the pipeline cache) sees the old file or
 /// the new one, never a half-written one.
@@ -23,7 +25,9 @@ pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> 
     let name = path.file_name().with_context(|| format!("{} names no file", path.display()))?;
     let mut partial_name = std::ffi::OsString::from(".");
     partial_name.push(name);
-    partial_name.push(format!(".{}.partial", std::process::id()));
+    static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+    let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    partial_name.push(format!(".{}.{n}.partial", std::process::id()));
     let partial: PathBuf = path.with_file_name(partial_name);
     let written = write(&partial).and_then(|()| {
         std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
@@ -421,5 +425,29 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names, vec![std::ffi::OsString::from("summary.json")]);
+    }
+
+    /// Threads replacing one file at once (the contexts of one test binary saving the pipeline
+    /// cache as they are dropped): every write succeeds and the file is one of them whole. With one
+    /// partial file per process they wrote into each other's and all but one rename failed.
+    #[test]
+    fn concurrent_replacements_of_one_file_do_not_mix() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("shared.bin");
+        let contents: Vec<Vec<u8>> = (0..8u8).map(|t| vec![t; 1 << 20]).collect();
+        std::thread::scope(|s| {
+            for c in &contents {
+                let path = &path;
+                s.spawn(move || {
+                    for _ in 0..4 {
+                        super::write_replacing(path, |p| Ok(std::fs::write(p, c)?)).expect("every write succeeds");
+                    }
+                });
+            }
+        });
+        let written = std::fs::read(&path).unwrap();
+        assert!(contents.contains(&written), "the file mixes writes ({} bytes)", written.len());
+        let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().filter_map(Result::ok).map(|e| e.file_name()).collect();
+        assert_eq!(leftovers.len(), 1, "partial files left: {leftovers:?}");
     }
 }

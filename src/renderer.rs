@@ -373,19 +373,19 @@ fn check_tracing(ctx: &Context, settings: &RenderSettings) -> Result<()> {
             settings.restir.boiling_filter
         );
     }
-    if let Some(rt) = &ctx.ray_tracing {
-        // A pass traces one launch of width × height invocations (maxRayDispatchInvocationCount:
-        // 2^26 on lavapipe, 2^30 on NVIDIA).
-        let pixels = u64::from(settings.width) * u64::from(settings.height);
-        if pixels > u64::from(rt.max_invocations) {
-            bail!(
-                "--width {} --height {}: {pixels} pixels, more than the {} rays one launch may start on this device \
-                 (maxRayDispatchInvocationCount; rays are traced with ray-tracing pipelines here)",
-                settings.width,
-                settings.height,
-                rt.max_invocations
-            );
-        }
+    ctx.check_launch_size(settings.width, settings.height)?;
+    // The settings' way of tracing is the context's (the context was made for it; a renderer
+    // given another context would trace the context's way without a word).
+    if let Some(asked) = settings.tracing {
+        anyhow::ensure!(
+            asked == ctx.tracing,
+            "--trace {}: this renderer's device context traces with {}",
+            match asked {
+                Tracing::Query => "query",
+                Tracing::Pipeline => "pipeline",
+            },
+            ctx.tracing.describe()
+        );
     }
     if ctx.tracing == Tracing::Pipeline && settings.workgroup != RenderSettings::default().workgroup {
         log::warn!(

@@ -123,3 +123,19 @@ fn the_boiling_filter_is_refused_with_ray_tracing_pipelines() {
     run_with(ctx.clone(), gpu, &settings, Instant::now()).expect("the filter runs with ray queries");
     common::assert_no_validation_errors(&ctx);
 }
+
+/// Settings that ask for one way of tracing on a context made for the other are refused by name,
+/// not traced the context's way without a word.
+#[test]
+fn settings_asking_for_the_other_way_are_refused() {
+    let cornell = Scene::load(&common::repo_path("scenes/cornell_box.gltf")).expect("Cornell box loads");
+    let settings = RenderSettings { tracing: Some(Tracing::Pipeline), ..base(Mode::Pt, 8, 1) };
+    let ctx = context(Tracing::Query);
+    let gpu = common::upload(&ctx, &cornell, &settings);
+    let err = run_with(ctx.clone(), gpu.clone(), &settings, Instant::now()).err().expect("refused");
+    let msg = format!("{err:#}");
+    assert!(msg.contains("--trace pipeline") && msg.contains("ray queries"), "{msg}");
+    let same = RenderSettings { tracing: Some(Tracing::Query), ..settings };
+    run_with(ctx.clone(), gpu, &same, Instant::now()).expect("the context's own way runs");
+    common::assert_no_validation_errors(&ctx);
+}

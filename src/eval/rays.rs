@@ -101,6 +101,7 @@ pub const PHOTONS_LABEL: &str = "photons";
 /// of [`MODES`], and traces the photons (100k + 100k VPLs, the defaults) `frames` times more.
 pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, height: u32, dispatches: u32, frames: u32) -> Result<RayRate> {
     anyhow::ensure!(dispatches > 0 && frames > 0, "bench --rays needs at least one timed dispatch and frame");
+    ctx.check_launch_size(width, height)?;
     let scene = Scene::load(scene_path)?;
     let gpu = Arc::new(SceneGpu::new(ctx, &scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES)?);
     let set = DescriptorSet::with_variants(ctx, "ray_rate.scene", gpu.bindings, 1)?;

@@ -701,6 +701,23 @@ impl Context {
         })
     }
 
+    /// Refuses a `width`×`height` launch over this device's maxRayDispatchInvocationCount when rays
+    /// are traced with ray-tracing pipelines (a pass traces one launch per pixel: 2^26 on lavapipe,
+    /// 2^30 on NVIDIA); any size with ray queries.
+    pub fn check_launch_size(&self, width: u32, height: u32) -> Result<()> {
+        if let Some(rt) = &self.ray_tracing {
+            let pixels = u64::from(width) * u64::from(height);
+            if pixels > u64::from(rt.max_invocations) {
+                bail!(
+                    "--width {width} --height {height}: {pixels} pixels, more than the {} rays one launch may start on this \
+                     device (maxRayDispatchInvocationCount; rays are traced with ray-tracing pipelines here)",
+                    rt.max_invocations
+                );
+            }
+        }
+        Ok(())
+    }
+
     /// The shader stages of a pass's descriptor sets and push constants: compute, and ray
     /// generation where the passes that trace are ray-generation shaders.
     pub fn pass_stages(&self) -> vk::ShaderStageFlags {
