@@ -28,12 +28,34 @@ layout(location = RT_CLOSEST_PAYLOAD) rayPayloadEXT ClosestPayload closest_paylo
 layout(location = RT_SHADOW_PAYLOAD) rayPayloadEXT uint shadow_payload;
 #endif
 
+// Whether a ray hits anything within t_max: the closest hit, or with `any_hit` the first found
+// (a shadow ray: segment_visible). Nothing is fetched (`bench --rays` times it alone).
+bool trace_hits(vec3 origin, vec3 dir, float t_max, bool any_hit) {
+#ifdef RT_PIPELINE
+    if (any_hit) {
+        shadow_payload = 0u;
+        traceRayEXT(tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFFu,
+                    0u, 0u, RT_SHADOW_MISS, origin, 0.0, dir, t_max, RT_SHADOW_PAYLOAD);
+        return shadow_payload == 0u;
+    }
+    closest_payload.t = -1.0;
+    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT, 0xFFu, 0u, 0u, RT_CLOSEST_MISS, origin, 0.0, dir, t_max, RT_CLOSEST_PAYLOAD);
+    return closest_payload.t >= 0.0;
+#else
+    rayQueryEXT rq;
+    uint flags = any_hit ? gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT : gl_RayFlagsOpaqueEXT;
+    rayQueryInitializeEXT(rq, tlas, flags, 0xFFu, origin, 0.0, dir, t_max);
+    while (rayQueryProceedEXT(rq)) {
+    }
+    return rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionNoneEXT;
+#endif
+}
+
 // Closest hit along a ray; false when it leaves the scene.
 bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t) {
 #ifdef RT_PIPELINE
-    closest_payload.t = -1.0;
-    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT, 0xFFu, 0u, 0u, RT_CLOSEST_MISS, origin, 0.0, dir, t_max, RT_CLOSEST_PAYLOAD);
-    if (closest_payload.t < 0.0) {
+    // The closest-hit shader left the hit in closest_payload.
+    if (!trace_hits(origin, dir, t_max, false)) {
         t = -1.0;
         return false;
     }
@@ -57,29 +79,6 @@ bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t)
 #endif
     hit = fetch_hit(inst, prim, bary, dir);
     return true;
-}
-
-// Whether a ray hits anything within t_max: the closest hit, or with `any_hit` the first found
-// (a shadow ray: segment_visible). Nothing is fetched (`bench --rays` times it alone).
-bool trace_hits(vec3 origin, vec3 dir, float t_max, bool any_hit) {
-#ifdef RT_PIPELINE
-    if (any_hit) {
-        shadow_payload = 0u;
-        traceRayEXT(tlas, gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT | gl_RayFlagsSkipClosestHitShaderEXT, 0xFFu,
-                    0u, 0u, RT_SHADOW_MISS, origin, 0.0, dir, t_max, RT_SHADOW_PAYLOAD);
-        return shadow_payload == 0u;
-    }
-    closest_payload.t = -1.0;
-    traceRayEXT(tlas, gl_RayFlagsOpaqueEXT, 0xFFu, 0u, 0u, RT_CLOSEST_MISS, origin, 0.0, dir, t_max, RT_CLOSEST_PAYLOAD);
-    return closest_payload.t >= 0.0;
-#else
-    rayQueryEXT rq;
-    uint flags = any_hit ? gl_RayFlagsOpaqueEXT | gl_RayFlagsTerminateOnFirstHitEXT : gl_RayFlagsOpaqueEXT;
-    rayQueryInitializeEXT(rq, tlas, flags, 0xFFu, origin, 0.0, dir, t_max);
-    while (rayQueryProceedEXT(rq)) {
-    }
-    return rayQueryGetIntersectionTypeEXT(rq, true) != gl_RayQueryCommittedIntersectionNoneEXT;
-#endif
 }
 
 // Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
