@@ -10,6 +10,7 @@ use anyhow::{ensure, Context as _, Result};
 use ash::vk;
 
 use crate::vk::context::Tracing;
+use crate::vk::pipeline::PassShader;
 use crate::vk::{Binding, Buffer, ComputePipeline, Context};
 
 use super::Reservoirs;
@@ -214,29 +215,12 @@ impl<'a> PipelineBuilder<'a> {
         let workgroup = self.workgroup.unwrap_or([d.local_size[0], d.local_size[1]]);
         let local_size = d.local_size_with(workgroup);
         ensure!(local_size[..2] == workgroup, "pass '{}' has a fixed {:?} workgroup, not {workgroup:?}", d.name, d.local_size);
-        let pipeline = match (self.ctx.tracing, d.raygen) {
-            (Tracing::Pipeline, Some(raygen)) => ComputePipeline::ray_tracing(
-                self.ctx,
-                d.name,
-                textured(d.textured_raygen, raygen)?,
-                self.scene_layout,
-                d.bindings,
-                push_size,
-                local_size,
-                variants as u32,
-            )?,
-            _ => ComputePipeline::with_variants(
-                self.ctx,
-                d.name,
-                textured(d.textured, d.spirv)?,
-                self.scene_layout,
-                d.bindings,
-                push_size,
-                local_size,
-                d.workgroup_spec,
-                variants as u32,
-            )?,
+        let shader = match (self.ctx.tracing, d.raygen) {
+            (Tracing::Pipeline, Some(raygen)) => PassShader::RayGen(textured(d.textured_raygen, raygen)?),
+            _ => PassShader::Compute { spirv: textured(d.textured, d.spirv)?, specialise: d.workgroup_spec },
         };
+        let pipeline =
+            ComputePipeline::with_variants(self.ctx, d.name, shader, self.scene_layout, d.bindings, push_size, local_size, variants as u32)?;
         for &(binding, buffer) in &self.shared {
             pipeline.set1.write_buffer(binding, buffer)?;
         }

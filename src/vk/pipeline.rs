@@ -250,7 +250,7 @@ impl Drop for DescriptorSet {
 }
 
 /// A compute pipeline: set 0 = scene, set 1 = the pass's own table, plus push constants. Or, built
-/// by [`ComputePipeline::ray_tracing`], a ray-tracing pipeline with the same interface.
+/// from a [`PassShader::RayGen`], a ray-tracing pipeline with the same interface.
 pub struct ComputePipeline {
     ctx: Arc<Context>,
     pub name: String,
@@ -276,6 +276,17 @@ fn align_up(x: u64, a: u64) -> u64 {
     x.div_ceil(a) * a
 }
 
+/// The shader a pass pipeline runs: a compute shader (`specialise`: its local size is
+/// specialisable, `local_size_x_id = 0, local_size_y_id = 1`, and the pipeline's local size x and y
+/// are passed as those constants), or a pass that traces compiled as a ray-generation shader (its
+/// `raygen` SPIR-V variant), run by a ray-tracing pipeline with the hit and miss shaders of
+/// shaders/rt/ on a context that traces with [`super::context::Tracing::Pipeline`].
+#[derive(Clone, Copy)]
+pub enum PassShader<'a> {
+    Compute { spirv: &'a [u8], specialise: bool },
+    RayGen(&'a [u8]),
+}
+
 impl ComputePipeline {
     /// `spirv`: the module's bytes (from build.rs); `local_size`: the shader's workgroup size, used
     /// by [`ComputePipeline::dispatch_2d`] and friends.
@@ -288,127 +299,59 @@ impl ComputePipeline {
         push_size: u32,
         local_size: [u32; 3],
     ) -> Result<Self> {
-        Self::with_variants(ctx, name, spirv, scene_layout, table, push_size, local_size, false, 1)
+        let shader = PassShader::Compute { spirv, specialise: false };
+        Self::with_variants(ctx, name, shader, scene_layout, table, push_size, local_size, 1)
     }
 
-    /// As [`ComputePipeline::new`] with `variants` set-1 variants (see [`DescriptorSet::with_variants`]).
-    /// `specialise`: the shader's local size is specialisable (`local_size_x_id = 0,
-    /// local_size_y_id = 1`), and `local_size`'s x and y are passed as those constants.
+    /// A pass pipeline running `shader`, with `variants` set-1 variants (see
+    /// [`DescriptorSet::with_variants`]). `local_size` is the compute shader's (or, for a
+    /// ray-generation shader, the compute version's, whose invocations a launch reproduces).
     #[allow(clippy::too_many_arguments)]
     pub fn with_variants(
         ctx: &Arc<Context>,
         name: &str,
-        spirv: &[u8],
-        scene_layout: vk::DescriptorSetLayout,
-        table: &'static [Binding],
-        push_size: u32,
-        local_size: [u32; 3],
-        specialise: bool,
-        variants: u32,
-    ) -> Result<Self> {
-        let sources = [(spirv, name.to_string())];
-        let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
-            let spec_entries = [
-                vk::SpecializationMapEntry { constant_id: 0, offset: 0, size: 4 },
-                vk::SpecializationMapEntry { constant_id: 1, offset: 4, size: 4 },
-            ];
-            let spec_data: [u8; 8] = bytemuck::cast([local_size[0], local_size[1]]);
-            let spec = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
-            let stage = vk::PipelineShaderStageCreateInfo::default()
-                .stage(vk::ShaderStageFlags::COMPUTE)
-                .module(modules[0])
-                .name(c"main");
-            let stage = if specialise { stage.specialization_info(&spec) } else { stage };
-            let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-            // SAFETY: valid device, module and layout (create_pass_pipeline's contract).
-            match unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache, &info, None) } {
-                Ok(pipelines) => Ok(pipelines[0]),
-                Err((_, e)) => Err(anyhow::anyhow!("compute pipeline '{name}': {e}")),
-            }
-        })?;
-        Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: None })
-    }
-
-    /// A ray-tracing pipeline of a pass compiled as a ray-generation shader (`raygen`, its
-    /// `raygen` SPIR-V variant), with the same sets, push constants and `variants` as
-    /// [`ComputePipeline::with_variants`]; `local_size` is the compute version's, whose invocations
-    /// a launch reproduces. Needs a context that traces with [`super::context::Tracing::Pipeline`].
-    #[allow(clippy::too_many_arguments)]
-    pub fn ray_tracing(
-        ctx: &Arc<Context>,
-        name: &str,
-        raygen: &[u8],
+        shader: PassShader<'_>,
         scene_layout: vk::DescriptorSetLayout,
         table: &'static [Binding],
         push_size: u32,
         local_size: [u32; 3],
         variants: u32,
     ) -> Result<Self> {
-        let rt = ctx
-            .ray_tracing
-            .as_ref()
-            .with_context(|| format!("pass '{name}': a ray-tracing pipeline on a context that traces with {}", ctx.tracing.describe()))?;
-        let stages = [
-            vk::ShaderStageFlags::RAYGEN_KHR,
-            vk::ShaderStageFlags::MISS_KHR,
-            vk::ShaderStageFlags::MISS_KHR,
-            vk::ShaderStageFlags::CLOSEST_HIT_KHR,
-        ];
-        let sources = [
-            (raygen, name.to_string()),
-            (crate::shaders::RT_MISS, format!("{name}.miss")),
-            (crate::shaders::RT_SHADOW_MISS, format!("{name}.shadow_miss")),
-            (crate::shaders::RT_CLOSEST_HIT, format!("{name}.closest_hit")),
-        ];
-        let general = |i: u32| {
-            vk::RayTracingShaderGroupCreateInfoKHR::default()
-                .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
-                .general_shader(i)
-                .closest_hit_shader(vk::SHADER_UNUSED_KHR)
-                .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                .intersection_shader(vk::SHADER_UNUSED_KHR)
-        };
-        let groups = [
-            general(0),
-            general(1),
-            general(2),
-            vk::RayTracingShaderGroupCreateInfoKHR::default()
-                .ty(vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP)
-                .general_shader(vk::SHADER_UNUSED_KHR)
-                .closest_hit_shader(3)
-                .any_hit_shader(vk::SHADER_UNUSED_KHR)
-                .intersection_shader(vk::SHADER_UNUSED_KHR),
-        ];
-        let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
-            let stages: Vec<vk::PipelineShaderStageCreateInfo> = stages
-                .iter()
-                .zip(modules)
-                .map(|(stage, module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(*module).name(c"main"))
-                .collect();
-            // Recursion depth 1: only the ray-generation shader traces.
-            let info = [vk::RayTracingPipelineCreateInfoKHR::default()
-                .stages(&stages)
-                .groups(&groups)
-                .max_pipeline_ray_recursion_depth(1)
-                .layout(layout)];
-            // SAFETY: valid device, modules and layout (create_pass_pipeline's contract).
-            match unsafe { rt.loader.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), ctx.pipeline_cache, &info, None) } {
-                Ok(pipelines) => Ok(pipelines[0]),
-                Err((_, e)) => Err(anyhow::anyhow!("ray-tracing pipeline '{name}': {e}")),
+        let (set1, layout, pipeline, sbt) = match shader {
+            PassShader::Compute { spirv, specialise } => {
+                let sources = [(spirv, name.to_string())];
+                let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
+                    compute_pipeline(ctx, name, layout, modules[0], specialise.then_some(local_size))
+                })?;
+                (set1, layout, pipeline, None)
             }
-        })?;
-        let sbt = match shader_binding_table(ctx, name, pipeline, groups.len() as u32) {
-            Ok(sbt) => sbt,
-            Err(e) => {
-                // SAFETY: nothing uses the pipeline yet.
-                unsafe {
-                    ctx.device.destroy_pipeline(pipeline, None);
-                    ctx.device.destroy_pipeline_layout(layout, None);
+            PassShader::RayGen(raygen) => {
+                let rt = ctx.ray_tracing.as_ref().with_context(|| {
+                    format!("pass '{name}': a ray-tracing pipeline on a context that traces with {}", ctx.tracing.describe())
+                })?;
+                let sources = [
+                    (raygen, name.to_string()),
+                    (crate::shaders::RT_MISS, format!("{name}.miss")),
+                    (crate::shaders::RT_SHADOW_MISS, format!("{name}.shadow_miss")),
+                    (crate::shaders::RT_CLOSEST_HIT, format!("{name}.closest_hit")),
+                ];
+                let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
+                    ray_tracing_pipeline(ctx, rt, name, layout, modules)
+                })?;
+                match shader_binding_table(ctx, name, pipeline, RT_GROUPS) {
+                    Ok(sbt) => (set1, layout, pipeline, Some(sbt)),
+                    Err(e) => {
+                        // SAFETY: nothing uses the pipeline yet.
+                        unsafe {
+                            ctx.device.destroy_pipeline(pipeline, None);
+                            ctx.device.destroy_pipeline_layout(layout, None);
+                        }
+                        return Err(e);
+                    }
                 }
-                return Err(e);
             }
         };
-        Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt: Some(sbt) })
+        Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt })
     }
 
     /// Binds the pipeline and both sets, pushes constants and dispatches `groups`.
@@ -537,6 +480,81 @@ fn create_pass_pipeline(
     }
 }
 
+/// A compute pipeline of `module` on `layout`; `local_size` Some: its x and y passed as
+/// specialisation constants 0 and 1.
+fn compute_pipeline(ctx: &Context, name: &str, layout: vk::PipelineLayout, module: vk::ShaderModule, local_size: Option<[u32; 3]>) -> Result<vk::Pipeline> {
+    let spec_entries = [
+        vk::SpecializationMapEntry { constant_id: 0, offset: 0, size: 4 },
+        vk::SpecializationMapEntry { constant_id: 1, offset: 4, size: 4 },
+    ];
+    let spec_data: [u8; 8] = bytemuck::cast(local_size.map_or([0, 0], |l| [l[0], l[1]]));
+    let spec = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
+    let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
+    let stage = if local_size.is_some() { stage.specialization_info(&spec) } else { stage };
+    let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+    // SAFETY: valid device, module and layout (create_pass_pipeline's contract).
+    match unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache, &info, None) } {
+        Ok(pipelines) => Ok(pipelines[0]),
+        Err((_, e)) => Err(anyhow::anyhow!("compute pipeline '{name}': {e}")),
+    }
+}
+
+/// The shader groups of a ray-tracing pass pipeline: ray generation, the two miss shaders, the hit
+/// group (shader_binding_table lays their records out in this order).
+const RT_GROUPS: u32 = 4;
+
+/// A ray-tracing pipeline of `modules` (ray generation, miss, shadow miss, closest hit) on
+/// `layout`: one general group per shader but the last, one triangle hit group with it.
+fn ray_tracing_pipeline(
+    ctx: &Context,
+    rt: &super::context::RayTracingPipelines,
+    name: &str,
+    layout: vk::PipelineLayout,
+    modules: &[vk::ShaderModule],
+) -> Result<vk::Pipeline> {
+    let kinds = [
+        vk::ShaderStageFlags::RAYGEN_KHR,
+        vk::ShaderStageFlags::MISS_KHR,
+        vk::ShaderStageFlags::MISS_KHR,
+        vk::ShaderStageFlags::CLOSEST_HIT_KHR,
+    ];
+    let stages: Vec<vk::PipelineShaderStageCreateInfo> = kinds
+        .iter()
+        .zip(modules)
+        .map(|(stage, module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(*module).name(c"main"))
+        .collect();
+    let general = |i: u32| {
+        vk::RayTracingShaderGroupCreateInfoKHR::default()
+            .ty(vk::RayTracingShaderGroupTypeKHR::GENERAL)
+            .general_shader(i)
+            .closest_hit_shader(vk::SHADER_UNUSED_KHR)
+            .any_hit_shader(vk::SHADER_UNUSED_KHR)
+            .intersection_shader(vk::SHADER_UNUSED_KHR)
+    };
+    let groups: [vk::RayTracingShaderGroupCreateInfoKHR; RT_GROUPS as usize] = [
+        general(0),
+        general(1),
+        general(2),
+        vk::RayTracingShaderGroupCreateInfoKHR::default()
+            .ty(vk::RayTracingShaderGroupTypeKHR::TRIANGLES_HIT_GROUP)
+            .general_shader(vk::SHADER_UNUSED_KHR)
+            .closest_hit_shader(3)
+            .any_hit_shader(vk::SHADER_UNUSED_KHR)
+            .intersection_shader(vk::SHADER_UNUSED_KHR),
+    ];
+    // Recursion depth 1: only the ray-generation shader traces.
+    let info = [vk::RayTracingPipelineCreateInfoKHR::default()
+        .stages(&stages)
+        .groups(&groups)
+        .max_pipeline_ray_recursion_depth(1)
+        .layout(layout)];
+    // SAFETY: valid device, modules and layout (create_pass_pipeline's contract).
+    match unsafe { rt.loader.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), ctx.pipeline_cache, &info, None) } {
+        Ok(pipelines) => Ok(pipelines[0]),
+        Err((_, e)) => Err(anyhow::anyhow!("ray-tracing pipeline '{name}': {e}")),
+    }
+}
+
 /// A shader module of build.rs's SPIR-V, named `name`.
 ///
 /// # Safety
@@ -573,7 +591,7 @@ unsafe fn pipeline_layout(
 }
 
 /// The shader binding table of a ray-tracing pipeline with `groups` groups (ray generation, then
-/// the miss shaders, then the hit group, as [`ComputePipeline::ray_tracing`] makes them): each
+/// the miss shaders, then the hit group, as [`ray_tracing_pipeline`] makes them): each
 /// region starts at a multiple of shaderGroupBaseAlignment, each record takes a multiple of
 /// shaderGroupHandleAlignment. Host-visible: the handles are written once.
 fn shader_binding_table(ctx: &Arc<Context>, name: &str, pipeline: vk::Pipeline, groups: u32) -> Result<ShaderBindingTable> {
