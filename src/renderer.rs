@@ -380,10 +380,7 @@ fn check_tracing(ctx: &Context, settings: &RenderSettings) -> Result<()> {
         anyhow::ensure!(
             asked == ctx.tracing,
             "--trace {}: this renderer's device context traces with {}",
-            match asked {
-                Tracing::Query => "query",
-                Tracing::Pipeline => "pipeline",
-            },
+            asked.name(),
             ctx.tracing.describe()
         );
     }

@@ -46,9 +46,15 @@ impl Tracing {
     pub fn parse(s: &str) -> Option<Option<Tracing>> {
         match s {
             "auto" | "" => Some(None),
-            "query" => Some(Some(Tracing::Query)),
-            "pipeline" => Some(Some(Tracing::Pipeline)),
-            _ => None,
+            _ => [Tracing::Query, Tracing::Pipeline].into_iter().find(|t| t.name() == s).map(Some),
+        }
+    }
+
+    /// Its value of `--trace` / `RESTIR_VPL_TRACE`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tracing::Query => "query",
+            Tracing::Pipeline => "pipeline",
         }
     }
 
