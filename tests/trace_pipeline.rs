@@ -20,23 +20,18 @@ use restir_vpl::headless::run_with;
 use restir_vpl::scene::Scene;
 use restir_vpl::settings::{Bias, Mode, RenderSettings};
 use restir_vpl::vk::context::Tracing;
-use restir_vpl::vk::{Context, ContextOptions};
+use restir_vpl::vk::Context;
 
 fn context(tracing: Tracing) -> Arc<Context> {
-    let ctx = Context::new(&ContextOptions { validate: common::validate(), tracing: Some(tracing), ..Default::default() })
-        .expect("lavapipe has ray queries and ray-tracing pipelines");
+    let ctx = common::context_tracing(Some(tracing));
     assert_eq!(ctx.tracing, tracing);
-    Arc::new(ctx)
+    ctx
 }
 
 /// The mean image of `settings` on `scene`, traced the `tracing` way (no validation error, no
-/// non-finite sample).
+/// non-finite sample: `common::render_on`).
 fn render(tracing: Tracing, scene: &Scene, settings: &RenderSettings) -> Vec<[f32; 3]> {
-    let ctx = context(tracing);
-    let gpu = common::upload(&ctx, scene, settings);
-    let out = run_with(ctx.clone(), gpu, settings, Instant::now()).expect("render succeeds");
-    common::assert_no_validation_errors(&ctx);
-    common::assert_all_finite(&out.mean, "mean image");
+    let out = common::render_on(&context(tracing), scene, settings);
     assert_eq!(out.summary.device.tracing, Some(tracing), "the summary names the way rays were traced");
     out.mean
 }

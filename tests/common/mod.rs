@@ -37,7 +37,12 @@ pub fn validate() -> bool {
 }
 
 pub fn context() -> Arc<Context> {
-    Arc::new(Context::new(&ContextOptions { validate: validate(), ..Default::default() }).expect("a device that traces rays"))
+    context_tracing(None)
+}
+
+/// A context that traces rays `tracing`'s way (None: as `RESTIR_VPL_TRACE` says, else the device's best).
+pub fn context_tracing(tracing: Option<restir_vpl::vk::context::Tracing>) -> Arc<Context> {
+    Arc::new(Context::new(&ContextOptions { validate: validate(), tracing, ..Default::default() }).expect("a device that traces rays"))
 }
 
 /// Uploads `scene` to `ctx` (textures as `settings` says).
@@ -47,10 +52,14 @@ pub fn upload(ctx: &Arc<Context>, scene: &Scene, settings: &RenderSettings) -> A
 
 /// Renders `scene` with `settings`; asserts no validation errors and finite output.
 pub fn render(scene: &Scene, settings: &RenderSettings) -> RunOutput {
-    let ctx = context();
-    let gpu = upload(&ctx, scene, settings);
+    render_on(&context(), scene, settings)
+}
+
+/// [`render`] on a given context.
+pub fn render_on(ctx: &Arc<Context>, scene: &Scene, settings: &RenderSettings) -> RunOutput {
+    let gpu = upload(ctx, scene, settings);
     let out = run_with(ctx.clone(), gpu, settings, Instant::now()).expect("render succeeds");
-    assert_no_validation_errors(&ctx);
+    assert_no_validation_errors(ctx);
     assert_all_finite(&out.mean, "mean image");
     assert_eq!(out.summary.nonfinite_samples, 0, "non-finite samples were produced");
     out
