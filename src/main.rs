@@ -183,8 +183,8 @@ struct RenderArgs {
     /// (confidence weights as in the thesis: a few percent dark, fireflies).
     #[arg(long, value_parser = named::<Bias>(), default_value_t = DEFAULTS.restir.bias)]
     bias: Bias,
-    /// RTXDI's boiling filter after temporal reuse, strength in [0, 1] (0: off; 0.2 drops
-    /// reservoirs 41× over their 8×8 neighbourhood's mean weight). Biased.
+    /// RTXDI's boiling filter after temporal reuse (pass restir_boiling), strength in [0, 1] (0:
+    /// off; 0.2 drops reservoirs 41× over their 8×8 neighbourhood's mean weight). Biased.
     #[arg(long, default_value_t = DEFAULTS.restir.boiling_filter)]
     boiling_filter: f32,
     /// Shadow-test the initial ReSTIR sample, so that the targets include visibility (default off:
@@ -224,7 +224,7 @@ struct RenderArgs {
     #[arg(long)]
     device: Option<usize>,
     /// How rays are traced: ray queries (inline in compute shaders), ray-tracing pipelines (for
-    /// GPUs without ray queries, as NVIDIA's datacenter GPUs; no --boiling-filter), or auto: ray
+    /// GPUs without ray queries, as NVIDIA's datacenter GPUs), or auto: ray
     /// queries where the device has them (or RESTIR_VPL_TRACE, which the benchmarks and `results`
     /// read).
     #[arg(long, value_enum)]

@@ -9,7 +9,7 @@ use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::{bail, Context as _, Result};
+use anyhow::{Context as _, Result};
 use ash::vk;
 use glam::Vec3;
 use gpu_allocator::MemoryLocation;
@@ -21,7 +21,7 @@ use crate::gpu_types::{
 };
 use crate::output::TimingStats;
 use crate::passes::{
-    FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirInitialPass, RestirInitialTemporalPass,
+    FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirBoilingPass, RestirInitialPass, RestirInitialTemporalPass,
     RestirSpatialPass, RestirSpatialShadePass, RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_SLOTS,
 };
 use crate::lights::{LightSet, PointEmitter};
@@ -353,7 +353,7 @@ fn dispatch_output<'a>(
         ),
         PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplCompensatePass::NAME | VplViewPass::NAME => ("samples", CaptureKind::Rgba, &targets.samples, 0),
         // (The fused passes never run in a captured frame: FramePlan splits them.)
-        RestirInitialPass::NAME | RestirTemporalPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
+        RestirInitialPass::NAME | RestirTemporalPass::NAME | RestirBoilingPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
         // Spatial pass j reads buffer(current ^ (j & 1)) and writes the other one.
         RestirSpatialPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(1 - (current ^ (d.repeat as usize & 1))), 0),
         AccumulatePass::NAME => ("mean", CaptureKind::Rgba, &targets.mean, 0),
@@ -362,17 +362,9 @@ fn dispatch_output<'a>(
     })
 }
 
-/// Settings that the context's way of tracing rays cannot run: the boiling filter averages over
-/// a workgroup in shared memory, which ray-generation shaders lack ([`Tracing::Pipeline`]).
+/// Settings that the context's way of tracing rays cannot run: launches larger than a
+/// ray-tracing pipeline allows, or settings made for the other way of tracing.
 fn check_tracing(ctx: &Context, settings: &RenderSettings) -> Result<()> {
-    if ctx.tracing == Tracing::Pipeline && settings.mode == Mode::Restir && settings.restir.temporal && settings.restir.boiling_filter > 0.0 {
-        bail!(
-            "--boiling-filter {}: the filter averages over a workgroup in shared memory, and this run traces rays with \
-             ray-tracing pipelines (--trace pipeline, RESTIR_VPL_TRACE, or a device without ray queries), whose \
-             ray-generation shaders have neither; use --boiling-filter 0 or ray queries",
-            settings.restir.boiling_filter
-        );
-    }
     ctx.check_launch_size(settings.width, settings.height)?;
     // The settings' way of tracing is the context's (the context was made for it; a renderer
     // given another context would trace the context's way without a word).
@@ -725,6 +717,9 @@ impl Renderer {
                     if settings.fuse_passes {
                         passes.vpl.initial_temporal = Some(RestirInitialTemporalPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
                     }
+                    if r.boiling_filter > 0.0 {
+                        passes.vpl.boiling = Some(RestirBoilingPass::new(ctx, layout, &res)?);
+                    }
                 }
                 if r.spatial_passes > 0 && r.spatial_neighbours > 0 {
                     passes.vpl.spatial = Some(RestirSpatialPass::new(ctx, layout, targets, &inputs, &res)?);
@@ -824,6 +819,11 @@ impl Renderer {
                 if !r.temporal { "--temporal off" } else if st.frame_index == 0 { "no history before the first frame" } else { "no history: settings or lights changed" },
             ),
             restir_initial_temporal: Step::Skip("decided by fuse()"),
+            // On the temporal pass's output: only where temporal reuse runs (fused or not).
+            restir_boiling: restir_step(
+                r.boiling_filter > 0.0 && r.temporal && st.history_valid,
+                if r.boiling_filter <= 0.0 { "--boiling-filter 0" } else { "restir_temporal does not run this frame" },
+            ),
             restir_spatial: restir_step(
                 r.spatial_passes > 0 && r.spatial_neighbours > 0,
                 "--spatial-passes 0 or --spatial-neighbours 0",

@@ -375,8 +375,8 @@ pub struct RenderSettings {
     pub fuse_passes: bool,
     /// Workgroup (x, y) of the per-pixel passes whose shaders take it as specialisation constants
     /// (gbuffer, pathtrace, restir_initial, restir_spatial, restir_spatial_shade, vpl_shade,
-    /// vpl_compensate, vpl_bruteforce); restir_temporal and restir_initial_temporal stay 8×8 (the
-    /// boiling filter averages over the workgroup). `--workgroup WxH`; `bench --workgroups` measures the choice.
+    /// vpl_compensate, vpl_bruteforce); restir_temporal, restir_initial_temporal and restir_boiling
+    /// stay 8×8 (the boiling filter's blocks are its workgroups). `--workgroup WxH`; `bench --workgroups` measures the choice.
     #[serde(default = "default_workgroup")]
     pub workgroup: [u32; 2],
     pub restir: RestirSettings,

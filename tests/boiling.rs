@@ -11,6 +11,7 @@ mod common;
 
 use common::*;
 use restir_vpl::eval::compare::{compare, CompareOptions};
+use restir_vpl::gpu_types::{GpuReservoir, RESERVOIR_EMPTY};
 use restir_vpl::output::RgbImage;
 use restir_vpl::scene::Scene;
 use restir_vpl::settings::{Mode, RestirSettings};
@@ -90,4 +91,71 @@ fn boiling_filter_cuts_fireflies_at_a_bounded_bias() {
     // Biased, but boundedly: it darkens (every seed), by less than 3 % (measured: about 0.6 %).
     let (dark, _) = paired(2);
     assert!(off.iter().zip(&on).all(|(a, b)| b[2] < a[2]) && dark < 0.03, "mean ratio lower by {dark:.4} with the filter");
+}
+
+/// `restir_boiling` against the filter computed on the CPU from what the pass read: in a captured
+/// frame (temporal reuse running) the pass's output is the temporal pass's, except the reservoirs
+/// whose weight sum w = W·p̂ exceeds (10/S − 9) times the mean non-zero w of their 8×8 block of
+/// pixels, which are emptied with their confidence kept. The image is 70×45, so blocks at the
+/// right and bottom edges are partial (pixels outside count as empty). The GPU sums a block in
+/// another order than the CPU: a pixel within 1e-4 (relative) of its threshold may go either way.
+#[test]
+fn restir_boiling_drops_exactly_the_reservoirs_over_their_blocks_threshold() {
+    let ctx = context();
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let strength = 0.9f32;
+    let (w, h) = (70usize, 45usize);
+    let settings = RenderSettings {
+        mode: Mode::Restir,
+        vpls_direct: 2000,
+        vpls_indirect: 2000,
+        restir: RestirSettings { boiling_filter: strength, ..Default::default() },
+        ..small(w as u32, h as u32, 1)
+    };
+    let gpu = upload(&ctx, &scene, &settings);
+    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let camera = r.initial_camera();
+    let (mut dropped, mut near, mut frames) = (0, 0, 0);
+    // Frame 0 has no history (neither pass runs); frames 1.. run both.
+    r.render_frame_captured(&camera, false).unwrap();
+    for _ in 0..3 {
+        let (_, captured) = r.render_frame_captured(&camera, false).unwrap();
+        let find = |pass: &str| {
+            let c = captured.iter().find(|c| c.pass == pass).unwrap_or_else(|| panic!("{pass} was captured"));
+            bytemuck::cast_slice::<u8, GpuReservoir>(&c.bytes).to_vec()
+        };
+        let (before, after) = (find("restir_temporal"), find("restir_boiling"));
+        assert_eq!((before.len(), after.len()), (w * h, w * h));
+        let weight = |r: &GpuReservoir| if r.vpl != RESERVOIR_EMPTY && r.ucw > 0.0 { r.ucw as f64 * r.target as f64 } else { 0.0 };
+        let factor = 10.0 / strength as f64 - 9.0;
+        for by in (0..h).step_by(8) {
+            for bx in (0..w).step_by(8) {
+                let block: Vec<usize> = (by..(by + 8).min(h)).flat_map(|y| (bx..(bx + 8).min(w)).map(move |x| y * w + x)).collect();
+                let nonzero: Vec<f64> = block.iter().map(|&i| weight(&before[i])).filter(|&x| x > 0.0).collect();
+                let mean = if nonzero.is_empty() { 0.0 } else { nonzero.iter().sum::<f64>() / nonzero.len() as f64 };
+                for &i in &block {
+                    let (b, a) = (&before[i], &after[i]);
+                    let limit = mean * factor;
+                    let x = weight(b);
+                    let kept = bytemuck::bytes_of(a) == bytemuck::bytes_of(b);
+                    let emptied = a.vpl == RESERVOIR_EMPTY && a.ucw == 0.0 && a.target == 0.0 && a.confidence == b.confidence;
+                    if mean > 0.0 && (x - limit).abs() <= 1e-4 * limit {
+                        near += 1;
+                        assert!(kept || emptied, "pixel {i}: neither kept nor emptied: {b:?} -> {a:?}");
+                    } else if mean > 0.0 && x > limit {
+                        assert!(emptied, "pixel {i} (w {x:.4e} > {limit:.4e}): kept: {b:?} -> {a:?}");
+                        dropped += 1;
+                    } else {
+                        assert!(kept, "pixel {i} (w {x:.4e}, limit {limit:.4e}): changed: {b:?} -> {a:?}");
+                    }
+                }
+            }
+        }
+        frames += 1;
+    }
+    eprintln!("{frames} frames: {dropped} reservoirs dropped, {near} within 1e-4 of the threshold");
+    // Something to check: the filter dropped reservoirs (a pass that dropped none would pass the
+    // loop above only where no pixel is over its threshold).
+    assert!(dropped > 0, "no reservoir over its block's threshold: nothing was tested");
+    common::assert_no_validation_errors(&ctx);
 }

@@ -10,7 +10,7 @@
 #include "restir_initial.glsl"
 #include "restir_temporal.glsl"
 
-// Fixed 8x8: the boiling filter reduces over 64 invocations.
+// Fixed 8x8, as restir_temporal.
 #ifndef RT_PIPELINE
 layout(local_size_x = 8, local_size_y = 8) in;
 #endif
@@ -32,32 +32,23 @@ layout(push_constant) uniform Push {
     float mcap;
     float normal_threshold;
     float depth_threshold;
-    float boiling_strength;  // 0: off
 } pc;
 
 void main() {
     uvec2 pixel = dispatch_pixel();
-    bool inside = pixel.x < frame.width && pixel.y < frame.height;
-    uint index = inside ? pixel.y * frame.width + pixel.x : 0u;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
     uint rays = 0u;
-    // Outside the image: an empty reservoir for the boiling filter's reduction.
-    Reservoir r = reservoir_empty(0.0);
-    if (inside) {
-        Surface s = surface_texels(surfaces, surface_slot(index));
-        Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
-        r = initial;
-        if (s.offset_scale >= 0.0) {
-            TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
-            temporal_merge(pixel, index, s, initial, pc.params, t, surfaces, vpls, history, r, rays);
-        }
+    Surface s = surface_texels(surfaces, surface_slot(index));
+    Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
+    Reservoir r = initial;
+    if (s.offset_scale >= 0.0) {
+        TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
+        temporal_merge(pixel, index, s, initial, pc.params, t, surfaces, vpls, history, r, rays);
     }
-    // Uniform control flow: every invocation of the workgroup takes part in the reduction.
-    if (pc.boiling_strength > 0.0 && boiling_filter_rejects(r, pc.boiling_strength) && inside) {
-        r = reservoir_empty(r.confidence);
-    }
-    if (inside) {
-        reservoirs_out[index] = r;
-    }
+    reservoirs_out[index] = r;
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_INITIAL_TEMPORAL], rays);
     }

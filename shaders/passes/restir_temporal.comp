@@ -1,13 +1,13 @@
 // restir_temporal: merges this frame's initial reservoir with the previous frame's final one at
-// the reprojected pixel (restir_temporal.glsl says how), then applies the boiling filter when
-// --boiling-filter is on. restir_initial_temporal runs the same functions fused with the initial
-// RIS.
+// the reprojected pixel (restir_temporal.glsl says how). restir_initial_temporal runs the same
+// functions fused with the initial RIS; restir_boiling filters the result when --boiling-filter is
+// on.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
 #include "restir_temporal.glsl"
 
-// Fixed 8x8: the boiling filter reduces over 64 invocations.
+// Fixed 8x8 (restir_temporal does not take --workgroup; docs/workgroups.md measured it at 8x8).
 #ifndef RT_PIPELINE
 layout(local_size_x = 8, local_size_y = 8) in;
 #endif
@@ -26,30 +26,22 @@ layout(push_constant) uniform Push {
     float mcap;
     float normal_threshold;
     float depth_threshold;
-    float boiling_strength;  // 0: off
 } pc;
 
 void main() {
     uvec2 pixel = dispatch_pixel();
-    bool inside = pixel.x < frame.width && pixel.y < frame.height;
-    uint index = inside ? pixel.y * frame.width + pixel.x : 0u;
+    if (pixel.x >= frame.width || pixel.y >= frame.height) {
+        return;
+    }
+    uint index = pixel.y * frame.width + pixel.x;
     uint rays = 0u;
-    bool changed = false;
-    Reservoir r = reservoir_empty(0.0);
-    if (inside) {
-        Surface s = surface_texels(surfaces, surface_slot(index));
-        if (s.offset_scale >= 0.0) {
-            TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
-            changed = temporal_merge(pixel, index, s, reservoirs[index], pc.params, t, surfaces, vpls, history, r, rays);
+    Surface s = surface_texels(surfaces, surface_slot(index));
+    if (s.offset_scale >= 0.0) {
+        TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
+        Reservoir r;
+        if (temporal_merge(pixel, index, s, reservoirs[index], pc.params, t, surfaces, vpls, history, r, rays)) {
+            reservoirs[index] = r;
         }
-    }
-    // Uniform control flow: every invocation of the workgroup takes part in the reduction.
-    if (pc.boiling_strength > 0.0 && boiling_filter_rejects(r, pc.boiling_strength) && inside) {
-        r = reservoir_empty(r.confidence);
-        changed = true;
-    }
-    if (inside && changed) {
-        reservoirs[index] = r;
     }
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_TEMPORAL], rays);

@@ -1,6 +1,6 @@
 // restir_temporal's per-pixel work, shared by restir_temporal.comp and restir_initial_temporal.comp
-// (which fuses it with the initial RIS). Binding-free apart from the boiling filter's workgroup
-// scratch: the .comp files declare the bindings and pass their resources in.
+// (which fuses it with the initial RIS). Binding-free: the .comp files declare the bindings and
+// pass their resources in.
 //
 // Merges this frame's initial reservoir (canonical) with the previous frame's
 // final reservoir at the reprojected pixel: where this pixel's surface point appeared in the
@@ -15,8 +15,7 @@
 //    G-buffer was not traced again this frame (still camera, no jitter) both techniques have the
 //    same target, so the heuristic reduces to confidence weights and the history's sample is known
 //    visible (its target there was positive).
-// With --boiling-filter S > 0, RTXDI's boiling filter then drops reservoirs whose weight sum is
-// more than 10/S - 9 times the mean non-zero weight sum of their 8x8 workgroup (biased).
+// With --boiling-filter S > 0, restir_boiling then filters the merged reservoirs.
 #ifndef RESTIR_TEMPORAL_GLSL
 #define RESTIR_TEMPORAL_GLSL
 
@@ -99,39 +98,5 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams 
     result = stream_finish(st);
     return true;
 }
-
-#ifdef RT_PIPELINE
-// A ray-generation shader has no workgroups and no shared memory: on the ray-tracing-pipeline
-// implementation (trace.glsl) the renderer refuses --boiling-filter, so this never drops one.
-bool boiling_filter_rejects(Reservoir r, float strength) {
-    return false;
-}
-#else
-// The boiling filter's workgroup reduction: 8x8 invocations (the passes that include this file
-// have that fixed workgroup).
-shared float group_w[64];
-shared uint group_n[64];
-
-// Whether RTXDI's boiling filter drops reservoir `r` (weight sum compared with the mean non-zero
-// weight sum of the workgroup). Every invocation of the workgroup must call it (barriers), with
-// an empty reservoir outside the image.
-bool boiling_filter_rejects(Reservoir r, float strength) {
-    float w = reservoir_valid(r) ? r.ucw * r.target : 0.0;
-    uint lid = gl_LocalInvocationIndex;
-    group_w[lid] = w;
-    group_n[lid] = w > 0.0 ? 1u : 0u;
-    barrier();
-    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            group_w[lid] += group_w[lid + stride];
-            group_n[lid] += group_n[lid + stride];
-        }
-        barrier();
-    }
-    float mean = group_n[0] > 0u ? group_w[0] / float(group_n[0]) : 0.0;
-    return boiling_rejects(w, mean, strength);
-}
-
-#endif
 
 #endif

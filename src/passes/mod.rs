@@ -9,6 +9,7 @@ pub mod desc;
 pub mod gbuffer;
 pub mod pathtrace;
 pub mod photon_emit;
+pub mod restir_boiling;
 pub mod restir_initial;
 pub mod restir_initial_temporal;
 pub mod restir_spatial;
@@ -37,6 +38,7 @@ pub use desc::PassDesc;
 pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
 pub use photon_emit::{PhotonEmitPass, PhotonStats};
+pub use restir_boiling::RestirBoilingPass;
 pub use restir_initial::RestirInitialPass;
 pub use restir_initial_temporal::RestirInitialTemporalPass;
 pub use restir_spatial::RestirSpatialPass;
@@ -59,6 +61,7 @@ pub const ALL_PASSES: &[&PassDesc] = &[
     &RestirInitialPass::DESC,
     &RestirTemporalPass::DESC,
     &RestirInitialTemporalPass::DESC,
+    &RestirBoilingPass::DESC,
     &RestirSpatialPass::DESC,
     &RestirSpatialShadePass::DESC,
     &VplShadePass::DESC,
@@ -278,6 +281,8 @@ pub struct FramePlan {
     pub restir_temporal: Step,
     /// `restir_initial` + `restir_temporal` in one dispatch (then both of those skip).
     pub restir_initial_temporal: Step,
+    /// The boiling filter on the temporal pass's output (`--boiling-filter`).
+    pub restir_boiling: Step,
     /// Runs `spatial_passes - 1` times when `restir_spatial_shade` runs the last one.
     pub restir_spatial: Step,
     /// The last spatial pass + `vpl_shade` in one dispatch (then `vpl_shade` skips).
@@ -325,6 +330,7 @@ impl FramePlan {
             (RestirInitialPass::NAME, &self.restir_initial),
             (RestirTemporalPass::NAME, &self.restir_temporal),
             (RestirInitialTemporalPass::NAME, &self.restir_initial_temporal),
+            (RestirBoilingPass::NAME, &self.restir_boiling),
             (RestirSpatialPass::NAME, &self.restir_spatial),
             (RestirSpatialShadePass::NAME, &self.restir_spatial_shade),
             (VplShadePass::NAME, &self.vpl_shade),
@@ -382,6 +388,8 @@ pub struct VplPasses {
     pub temporal: Option<RestirTemporalPass>,
     /// Only with `--fuse-passes on` (and a temporal pass).
     pub initial_temporal: Option<RestirInitialTemporalPass>,
+    /// Only with `--boiling-filter S > 0` (and a temporal pass).
+    pub boiling: Option<RestirBoilingPass>,
     pub spatial: Option<RestirSpatialPass>,
     /// Only with `--fuse-passes on` (and a spatial pass).
     pub spatial_shade: Option<RestirSpatialShadePass>,
@@ -452,8 +460,8 @@ impl Passes {
             scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| pass.record(cmd, scene_set, w, h));
         }
 
-        // VPL modes: brute force, or (presample ->) initial RIS -> temporal -> spatial ×n -> shade;
-        // then compensate. With --fuse-passes: initial + temporal in one dispatch, and the last
+        // VPL modes: brute force, or (presample ->) initial RIS -> temporal (-> boiling filter) ->
+        // spatial ×n -> shade; then compensate. With --fuse-passes: initial + temporal in one dispatch, and the last
         // spatial pass + shade in one (FramePlan says which run).
         let v = &plan.vpl;
         let p = &v.params;
@@ -480,6 +488,11 @@ impl Passes {
         if let Some(pass) = &self.vpl.initial_temporal {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_initial_temporal, RestirInitialTemporalPass::NAME, |cmd| {
                 pass.record(cmd, scene_set, p, tiles, &v.restir, v.current, w, h)
+            });
+        }
+        if let Some(pass) = &self.vpl.boiling {
+            scoped(ctx, cmd, timer, after, 0, &plan.restir_boiling, RestirBoilingPass::NAME, |cmd| {
+                pass.record(cmd, scene_set, v.restir.boiling_filter, v.current, w, h)
             });
         }
         // Spatial merge j reads buffer current ^ (j & 1); the last one is fused with the shading

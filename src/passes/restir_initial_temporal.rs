@@ -26,8 +26,6 @@ push_constants! {
         mcap: f32,
         normal_threshold: f32,
         depth_threshold: f32,
-        /// RTXDI's boiling filter strength (0: off).
-        boiling_strength: f32,
     }
 }
 
@@ -37,7 +35,7 @@ pub struct RestirInitialTemporalPass { pipeline: ComputePipeline }
 
 impl RestirInitialTemporalPass {
     pub const NAME: &'static str = "restir_initial_temporal";
-    /// Fixed 8×8 (as `restir_temporal`): the boiling filter reduces over 64 invocations.
+    /// Fixed 8×8, as `restir_temporal`.
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_INITIAL_TEMPORAL, [8, 8, 1])
         .with_raygen(shaders::PASSES_RESTIR_INITIAL_TEMPORAL_RAYGEN)
         .with_push(Push::LAYOUT)
@@ -81,7 +79,6 @@ impl RestirInitialTemporalPass {
             mcap: restir.mcap,
             normal_threshold: restir.normal_threshold,
             depth_threshold: restir.depth_threshold,
-            boiling_strength: restir.boiling_filter,
         };
         self.pipeline.dispatch_2d_variant(cmd, current, scene_set, bytemuck::bytes_of(&push), w, h);
     }

@@ -21,8 +21,6 @@ push_constants! {
         mcap: f32,
         normal_threshold: f32,
         depth_threshold: f32,
-        /// RTXDI's boiling filter strength (0: off).
-        boiling_strength: f32,
     }
 }
 
@@ -31,6 +29,7 @@ pub struct RestirTemporalPass { pipeline: ComputePipeline }
 
 impl RestirTemporalPass {
     pub const NAME: &'static str = "restir_temporal";
+    /// Fixed 8×8: it does not take `--workgroup` (docs/workgroups.md measured it at 8×8).
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_TEMPORAL, [8, 8, 1])
         .with_raygen(shaders::PASSES_RESTIR_TEMPORAL_RAYGEN)
         .with_push(Push::LAYOUT)
@@ -72,7 +71,6 @@ impl RestirTemporalPass {
             mcap: restir.mcap,
             normal_threshold: restir.normal_threshold,
             depth_threshold: restir.depth_threshold,
-            boiling_strength: restir.boiling_filter,
         };
         self.pipeline.dispatch_2d_variant(cmd, current, scene_set, bytemuck::bytes_of(&push), w, h);
     }
