@@ -146,14 +146,14 @@ struct RenderArgs {
     presample: Toggle,
     /// ReSTIR's passes fused in pairs (restir_initial_temporal, restir_spatial_shade), as Bevy
     /// Solari runs them: the same image, fewer dispatches. Frames whose pass outputs are dumped or
-    /// checked run the passes apart; the reservoir views keep vpl_shade apart (it draws them). Off
-    /// by default: on lavapipe it pays
-    /// on the Cornell box only (README, "Pass fusion").
-    #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.fuse_passes))]
-    fuse_passes: Toggle,
+    /// checked run the passes apart; the reservoir views keep vpl_shade apart (it draws them).
+    /// Default: on a GPU (it paid on every scene on an H100), off on a CPU device such as
+    /// lavapipe (it pays on the Cornell box only there; README, "Pass fusion").
+    #[arg(long, value_enum)]
+    fuse_passes: Option<Toggle>,
     /// Workgroup WxH of the per-pixel passes (gbuffer, pathtrace, restir_initial, restir_spatial,
-    /// restir_spatial_shade, vpl_shade, vpl_compensate, vpl_bruteforce; restir_temporal and
-    /// restir_initial_temporal stay 8x8). Same image for any
+    /// restir_spatial_shade, vpl_shade, vpl_compensate, vpl_bruteforce; restir_temporal,
+    /// restir_initial_temporal and restir_boiling stay 8x8). Same image for any
     /// size; `bench --workgroups` measures them.
     #[arg(long, value_parser = Workgroup::parse, default_value_t = Workgroup(restir_vpl::settings::DEFAULT_WORKGROUP))]
     workgroup: Workgroup,
@@ -600,7 +600,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         candidates: cli.candidates,
         candidate_source: cli.candidate_source,
         presample: cli.presample.on(),
-        fuse_passes: cli.fuse_passes.on(),
+        fuse_passes: cli.fuse_passes.map(Toggle::on),
         workgroup: cli.workgroup.0,
         restir: RestirSettings {
             temporal: cli.temporal.on(),

@@ -362,6 +362,15 @@ fn dispatch_output<'a>(
     })
 }
 
+/// `settings` with what depends on the device decided for `ctx`'s: `--fuse-passes auto` (None)
+/// becomes on or off ([`RenderSettings::fuses_passes_on`]), so that the renderer's settings, and
+/// the summary written from them, say which ran.
+fn resolve_for_device(ctx: &Context, mut settings: RenderSettings) -> RenderSettings {
+    let cpu = ctx.properties.device_type == vk::PhysicalDeviceType::CPU;
+    settings.fuse_passes = Some(settings.fuses_passes_on(cpu));
+    settings
+}
+
 /// Settings that the context's way of tracing rays cannot run: launches larger than a
 /// ray-tracing pipeline allows, or settings made for the other way of tracing.
 fn check_tracing(ctx: &Context, settings: &RenderSettings) -> Result<()> {
@@ -391,6 +400,7 @@ impl Renderer {
     /// A renderer of `scene` (uploaded once by the caller and shared) with `settings`: frame
     /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
     pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
+        let settings = resolve_for_device(&ctx, settings);
         settings.validate()?;
         check_tracing(&ctx, &settings)?;
         if std::env::var("RESTIR_VPL_DEBUG_POISON").as_deref() == Ok("validation") {
@@ -558,6 +568,7 @@ impl Renderer {
     /// [`Renderer::build`]). The accumulation, the ReSTIR history and the log restart. Waits for the
     /// device to be idle first (a caller's own work on the renderer's buffers included).
     pub fn apply_settings(&mut self, settings: RenderSettings) -> Result<()> {
+        let settings = resolve_for_device(&self.ctx, settings);
         settings.validate()?;
         check_tracing(&self.ctx, &settings)?;
         // A change of nothing, or of the exposure alone (applied by tonemap to the accumulated
@@ -714,7 +725,7 @@ impl Renderer {
             if mode == Mode::Restir {
                 if r.temporal {
                     passes.vpl.temporal = Some(RestirTemporalPass::new(ctx, layout, targets, &inputs, &res)?);
-                    if settings.fuse_passes {
+                    if settings.fuse_passes == Some(true) {
                         passes.vpl.initial_temporal = Some(RestirInitialTemporalPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
                     }
                     if r.boiling_filter > 0.0 {
@@ -723,7 +734,7 @@ impl Renderer {
                 }
                 if r.spatial_passes > 0 && r.spatial_neighbours > 0 {
                     passes.vpl.spatial = Some(RestirSpatialPass::new(ctx, layout, targets, &inputs, &res)?);
-                    if settings.fuse_passes {
+                    if settings.fuse_passes == Some(true) {
                         passes.vpl.spatial_shade = Some(RestirSpatialShadePass::new(ctx, layout, targets, &inputs, &res)?);
                     }
                 }
@@ -855,7 +866,7 @@ impl Renderer {
     /// views.
     fn fuse(&self, plan: &mut FramePlan, capture: bool) {
         let vpl = &self.parts.passes.vpl;
-        let apart = if !self.settings.fuse_passes {
+        let apart = if self.settings.fuse_passes != Some(true) {
             Some("--fuse-passes off")
         } else if capture {
             Some("pass outputs captured this frame")

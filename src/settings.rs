@@ -368,11 +368,14 @@ pub struct RenderSettings {
     /// (initial RIS + temporal merge) and `restir_spatial_shade` (last spatial merge + shading),
     /// each one dispatch with the same functions and random streams as the two passes it replaces
     /// (the same image, bit for bit). A frame whose pass outputs are captured (`--dump-passes`,
-    /// `--check-finite`) and the reservoir views run the passes apart. Off by default: on lavapipe
-    /// it saves 4–9 % of a ReSTIR frame on the Cornell box but costs up to 7 % of an unbiased one
-    /// on the two heavier scenes (README, "Pass fusion").
-    #[serde(default = "default_fuse_passes")]
-    pub fuse_passes: bool,
+    /// `--check-finite`) and the reservoir views run the passes apart. None (auto, the default):
+    /// fused on a GPU, where it saved 4–13 % of every ReSTIR frame measured (NVIDIA H100), apart on
+    /// a CPU device such as lavapipe, where it saves 4–9 % on the Cornell box but cost up to 7 % of
+    /// an unbiased frame on the two heavier scenes on one of the two hosts measured (README, "Pass
+    /// fusion"). The renderer resolves it for its device ([`RenderSettings::fuses_passes_on`]), so
+    /// its settings and the run's summary say which ran.
+    #[serde(default)]
+    pub fuse_passes: Option<bool>,
     /// Workgroup (x, y) of the per-pixel passes whose shaders take it as specialisation constants
     /// (gbuffer, pathtrace, restir_initial, restir_spatial, restir_spatial_shade, vpl_shade,
     /// vpl_compensate, vpl_bruteforce); restir_temporal, restir_initial_temporal and restir_boiling
@@ -440,7 +443,7 @@ impl Default for RenderSettings {
             candidates: 32,
             candidate_source: CandidateSource::Uniform,
             presample: default_presample(),
-            fuse_passes: default_fuse_passes(),
+            fuse_passes: None,
             workgroup: default_workgroup(),
             restir: RestirSettings::default(),
             attenuation: Attenuation::Yuksel,
@@ -460,10 +463,6 @@ fn default_merge_blas() -> u32 {
 
 fn default_presample() -> bool {
     true
-}
-
-fn default_fuse_passes() -> bool {
-    false
 }
 
 /// 8×8: a 64-invocation workgroup (a warp or wavefront pair on GPUs; eight 8-lane SIMD steps on
@@ -507,7 +506,12 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 pub const MAX_PHOTON_BOUNCES: u32 = 1024;
 
 impl RenderSettings {
-    /// Whether this run needs the VPL set (and so the photon pass).
+    /// Whether ReSTIR's passes are fused on a device that is (`cpu`) or is not a CPU device:
+    /// `--fuse-passes on|off`, or auto (None): fused on a GPU, apart on a CPU device.
+    pub fn fuses_passes_on(&self, cpu: bool) -> bool {
+        self.fuse_passes.unwrap_or(!cpu)
+    }
+
     /// Of the command-line flags `given` (clap ids: the field names of the CLI's render arguments,
     /// e.g. "spatial_neighbours"), those that this run never reads, each with why: e.g.
     /// `--candidates` in `--mode pt`. A headless run or a reference warns about them (a value that
@@ -816,6 +820,16 @@ impl RenderSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fuse_passes_auto_fuses_on_a_gpu_only_and_a_choice_holds_on_both() {
+        let with = |fuse_passes| RenderSettings { fuse_passes, ..RenderSettings::default() };
+        assert_eq!(RenderSettings::default().fuse_passes, None, "auto is the default");
+        assert_eq!([with(None).fuses_passes_on(true), with(None).fuses_passes_on(false)], [false, true]);
+        for choice in [true, false] {
+            assert_eq!([with(Some(choice)).fuses_passes_on(true), with(Some(choice)).fuses_passes_on(false)], [choice, choice]);
+        }
+    }
 
     #[test]
     fn flags_a_mode_never_reads_are_named_with_why() {

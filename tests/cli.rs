@@ -374,8 +374,15 @@ fn restir_summary_reports_rays_per_pass() {
         "--headless", "--mode", "restir", "--bias", "unbiased", "--initial-visibility", "on", "--width", "24", "--height", "24",
         "--frames", "3", "--vpls-direct", "100", "--vpls-indirect", "200", "--out", out, "--verbose",
     ];
-    // Passes apart (the default): the four ReSTIR passes.
+    // --fuse-passes auto (the default) fuses on a GPU only, and the summary records what it
+    // resolved to on this device.
     let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    let cpu = summary["device"]["kind"] == "CPU";
+    assert_eq!(summary["settings"]["fuse_passes"], !cpu, "auto fuses on a GPU only: {}", summary["device"]);
+    // Passes apart (the default on a CPU device such as lavapipe): the four ReSTIR passes.
+    let o = if cpu { o } else { run(&[&args[..], &["--fuse-passes", "off"]].concat()) };
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     for pass in ["restir_initial", "restir_temporal", "restir_spatial", "vpl_shade"] {
@@ -416,6 +423,7 @@ fn restir_summary_reports_rays_per_pass() {
         assert!(err.contains(line), "frame 0's pass list lacks '{line}': {err}");
     }
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["settings"]["fuse_passes"], true);
     let by_pass = &summary["rays_per_pixel_by_pass"];
     assert!(by_pass["restir_initial_temporal"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
     assert!(by_pass["restir_spatial_shade"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");

@@ -340,7 +340,7 @@ fn fused_passes_render_the_same_frames_as_passes_apart() {
     ];
     for restir in cases {
         let frames = |fuse_passes: bool| {
-            let settings = RenderSettings { restir, fuse_passes, ..base.clone() };
+            let settings = RenderSettings { restir, fuse_passes: Some(fuse_passes), ..base.clone() };
             let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).unwrap();
             let mut shown = Vec::new();
             for f in 0..4u32 {

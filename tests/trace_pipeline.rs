@@ -65,7 +65,7 @@ fn ray_tracing_pipelines_render_what_ray_queries_render() {
     let mut unbiased_visible = base(Mode::Restir, 48, 3);
     unbiased_visible.restir.initial_visibility = Some(true);
     let mut fused = unbiased_visible.clone();
-    fused.fuse_passes = true;
+    fused.fuse_passes = Some(true);
     let mut biased = base(Mode::Restir, 48, 3);
     biased.restir.bias = Bias::Biased;
     let mut compensate = base(Mode::Restir, 48, 2);

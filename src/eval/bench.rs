@@ -285,7 +285,7 @@ pub fn fusion_cases(base: &RenderSettings) -> Vec<(String, RenderSettings)> {
     for (name, bias) in [("biased", Bias::Biased), ("unbiased", Bias::Unbiased)] {
         for (how, fuse_passes) in [("passes apart", false), ("fused", true)] {
             let restir = RestirSettings { bias, initial_visibility: Some(false), ..Default::default() };
-            cases.push((format!("restir {name}, {how}"), RenderSettings { mode: Mode::Restir, restir, fuse_passes, ..base.clone() }));
+            cases.push((format!("restir {name}, {how}"), RenderSettings { mode: Mode::Restir, restir, fuse_passes: Some(fuse_passes), ..base.clone() }));
         }
     }
     cases
