@@ -209,8 +209,9 @@ struct FrameSlot {
     readback: Buffer,
     frame_constants: Buffer,
     /// The frame waiting for this slot's fence: its start time, whether the gbuffer ran and
-    /// whether it restarted the accumulation (and with it the GPU's non-finite count).
-    pending: Option<(Instant, bool, bool)>,
+    /// whether it restarted the accumulation (and with it the GPU's non-finite count), and its
+    /// index (for a wait that takes long to name it).
+    pending: Option<(Instant, bool, bool, u32)>,
 }
 
 /// Accumulation and reuse state carried from frame to frame.
@@ -272,7 +273,38 @@ pub struct Renderer {
     /// Tests only (`RESTIR_VPL_DEBUG_POISON=vpl_shade`): a pass writes a NaN, so that
     /// `--check-finite` can be shown to find it (`=validation`: see [`record_invalid_command`]).
     debug_poison: u32,
+    /// Tests only (`RESTIR_VPL_DEBUG_POISON=hang_after:<pass>`): every frame, after that pass, waits
+    /// for an event the host never sets, so that a frame that never finishes can be shown to end
+    /// in an error naming the passes finished (`Context::wait_fence`).
+    debug_hang: Option<(&'static str, vk::Event)>,
     ctx: Arc<Context>,
+}
+
+/// `RESTIR_VPL_DEBUG_POISON=hang_after:<pass>` (tests only): the event a frame waits on after that
+/// pass ([`Renderer::debug_hang`]).
+fn debug_hang_from_env(ctx: &Context) -> Result<Option<(&'static str, vk::Event)>> {
+    let Ok(poison) = std::env::var("RESTIR_VPL_DEBUG_POISON") else { return Ok(None) };
+    let Some(pass) = poison.strip_prefix("hang_after:") else { return Ok(None) };
+    let name = crate::passes::ALL_PASSES
+        .iter()
+        .map(|d| d.name)
+        .find(|n| *n == pass)
+        .with_context(|| format!("RESTIR_VPL_DEBUG_POISON=hang_after:{pass}: no pass of that name"))?;
+    // SAFETY: valid device.
+    let event = unsafe { ctx.device.create_event(&vk::EventCreateInfo::default(), None) }.context("vkCreateEvent")?;
+    ctx.set_name(event, "debug_poison.hang");
+    Ok(Some((name, event)))
+}
+
+/// Records the wait of [`Renderer::debug_hang`] after its pass's dispatch `d`.
+fn record_debug_hang(ctx: &Context, cmd: vk::CommandBuffer, d: crate::passes::Dispatch, hang: Option<(&'static str, vk::Event)>) {
+    if let Some((pass, event)) = hang.filter(|(pass, _)| *pass == d.name) {
+        log::warn!("RESTIR_VPL_DEBUG_POISON: the frame waits after {pass} for an event that is never set");
+        // SAFETY: cmd is recording; the event is alive and unsignalled (the host never sets it).
+        unsafe {
+            ctx.device.cmd_wait_events(cmd, &[event], vk::PipelineStageFlags::HOST, vk::PipelineStageFlags::ALL_COMMANDS, &[], &[], &[]);
+        }
+    }
 }
 
 /// Tests only (`RESTIR_VPL_DEBUG_POISON=validation`): one command the validation layer reports, so
@@ -460,6 +492,7 @@ impl Renderer {
                 Ok("vpl_shade") => crate::gpu_types::POISON_VPL_SHADE,
                 _ => 0,
             },
+            debug_hang: debug_hang_from_env(&ctx)?,
             ctx,
         })
     }
@@ -1009,15 +1042,16 @@ impl Renderer {
         let halves = if plan.gbuffer == Step::Run { (1 - half, half) } else { (half, half) };
         let constants = self.frame_constants(camera, &prev_camera, halves);
         if capture {
-            // Room for every output a frame can write: G-buffer, two sample writers, the
-            // reservoirs after initial, temporal and each spatial pass, the mean and the preview.
-            let pixels = self.parts.targets.pixels() as u64;
-            let per_pixel = CaptureKind::Surfaces.bytes_per_pixel()
-                + 2 * CaptureKind::Rgba.bytes_per_pixel()
-                + (2 + u64::from(self.settings.restir.spatial_passes)) * CaptureKind::Reservoirs.bytes_per_pixel()
-                + CaptureKind::Rgba.bytes_per_pixel()
-                + CaptureKind::Rgba8.bytes_per_pixel();
-            let need = pixels * per_pixel;
+            // Room for what this frame's dispatches write (the same rule as the copies below).
+            let targets = &self.parts.targets;
+            let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
+            let per_pixel: u64 = plan
+                .dispatches()
+                .into_iter()
+                .filter_map(|d| dispatch_output(d, targets, reservoirs, plan.vpl.current, halves.0))
+                .map(|(_, kind, _, _)| kind.bytes_per_pixel())
+                .sum();
+            let need = (targets.pixels() as u64 * per_pixel).max(4);
             if self.capture_buffer.as_ref().is_none_or(|b| b.size < need) {
                 self.capture_buffer = Some(Buffer::new(&self.ctx, "capture.pass_outputs", need, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?);
             }
@@ -1039,6 +1073,7 @@ impl Renderer {
         // what earlier submissions wrote (uploads, acceleration structures, photons) visible.
         crate::vk::pipeline::submission_start_barrier(&ctx, slot.cmd);
         let mut metas = Vec::new();
+        let hang = self.debug_hang;
         if capture {
             let targets = &self.parts.targets;
             let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
@@ -1046,8 +1081,11 @@ impl Renderer {
             let cap = self.capture_buffer.as_ref().expect("allocated before recording");
             let mut used = 0u64;
             let mut hook = |cmd: vk::CommandBuffer, d: crate::passes::Dispatch| {
-                let Some((buffer, kind, src, offset)) = dispatch_output(d, targets, reservoirs, current, halves.0) else { return };
+                let Some((buffer, kind, src, offset)) = dispatch_output(d, targets, reservoirs, current, halves.0) else {
+                    return record_debug_hang(&ctx, cmd, d, hang);
+                };
                 let size = kind.bytes_per_pixel() * pixels;
+                assert!(used + size <= cap.size, "the capture buffer was sized from the same dispatches");
                 let region = [vk::BufferCopy::default().src_offset(offset).dst_offset(used).size(size)];
                 // SAFETY: both buffers are alive; the pass's barrier precedes the copy and the one
                 // below orders the passes after it (they may overwrite the source).
@@ -1055,10 +1093,12 @@ impl Renderer {
                 crate::vk::pipeline::compute_barrier(&ctx, cmd);
                 metas.push(CaptureMeta { position: metas.len(), pass: d.name, repeat: d.repeat, buffer, kind, offset: used, size });
                 used += size;
+                record_debug_hang(&ctx, cmd, d, hang);
             };
             self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut hook);
         } else {
-            self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut |_, _| {});
+            let mut hook = |cmd, d| record_debug_hang(&ctx, cmd, d, hang);
+            self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut hook);
         }
         let counters_size = 4 * RAY_SLOTS.len() as u64;
         // SAFETY: buffers alive; the barrier after the last pass orders the copies after it.
@@ -1083,7 +1123,7 @@ impl Renderer {
             d.reset_fences(&[slot.fence])?;
             d.queue_submit(ctx.queue, &submit, slot.fence).context("vkQueueSubmit (frame)")?;
         }
-        slot.pending = Some((start, plan.gbuffer == Step::Run, plan.reset_accumulation));
+        slot.pending = Some((start, plan.gbuffer == Step::Run, plan.reset_accumulation, self.state.frame_index));
         let st = &mut self.state;
         if plan.gbuffer == Step::Run {
             st.gbuffer_valid = true;
@@ -1109,10 +1149,9 @@ impl Renderer {
     /// Waits for the frame in slot `i` and logs its statistics.
     fn complete_frame(&mut self, i: usize) -> Result<FrameStats> {
         let slot = &mut self.slots[i];
-        let (start, gbuffer_ran, reset) = slot.pending.take().context("no frame is pending in this slot")?;
-        // SAFETY: the fence belongs to this slot's last submission.
-        unsafe { self.ctx.device.wait_for_fences(&[slot.fence], true, u64::MAX) }
-            .context("waiting for the frame (device lost?)")?;
+        let (start, gbuffer_ran, reset, frame) = slot.pending.take().context("no frame is pending in this slot")?;
+        let timer = &slot.timer;
+        self.ctx.wait_fence(slot.fence, &|| format!("frame {frame}"), &|| timer.progress())?;
         let dispatch_ms = slot.timer.collect()?;
         let n_slots = RAY_SLOTS.len();
         let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (n_slots + 1))?);
@@ -1399,12 +1438,18 @@ impl Renderer {
 
 impl Drop for Renderer {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a frame may still be executing: its fence and command buffer stay
+        }
         // SAFETY: wait for idle, then free every slot's command buffer and fence.
         unsafe {
             let _ = self.ctx.device.device_wait_idle();
             for slot in &self.slots {
                 self.ctx.device.destroy_fence(slot.fence, None);
                 self.ctx.device.free_command_buffers(self.ctx.command_pool, &[slot.cmd]);
+            }
+            if let Some((_, event)) = self.debug_hang {
+                self.ctx.device.destroy_event(event, None);
             }
         }
     }

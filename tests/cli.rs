@@ -709,3 +709,44 @@ fn unwritable_outputs_are_refused_before_the_work() {
     let o = run(&["compare", exr.to_str().unwrap(), exr.to_str().unwrap(), "--json", "/dev/null"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// A submission that never finishes ends in an error after `RESTIR_VPL_GPU_TIMEOUT_S`, naming the
+/// frame, the device, the passes the device finished and the first it did not (read from the
+/// frame's timestamps while it hangs), with a non-zero exit and no hang on the way out (the drops
+/// leave the hung device alone). The hang is planted: `RESTIR_VPL_DEBUG_POISON=hang_after:<pass>`
+/// makes every frame wait, after that pass, for an event the host never sets. A limit that is not
+/// a number of seconds is refused by name.
+#[test]
+fn a_frame_that_never_finishes_ends_in_an_error_naming_the_passes() {
+    let args = ["--headless", "--mode", "restir", "--width", "32", "--height", "32", "--frames", "3", "--vpls-direct", "500", "--vpls-indirect", "500"];
+    let start = std::time::Instant::now();
+    let o = bin()
+        .args(args)
+        .env("RESTIR_VPL_DEBUG_POISON", "hang_after:restir_initial")
+        .env("RESTIR_VPL_GPU_TIMEOUT_S", "2")
+        .output()
+        .expect("binary runs");
+    let took = start.elapsed().as_secs_f64();
+    let err = stderr(&o);
+    assert!(!o.status.success() && !err.contains("panicked"), "{err}");
+    // Frame 0: gbuffer, vpl_presample, restir_initial, (the planted wait), restir_spatial, ...
+    for words in [
+        "frame 0 did not finish in 2 s on",
+        "RESTIR_VPL_GPU_TIMEOUT_S",
+        "the device finished 3 of its",
+        "(gbuffer, vpl_presample, restir_initial)",
+        "the first not finished: restir_spatial",
+    ] {
+        assert!(err.contains(words), "lacks '{words}': {err}");
+    }
+    // The limit plus start-up (a few seconds here, more under the validation layer); a wait
+    // without a limit would never return.
+    assert!(took < 120.0, "took {took:.0} s");
+
+    let o = bin().args(args).env("RESTIR_VPL_GPU_TIMEOUT_S", "soon").output().expect("binary runs");
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("RESTIR_VPL_GPU_TIMEOUT_S=\"soon\"") && !err.contains("panicked"), "{err}");
+    let o = bin().args(args).env("RESTIR_VPL_DEBUG_POISON", "hang_after:no_such_pass").output().expect("binary runs");
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("hang_after:no_such_pass") && !err.contains("panicked"), "{err}");
+}

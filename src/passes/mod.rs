@@ -362,6 +362,18 @@ impl FramePlan {
         self.spatial_passes() - u32::from(self.restir_spatial_shade == Step::Run)
     }
 
+    /// Every dispatch this frame records, in order (`restir_spatial` once per dispatch).
+    pub fn dispatches(&self) -> Vec<Dispatch> {
+        self.steps()
+            .into_iter()
+            .filter(|(_, step)| **step == Step::Run)
+            .flat_map(|(name, _)| {
+                let times = if name == RestirSpatialPass::NAME { self.restir_spatial_dispatches() } else { 1 };
+                (0..times).map(move |repeat| Dispatch { name, repeat })
+            })
+            .collect()
+    }
+
     /// One line per pass: `run` or `skip (why)`.
     pub fn describe(&self) -> String {
         self.steps()

@@ -17,6 +17,9 @@ pub struct AccelerationStructure {
 
 impl Drop for AccelerationStructure {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission that did not finish may still use it (Context::wait_fence)
+        }
         // SAFETY: no pending GPU work references the structure (frames are fenced).
         unsafe { self.ctx.accel.destroy_acceleration_structure(self.raw, None) };
     }

@@ -157,6 +157,9 @@ impl Buffer {
 
 impl Drop for Buffer {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission that did not finish may still use it (Context::wait_fence)
+        }
         // SAFETY: the owner guarantees no pending GPU work uses this buffer or its view (frames are
         // fenced); the view goes first.
         unsafe {

@@ -4,8 +4,9 @@
 
 use std::ffi::{c_void, CStr, CString};
 use std::mem::ManuallyDrop;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context as _, Result};
 use ash::vk;
@@ -72,6 +73,29 @@ pub fn tracing_from_env() -> Result<Option<Tracing>> {
         Err(std::env::VarError::NotPresent) => Ok(None),
         Err(std::env::VarError::NotUnicode(v)) => bail!("RESTIR_VPL_TRACE={v:?}: expected query, pipeline or auto"),
         Ok(v) => Tracing::parse(&v).with_context(|| format!("RESTIR_VPL_TRACE={v:?}: expected query, pipeline or auto")),
+    }
+}
+
+/// How long one submission may run before [`Context::wait_fence`] gives up on it, when
+/// `RESTIR_VPL_GPU_TIMEOUT_S` does not say: 10 minutes. The longest legitimate submissions are a
+/// brute-force frame on lavapipe (refused above about a minute's work) and the acceleration
+/// structures of a million-triangle scene (tens of seconds here).
+pub const DEFAULT_GPU_TIMEOUT: Duration = Duration::from_secs(600);
+/// How often [`Context::wait_fence`] says that it is still waiting.
+pub const GPU_WAIT_WARN_EVERY: Duration = Duration::from_secs(60);
+
+/// `RESTIR_VPL_GPU_TIMEOUT_S`: how long one submission may run, in seconds (fractions allowed; 0:
+/// no limit); unset: [`DEFAULT_GPU_TIMEOUT`].
+pub fn gpu_timeout_from_env() -> Result<Option<Duration>> {
+    const WHAT: &str = "expected a number of seconds (0: wait without a limit)";
+    match std::env::var("RESTIR_VPL_GPU_TIMEOUT_S") {
+        Err(std::env::VarError::NotPresent) => Ok(Some(DEFAULT_GPU_TIMEOUT)),
+        Err(std::env::VarError::NotUnicode(v)) => bail!("RESTIR_VPL_GPU_TIMEOUT_S={v:?}: {WHAT}"),
+        Ok(v) => match v.trim().parse::<f64>() {
+            Ok(s) if s == 0.0 => Ok(None),
+            Ok(s) if s.is_finite() && s > 0.0 && s < 1e9 => Ok(Some(Duration::from_secs_f64(s))),
+            _ => bail!("RESTIR_VPL_GPU_TIMEOUT_S={v:?}: {WHAT}"),
+        },
     }
 }
 
@@ -189,6 +213,11 @@ pub struct Context {
     /// renderers report them as their frames complete): a shader bug, checked beside the
     /// validation errors by runs under validation (`--validate`, `RESTIR_VPL_VALIDATE=1`).
     nonfinite_samples: AtomicU64,
+    /// How long one submission may run (`RESTIR_VPL_GPU_TIMEOUT_S`; None: no limit).
+    pub gpu_timeout: Option<Duration>,
+    /// A submission ran past `gpu_timeout`: the device may still be executing it, so nothing it
+    /// uses may be waited on or destroyed (the drops leave them to the process's exit).
+    hung: AtomicBool,
 }
 
 /// The acceleration-structure limits the renderer uses.
@@ -467,6 +496,7 @@ impl Context {
             Some(t) => Some(t),
             None => tracing_from_env()?,
         };
+        let gpu_timeout = gpu_timeout_from_env()?;
         let entry = load_entry()?;
         let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate, opts.window.as_ref())?;
         let validation = Arc::new(ValidationCounter::default());
@@ -704,6 +734,8 @@ impl Context {
             command_pool,
             presentation,
             nonfinite_samples: AtomicU64::new(0),
+            gpu_timeout,
+            hung: AtomicBool::new(false),
         })
     }
 
@@ -886,12 +918,64 @@ impl Context {
                     let submit = [vk::SubmitInfo::default().command_buffers(&cmds)];
                     self.device.queue_submit(self.queue, &submit, fence)
                 })
-                .and_then(|_| self.device.wait_for_fences(&[fence], true, u64::MAX));
-            self.device.destroy_fence(fence, None);
-            self.device.free_command_buffers(self.command_pool, &[cmd]);
-            r.context("one-shot submission failed (device lost?)")?;
+                .context("one-shot submission failed (device lost?)")
+                .and_then(|_| self.wait_fence(fence, &|| "a one-time submission (an upload, a read-back, an acceleration-structure build or the photon pass)".into(), &|| None));
+            if !self.is_hung() {
+                self.device.destroy_fence(fence, None);
+                self.device.free_command_buffers(self.command_pool, &[cmd]);
+            }
+            r?;
         }
         Ok(())
+    }
+
+    /// Waits for `fence`, signalled by the submission `what` describes, in steps, so that one that
+    /// does not finish becomes a diagnosis instead of a silent hang: every
+    /// [`GPU_WAIT_WARN_EVERY`] it warns, with `progress()` (what the device has finished of it, where
+    /// known), and after [`Context::gpu_timeout`] it marks the context hung ([`Context::is_hung`])
+    /// and fails, saying the same.
+    pub fn wait_fence(&self, fence: vk::Fence, what: &dyn Fn() -> String, progress: &dyn Fn() -> Option<String>) -> Result<()> {
+        let start = Instant::now();
+        let mut next_warning = GPU_WAIT_WARN_EVERY;
+        let detail = || progress().map(|p| format!("; {p}")).unwrap_or_default();
+        loop {
+            let left = self.gpu_timeout.map_or(GPU_WAIT_WARN_EVERY, |limit| limit.saturating_sub(start.elapsed()));
+            let step = left.min(next_warning.saturating_sub(start.elapsed())).max(Duration::from_millis(1));
+            // SAFETY: the fence belongs to a submission of this device.
+            match unsafe { self.device.wait_for_fences(&[fence], true, step.as_nanos() as u64) } {
+                Ok(()) => return Ok(()),
+                Err(vk::Result::TIMEOUT) => {}
+                Err(e) => return Err(e).with_context(|| format!("waiting for {} (device lost?){}", what(), detail())),
+            }
+            let waited = start.elapsed();
+            if let Some(limit) = self.gpu_timeout.filter(|&limit| waited >= limit) {
+                self.hung.store(true, Ordering::SeqCst);
+                bail!(
+                    "{} did not finish in {:.0} s on {} (RESTIR_VPL_GPU_TIMEOUT_S sets the limit, 0 for none){}",
+                    what(),
+                    limit.as_secs_f64(),
+                    self.report.name,
+                    detail()
+                );
+            }
+            if waited >= next_warning {
+                log::warn!("still waiting for {} after {:.0} s{}", what(), waited.as_secs_f64(), detail());
+                next_warning += GPU_WAIT_WARN_EVERY;
+            }
+        }
+    }
+
+    /// Whether a submission ran past the time limit ([`Context::wait_fence`]).
+    pub fn is_hung(&self) -> bool {
+        self.hung.load(Ordering::SeqCst)
+    }
+
+    /// `vkDeviceWaitIdle` for the drops: nothing when the context is hung (it would never return).
+    pub fn wait_idle_for_drop(&self) {
+        if !self.is_hung() {
+            // SAFETY: valid device.
+            let _ = unsafe { self.device.device_wait_idle() };
+        }
     }
 }
 
@@ -936,6 +1020,12 @@ fn destroy_instance(
 
 impl Drop for Context {
     fn drop(&mut self) {
+        if self.is_hung() {
+            // The device may still be executing the submission that ran past the limit:
+            // destroying it could block too. The process's exit frees it.
+            log::warn!("the device is left as it is: a submission did not finish");
+            return;
+        }
         // SAFETY: every resource created from this device has been dropped before the context (the
         // renderer owns the context last); we wait for idle first.
         unsafe {

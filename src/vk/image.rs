@@ -55,6 +55,9 @@ impl Image {
 
 impl Drop for Image {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission that did not finish may still use it (Context::wait_fence)
+        }
         // SAFETY: the owner guarantees no pending GPU work uses this image.
         unsafe { self.ctx.device.destroy_image(self.raw, None) };
         if let Some(a) = self.allocation.take() {

@@ -241,6 +241,9 @@ impl DescriptorSet {
 
 impl Drop for DescriptorSet {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission that did not finish may still use it (Context::wait_fence)
+        }
         // SAFETY: no pending work uses the set.
         unsafe {
             self.ctx.device.destroy_descriptor_pool(self.pool, None);
@@ -630,6 +633,9 @@ fn shader_binding_table(ctx: &Arc<Context>, name: &str, pipeline: vk::Pipeline, 
 
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission that did not finish may still use it (Context::wait_fence)
+        }
         // SAFETY: no pending work uses the pipeline (nor its binding table, dropped after it).
         unsafe {
             self.ctx.device.destroy_pipeline(self.pipeline, None);

@@ -6,7 +6,9 @@ use std::sync::Arc;
 use anyhow::{Context as _, Result};
 use ash::vk;
 
-use super::Context;
+use gpu_allocator::MemoryLocation;
+
+use super::{Buffer, Context};
 
 pub struct GpuTimer {
     ctx: Arc<Context>,
@@ -14,9 +16,16 @@ pub struct GpuTimer {
     capacity: u32,
     used: u32,
     scopes: Vec<(&'static str, u32)>,
-    /// The scopes begun and not yet ended, innermost last; None for one begun when the pool was
-    /// full (it has a label but no timestamps), so that its `end` closes it and not its parent.
-    open: Vec<Option<(&'static str, u32)>>,
+    /// The scopes begun and not yet ended, innermost last: (breadcrumb index, first query), the
+    /// query None for one begun when the pool was full or without timestamps.
+    open: Vec<(usize, Option<(&'static str, u32)>)>,
+    /// Breadcrumbs: one word per scope begun this frame (up to `max_scopes`), 0 at the start,
+    /// written 1 by the device when the scope's work has finished. The host reads them while a
+    /// frame is late ([`GpuTimer::progress`]) straight from mapped memory: no Vulkan call, so no
+    /// driver lock a hung queue holds (lavapipe's `vkGetQueryPoolResults` waits for the queue).
+    breadcrumbs: Buffer,
+    /// The scopes' names in the order they were begun (their breadcrumbs' order).
+    begun: Vec<&'static str>,
     period_ns: f64,
     valid: bool,
     /// The bits of a timestamp that count (timestampValidBits: 36 on some Intel GPUs, 64 here):
@@ -37,6 +46,13 @@ impl GpuTimer {
         let bits = families[ctx.queue_family as usize].timestamp_valid_bits;
         let valid = bits > 0 && ctx.properties.limits.timestamp_period > 0.0;
         let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
+        let breadcrumbs = Buffer::new(
+            ctx,
+            "gpu_timer.breadcrumbs",
+            4 * u64::from(max_scopes),
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
         Ok(Self {
             ctx: ctx.clone(),
             pool,
@@ -44,43 +60,84 @@ impl GpuTimer {
             used: 0,
             scopes: Vec::new(),
             open: Vec::new(),
+            breadcrumbs,
+            begun: Vec::new(),
             period_ns: ctx.properties.limits.timestamp_period as f64,
             valid,
             mask,
         })
     }
 
-    /// Resets the pool at the start of a frame's command buffer.
+    /// Resets the pool and the breadcrumbs at the start of a frame's command buffer (the slot's
+    /// previous frame has completed).
     pub fn reset(&mut self, cmd: vk::CommandBuffer) {
         // SAFETY: cmd is recording; the pool is not in use by pending work (frames are fenced).
         unsafe { self.ctx.device.cmd_reset_query_pool(cmd, self.pool, 0, self.capacity) };
         self.used = 0;
         self.scopes.clear();
         self.open.clear();
+        self.begun.clear();
+        self.breadcrumbs.write(0, &vec![0u8; self.breadcrumbs.size as usize]).expect("the breadcrumbs are host-visible (GpuToCpu)");
     }
 
     /// Opens a debug label and a timestamp scope named `name`.
     pub fn begin(&mut self, cmd: vk::CommandBuffer, name: &'static str) {
         self.ctx.begin_label(cmd, name);
+        let crumb = self.begun.len();
+        self.begun.push(name);
         // No timestamps where the queue has none (VUID-vkCmdWriteTimestamp-timestampValidBits-00829).
         if self.valid && self.used + 2 <= self.capacity {
             // SAFETY: query index within the pool.
             unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, self.used) };
-            self.open.push(Some((name, self.used)));
+            self.open.push((crumb, Some((name, self.used))));
             self.used += 2;
         } else {
-            self.open.push(None);
+            self.open.push((crumb, None));
         }
     }
 
-    /// Closes the innermost open scope.
+    /// Closes the innermost open scope: its end timestamp, and its breadcrumb once the work
+    /// recorded before it has finished.
     pub fn end(&mut self, cmd: vk::CommandBuffer) {
-        if let Some(Some((name, q))) = self.open.pop() {
-            // SAFETY: query index within the pool.
-            unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1) };
-            self.scopes.push((name, q));
+        if let Some((crumb, query)) = self.open.pop() {
+            if let Some((name, q)) = query {
+                // SAFETY: query index within the pool.
+                unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1) };
+                self.scopes.push((name, q));
+            }
+            let offset = 4 * crumb as u64;
+            if offset < self.breadcrumbs.size {
+                // An execution dependency only: the fill touches nothing the work before it uses.
+                let all = self.ctx.pass_pipeline_stages() | vk::PipelineStageFlags::TRANSFER;
+                // SAFETY: cmd is recording; the breadcrumb lies within the buffer.
+                unsafe {
+                    self.ctx.device.cmd_pipeline_barrier(cmd, all, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &[], &[], &[]);
+                    self.ctx.device.cmd_fill_buffer(cmd, self.breadcrumbs.raw, offset, 4, 1);
+                }
+            }
         }
         self.ctx.end_label(cmd);
+    }
+
+    /// While the frame may still be running (a wait for its fence is taking long): which of its
+    /// scopes the device has finished and the first it has not, from the breadcrumbs (read from
+    /// mapped memory, without a Vulkan call). None before any scope was recorded.
+    pub fn progress(&self) -> Option<String> {
+        if self.begun.is_empty() {
+            return None;
+        }
+        let words = self.breadcrumbs.read(0, 4 * self.begun.len().min(self.breadcrumbs.size as usize / 4)).ok()?;
+        let done: Vec<u32> = bytemuck::pod_collect_to_vec(&words);
+        let finished = done.iter().take_while(|&&w| w != 0).count();
+        let names = self.begun[..finished].join(", ");
+        Some(match self.begun.get(finished) {
+            Some(name) => format!(
+                "the device finished {finished} of its {} passes ({}); the first not finished: {name}",
+                self.begun.len(),
+                if finished == 0 { "none" } else { &names },
+            ),
+            None => format!("the device finished all its {} passes (the copies after them remain)", self.begun.len()),
+        })
     }
 
     /// After the frame's fence: (scope name, milliseconds) in recording order.
@@ -114,6 +171,9 @@ impl GpuTimer {
 
 impl Drop for GpuTimer {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a frame may still be writing its timestamps
+        }
         // SAFETY: no pending work uses the pool.
         unsafe { self.ctx.device.destroy_query_pool(self.pool, None) };
     }

@@ -161,8 +161,8 @@ impl ApplicationHandler for App {
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
         if let Some(r) = &self.running {
-            // SAFETY: waiting for idle before everything is dropped.
-            let _ = unsafe { r.ctx.device.device_wait_idle() };
+            // Waiting for idle before everything is dropped.
+            r.ctx.wait_idle_for_drop();
         }
         self.running = None;
     }
@@ -827,8 +827,7 @@ impl Presenter {
         let p = ctx.presentation.as_ref().expect("a window context");
         let f = self.next;
         let d = &ctx.device;
-        // SAFETY: the fence belongs to this slot's last present submission.
-        unsafe { d.wait_for_fences(&[self.fences[f]], true, u64::MAX) }.context("waiting for a present slot")?;
+        ctx.wait_fence(self.fences[f], &|| "a present slot (the last blit and overlay drawn into it)".into(), &|| None)?;
         // SAFETY: valid swapchain; the semaphore is unsignalled (its last wait has completed).
         let acquired =
             unsafe { p.swapchain_loader.acquire_next_image(swapchain.raw, ACQUIRE_TIMEOUT_NS, self.acquired[f], vk::Fence::null()) };
@@ -911,6 +910,9 @@ impl Presenter {
 
 impl Drop for Presenter {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission may still be executing: its objects stay
+        }
         // SAFETY: wait for idle, then free every slot's objects.
         unsafe {
             let _ = self.ctx.device.device_wait_idle();

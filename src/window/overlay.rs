@@ -313,6 +313,9 @@ impl Overlay {
 
 impl Drop for Overlay {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission may still be executing: what it draws with stays
+        }
         // SAFETY: wait for idle, then destroy what the overlay created (the egui renderer frees
         // its own objects when dropped, before the context's allocator goes).
         unsafe {

@@ -149,6 +149,9 @@ impl Swapchain {
 
 impl Drop for Swapchain {
     fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a submission that did not finish may still use it (Context::wait_fence)
+        }
         let p = self.ctx.presentation.as_ref().expect("a swapchain implies a presentation");
         // SAFETY: the window waits for the device to be idle before dropping a swapchain.
         unsafe {
