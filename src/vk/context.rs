@@ -92,7 +92,7 @@ pub fn gpu_timeout_from_env() -> Result<Option<Duration>> {
         Err(std::env::VarError::NotPresent) => Ok(Some(DEFAULT_GPU_TIMEOUT)),
         Err(std::env::VarError::NotUnicode(v)) => bail!("RESTIR_VPL_GPU_TIMEOUT_S={v:?}: {WHAT}"),
         Ok(v) => match v.trim().parse::<f64>() {
-            Ok(s) if s == 0.0 => Ok(None),
+            Ok(0.0) => Ok(None),
             Ok(s) if s.is_finite() && s > 0.0 && s < 1e9 => Ok(Some(Duration::from_secs_f64(s))),
             _ => bail!("RESTIR_VPL_GPU_TIMEOUT_S={v:?}: {WHAT}"),
         },
