@@ -611,6 +611,7 @@ impl Renderer {
             return Ok(());
         }
         self.complete_all()?;
+        self.ctx.ensure_not_hung()?;
         // SAFETY: waiting for idle before pipelines and buffers in use are replaced.
         unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;
         let parts = Self::build(
@@ -1015,6 +1016,7 @@ impl Renderer {
         // A NaN camera would render a black frame without a word; every camera maker keeps its
         // basis finite (Camera::look_at), so this is a last check, not the usual message.
         anyhow::ensure!(camera.is_finite(), "the camera ({}) is not finite: {camera:?}", camera.source);
+        self.ctx.ensure_not_hung()?;
         let start = Instant::now();
         let i = self.next_slot;
         let completed = if self.slots[i].pending.is_some() { Some(self.complete_frame(i)?) } else { None };
@@ -1149,9 +1151,11 @@ impl Renderer {
     /// Waits for the frame in slot `i` and logs its statistics.
     fn complete_frame(&mut self, i: usize) -> Result<FrameStats> {
         let slot = &mut self.slots[i];
-        let (start, gbuffer_ran, reset, frame) = slot.pending.take().context("no frame is pending in this slot")?;
+        let (start, gbuffer_ran, reset, frame) = slot.pending.context("no frame is pending in this slot")?;
         let timer = &slot.timer;
         self.ctx.wait_fence(slot.fence, &|| format!("frame {frame}"), &|| timer.progress())?;
+        // Only now is the slot free (a wait that failed leaves it pending: the frame may run on).
+        slot.pending = None;
         let dispatch_ms = slot.timer.collect()?;
         let n_slots = RAY_SLOTS.len();
         let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (n_slots + 1))?);
@@ -1197,6 +1201,7 @@ impl Renderer {
     /// is not touched. The accumulation and the ReSTIR history restart.
     pub fn set_extra_lights(&mut self, extra: Vec<PointEmitter>) -> Result<()> {
         self.complete_all()?;
+        self.ctx.ensure_not_hung()?;
         // SAFETY: waiting for idle before the light buffers in use are replaced.
         unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;
         let lights = LightBuffers::new(&self.ctx, LightSet::new(&self.scene.emitters, &extra))?;

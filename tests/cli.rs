@@ -275,6 +275,11 @@ fn trace_choice_is_listed_and_checked() {
     let o = bin().args(["--list-devices"]).env("RESTIR_VPL_TRACE", "fast").output().expect("binary runs");
     let err = stderr(&o);
     assert!(!o.status.success() && err.contains("RESTIR_VPL_TRACE=\"fast\"") && !err.contains("panicked"), "{err}");
+    // bench --workgroups compares the workgroup shapes of passes that, with pipelines, are
+    // ray-generation shaders without workgroups: refused before any timing.
+    let o = bin().args(["bench", "--workgroups", "--width", "16", "--height", "16", "--frames", "1"]).env("RESTIR_VPL_TRACE", "pipeline").output().expect("binary runs");
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("bench --workgroups") && err.contains("ray-tracing pipelines") && !err.contains("panicked"), "{err}");
 }
 
 #[test]
@@ -712,10 +717,11 @@ fn unwritable_outputs_are_refused_before_the_work() {
 
 /// A submission that never finishes ends in an error after `RESTIR_VPL_GPU_TIMEOUT_S`, naming the
 /// frame, the device, the passes the device finished and the first it did not (read from the
-/// frame's timestamps while it hangs), with a non-zero exit and no hang on the way out (the drops
+/// frame's breadcrumbs while it hangs), with a non-zero exit and no hang on the way out (the drops
 /// leave the hung device alone). The hang is planted: `RESTIR_VPL_DEBUG_POISON=hang_after:<pass>`
-/// makes every frame wait, after that pass, for an event the host never sets. A limit that is not
-/// a number of seconds is refused by name.
+/// makes every frame wait, after that pass, for an event the host never sets (on lavapipe the
+/// queue waits forever; a GPU may reset instead, which ends the wait in a device-lost error). A
+/// limit that is not a number of seconds is refused by name.
 #[test]
 fn a_frame_that_never_finishes_ends_in_an_error_naming_the_passes() {
     let args = ["--headless", "--mode", "restir", "--width", "32", "--height", "32", "--frames", "3", "--vpls-direct", "500", "--vpls-indirect", "500"];

@@ -397,6 +397,14 @@ pub struct WorkgroupBench {
 pub fn workgroups(scene_path: &std::path::Path, width: u32, height: u32, frames: u32, device: Option<usize>) -> Result<Vec<WorkgroupBench>> {
     use crate::settings::Mode;
     let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
+    // Every pass that takes the shape traces rays, and so runs as a ray-generation shader there.
+    anyhow::ensure!(
+        ctx.tracing != crate::vk::context::Tracing::Pipeline,
+        "bench --workgroups: {} traces rays with {}, whose launches have no workgroups: every shape would \
+         run the same code (RESTIR_VPL_TRACE=query measures them where the device has ray queries)",
+        ctx.report.name,
+        ctx.tracing.describe()
+    );
     let mut out = Vec::new();
     for mode in [Mode::Restir, Mode::Pt] {
         let base = RenderSettings { scene: scene_path.to_path_buf(), mode, width, height, aa: true, ..Default::default() };

@@ -580,5 +580,7 @@ fn scoped(
     record(cmd);
     timer.end(cmd);
     compute_barrier(ctx, cmd);
+    // After the barrier, which orders the pass before TRANSFER: the fill marks it finished.
+    timer.breadcrumb(cmd);
     after(cmd, Dispatch { name, repeat });
 }

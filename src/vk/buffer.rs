@@ -146,6 +146,22 @@ impl Buffer {
         Ok(slice[offset..offset + len].to_vec())
     }
 
+    /// Reads `count` u32 words at the start of a host-visible buffer the device may be writing now
+    /// (breadcrumbs of a frame that is late: `GpuTimer::progress`), one volatile read each: a
+    /// word may be stale, never torn.
+    pub fn read_words_volatile(&self, count: usize) -> Result<Vec<u32>> {
+        let ptr = self
+            .allocation
+            .as_ref()
+            .and_then(|a| a.mapped_ptr())
+            .with_context(|| format!("buffer '{}' is not host-visible", self.name))?;
+        anyhow::ensure!(4 * count as u64 <= self.size, "read past the end of '{}'", self.name);
+        let words = ptr.as_ptr() as *const u32;
+        // SAFETY: the mapping covers `size` bytes (checked above) and is 4-byte aligned (mappings
+        // are at least minMemoryMapAlignment = 64-byte aligned and buffers start aligned within them).
+        Ok((0..count).map(|i| unsafe { words.add(i).read_volatile() }).collect())
+    }
+
     pub fn address(&self) -> vk::DeviceAddress {
         self.address.expect("buffer created with SHADER_DEVICE_ADDRESS usage")
     }

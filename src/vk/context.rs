@@ -901,6 +901,7 @@ impl Context {
 
     /// Records commands into a one-time command buffer, submits it and waits.
     pub fn one_shot(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        self.ensure_not_hung()?;
         let (cmd, fence) = self.command_buffer_and_fence("one_shot", false)?;
         // SAFETY: valid pool; the buffer and fence are freed before returning.
         unsafe {
@@ -935,6 +936,7 @@ impl Context {
     /// known), and after [`Context::gpu_timeout`] it marks the context hung ([`Context::is_hung`])
     /// and fails, saying the same.
     pub fn wait_fence(&self, fence: vk::Fence, what: &dyn Fn() -> String, progress: &dyn Fn() -> Option<String>) -> Result<()> {
+        self.ensure_not_hung()?;
         let start = Instant::now();
         let mut next_warning = GPU_WAIT_WARN_EVERY;
         let detail = || progress().map(|p| format!("; {p}")).unwrap_or_default();
@@ -960,7 +962,7 @@ impl Context {
             }
             if waited >= next_warning {
                 log::warn!("still waiting for {} after {:.0} s{}", what(), waited.as_secs_f64(), detail());
-                next_warning += GPU_WAIT_WARN_EVERY;
+                next_warning = waited + GPU_WAIT_WARN_EVERY;
             }
         }
     }
@@ -968,6 +970,13 @@ impl Context {
     /// Whether a submission ran past the time limit ([`Context::wait_fence`]).
     pub fn is_hung(&self) -> bool {
         self.hung.load(Ordering::SeqCst)
+    }
+
+    /// Fails when the context is hung: nothing more may be submitted to or waited on it (the late
+    /// submission may still use what it would reuse).
+    pub fn ensure_not_hung(&self) -> Result<()> {
+        anyhow::ensure!(!self.is_hung(), "{}: an earlier submission did not finish; the device takes no more work", self.report.name);
+        Ok(())
     }
 
     /// `vkDeviceWaitIdle` for the drops: nothing when the context is hung (it would never return).

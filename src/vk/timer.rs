@@ -19,6 +19,8 @@ pub struct GpuTimer {
     /// The scopes begun and not yet ended, innermost last: (breadcrumb index, first query), the
     /// query None for one begun when the pool was full or without timestamps.
     open: Vec<(usize, Option<(&'static str, u32)>)>,
+    /// The breadcrumb of the scope ended last, until [`GpuTimer::breadcrumb`] records it.
+    ended: Option<usize>,
     /// Breadcrumbs: one word per scope begun this frame (up to `max_scopes`), 0 at the start,
     /// written 1 by the device when the scope's work has finished. The host reads them while a
     /// frame is late ([`GpuTimer::progress`]) straight from mapped memory: no Vulkan call, so no
@@ -60,6 +62,7 @@ impl GpuTimer {
             used: 0,
             scopes: Vec::new(),
             open: Vec::new(),
+            ended: None,
             breadcrumbs,
             begun: Vec::new(),
             period_ns: ctx.properties.limits.timestamp_period as f64,
@@ -76,6 +79,7 @@ impl GpuTimer {
         self.used = 0;
         self.scopes.clear();
         self.open.clear();
+        self.ended = None;
         self.begun.clear();
         self.breadcrumbs.write(0, &vec![0u8; self.breadcrumbs.size as usize]).expect("the breadcrumbs are host-visible (GpuToCpu)");
     }
@@ -96,8 +100,8 @@ impl GpuTimer {
         }
     }
 
-    /// Closes the innermost open scope: its end timestamp, and its breadcrumb once the work
-    /// recorded before it has finished.
+    /// Closes the innermost open scope (its end timestamp). Its breadcrumb follows with
+    /// [`GpuTimer::breadcrumb`].
     pub fn end(&mut self, cmd: vk::CommandBuffer) {
         if let Some((crumb, query)) = self.open.pop() {
             if let Some((name, q)) = query {
@@ -105,29 +109,33 @@ impl GpuTimer {
                 unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1) };
                 self.scopes.push((name, q));
             }
-            let offset = 4 * crumb as u64;
-            if offset < self.breadcrumbs.size {
-                // An execution dependency only: the fill touches nothing the work before it uses.
-                let all = self.ctx.pass_pipeline_stages() | vk::PipelineStageFlags::TRANSFER;
-                // SAFETY: cmd is recording; the breadcrumb lies within the buffer.
-                unsafe {
-                    self.ctx.device.cmd_pipeline_barrier(cmd, all, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &[], &[], &[]);
-                    self.ctx.device.cmd_fill_buffer(cmd, self.breadcrumbs.raw, offset, 4, 1);
-                }
-            }
+            self.ended = Some(crumb);
         }
         self.ctx.end_label(cmd);
     }
 
+    /// Records the breadcrumb of the scope ended last: a 4-byte fill the device performs once the
+    /// work before it is done. The caller records it after a barrier that orders that work before
+    /// the TRANSFER stage (the frame's `compute_barrier` after each pass does), so it costs no
+    /// barrier of its own; a scope without one keeps no breadcrumb.
+    pub fn breadcrumb(&mut self, cmd: vk::CommandBuffer) {
+        let Some(crumb) = self.ended.take() else { return };
+        let offset = 4 * crumb as u64;
+        if offset < self.breadcrumbs.size {
+            // SAFETY: cmd is recording; the breadcrumb lies within the buffer.
+            unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.breadcrumbs.raw, offset, 4, 1) };
+        }
+    }
+
     /// While the frame may still be running (a wait for its fence is taking long): which of its
     /// scopes the device has finished and the first it has not, from the breadcrumbs (read from
-    /// mapped memory, without a Vulkan call). None before any scope was recorded.
+    /// mapped memory, without a Vulkan call). None before any scope was recorded. A scope without
+    /// a breadcrumb ([`GpuTimer::breadcrumb`] not called) counts as not finished.
     pub fn progress(&self) -> Option<String> {
         if self.begun.is_empty() {
             return None;
         }
-        let words = self.breadcrumbs.read(0, 4 * self.begun.len().min(self.breadcrumbs.size as usize / 4)).ok()?;
-        let done: Vec<u32> = bytemuck::pod_collect_to_vec(&words);
+        let done = self.breadcrumbs.read_words_volatile(self.begun.len().min(self.breadcrumbs.size as usize / 4)).ok()?;
         let finished = done.iter().take_while(|&&w| w != 0).count();
         let names = self.begun[..finished].join(", ");
         Some(match self.begun.get(finished) {
