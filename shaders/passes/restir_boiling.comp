@@ -8,6 +8,7 @@
 // temporal passes' variant for ray-tracing pipelines) has no workgroup. It traces nothing.
 #version 460
 #extension GL_GOOGLE_include_directive : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
 
 #include "../common/scene.glsl"
 #include "../restir/reservoir.glsl"
@@ -23,6 +24,7 @@ layout(push_constant) uniform Push {
     float strength;  // > 0 (the pass does not run at 0)
 } pc;
 
+// One partial sum per subgroup (at most 64: a subgroup has at least one invocation).
 shared float group_w[64];
 shared uint group_n[64];
 
@@ -34,19 +36,23 @@ void main() {
     Reservoir r = inside ? reservoirs[index] : reservoir_empty(0.0);
     float w = reservoir_valid(r) ? r.ucw * r.target : 0.0;
 
-    // Every invocation of the workgroup takes part in the reduction (barriers).
-    uint lid = gl_LocalInvocationIndex;
-    group_w[lid] = w;
-    group_n[lid] = w > 0.0 ? 1u : 0u;
-    barrier();
-    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            group_w[lid] += group_w[lid + stride];
-            group_n[lid] += group_n[lid + stride];
-        }
-        barrier();
+    // Every invocation of the workgroup takes part: each subgroup sums its own invocations'
+    // values in registers, its first invocation stores the partial sums, and after the one
+    // barrier each invocation adds the partials in subgroup order, so all get the same mean.
+    float w_sub = subgroupAdd(w);
+    uint n_sub = subgroupAdd(w > 0.0 ? 1u : 0u);
+    if (subgroupElect()) {
+        group_w[gl_SubgroupID] = w_sub;
+        group_n[gl_SubgroupID] = n_sub;
     }
-    float mean = group_n[0] > 0u ? group_w[0] / float(group_n[0]) : 0.0;
+    barrier();
+    float sum = 0.0;
+    uint count = 0u;
+    for (uint i = 0u; i < gl_NumSubgroups; i++) {
+        sum += group_w[i];
+        count += group_n[i];
+    }
+    float mean = count > 0u ? sum / float(count) : 0.0;
     if (inside && boiling_rejects(w, mean, pc.strength)) {
         reservoirs[index] = reservoir_empty(r.confidence);
     }

@@ -1,7 +1,9 @@
 //! `restir_boiling`: RTXDI's boiling filter after temporal reuse (shaders/passes/restir_boiling.comp).
 //! A pass of its own because it averages over 8×8 workgroups in shared memory, which a compute pass
 //! has on both ways of tracing rays; it traces nothing. Only created with `--boiling-filter S > 0`
-//! and temporal reuse.
+//! and temporal reuse. It sums each block with subgroup arithmetic (Vulkan 1.1; every device
+//! measured has it, and one without is refused by name): 20 ms at 1280×720 on lavapipe against
+//! 45 ms for a tree of seven workgroup barriers.
 
 use std::sync::Arc;
 
@@ -34,6 +36,12 @@ impl RestirBoilingPass {
         .with_bindings(&[storage(0, "reservoirs")]);
 
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, reservoirs: &Reservoirs) -> Result<Self> {
+        anyhow::ensure!(
+            ctx.subgroup_arithmetic,
+            "--boiling-filter: {} has no subgroup arithmetic in compute shaders (VkPhysicalDeviceSubgroupProperties), \
+             which the filter's reduction over each 8×8 block uses; use --boiling-filter 0",
+            ctx.report.name
+        );
         let pipeline = Self::DESC.pipeline(ctx, scene_layout).ping_pong(reservoirs, 0, None).build()?;
         Ok(Self { pipeline })
     }

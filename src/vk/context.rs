@@ -215,6 +215,9 @@ pub struct Context {
     nonfinite_samples: AtomicU64,
     /// How long one submission may run (`RESTIR_VPL_GPU_TIMEOUT_S`; None: no limit).
     pub gpu_timeout: Option<Duration>,
+    /// Whether compute shaders have subgroup arithmetic (Vulkan 1.1's `subgroupAdd`,
+    /// `subgroupElect`), which `restir_boiling`'s reduction uses.
+    pub subgroup_arithmetic: bool,
     /// A submission ran past `gpu_timeout`: the device may still be executing it, so nothing it
     /// uses may be waited on or destroyed (the drops leave them to the process's exit).
     hung: AtomicBool,
@@ -602,7 +605,8 @@ impl Context {
         let properties = unsafe { instance.get_physical_device_properties(physical_device) };
         let mut asp = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut rtp = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
-        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut asp);
+        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
+        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut asp).push_next(&mut subgroup);
         if tracing == Tracing::Pipeline {
             p2 = p2.push_next(&mut rtp);
         }
@@ -610,6 +614,10 @@ impl Context {
         unsafe { instance.get_physical_device_properties2(physical_device, &mut p2) };
         let as_properties =
             AccelProperties { min_scratch_offset_alignment: asp.min_acceleration_structure_scratch_offset_alignment };
+        let subgroup_arithmetic = subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+            && subgroup
+                .supported_operations
+                .contains(vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::ARITHMETIC);
 
         // SAFETY: as above.
         let families = unsafe { instance.get_physical_device_queue_family_properties(physical_device) };
@@ -736,6 +744,7 @@ impl Context {
             nonfinite_samples: AtomicU64::new(0),
             gpu_timeout,
             hung: AtomicBool::new(false),
+            subgroup_arithmetic,
         })
     }
 
