@@ -136,6 +136,27 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
         }
     }
     assert!(less == 0 && more > 0, "compensation only adds light: {more} values grew, {less} shrank");
+
+    // The most outputs a captured frame writes: a moving camera (the G-buffer every frame), the
+    // boiling filter (one more reservoir output) and --compensate (a second sample writer). The
+    // capture buffer was once sized by a fixed count that this combination overran; it is now
+    // sized from the frame's dispatches (an overrun fails the copy hook's assert, and the
+    // validation layer where installed).
+    let bdir = tempfile::tempdir().unwrap();
+    let o = bin()
+        .args(SMALL)
+        .args(["3", "--mode", "restir", "--frames", "3", "--camera-path", "scenes/cornell_box.path.json", "--progressive", "off"])
+        .args(["--boiling-filter", "0.5", "--compensate", "--dump-passes", "2", "--out", bdir.path().to_str().unwrap()])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(bdir.path().join("passes/frame_0002/manifest.json")).unwrap()).unwrap();
+    let ran: Vec<&str> = m["passes"].as_array().unwrap().iter().filter(|p| p["status"] == "run").map(|p| p["pass"].as_str().unwrap()).collect();
+    assert_eq!(
+        ran,
+        ["gbuffer", "vpl_presample", "restir_initial", "restir_temporal", "restir_boiling", "restir_spatial", "vpl_shade", "vpl_compensate", "accumulate", "tonemap"]
+    );
+    assert!(bdir.path().join("passes/frame_0002/04_restir_boiling__w.exr").exists());
 }
 
 /// The CPU's c_y(x): (ρ/π)·I(ω)·cos_x·G(d) with Yuksel's G, as method.md and shaders/restir/vpl.glsl.
