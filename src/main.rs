@@ -224,9 +224,9 @@ struct RenderArgs {
     #[arg(long)]
     device: Option<usize>,
     /// How rays are traced: ray queries (inline in compute shaders), ray-tracing pipelines (for
-    /// GPUs without ray queries, as NVIDIA's datacenter GPUs), or auto: ray
-    /// queries where the device has them (or RESTIR_VPL_TRACE, which the benchmarks and `results`
-    /// read).
+    /// GPUs without ray queries, as NVIDIA's datacenter GPUs), or auto: ray queries where the
+    /// device has them. Given, it overrides RESTIR_VPL_TRACE, which decides without it (and is
+    /// what the benchmarks and `results` read).
     #[arg(long, value_enum)]
     trace: Option<TraceArg>,
     /// Enable the Khronos validation layer (also RESTIR_VPL_VALIDATE=1).
@@ -1179,6 +1179,12 @@ fn main() -> ExitCode {
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let given = given_render_flags(&matches);
     restir_vpl::logger::init(cli.render.verbose);
+    // An explicit --trace, auto included, wins over RESTIR_VPL_TRACE, which a context reads when
+    // its settings name no way of tracing (auto names none): removed before any context is made,
+    // while the process has one thread.
+    if cli.render.trace.is_some() {
+        std::env::remove_var("RESTIR_VPL_TRACE");
+    }
     match real_main(cli, &given) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -261,6 +261,8 @@ fn trace_choice_is_listed_and_checked() {
         (&["--list-devices", "--trace", "pipeline"][..], None, "(ray-tracing pipelines)"),
         (&["--list-devices"][..], Some("pipeline"), "(ray-tracing pipelines)"),
         (&["--list-devices", "--trace", "query"][..], Some("pipeline"), "(ray queries)"),
+        // auto given overrides the variable too (lavapipe has ray queries, auto's first choice)
+        (&["--list-devices", "--trace", "auto"][..], Some("pipeline"), "(ray queries)"),
     ] {
         let mut c = bin();
         c.args(args);
