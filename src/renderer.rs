@@ -611,9 +611,8 @@ impl Renderer {
             return Ok(());
         }
         self.complete_all()?;
-        self.ctx.ensure_not_hung()?;
-        // SAFETY: waiting for idle before pipelines and buffers in use are replaced.
-        unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;
+        // Waiting for idle before pipelines and buffers in use are replaced.
+        self.ctx.wait_idle()?;
         let parts = Self::build(
             &self.ctx,
             &self.scene,
@@ -1201,9 +1200,8 @@ impl Renderer {
     /// is not touched. The accumulation and the ReSTIR history restart.
     pub fn set_extra_lights(&mut self, extra: Vec<PointEmitter>) -> Result<()> {
         self.complete_all()?;
-        self.ctx.ensure_not_hung()?;
-        // SAFETY: waiting for idle before the light buffers in use are replaced.
-        unsafe { self.ctx.device.device_wait_idle() }.context("waiting for the device")?;
+        // Waiting for idle before the light buffers in use are replaced.
+        self.ctx.wait_idle()?;
         let lights = LightBuffers::new(&self.ctx, LightSet::new(&self.scene.emitters, &extra))?;
         // The photon pass reads the lights through set 0: point it at the new ones first, and back
         // at the old ones if the rebuild fails.

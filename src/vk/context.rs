@@ -987,6 +987,15 @@ impl Context {
         Ok(())
     }
 
+    /// `vkDeviceWaitIdle` before resources in use are replaced: fails at once when the context is
+    /// hung (it would never return).
+    pub fn wait_idle(&self) -> Result<()> {
+        self.ensure_not_hung()?;
+        // SAFETY: valid device.
+        unsafe { self.device.device_wait_idle() }.context("waiting for the device")?;
+        Ok(())
+    }
+
     /// `vkDeviceWaitIdle` for the drops: nothing when the context is hung (it would never return).
     pub fn wait_idle_for_drop(&self) {
         if !self.is_hung() {

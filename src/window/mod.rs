@@ -522,8 +522,8 @@ impl App {
             if size.width == 0 || size.height == 0 {
                 return Ok(()); // minimised: nothing to show until restored
             }
-            // SAFETY: nothing may use the old swapchain or targets while they are replaced.
-            unsafe { r.ctx.device.device_wait_idle() }.context("waiting for the device")?;
+            // Nothing may use the old swapchain or targets while they are replaced.
+            r.ctx.wait_idle()?;
             let wanted = vk::Extent2D { width: size.width, height: size.height };
             r.swapchain = match Swapchain::new(&r.ctx, wanted, self.opts.present_mode, Some(&r.swapchain)) {
                 Ok(sc) => sc,
