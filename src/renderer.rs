@@ -394,13 +394,16 @@ fn dispatch_output<'a>(
     })
 }
 
-/// `settings` with what depends on the device decided for `ctx`'s: `--fuse-passes auto` (None)
-/// becomes on or off ([`RenderSettings::fuses_passes_on`]), so that the renderer's settings, and
-/// the summary written from them, say which ran.
-fn resolve_for_device(ctx: &Context, mut settings: RenderSettings) -> RenderSettings {
+/// `settings` checked (`validate`, [`check_tracing`]) and with what depends on the device decided
+/// for `ctx`'s: `--fuse-passes auto` (None) becomes on or off
+/// ([`RenderSettings::fuses_passes_on`]), so that the renderer's settings, and the summary written
+/// from them, say which ran.
+fn settings_for_device(ctx: &Context, mut settings: RenderSettings) -> Result<RenderSettings> {
     let cpu = ctx.properties.device_type == vk::PhysicalDeviceType::CPU;
     settings.fuse_passes = Some(settings.fuses_passes_on(cpu));
-    settings
+    settings.validate()?;
+    check_tracing(ctx, &settings)?;
+    Ok(settings)
 }
 
 /// Settings that the context's way of tracing rays cannot run: launches larger than a
@@ -432,9 +435,7 @@ impl Renderer {
     /// A renderer of `scene` (uploaded once by the caller and shared) with `settings`: frame
     /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
     pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
-        let settings = resolve_for_device(&ctx, settings);
-        settings.validate()?;
-        check_tracing(&ctx, &settings)?;
+        let settings = settings_for_device(&ctx, settings)?;
         if std::env::var("RESTIR_VPL_DEBUG_POISON").as_deref() == Ok("validation") {
             record_invalid_command(&ctx)?;
         }
@@ -601,9 +602,7 @@ impl Renderer {
     /// [`Renderer::build`]). The accumulation, the ReSTIR history and the log restart. Waits for the
     /// device to be idle first (a caller's own work on the renderer's buffers included).
     pub fn apply_settings(&mut self, settings: RenderSettings) -> Result<()> {
-        let settings = resolve_for_device(&self.ctx, settings);
-        settings.validate()?;
-        check_tracing(&self.ctx, &settings)?;
+        let settings = settings_for_device(&self.ctx, settings)?;
         // A change of nothing, or of the exposure alone (applied by tonemap to the accumulated
         // mean), keeps the passes and the accumulation: dragging the exposure slider restarted it.
         if (RenderSettings { exposure: self.settings.exposure, ..settings.clone() }) == self.settings {
