@@ -280,11 +280,10 @@ pub struct Renderer {
     ctx: Arc<Context>,
 }
 
-/// `RESTIR_VPL_DEBUG_POISON=hang_after:<pass>` (tests only): the event a frame waits on after that
-/// pass ([`Renderer::debug_hang`]).
-fn debug_hang_from_env(ctx: &Context) -> Result<Option<(&'static str, vk::Event)>> {
-    let Ok(poison) = std::env::var("RESTIR_VPL_DEBUG_POISON") else { return Ok(None) };
-    let Some(pass) = poison.strip_prefix("hang_after:") else { return Ok(None) };
+/// `RESTIR_VPL_DEBUG_POISON=hang_after:<pass>` (tests only; `poison`: the variable's value): the
+/// event a frame waits on after that pass ([`Renderer::debug_hang`]).
+fn debug_hang(ctx: &Context, poison: Option<&str>) -> Result<Option<(&'static str, vk::Event)>> {
+    let Some(pass) = poison.and_then(|p| p.strip_prefix("hang_after:")) else { return Ok(None) };
     let name = crate::passes::ALL_PASSES
         .iter()
         .map(|d| d.name)
@@ -436,7 +435,9 @@ impl Renderer {
     /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
     pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
         let settings = settings_for_device(&ctx, settings)?;
-        if std::env::var("RESTIR_VPL_DEBUG_POISON").as_deref() == Ok("validation") {
+        // Tests only: a fault to plant (record_invalid_command, POISON_VPL_SHADE, debug_hang).
+        let poison = std::env::var("RESTIR_VPL_DEBUG_POISON").ok();
+        if poison.as_deref() == Some("validation") {
             record_invalid_command(&ctx)?;
         }
         let scene_set = DescriptorSet::with_variants(&ctx, "scene", scene.bindings, FRAME_SLOTS as u32)?;
@@ -489,11 +490,11 @@ impl Renderer {
             last_stats: FrameStats::default(),
             capture_buffer: None,
             last_plan: None,
-            debug_poison: match std::env::var("RESTIR_VPL_DEBUG_POISON").as_deref() {
-                Ok("vpl_shade") => crate::gpu_types::POISON_VPL_SHADE,
+            debug_poison: match poison.as_deref() {
+                Some("vpl_shade") => crate::gpu_types::POISON_VPL_SHADE,
                 _ => 0,
             },
-            debug_hang: debug_hang_from_env(&ctx)?,
+            debug_hang: debug_hang(&ctx, poison.as_deref())?,
             ctx,
         })
     }
@@ -819,6 +820,8 @@ impl Renderer {
             shading(mode == Mode::Restir && enabled, if mode == Mode::Restir { why_not } else { "mode is not restir" })
         };
         let r = &s.restir;
+        // Temporal reuse runs this frame (restir_temporal, or fused in restir_initial_temporal).
+        let temporal_runs = r.temporal && st.history_valid;
         let gbuffer = if s.aa {
             Step::Run
         } else if st.gbuffer_valid {
@@ -858,13 +861,13 @@ impl Renderer {
             },
             restir_initial: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             restir_temporal: restir_step(
-                r.temporal && st.history_valid,
+                temporal_runs,
                 if !r.temporal { "--temporal off" } else if st.frame_index == 0 { "no history before the first frame" } else { "no history: settings or lights changed" },
             ),
             restir_initial_temporal: Step::Skip("decided by fuse()"),
             // On the temporal pass's output: only where temporal reuse runs (fused or not).
             restir_boiling: restir_step(
-                r.boiling_filter > 0.0 && r.temporal && st.history_valid,
+                r.boiling_filter > 0.0 && temporal_runs,
                 if r.boiling_filter <= 0.0 { "--boiling-filter 0" } else { "restir_temporal does not run this frame" },
             ),
             restir_spatial: restir_step(
@@ -1081,18 +1084,17 @@ impl Renderer {
             let cap = self.capture_buffer.as_ref().expect("allocated before recording");
             let mut used = 0u64;
             let mut hook = |cmd: vk::CommandBuffer, d: crate::passes::Dispatch| {
-                let Some((buffer, kind, src, offset)) = dispatch_output(d, targets, reservoirs, current, halves.0) else {
-                    return record_debug_hang(&ctx, cmd, d, hang);
-                };
-                let size = kind.bytes_per_pixel() * pixels;
-                assert!(used + size <= cap.size, "the capture buffer was sized from the same dispatches");
-                let region = [vk::BufferCopy::default().src_offset(offset).dst_offset(used).size(size)];
-                // SAFETY: both buffers are alive; the pass's barrier precedes the copy and the one
-                // below orders the passes after it (they may overwrite the source).
-                unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, cap.raw, &region) };
-                crate::vk::pipeline::compute_barrier(&ctx, cmd);
-                metas.push(CaptureMeta { position: metas.len(), pass: d.name, repeat: d.repeat, buffer, kind, offset: used, size });
-                used += size;
+                if let Some((buffer, kind, src, offset)) = dispatch_output(d, targets, reservoirs, current, halves.0) {
+                    let size = kind.bytes_per_pixel() * pixels;
+                    assert!(used + size <= cap.size, "the capture buffer was sized from the same dispatches");
+                    let region = [vk::BufferCopy::default().src_offset(offset).dst_offset(used).size(size)];
+                    // SAFETY: both buffers are alive; the pass's barrier precedes the copy and the one
+                    // below orders the passes after it (they may overwrite the source).
+                    unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, cap.raw, &region) };
+                    crate::vk::pipeline::compute_barrier(&ctx, cmd);
+                    metas.push(CaptureMeta { position: metas.len(), pass: d.name, repeat: d.repeat, buffer, kind, offset: used, size });
+                    used += size;
+                }
                 record_debug_hang(&ctx, cmd, d, hang);
             };
             self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut hook);
