@@ -122,13 +122,14 @@ impl Buffer {
         })
     }
 
+    /// The start of a host-visible buffer's mapping.
+    fn mapped_ptr(&self) -> Result<std::ptr::NonNull<std::ffi::c_void>> {
+        self.allocation.as_ref().and_then(|a| a.mapped_ptr()).with_context(|| format!("buffer '{}' is not host-visible", self.name))
+    }
+
     /// Writes bytes into a host-visible buffer.
     pub fn write(&self, offset: usize, data: &[u8]) -> Result<()> {
-        let slice = self
-            .allocation
-            .as_ref()
-            .and_then(|a| a.mapped_ptr())
-            .with_context(|| format!("buffer '{}' is not host-visible", self.name))?;
+        let slice = self.mapped_ptr()?;
         anyhow::ensure!(offset + data.len() <= self.size as usize, "write past the end of '{}'", self.name);
         // SAFETY: the mapping covers `size` bytes (checked above) and no GPU work uses the range now
         // (callers write between fenced submissions).
@@ -150,11 +151,7 @@ impl Buffer {
     /// (breadcrumbs of a frame that is late: `GpuTimer::progress`), one volatile read each: a
     /// word may be stale, never torn.
     pub fn read_words_volatile(&self, count: usize) -> Result<Vec<u32>> {
-        let ptr = self
-            .allocation
-            .as_ref()
-            .and_then(|a| a.mapped_ptr())
-            .with_context(|| format!("buffer '{}' is not host-visible", self.name))?;
+        let ptr = self.mapped_ptr()?;
         anyhow::ensure!(4 * count as u64 <= self.size, "read past the end of '{}'", self.name);
         let words = ptr.as_ptr() as *const u32;
         // SAFETY: the mapping covers `size` bytes (checked above) and is 4-byte aligned (mappings

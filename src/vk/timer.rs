@@ -16,9 +16,10 @@ pub struct GpuTimer {
     capacity: u32,
     used: u32,
     scopes: Vec<(&'static str, u32)>,
-    /// The scopes begun and not yet ended, innermost last: (breadcrumb index, first query), the
-    /// query None for one begun when the pool was full or without timestamps.
-    open: Vec<(usize, Option<(&'static str, u32)>)>,
+    /// The scopes begun and not yet ended, innermost last: (breadcrumb index, which is also the
+    /// index of the name in `begun`; first query, None for one begun when the pool was full or
+    /// without timestamps).
+    open: Vec<(usize, Option<u32>)>,
     /// The breadcrumb of the scope ended last, until [`GpuTimer::breadcrumb`] records it.
     ended: Option<usize>,
     /// Breadcrumbs: one word per scope begun this frame (up to `max_scopes`), 0 at the start,
@@ -93,7 +94,7 @@ impl GpuTimer {
         if self.valid && self.used + 2 <= self.capacity {
             // SAFETY: query index within the pool.
             unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, self.used) };
-            self.open.push((crumb, Some((name, self.used))));
+            self.open.push((crumb, Some(self.used)));
             self.used += 2;
         } else {
             self.open.push((crumb, None));
@@ -104,10 +105,10 @@ impl GpuTimer {
     /// [`GpuTimer::breadcrumb`].
     pub fn end(&mut self, cmd: vk::CommandBuffer) {
         if let Some((crumb, query)) = self.open.pop() {
-            if let Some((name, q)) = query {
+            if let Some(q) = query {
                 // SAFETY: query index within the pool.
                 unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, q + 1) };
-                self.scopes.push((name, q));
+                self.scopes.push((self.begun[crumb], q));
             }
             self.ended = Some(crumb);
         }
