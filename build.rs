@@ -131,7 +131,7 @@ fn compile(
     includes: &mut BTreeSet<PathBuf>,
 ) -> Result<Vec<u32>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    let source = ShaderSource::try_from(text).map_err(|e| format!("{}: {e:?}", path.display()))?;
+    let source = ShaderSource::from(text);
     let options = CompilerOptions {
         source_language: SourceLanguage::GLSL,
         target: Target::Vulkan { version: VulkanVersion::Vulkan1_2, spirv_version: SpirvVersion::SPIRV1_5 },

@@ -200,7 +200,7 @@ fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> usize {
             }
             assert_all_finite(&r.read_mean().unwrap(), &what);
             assert_all_finite(&r.read_variance().unwrap(), &what);
-            common::assert_no_nonfinite_samples(&r, &what);
+            common::assert_no_nonfinite_samples(r, &what);
             if let Some(p) = r.photon_stats() {
                 let power = r.lights().total_power;
                 for c in 0..3 {

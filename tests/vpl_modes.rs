@@ -51,7 +51,7 @@ fn render(renderer: &mut Renderer, frames: u32) -> (Vec<[f32; 3]>, Vec<[f32; 3]>
     }
     let mean = renderer.read_mean().unwrap();
     common::assert_all_finite(&mean, "mean");
-    common::assert_no_nonfinite_samples(&renderer, "run");
+    common::assert_no_nonfinite_samples(renderer, "run");
     (mean, renderer.read_variance().unwrap())
 }
 

@@ -323,7 +323,7 @@ impl ResultsOptions {
             out_dir: root.join("docs"),
             markdown_name: "results.md".into(),
             // The thesis's checkpoints and 40, so that RIS's curve covers ReSTIR's 20-frame time.
-            checkpoints: [&DEFAULT_CHECKPOINTS[..], &[2 * GOAL_FRAMES]].concat(),
+            checkpoints: [DEFAULT_CHECKPOINTS, &[2 * GOAL_FRAMES]].concat(),
             runs: 3,
             pt_reference_frames: 1024,
             vpl_reference_frames: 1024,

@@ -118,14 +118,14 @@ pub const RECORD_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32G32B
 pub const ALIAS_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32G32_UINT, bytes: 8 };
 pub const WORD_TEXELS: TexelFormat = TexelFormat { format: vk::Format::R32_UINT, bytes: 4 };
 const _: () = assert!(
-    std::mem::size_of::<GpuSurfaceTexels>() % 16 == 0
-        && std::mem::size_of::<GpuVpl>() % 16 == 0
-        && std::mem::size_of::<GpuReservoir>() % 16 == 0
-        && std::mem::size_of::<GpuVplCandidate>() % 16 == 0
-        && std::mem::size_of::<crate::gpu_types::GpuVertex>() % 16 == 0
-        && std::mem::size_of::<crate::gpu_types::GpuMaterial>() % 16 == 0
+    std::mem::size_of::<GpuSurfaceTexels>().is_multiple_of(16)
+        && std::mem::size_of::<GpuVpl>().is_multiple_of(16)
+        && std::mem::size_of::<GpuReservoir>().is_multiple_of(16)
+        && std::mem::size_of::<GpuVplCandidate>().is_multiple_of(16)
+        && std::mem::size_of::<crate::gpu_types::GpuVertex>().is_multiple_of(16)
+        && std::mem::size_of::<crate::gpu_types::GpuMaterial>().is_multiple_of(16)
         && std::mem::size_of::<crate::gpu_types::GpuInstance>() == 9 * 16
-        && std::mem::size_of::<crate::gpu_types::GpuLight>() % 16 == 0
+        && std::mem::size_of::<crate::gpu_types::GpuLight>().is_multiple_of(16)
         && std::mem::size_of::<crate::gpu_types::GpuAliasEntry>() == 8
 );
 

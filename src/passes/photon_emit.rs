@@ -497,7 +497,7 @@ mod tests {
     #[test]
     fn typical_paths_take_two_or_three_batches() {
         let (count, paths, batches, overflows) = simulate(plan(100_000, 8), |p| (hash(p) % 4) as u32);
-        assert!(count >= 100_000 && count < 102_000, "{count}");
+        assert!((100_000..102_000).contains(&count), "{count}");
         assert!(paths > 60_000, "{paths}");
         assert!(batches <= 3, "{batches} batches");
         assert_eq!(overflows, 0);

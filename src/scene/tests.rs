@@ -902,11 +902,11 @@ fn to_glb(mut doc: Value) -> (Vec<u8>, usize) {
     doc["buffers"][0].as_object_mut().unwrap().remove("uri");
 
     let mut json = doc.to_string().into_bytes();
-    while json.len() % 4 != 0 {
+    while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
     let mut bin_padded = bin.clone();
-    while bin_padded.len() % 4 != 0 {
+    while !bin_padded.len().is_multiple_of(4) {
         bin_padded.push(0);
     }
     let total = 12 + 8 + json.len() + 8 + bin_padded.len();

@@ -166,7 +166,7 @@ impl DescriptorSet {
         self.row(binding, kind)?;
         let limits = &self.ctx.properties.limits;
         anyhow::ensure!(
-            offset % limits.min_storage_buffer_offset_alignment.max(1) == 0 && range <= u64::from(limits.max_storage_buffer_range) && offset + range <= buffer.size,
+            offset.is_multiple_of(limits.min_storage_buffer_offset_alignment.max(1)) && range <= u64::from(limits.max_storage_buffer_range) && offset + range <= buffer.size,
             "binding {binding} of '{}': bytes {offset}..{} of buffer '{}' ({} bytes) do not make a storage-buffer range on this device (alignment {}, at most {} bytes)",
             self.name,
             offset + range,

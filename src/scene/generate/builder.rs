@@ -414,7 +414,7 @@ impl GltfBuilder {
 
     /// Pads the buffer with zeros to a multiple of 4 bytes.
     fn pad_buffer(&mut self) {
-        while self.buffer.len() % 4 != 0 {
+        while !self.buffer.len().is_multiple_of(4) {
             self.buffer.push(0);
         }
     }

@@ -809,7 +809,7 @@ fn wood_planks_texture(size: u32) -> Vec<u8> {
             let grain = 0.5 + 0.5 * (grain_phase * TAU).sin();
             let mut c = base * (0.86 + 0.14 * grain.powi(3));
             c *= 1.0 + 0.06 * value_noise(u * 40.0, ry * 4.0 + id as f64 * 7.0, 40, 104);
-            let gap = y % plank_h == 0 || xs % (size / 2) == 0;
+            let gap = y % plank_h == 0 || xs.is_multiple_of(size / 2);
             if gap {
                 c *= 0.45;
             }
