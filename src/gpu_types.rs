@@ -339,14 +339,14 @@ pub const MAX_SPATIAL_NEIGHBOURS: u32 = 32;
 
 /// RGBA32UI texels per pixel in the G-buffer: a [`GpuSurface`] packed by `surface_to_texels`
 /// (shaders/common/texel_records.glsl) with its normals octahedral, 64 bytes instead of 80. On
-/// lavapipe each 16-byte store costs several milliseconds of a 1280×720 frame (README,
-/// Performance), so the G-buffer stores as few as hold the surface.
+/// lavapipe each 16-byte store costs several milliseconds of a 1280×720 frame
+/// (docs/performance.md), so the G-buffer stores as few as hold the surface.
 pub const SURFACE_TEXELS: u32 = 4;
 
 /// Storage-buffer bindings the `gbuffer` pass writes the G-buffer through, each covering an equal
 /// run of records (one binding may not span the whole buffer: lavapipe's maxStorageBufferRange is
 /// 128 MiB, the two halves of a 1280×720 G-buffer 113 MiB, of 3840×2160 1 GiB). On lavapipe a
-/// storage-buffer store costs a fraction of an `imageStore` to a texel buffer (README, Performance).
+/// storage-buffer store costs a fraction of an `imageStore` to a texel buffer (docs/performance.md).
 pub const GBUFFER_CHUNKS: u32 = 8;
 
 /// One pixel's G-buffer record as stored: `position, offset_scale | albedo, oct(shading_normal) |

@@ -148,7 +148,7 @@ struct RenderArgs {
     /// Solari runs them: the same image, fewer dispatches. Frames whose pass outputs are dumped or
     /// checked run the passes apart; the reservoir views keep vpl_shade apart (it draws them).
     /// Default: on a GPU (it paid on every scene on an H100), off on a CPU device such as
-    /// lavapipe (it pays on the Cornell box only there; README, "Pass fusion").
+    /// lavapipe (it pays on the Cornell box only there; docs/performance.md, "Pass fusion").
     #[arg(long, value_enum)]
     fuse_passes: Option<Toggle>,
     /// Workgroup WxH of the per-pixel passes (gbuffer, pathtrace, restir_initial, restir_spatial,

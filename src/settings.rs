@@ -199,10 +199,10 @@ impl Default for RestirSettings {
 }
 
 /// The spatial radius when none is given: the thesis's 20 px at its 1280 px width, scaled with the
-/// image width, at least 4 px. Measured on the three scenes at 256–1280 px (README, "The spatial
-/// radius"): a fixed 20 px is too wide for small images, where a pixel covers more of the scene
-/// (1.8× the best relMSE at 16 frames at 256²); radii under 4 px reuse correlated samples; between
-/// half and this radius relMSE is a little lower and FLIP higher (blotchier noise).
+/// image width, at least 4 px. Measured on the three scenes at 256–1280 px (docs/performance.md,
+/// "The spatial radius"): a fixed 20 px is too wide for small images, where a pixel covers more of
+/// the scene (1.8× the best relMSE at 16 frames at 256²); radii under 4 px reuse correlated
+/// samples; between half and this radius relMSE is a little lower and FLIP higher (blotchier noise).
 pub fn default_spatial_radius(width: u32) -> f32 {
     (SPATIAL_RADIUS_AT_1280 * width as f32 / 1280.0).max(MIN_SPATIAL_RADIUS)
 }
@@ -371,8 +371,8 @@ pub struct RenderSettings {
     /// `--check-finite`) and the reservoir views run the passes apart. None (auto, the default):
     /// fused on a GPU, where it saved 4–13 % of every ReSTIR frame measured (NVIDIA H100), apart on
     /// a CPU device such as lavapipe, where it saves 4–9 % on the Cornell box but cost up to 7 % of
-    /// an unbiased frame on the two heavier scenes on one of the two hosts measured (README, "Pass
-    /// fusion"). The renderer resolves it for its device ([`RenderSettings::fuses_passes_on`]), so
+    /// an unbiased frame on the two heavier scenes on one of the two hosts measured
+    /// (docs/performance.md, "Pass fusion"). The renderer resolves it for its device ([`RenderSettings::fuses_passes_on`]), so
     /// its settings and the run's summary say which ran.
     #[serde(default)]
     pub fuse_passes: Option<bool>,

@@ -7,7 +7,7 @@
 // storage-buffer read at a per-invocation address into a loop over the 8 SIMD lanes that tests the
 // lane, bounds-checks the offset and loads 4 bytes, per lane and per 32-bit word; a texel fetch
 // goes through its texture path, which handles all lanes' bounds at once and loads a texel's 16
-// bytes together (Mesa's gallivm source). Measured: ~0.8× a ReSTIR frame (README, Performance).
+// bytes together (Mesa's gallivm source). Measured: ~0.8× a ReSTIR frame (docs/performance.md).
 // On GPUs typed and storage-buffer loads are both common and cost about the same (not measured).
 #ifndef TEXEL_RECORDS_GLSL
 #define TEXEL_RECORDS_GLSL

@@ -18,7 +18,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id 
 // bound to pc.chunk_records consecutive records of the one G-buffer buffer: a single binding of
 // both halves would pass lavapipe's 128 MiB maxStorageBufferRange from about 1M pixels on. Storage
 // buffers, not imageStore to a storage texel buffer: on lavapipe the G-buffer pass took ~0.7x the
-// time with them (README, Performance).
+// time with them (docs/performance.md).
 layout(set = 1, binding = 0, std430) writeonly buffer Chunk0 { uvec4 surfaces_chunk0[]; };
 layout(set = 1, binding = 1, std430) writeonly buffer Chunk1 { uvec4 surfaces_chunk1[]; };
 layout(set = 1, binding = 2, std430) writeonly buffer Chunk2 { uvec4 surfaces_chunk2[]; };

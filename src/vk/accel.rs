@@ -131,7 +131,7 @@ pub struct SceneAccel {
 /// before the BLASes are built (`Scene::merged`, `--merge-blas`): one BVH, no instance transforms.
 /// On lavapipe that made the Cornell box's (32 triangles) photon pass 0.8× as long; it made the
 /// living room's (13,556) and the open box's (76,662) camera passes slower, since the driver's
-/// equal-count splits then mix the room's large walls with the furniture. See README,
+/// equal-count splits then mix the room's large walls with the furniture. See docs/performance.md,
 /// "Acceleration structures on lavapipe".
 pub const MERGE_MAX_TRIANGLES: u32 = 1024;
 
