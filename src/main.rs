@@ -741,7 +741,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let csv = out.join("scaling.csv");
             restir_vpl::eval::scaling::write_csv(&csv, &points)?;
             let plots = restir_vpl::eval::scaling::write_plots(out, &points)?;
-            check_validation(&ctx)?;
+            ctx.ensure_clean()?;
             println!("{}\n{}", md.display(), csv.display());
             for p in plots {
                 println!("{}", p.display());
@@ -759,7 +759,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             opts.runs = runs.unwrap_or(opts.runs);
             let ctx = bench_context(*device)?;
             let rows = restir_vpl::eval::radius::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
-            check_validation(&ctx)?;
+            ctx.ensure_clean()?;
             let md = write_report(out, "radius.md", "The Yuksel radius as a trade-off (`bench --radius`)", &restir_vpl::eval::radius::markdown(&opts, &rows))?;
             let csv = out.join("radius.csv");
             restir_vpl::eval::radius::write_csv(&csv, &rows)?;
@@ -777,7 +777,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             opts.runs = runs.unwrap_or(opts.runs);
             let ctx = bench_context(*device)?;
             let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
-            check_validation(&ctx)?;
+            ctx.ensure_clean()?;
             let files = restir_vpl::eval::motion::write_outputs(out, &points)?;
             let md = write_report(out, "motion.md", "Moving camera: error of every displayed frame", &restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots))?;
             println!("{}\n{}", md.display(), files.csv.display());
@@ -828,7 +828,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 eprintln!("bench --rays: {}", spec.path.display());
                 rows.push(restir_vpl::eval::rays::measure(&ctx, &spec.path, w, h, *frames, *frames)?);
             }
-            check_validation(&ctx)?;
+            ctx.ensure_clean()?;
             print!("{}", restir_vpl::eval::rays::markdown(&rows, &ctx.report.name));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
@@ -1013,7 +1013,7 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
         }
     })?;
     eprintln!();
-    check_validation(&ctx)?;
+    ctx.ensure_clean()?;
     let meta = &made.meta;
     println!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
     println!("frames: {}", meta.describe_frames());
@@ -1055,18 +1055,6 @@ fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk:
     })?))
 }
 
-/// Fails a run (benchmark, results, reference) whose context drew validation errors (their text
-/// went to the log) or whose renderers replaced non-finite samples.
-fn check_validation(ctx: &restir_vpl::vk::Context) -> Result<()> {
-    // Non-finite samples fail only strict runs (the layer on), as in a headless run.
-    let nonfinite = if ctx.validation_enabled { ctx.nonfinite_samples() } else { 0 };
-    match (ctx.validation_errors(), nonfinite) {
-        (0, 0) => Ok(()),
-        (0, n) => bail!("{n} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under validation: a shader produced them"),
-        (n, _) => bail!("{n} Vulkan validation error(s) under validation; the first: {}", ctx.first_validation_error().unwrap_or_default()),
-    }
-}
-
 /// Writes `OUT/name` as a Markdown page titled `title` around `body` (creating OUT); its path.
 fn write_report(out: &std::path::Path, name: &str, title: &str, body: &str) -> Result<PathBuf> {
     std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
@@ -1095,7 +1083,7 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
         ..Default::default()
     })?);
     let out = restir_vpl::eval::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
-    check_validation(&ctx)?;
+    ctx.ensure_clean()?;
     println!("{}", out.markdown.display());
     println!("{}", out.csv.display());
     println!("{}", out.frame_times_csv.display());

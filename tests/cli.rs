@@ -64,7 +64,7 @@ fn headless_cornell_box_run() {
     assert_all_finite(&img.pixels, "final.exr");
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
-    assert_eq!(s["validation_errors"], 0, "validation errors: {s}");
+    common::assert_clean_summary(&s, "headless run");
     assert_eq!(s["settings"]["width"], 64);
 }
 
@@ -541,7 +541,15 @@ fn image_beyond_the_texel_buffer_limit_is_refused_or_rendered_never_a_crash() {
         for e in ["--width 4096 --height 4096", "buffer limits", "at most"] {
             assert!(err.contains(e), "the refusal should mention '{e}': {err}");
         }
+        return;
     }
+    // Rendered (a device with larger limits): a whole, finite, lit image and a clean run.
+    let img = restir_vpl::output::read_exr(&out.path().join("final.exr")).unwrap();
+    assert_eq!((img.width, img.height), (4096, 4096));
+    assert_all_finite(&img.pixels, "final.exr");
+    assert!(img.pixels.iter().any(|p| p.iter().any(|&c| c > 0.0)), "a lit image");
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.path().join("summary.json")).unwrap()).unwrap();
+    common::assert_clean_summary(&s, "4096² run");
 }
 
 #[test]

@@ -108,6 +108,7 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
     assert_eq!(spatial.len(), 2, "{m}");
     assert_eq!(spatial[1]["position"].as_u64().unwrap(), spatial[0]["position"].as_u64().unwrap() + 1);
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(sdir.path().join("summary.json")).unwrap()).unwrap();
+    common::assert_clean_summary(&summary, "--dump-passes run");
     let total = summary["pass_ms"]["restir_spatial"]["mean"].as_f64().unwrap();
     let (a, b) = (spatial[0]["gpu_ms"].as_f64().unwrap(), spatial[1]["gpu_ms"].as_f64().unwrap());
     assert!(a > 0.0 && b > 0.0 && (a + b - total).abs() <= 1e-6 * total.max(1.0), "dispatches {a} + {b} against the frame's {total}");

@@ -267,5 +267,5 @@ fn long_accumulation_keeps_the_mean_at_float_precision() {
             assert!((c - 0.1).abs() <= 2.0 * f32::EPSILON * 0.1, "mean {c} after {frames} frames of exactly 0.1");
         }
     }
-    assert_eq!(ctx.validation_errors(), 0);
+    common::assert_no_validation_errors(&ctx);
 }

@@ -801,6 +801,19 @@ impl Context {
         self.validation.first_error.lock().ok().and_then(|g| g.clone())
     }
 
+    /// Fails a run whose context drew validation errors (their text went to the log) or, under
+    /// validation (the strict runs), whose renderers replaced non-finite samples. What every
+    /// command checks before it exits 0: a benchmark, `results`, a reference, a window closed by
+    /// its user.
+    pub fn ensure_clean(&self) -> Result<()> {
+        let nonfinite = if self.validation_enabled { self.nonfinite_samples() } else { 0 };
+        match (self.validation_errors(), nonfinite) {
+            (0, 0) => Ok(()),
+            (0, n) => anyhow::bail!("{n} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under validation: a shader produced them"),
+            (n, _) => anyhow::bail!("{n} Vulkan validation error(s) under validation; the first: {}", self.first_validation_error().unwrap_or_default()),
+        }
+    }
+
     /// Allocates memory for a buffer or image under `name` (the name gpu-allocator reports; callers
     /// give the Vulkan object the same one with [`Self::set_name`]).
     pub fn allocate(

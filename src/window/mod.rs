@@ -160,7 +160,15 @@ impl ApplicationHandler for App {
     }
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
-        if let Some(r) = &self.running {
+        if let Some(r) = &mut self.running {
+            // However the run ends (closed by its user, or --frames), the frames in flight complete
+            // so that their non-finite samples are counted, and it fails under validation as a
+            // headless run does, on errors or non-finite samples seen at any time.
+            if self.error.is_none() {
+                if let Err(e) = r.renderer.complete_all().and_then(|_| r.ctx.ensure_clean()) {
+                    self.error = Some(e.context("the window's run"));
+                }
+            }
             // Waiting for idle before everything is dropped.
             r.ctx.wait_idle_for_drop();
         }

@@ -73,6 +73,16 @@ pub fn assert_no_validation_errors(ctx: &Context) {
     assert_eq!(ctx.nonfinite_samples(), 0, "renderers on this context produced non-finite samples (replaced by 0)");
 }
 
+/// What a subprocess run's summary.json must say (`what` names the run): the validation layer was
+/// loaded exactly where the tests expect it (so its "0 errors" means something), no validation
+/// error, and no non-finite sample (the accumulation turns them into zeros, so a finite image
+/// alone proves nothing).
+pub fn assert_clean_summary(s: &serde_json::Value, what: &str) {
+    assert_eq!(s["validation_layer"], validate(), "{what}: the validation layer was {} in the run: {s}", if validate() { "not loaded" } else { "loaded" });
+    assert_eq!(s["validation_errors"], 0, "{what}: validation errors: {s}");
+    assert_eq!(s["nonfinite_samples"], 0, "{what}: non-finite samples: {s}");
+}
+
 /// No non-finite sample in any frame `r` has completed (the accumulation turns them into zeros,
 /// so a finite image does not show them; `what` names the case).
 pub fn assert_no_nonfinite_samples(r: &restir_vpl::renderer::Renderer, what: &str) {
