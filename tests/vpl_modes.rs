@@ -137,7 +137,19 @@ fn assert_frames_converge(label: &str, r: &mut Renderer, frames: u32, all: &[Vec
         assert!(z.abs() < 5.0, "{label}: block {bi} mean {m:.6} vs brute force {:.6}: {z:.2} standard errors ({frames} frames)", reference[bi]);
     }
     let image_mean = per_frame.iter().map(|m| m[0]).sum::<f64>() / frames as f64;
-    println!("{label}: {frames} frames, worst block |z| = {worst:.2}, image mean {image_mean:.5} vs {:.5}", reference[0]);
+    // The test's power: the smallest whole-image bias (block 0 is the whole image) that the bound
+    // of 5 standard errors would still let through must be under 1 %.
+    let detectable = 5.0 * whole_image_se(&per_frame) / reference[0];
+    println!("{label}: {frames} frames, worst block |z| = {worst:.2}, image mean {image_mean:.5} vs {:.5}; a whole-image bias above {:.3}% fails", reference[0], 100.0 * detectable);
+    assert!(detectable < 0.01, "{label}: too few frames to see a 1 % bias: 5 SE = {:.3}% of the mean", 100.0 * detectable);
+}
+
+/// The standard error of the whole image's mean (block 0) from independent samples of it (frames
+/// or runs).
+fn whole_image_se(samples: &[Vec<f64>]) -> f64 {
+    let n = samples.len() as f64;
+    let m = samples.iter().map(|s| s[0]).sum::<f64>() / n;
+    (samples.iter().map(|s| (s[0] - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt()
 }
 
 /// Runs `runs` independent seeds of `frames` frames each (ReSTIR: frames and pixels correlate, so
@@ -205,10 +217,16 @@ fn per_vpl_radius_modes_converge_to_their_brute_force() {
     assert!(worst < 1e-4, "presampled and direct candidate loops disagree on p̂ by {worst} (relative) over {same} pixels");
     let restir = RenderSettings { mode: Mode::Restir, candidates: 8, ..base };
     let mut r = Renderer::new(ctx.clone(), scene.clone(), restir).unwrap();
-    let (_, ts, lines) = run_means(&mut r, 12, 16, &all, &ref_all);
+    let (runs, ts, lines) = run_means(&mut r, 12, 16, &all, &ref_all);
     for (t, line) in ts.iter().zip(&lines) {
         assert!(t.abs() < 6.0, "unbiased restir, per-VPL radius, {line}");
     }
+    // |t| < 6 over 12 runs (11 degrees of freedom): an unbiased block fails with probability
+    // ~1e-4, one of the 17 (16 blocks and the whole image) ~1.5e-3. The power: the smallest
+    // whole-image bias that |t| < 6 lets through must be under 1 %.
+    let detectable = 6.0 * whole_image_se(&runs) / ref_all[0];
+    println!("unbiased restir, per-VPL radius: a whole-image bias above {:.3}% fails", 100.0 * detectable);
+    assert!(detectable < 0.01, "too few runs to see a 1 % bias: 6 SE = {:.3}% of the mean", 100.0 * detectable);
     common::assert_no_validation_errors(&ctx);
 }
 
