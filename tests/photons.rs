@@ -177,8 +177,12 @@ fn vpls_lie_on_surfaces_facing_the_photons() {
     let scene = cornell();
     let tris = world_triangles(&scene);
     let (v, _) = vpls(&scene, RenderSettings { vpls_direct: 500, vpls_indirect: 3000, ..small(8, 8, 1) });
-    let (lo, hi) = (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.5565, 0.5488, 0.5592));
-    let camera = Vec3::new(0.278, 0.273, -0.8);
+    // The room is the bounds of every triangle; the camera, the scene's own (in front of the open
+    // side).
+    let corners = tris.iter().flatten();
+    let (lo, hi) = (corners.clone().fold(Vec3::splat(f32::MAX), |a, &p| a.min(p)), corners.fold(Vec3::splat(f32::MIN), |a, &p| a.max(p)));
+    let camera = scene.camera.as_ref().expect("the Cornell box has a camera").transform.w_axis.truncate();
+    assert!(camera.z < lo.z, "the camera looks in through the open side");
     // The blocks' faces: inside the room, below its top, on none of its walls or its floor.
     let on = |a: f32, b: f32| (a - b).abs() < 1e-4;
     let blocks: Vec<[Vec3; 3]> = tris
