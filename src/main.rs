@@ -525,7 +525,8 @@ fn parse_vec3(s: &str) -> Result<Vec3, String> {
 }
 
 /// Every path flag and argument: refused up front when not UTF-8 (the outputs' summaries and
-/// reference files record their paths as text; such a path failed after the render, naming no flag).
+/// reference files record their paths as text; such a path failed after the render, naming no flag)
+/// or empty (`--out ''` wrote the outputs into the working directory without a word).
 #[derive(Clone)]
 struct Utf8Path;
 
@@ -534,6 +535,11 @@ impl clap::builder::TypedValueParser for Utf8Path {
 
     fn parse_ref(&self, cmd: &clap::Command, arg: Option<&clap::Arg>, value: &std::ffi::OsStr) -> Result<PathBuf, clap::Error> {
         match value.to_str() {
+            Some("") => {
+                let name = arg.map_or_else(|| "a path".to_string(), ToString::to_string);
+                let message = format!("{name}: an empty path; name a file or directory ('.' for the working directory)\n");
+                Err(clap::Error::raw(clap::error::ErrorKind::InvalidValue, message).with_cmd(cmd))
+            }
             Some(s) => Ok(PathBuf::from(s)),
             None => {
                 let name = arg.map_or_else(|| "a path".to_string(), ToString::to_string);
@@ -653,8 +659,19 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 if headless_only.len() == 1 { "it" } else { "them" }
             );
         }
+        // A reference converges one camera's image over all its frames: a path would be ignored
+        // (it was, without a word, and the file said nothing of it).
+        if settings.camera_path.is_some() {
+            bail!(
+                "--camera-path: `reference` converges one camera's image over all its frames; give that camera with --eye/--target/--up/--fov (bench --motion renders a reference for each frame of a path)"
+            );
+        }
         settings.validate()?;
         warn_unused_flags(&settings, given);
+        // The EXR holds radiance; the exposure sets only the PNG preview, which a reference does not write.
+        if given.iter().any(|g| g == "exposure") {
+            log::warn!("--exposure: a reference writes radiance to an EXR and no preview, so the exposure changes nothing (give it to `compare`)");
+        }
         return reference_main(&settings, out, *first_frame, *resume);
     }
     if let Some(Command::Results { out, scale, quick, runs, pt_frames, vpl_frames, checkpoints, no_flip, no_motion, device }) =
@@ -1177,7 +1194,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<NoTracingDevice>().is_some() {
+            if e.downcast_ref::<NoTracingDevice>().is_some() || e.downcast_ref::<restir_vpl::eval::compare::BadArgument>().is_some() {
                 ExitCode::from(2)
             } else if e.downcast_ref::<restir_vpl::eval::compare::NonFiniteInput>().is_some() {
                 ExitCode::from(3)

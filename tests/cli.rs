@@ -45,6 +45,17 @@ fn write(dir: &Path, name: &str, text: &str) -> String {
     p.display().to_string()
 }
 
+/// An empty path names no file: refused for every path flag, naming it (`--out ''` wrote the
+/// outputs into the working directory without a word).
+#[test]
+fn an_empty_path_is_refused_naming_the_flag() {
+    for args in [&["--headless", "--out", ""][..], &["--headless", "--scene", ""], &["--headless", "--camera-path", ""], &["reference", "--out", ""], &["compare", "", "b.exr"]] {
+        let o = run(args);
+        let err = stderr(&o);
+        assert!(o.status.code() == Some(2) && err.contains("an empty path") && !err.contains("panicked"), "{args:?}: {:?} {err}", o.status.code());
+    }
+}
+
 #[test]
 fn headless_cornell_box_run() {
     let dir = tempfile::tempdir().unwrap();

@@ -305,8 +305,17 @@ fn flip_pixels_per_degree_outside_its_range_are_refused_and_its_ends_give_finite
         let (pa, pb) = (save(dir.path(), "a.exr", &a), save(dir.path(), "b.exr", &b));
         let o = run(&["compare", &pa, &pb, "--ppd", bad]);
         let err = stderr(&o);
-        assert!(!o.status.success() && err.contains("--ppd") && !err.contains("panicked"), "--ppd {bad}: {err}");
+        assert!(o.status.code() == Some(2) && err.contains("--ppd") && !err.contains("panicked"), "--ppd {bad}: exit status 2 (bad arguments, `compare --help`): {:?} {err}", o.status.code());
     }
+    // An output named like an input is a bad argument too (2), a missing input another error (1).
+    let dir = tempfile::tempdir().unwrap();
+    let (pa, pb) = (save(dir.path(), "a.exr", &a), save(dir.path(), "b.exr", &b));
+    let o = run(&["compare", &pa, &pb, "--json", &pa]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("is also the input"), "{}", stderr(&o));
+    let missing = dir.path().join("missing.exr").display().to_string();
+    let o = run(&["compare", &missing, &pb]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
 }
 
 /// `cargo test --release --test compare -- --ignored --nocapture flip_timing`: FLIP's cost at 1280×720.

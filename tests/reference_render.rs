@@ -119,4 +119,14 @@ fn cli_reference_resumes_and_refuses_mismatches() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--dump-vpls, --save-every") && err.contains("--headless"), "{err}");
     assert!(!y.exists() && !ply.exists());
+    // A camera path: a reference converges one camera, so it is refused (it was ignored: the
+    // file was a still camera's image labelled with the path's frames).
+    let o = run(&["--frames", "1", "--camera-path", "scenes/cornell_box.path.json", "--out", y.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--camera-path") && err.contains("--eye"), "{err}");
+    assert!(!y.exists());
+    // The exposure sets only a preview, which a reference does not write: said, not silently taken.
+    let o = run(&["--frames", "1", "--exposure", "3", "--out", y.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && err.contains("--exposure") && err.contains("changes nothing"), "{err}");
 }

@@ -345,6 +345,12 @@ pub fn table(c: &Comparison) -> String {
 #[error("{0}")]
 pub struct NonFiniteInput(pub String);
 
+/// An argument `compare` refuses before reading anything (a value out of range, an output named
+/// like an input); the binary exits with status 2 for it, as for arguments that do not parse.
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct BadArgument(pub String);
+
 /// The `restir-vpl compare` command: reads test image `a` and reference `b` (EXR), prints
 /// [`table`], optionally writes the FLIP error PNG and the JSON; returns [`NonFiniteInput`] (after
 /// printing) when either image has non-finite pixels.
@@ -357,22 +363,22 @@ pub fn run_cli(
 ) -> Result<()> {
     use anyhow::Context as _;
     if !opts.exposure.is_finite() {
-        bail!("--exposure must be a finite number");
+        return Err(BadArgument("--exposure must be a finite number".into()).into());
     }
     if !PPD_RANGE.contains(&opts.ppd) {
-        bail!("--ppd must lie in [{}, {}] pixels per degree (67, the default, is FLIP's standard viewing set-up), not {}", PPD_RANGE.start(), PPD_RANGE.end(), opts.ppd);
+        return Err(BadArgument(format!("--ppd must lie in [{}, {}] pixels per degree (67, the default, is FLIP's standard viewing set-up), not {}", PPD_RANGE.start(), PPD_RANGE.end(), opts.ppd)).into());
     }
     // An output named like an input would replace the image it was computed from.
     for (flag, out) in [("--error-image", error_image), ("--json", json)] {
         if let Some(out) = out {
             if let Some(input) = [a_path, b_path].into_iter().find(|i| crate::output::same_file(i, out)) {
-                bail!("{flag} {}: is also the input {}; write it to another file", out.display(), input.display());
+                return Err(BadArgument(format!("{flag} {}: is also the input {}; write it to another file", out.display(), input.display())).into());
             }
         }
     }
     if let (Some(e), Some(j)) = (error_image, json) {
         if crate::output::same_file(e, j) {
-            bail!("--error-image and --json both name {}; give two files", e.display());
+            return Err(BadArgument(format!("--error-image and --json both name {}; give two files", e.display())).into());
         }
     }
     // Outputs checked before the comparison (FLIP takes a while on large images).
