@@ -202,7 +202,10 @@ pub const FRAME_SLOTS: usize = 2;
 
 /// Everything one frame in flight owns: its command buffer and fence, timestamp queries, the
 /// counter read-back, its frame constants and the set 0 variant that points at them.
+/// Frees its command buffer and fence when dropped: after [`Renderer`]'s own Drop has waited for
+/// idle, or at once when `Renderer::new` fails after making it.
 struct FrameSlot {
+    ctx: Arc<Context>,
     cmd: vk::CommandBuffer,
     fence: vk::Fence,
     timer: GpuTimer,
@@ -464,14 +467,13 @@ impl Renderer {
         let lights = LightBuffers::new(&ctx, scene.lights.clone())?;
         lights.write_set(&scene_set)?;
         // What the settings can refuse (brute force over its limit, an image too large for the
-        // device) is built before the command buffers and fences, which only Drop frees.
+        // device) is built first; the slots free their command buffers and fences when dropped.
         let parts = Self::build(&ctx, &scene, &scene_set, &lights.set, &settings, None)?;
         let mut slots = Vec::with_capacity(FRAME_SLOTS);
         for (i, (frame_constants, readback)) in buffers.into_iter().enumerate() {
             let timer = GpuTimer::new(&ctx, 32)?;
-            // Destroyed in Drop.
             let (cmd, fence) = ctx.command_buffer_and_fence(&format!("frame{i}"), false)?;
-            slots.push(FrameSlot { cmd, fence, timer, readback, frame_constants, pending: None });
+            slots.push(FrameSlot { ctx: ctx.clone(), cmd, fence, timer, readback, frame_constants, pending: None });
         }
         let log = FrameLog { pixels: parts.targets.pixels() as f64, ..Default::default() };
         Ok(Self {
@@ -1445,16 +1447,26 @@ impl Drop for Renderer {
         if self.ctx.is_hung() {
             return; // a frame may still be executing: its fence and command buffer stay
         }
-        // SAFETY: wait for idle, then free every slot's command buffer and fence.
+        // SAFETY: wait for idle; the slots' command buffers and fences are freed as they drop.
         unsafe {
             let _ = self.ctx.device.device_wait_idle();
-            for slot in &self.slots {
-                self.ctx.device.destroy_fence(slot.fence, None);
-                self.ctx.device.free_command_buffers(self.ctx.command_pool, &[slot.cmd]);
-            }
             if let Some((_, event)) = self.debug_hang {
                 self.ctx.device.destroy_event(event, None);
             }
+        }
+    }
+}
+
+impl Drop for FrameSlot {
+    fn drop(&mut self) {
+        if self.ctx.is_hung() {
+            return; // a frame may still be executing: its fence and command buffer stay
+        }
+        // SAFETY: no pending work uses them: Renderer's Drop waited for idle, and a slot dropped by
+        // a failing `Renderer::new` was never submitted.
+        unsafe {
+            self.ctx.device.destroy_fence(self.fence, None);
+            self.ctx.device.free_command_buffers(self.ctx.command_pool, &[self.cmd]);
         }
     }
 }
