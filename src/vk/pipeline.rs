@@ -676,6 +676,13 @@ pub fn host_read_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
     memory_barrier(ctx, cmd, (device_stages, device_writes), (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ));
 }
 
+/// Transfer writes made available to the host, and nothing else: a breadcrumb's fill, which the
+/// host reads while the frame may still be running ([`crate::vk::timer::GpuTimer::progress`]). Its
+/// second scope is the host only, so later device work does not wait on it.
+pub fn transfer_to_host_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    memory_barrier(ctx, cmd, (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE), (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ));
+}
+
 /// A full compute→compute (and →transfer) memory barrier between passes (transfer writes after
 /// shader writes included: a counter cleared by vkCmdFillBuffer after a pass's atomics). With
 /// ray-tracing pipelines, their shader stage too.

@@ -93,7 +93,11 @@ impl GpuTimer {
         // No timestamps where the queue has none (VUID-vkCmdWriteTimestamp-timestampValidBits-00829).
         if self.valid && self.used + 2 <= self.capacity {
             // SAFETY: query index within the pool.
-            unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::TOP_OF_PIPE, self.pool, self.used) };
+            // BOTTOM_OF_PIPE, not TOP_OF_PIPE: a timestamp's first scope is the stage it names, so
+            // at the top of the pipe it waits for nothing and may be written while the pass before
+            // is still running (the barrier between them does not cover it), counting that pass's
+            // tail twice. At the bottom it is written once all earlier work has finished.
+            unsafe { self.ctx.device.cmd_write_timestamp(cmd, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.pool, self.used) };
             self.open.push((crumb, Some(self.used)));
             self.used += 2;
         } else {
@@ -116,15 +120,19 @@ impl GpuTimer {
     }
 
     /// Records the breadcrumb of the scope ended last: a 4-byte fill the device performs once the
-    /// work before it is done. The caller records it after a barrier that orders that work before
-    /// the TRANSFER stage (the frame's `compute_barrier` after each pass does), so it costs no
-    /// barrier of its own; a scope without one keeps no breadcrumb.
+    /// work before it is done, made available to the host by a transfer→host barrier (which holds
+    /// up no later device work). The caller records it after a barrier that orders that work
+    /// before the TRANSFER stage (the frame's `compute_barrier` after each pass does); a scope
+    /// without one keeps no breadcrumb.
     pub fn breadcrumb(&mut self, cmd: vk::CommandBuffer) {
         let Some(crumb) = self.ended.take() else { return };
         let offset = 4 * crumb as u64;
         if offset < self.breadcrumbs.size {
             // SAFETY: cmd is recording; the breadcrumb lies within the buffer.
             unsafe { self.ctx.device.cmd_fill_buffer(cmd, self.breadcrumbs.raw, offset, 4, 1) };
+            // Made available to the host at once: a hung frame never reaches its final
+            // host_read_barrier, and without one a device write need not become visible.
+            crate::vk::pipeline::transfer_to_host_barrier(&self.ctx, cmd);
         }
     }
 
