@@ -104,8 +104,6 @@ pub struct Overlay {
     format: vk::Format,
     framebuffers: Vec<vk::Framebuffer>,
     extent: vk::Extent2D,
-    /// Textures egui freed, per present slot: released once that slot's fence has passed.
-    to_free: Vec<Vec<egui::TextureId>>,
     pub reference: Option<Reference>,
     /// The last frame's shapes, ready to draw.
     primitives: Vec<egui::ClippedPrimitive>,
@@ -153,7 +151,6 @@ impl Overlay {
             format,
             framebuffers: Vec::new(),
             extent: swapchain.extent,
-            to_free: Vec::new(),
             reference,
             primitives: Vec::new(),
             pixels_per_point: 1.0,
@@ -274,6 +271,14 @@ impl Overlay {
         self.primitives = self.egui.tessellate(output.shapes, output.pixels_per_point);
         let set = std::mem::take(&mut output.textures_delta.set);
         let free = std::mem::take(&mut output.textures_delta.free);
+        // A texture that is updated (the font atlas when new glyphs appear, the reference's after an
+        // exposure change) or freed may still be sampled by an earlier frame's overlay, which no
+        // fence waited for here (a present slot whose frame got no swapchain image moves on
+        // without waiting): so the device goes idle first. Deltas are rare (start-up, new glyphs,
+        // the reference's exposure), so the stall is too.
+        if !set.is_empty() || !free.is_empty() {
+            self.ctx.wait_idle().context("before updating the overlay's textures")?;
+        }
         for (id, deltas) in &set {
             for delta in deltas {
                 self.renderer
@@ -281,14 +286,9 @@ impl Overlay {
                     .map_err(|e| anyhow::anyhow!("uploading an overlay texture: {e}"))?;
             }
         }
-        // Textures egui let go of in frame N were last drawn by frame N-1; with two present slots
-        // that frame has completed by the time frame N+2 is prepared.
-        self.to_free.push(free.into_iter().collect());
-        while self.to_free.len() > crate::renderer::FRAME_SLOTS {
-            let ids = self.to_free.remove(0);
-            for id in ids {
-                self.renderer.free_texture(id).map_err(|e| anyhow::anyhow!("freeing an overlay texture: {e}"))?;
-            }
+        // egui frees after the frame is painted: this frame's shapes no longer use them.
+        for id in free {
+            self.renderer.free_texture(id).map_err(|e| anyhow::anyhow!("freeing an overlay texture: {e}"))?;
         }
         Ok(edit)
     }
