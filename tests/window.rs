@@ -248,6 +248,16 @@ fn window_id(d: &str) -> String {
     String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().expect("the window is listed").to_string()
 }
 
+/// Starts the windowed renderer on `display` with `args` (and `env`), its output piped, and waits
+/// until its title shows `title` (a clean checkout has no pipeline cache yet: the first frame
+/// compiles every shader while the suite's other tests share the two cores). Returns it, its
+/// window's id and the title seen.
+fn start_window(display: &str, args: &[&str], env: &[(&str, &str)], title: &str) -> (Child, String, String) {
+    let mut child = restir_vpl(Some(display), args).envs(env.iter().copied()).stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().unwrap();
+    let seen = wait_for_title(display, &mut child, title, Duration::from_secs(120));
+    (child, window_id(display), seen)
+}
+
 /// A window closed by its user (Esc, no --frames) fails as a headless run does when the validation
 /// layer reported an error during the run: with one invalid command recorded (the test-only switch
 /// of `cli.rs`'s a_validation_error_fails_headless_and_reference_runs), Esc ends the run with a
@@ -262,15 +272,10 @@ fn a_validation_error_fails_a_window_closed_by_its_user() {
     let Some(x) = xvfb() else { return };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let mut child = restir_vpl(Some(&x.display), &[&SCENE_ARGS[..], &["--mode", "uniform", "--width", "64", "--height", "48", "--out", out.to_str().unwrap()]].concat())
-        .env("RESTIR_VPL_DEBUG_POISON", "validation")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
     let d = x.display.as_str();
-    wait_for_title(d, &mut child, "uniform ·", Duration::from_secs(120));
-    let o = close(d, child, &window_id(d));
+    let args = [&SCENE_ARGS[..], &["--mode", "uniform", "--width", "64", "--height", "48", "--out", out.to_str().unwrap()]].concat();
+    let (child, wid, _) = start_window(d, &args, &[("RESTIR_VPL_DEBUG_POISON", "validation")], "uniform ·");
+    let o = close(d, child, &wid);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "a run with a validation error exited 0: {err}");
     assert!(err.contains("1 Vulkan validation error(s)"), "the error is named: {err}");
@@ -301,24 +306,9 @@ fn keys_change_mode_move_camera_resize_and_quit() {
     let Some(x) = xvfb() else { return };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let mut child = restir_vpl(
-        Some(&x.display),
-        &[&SCENE_ARGS[..], &["--mode", "uniform", "--width", "128", "--height", "96", "--out", out.to_str().unwrap()]].concat(),
-    )
-    .stdout(Stdio::piped())
-    .stderr(Stdio::piped())
-    .spawn()
-    .unwrap();
     let d = x.display.as_str();
-    // A clean checkout has no pipeline cache yet: the first frame compiles every shader while the
-    // other tests of the suite share the two cores.
-    wait_for_title(d, &mut child, "uniform ·", Duration::from_secs(120));
-    let wid = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout)
-        .trim()
-        .lines()
-        .next()
-        .unwrap()
-        .to_string();
+    let args = [&SCENE_ARGS[..], &["--mode", "uniform", "--width", "128", "--height", "96", "--out", out.to_str().unwrap()]].concat();
+    let (mut child, wid, _) = start_window(d, &args, &[], "uniform ·");
     xdotool(d, &["windowfocus", "--sync", &wid]);
     // Tab first: it must not hand the keyboard to the overlay (it gave its collapsed title button
     // focus, and every key after it went there, with no sign, until Esc or a click in the image).
@@ -436,27 +426,17 @@ fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     }
     let d = x.display.as_str();
     let vpls = ["--scene", "scenes/cornell_box.gltf", "--vpls-direct", "4000", "--vpls-indirect", "4000"];
-    let window_id = || String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().unwrap().to_string();
     // 160×120 × 8k VPLs = 1.5e8 pairs, over the CPU limit of 1e8: refused from the start.
-    let mut child = restir_vpl(Some(d), &[&vpls[..], &["--mode", "bruteforce", "--width", "160", "--height", "120"]].concat())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
-    let title = wait_for_title(d, &mut child, "restir ·", Duration::from_secs(120));
+    let (child, wid, title) = start_window(d, &[&vpls[..], &["--mode", "bruteforce", "--width", "160", "--height", "120"]].concat(), &[], "restir ·");
     assert!(title.contains("refused") && title.contains("started in mode restir"), "{title}");
-    quit(d, child, &window_id());
+    quit(d, child, &wid);
     // 64×48 × 8k = 2.5e7: accepted; grown to 160×120 it is refused and ReSTIR takes over.
     // A 64×48 brute-force window with `scene` flags, once its first frame shows.
-    let small_bruteforce = |scene: &[&str]| -> (Child, String) {
-        let mut child = restir_vpl(Some(d), &[scene, &["--mode", "bruteforce", "--width", "64", "--height", "48"]].concat())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        wait_for_title(d, &mut child, "bruteforce ·", Duration::from_secs(120));
-        (child, window_id())
-    };
+    let small_bruteforce =
+        |scene: &[&str]| -> (Child, String) {
+            let (child, wid, _) = start_window(d, &[scene, &["--mode", "bruteforce", "--width", "64", "--height", "48"]].concat(), &[], "bruteforce ·");
+            (child, wid)
+        };
     let (mut child, wid) = small_bruteforce(&vpls);
     xdotool(d, &["windowsize", &wid, "160", "120"]);
     let title = wait_for_title(d, &mut child, "refused at 160×120", Duration::from_secs(120));
@@ -483,21 +463,13 @@ fn frozen_window_still_answers_and_home_replays_the_camera_path() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
     let d = x.display.as_str();
-    let mut child = restir_vpl(
-        Some(d),
-        &[
-            &SCENE_ARGS[..],
-            &["--mode", "uniform", "--width", "64", "--height", "48", "--camera-path", "scenes/cornell_box.path.json"],
-            &["--out", out.to_str().unwrap()],
-        ]
-        .concat(),
-    )
-    .stdout(Stdio::piped())
-    .stderr(Stdio::piped())
-    .spawn()
-    .unwrap();
-    wait_for_title(d, &mut child, "uniform ·", Duration::from_secs(120));
-    let wid = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl"]).stdout).trim().lines().next().unwrap().to_string();
+    let args = [
+        &SCENE_ARGS[..],
+        &["--mode", "uniform", "--width", "64", "--height", "48", "--camera-path", "scenes/cornell_box.path.json"],
+        &["--out", out.to_str().unwrap()],
+    ]
+    .concat();
+    let (child, wid, _) = start_window(d, &args, &[], "uniform ·");
     // Past the path's last keyframe (frame 31) the camera holds it.
     write_until(d, &wid, &out, Duration::from_secs(120), "40 frames", |s| s["frames"].as_u64().is_some_and(|n| n >= 40));
     press_until_title(d, &wid, "F2", "frozen", Duration::from_secs(60));
