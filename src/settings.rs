@@ -372,8 +372,8 @@ pub struct RenderSettings {
     /// fused on a GPU, where it saved 4–13 % of every ReSTIR frame measured (NVIDIA H100), apart on
     /// a CPU device such as lavapipe, where it saves 4–9 % on the Cornell box but cost up to 7 % of
     /// an unbiased frame on the two heavier scenes on one of the two hosts measured
-    /// (docs/performance.md, "Pass fusion"). The renderer resolves it for its device ([`RenderSettings::fuses_passes_on`]), so
-    /// its settings and the run's summary say which ran.
+    /// (docs/performance.md, "Pass fusion"). The renderer resolves it for its device
+    /// ([`RenderSettings::fuses_passes_on`]), so its settings and the run's summary say which ran.
     #[serde(default)]
     pub fuse_passes: Option<bool>,
     /// Workgroup (x, y) of the per-pixel passes whose shaders take it as specialisation constants
