@@ -82,9 +82,14 @@ impl IncludeHandler for Includer {
         };
         let candidates = [includer_dir.join(header), self.root.join(header)];
         for c in candidates {
-            if let Ok(data) = std::fs::read_to_string(&c) {
+            if let Ok(mut data) = std::fs::read_to_string(&c) {
                 let c = c.canonicalize().unwrap_or(c);
                 self.seen.insert(c.clone());
+                // The crate passes the text on as a C string and panics on a NUL byte: the
+                // compiler reports this instead, with the file.
+                if let Some(at) = data.find('\0') {
+                    data = format!("#error a NUL byte at byte {at} (a shader is text)\n");
+                }
                 return Some(IncludeResult { name: c.to_string_lossy().into_owned(), data });
             }
         }
@@ -131,6 +136,10 @@ fn compile(
     includes: &mut BTreeSet<PathBuf>,
 ) -> Result<Vec<u32>, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    // The crate's conversion panics on a NUL byte (a C string); said here, naming the file.
+    if let Some(at) = text.find('\0') {
+        return Err(format!("{}: a NUL byte at byte {at} (a shader is text)", path.display()));
+    }
     let source = ShaderSource::from(text);
     let options = CompilerOptions {
         source_language: SourceLanguage::GLSL,

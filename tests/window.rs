@@ -279,6 +279,14 @@ fn a_validation_error_fails_a_window_closed_by_its_user() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "a run with a validation error exited 0: {err}");
     assert!(err.contains("1 Vulkan validation error(s)"), "the error is named: {err}");
+    // With --frames the run ends by itself: it prints its summary, then fails on the error.
+    let o = restir_vpl(Some(d), &[&SCENE_ARGS[..], &["--mode", "uniform", "--width", "32", "--height", "32", "--frames", "4", "--out", out.to_str().unwrap()]].concat())
+        .env("RESTIR_VPL_DEBUG_POISON", "validation")
+        .output()
+        .unwrap();
+    let (stdout, err) = (String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr));
+    assert!(!o.status.success() && err.contains("1 Vulkan validation error(s)"), "{err}");
+    assert!(stdout.contains("4 frames of 32x32") && stdout.contains("summary.json"), "the summary is printed before the error: {stdout}");
 }
 
 /// Presses an idempotent key until the title shows `want`: under load (the suite runs its tests

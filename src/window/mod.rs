@@ -164,8 +164,17 @@ impl ApplicationHandler for App {
             // However the run ends (closed by its user, or --frames), the frames in flight complete
             // so that their non-finite samples are counted, and it fails under validation as a
             // headless run does, on errors or non-finite samples seen at any time.
-            if self.error.is_none() {
-                if let Err(e) = r.renderer.complete_all().and_then(|_| r.ctx.ensure_clean()) {
+            // (With --frames the summary was written and main checks it, after printing it.)
+            if self.error.is_none() && self.summary.is_none() {
+                let validate = self.settings.validate;
+                let checked = r.renderer.complete_all().and_then(|_| r.ctx.ensure_clean()).and_then(|_| {
+                    // As a headless run: non-finite samples fail a run that asked for --validate,
+                    // whether or not the layer could be loaded.
+                    let n = r.ctx.nonfinite_samples();
+                    anyhow::ensure!(!(validate && n > 0), "{n} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under --validate: a shader produced them");
+                    Ok(())
+                });
+                if let Err(e) = checked {
                     self.error = Some(e.context("the window's run"));
                 }
             }
@@ -585,7 +594,16 @@ impl App {
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
             let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen() };
-            r.ui.prepare(&r.window, &r.renderer, &info, r.overlay)?
+            let edit = r.ui.prepare(&r.window, &r.renderer, &info, r.overlay)?;
+            if r.ui.has_texture_deltas() {
+                // Every earlier overlay that may sample those textures has finished: waits with the
+                // hang diagnosis and RESTIR_VPL_GPU_TIMEOUT_S (the renderer's frames too, since the
+                // texture upload waits for the whole queue).
+                r.renderer.complete_all()?;
+                r.presenter.wait_all(&r.ctx)?;
+                r.ui.apply_texture_deltas()?;
+            }
+            edit
         } else {
             None
         };
@@ -818,6 +836,14 @@ impl Presenter {
             acquired.push(sem);
         }
         Ok(Self { ctx: ctx.clone(), staging, cmds, fences, acquired, next: 0 })
+    }
+
+    /// Waits until every present slot's last submission (blit and overlay) has finished.
+    fn wait_all(&self, ctx: &Context) -> Result<()> {
+        for &fence in &self.fences {
+            ctx.wait_fence(fence, &|| "a present slot (the last blit and overlay drawn into it)".into(), &|| None)?;
+        }
+        Ok(())
     }
 
     /// Acquires a swapchain image, submits the renderer's frame (`camera`; None: none, the last

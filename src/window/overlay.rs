@@ -105,6 +105,12 @@ pub struct Overlay {
     framebuffers: Vec<vk::Framebuffer>,
     extent: vk::Extent2D,
     pub reference: Option<Reference>,
+    /// This frame's texture updates, and the textures egui freed in earlier frames (painted
+    /// since): applied by `apply_texture_deltas`.
+    set_now: Vec<(egui::TextureId, egui::epaint::ImageDelta)>,
+    free_now: Vec<egui::TextureId>,
+    /// What egui freed in this frame's `prepare`: its shapes may still use them.
+    free_after_this_frame: Vec<egui::TextureId>,
     /// The last frame's shapes, ready to draw.
     primitives: Vec<egui::ClippedPrimitive>,
     pixels_per_point: f32,
@@ -152,6 +158,9 @@ impl Overlay {
             framebuffers: Vec::new(),
             extent: swapchain.extent,
             reference,
+            set_now: Default::default(),
+            free_now: Vec::new(),
+            free_after_this_frame: Vec::new(),
             primitives: Vec::new(),
             pixels_per_point: 1.0,
             repaint_soon: false,
@@ -246,9 +255,9 @@ impl Overlay {
         self.reference.is_some()
     }
 
-    /// Builds this frame's shapes (the panel when `panel`, the reference's split screen) and
-    /// uploads changed textures (call before recording the frame; a texture upload waits for the
-    /// queue). Returns a settings edit made with the widgets.
+    /// Builds this frame's shapes (the panel when `panel`, the reference's split screen) and keeps
+    /// the texture changes for [`Overlay::apply_texture_deltas`] (call before recording the
+    /// frame). Returns a settings edit made with the widgets.
     pub fn prepare(&mut self, window: &Window, renderer: &Renderer, info: &WindowInfo, panel_shown: bool) -> Result<Option<Edit>> {
         if let Some(r) = &mut self.reference {
             r.measure(renderer)?;
@@ -269,28 +278,37 @@ impl Overlay {
         self.repaint_soon = output.viewport_output.get(&egui::ViewportId::ROOT).is_some_and(|v| v.repaint_delay.is_zero());
         self.pixels_per_point = output.pixels_per_point;
         self.primitives = self.egui.tessellate(output.shapes, output.pixels_per_point);
+        // egui frees "after painting": this frame's shapes may still use what it frees now, so
+        // those go with the next frame's changes, once this frame has been shown.
+        let freed = std::mem::take(&mut output.textures_delta.free).into_iter().collect();
+        self.free_now.extend(std::mem::replace(&mut self.free_after_this_frame, freed));
         let set = std::mem::take(&mut output.textures_delta.set);
-        let free = std::mem::take(&mut output.textures_delta.free);
-        // A texture that is updated (the font atlas when new glyphs appear, the reference's after an
-        // exposure change) or freed may still be sampled by an earlier frame's overlay, which no
-        // fence waited for here (a present slot whose frame got no swapchain image moves on
-        // without waiting): so the device goes idle first. Deltas are rare (start-up, new glyphs,
-        // the reference's exposure), so the stall is too.
-        if !set.is_empty() || !free.is_empty() {
-            self.ctx.wait_idle().context("before updating the overlay's textures")?;
+        self.set_now = set.into_iter().flat_map(|(id, deltas)| deltas.into_iter().map(move |d| (id, d))).collect();
+        Ok(edit)
+    }
+
+    /// Whether [`Overlay::prepare`] left texture updates or frees to apply before this frame is
+    /// recorded (the font atlas when new glyphs appear, the reference's texture after an exposure
+    /// change): rare, at start-up and while the exposure is dragged.
+    pub fn has_texture_deltas(&self) -> bool {
+        !self.set_now.is_empty() || !self.free_now.is_empty()
+    }
+
+    /// Applies the pending texture updates and frees. The caller first waits for every earlier
+    /// frame that may sample them (the present slots' fences): an updated or freed texture may still
+    /// be read by an earlier overlay, and a present slot whose frame got no swapchain image moves on
+    /// without waiting. (egui-ash-renderer's upload also waits for the queue to go idle, without a
+    /// time limit; after those waits the queue is idle already.)
+    pub fn apply_texture_deltas(&mut self) -> Result<()> {
+        for (id, delta) in std::mem::take(&mut self.set_now) {
+            self.renderer
+                .set_texture(self.ctx.queue, self.ctx.command_pool, id, &delta)
+                .map_err(|e| anyhow::anyhow!("uploading an overlay texture: {e}"))?;
         }
-        for (id, deltas) in &set {
-            for delta in deltas {
-                self.renderer
-                    .set_texture(self.ctx.queue, self.ctx.command_pool, *id, delta)
-                    .map_err(|e| anyhow::anyhow!("uploading an overlay texture: {e}"))?;
-            }
-        }
-        // egui frees after the frame is painted: this frame's shapes no longer use them.
-        for id in free {
+        for id in std::mem::take(&mut self.free_now) {
             self.renderer.free_texture(id).map_err(|e| anyhow::anyhow!("freeing an overlay texture: {e}"))?;
         }
-        Ok(edit)
+        Ok(())
     }
 
     /// Records the overlay over swapchain image `image_index` (in TRANSFER_DST layout after the
