@@ -249,12 +249,15 @@ fn reference_configs_ignore_settings_the_mode_does_not_use() {
     });
     assert!(same_config(&pt, &pt_other_restir));
     // Debugging, output and speed-only flags never change the image. (A workgroup in the config
-    // made every reference written before --workgroup existed unusable by `results`.)
+    // made every reference written before --workgroup existed unusable by `results`; so did the
+    // way of tracing, whose images are bit-identical both ways, for references before --trace.)
     assert_eq!(pt, config(&|s| {
         s.mode = Mode::Pt;
         s.check_finite = true;
         s.renderdoc_capture = Some(3);
         s.workgroup = [16, 4];
+        s.fuse_passes = Some(true);
+        s.tracing = Some(restir_vpl::vk::context::Tracing::Pipeline);
     }));
     assert!(!same_config(&pt, &config(&|s| {
         s.mode = Mode::Pt;

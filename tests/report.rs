@@ -145,11 +145,21 @@ fn equal_time_values() {
     assert!(lines[4].starts_with("| ReSTIR | — | "), "{}", lines[4]);
     assert!(lines[4].contains("| 0.110 (-62.1%) |"), "{}", lines[4]);
     assert!(md.contains("* the run ended"));
+    // No % where either side's run ended before the budget: that compares errors at two times.
+    for l in &lines {
+        for cell in l.split('|') {
+            assert!(!(cell.contains('*') && cell.contains('%')), "a % on an ended run: {l}");
+        }
+    }
 
     assert!(equal_time_table_markdown(&[], "cornell_box", "pt", Metric::Rmse, &[10.0]).contains("No data"));
     let b = suggest_budgets_ms(&p, "cornell_box", "pt");
     assert!(!b.is_empty() && b.len() <= 6 && b.windows(2).all(|w| w[0] < w[1]), "{b:?}");
     assert!(b[0] >= 10.0 && *b.last().unwrap() <= 400.0, "{b:?}");
+    // Budgets stop where the first mode's run ends: past it a column would mix times.
+    let last_of = |m: &str| p.iter().filter(|q| q.scene == "cornell_box" && q.reference == "pt" && q.mode == m).map(|q| q.wall_ms).fold(0.0, f64::max);
+    let common = ["uniform", "ris", "restir"].iter().map(|m| last_of(m)).fold(f64::INFINITY, f64::min);
+    assert!(*b.last().unwrap() <= common, "{b:?} past {common} ms");
 }
 
 #[test]

@@ -367,8 +367,9 @@ pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<S
     let mut v = serde_json::to_value(settings)?;
     let obj = v.as_object_mut().expect("RenderSettings serialises to an object");
     // Output, debugging and speed-only flags (the image is the same for every workgroup shape,
-    // and with the passes fused or apart).
-    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture", "workgroup", "fuse_passes"] {
+    // with the passes fused or apart, and traced with ray queries or ray-tracing pipelines:
+    // tests/trace_pipeline.rs).
+    for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture", "workgroup", "fuse_passes", "tracing"] {
         obj.remove(k);
     }
     obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));

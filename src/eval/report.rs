@@ -450,10 +450,12 @@ pub fn equal_time_table_markdown(
                 None => DASH.to_string(),
                 Some(bv) => {
                     any_ended |= bv.run_ended;
-                    let base = if mode == UNIFORM {
+                    // No % against a run that ended before the budget, or for one: that would
+                    // compare errors at different times.
+                    let base = if mode == UNIFORM || bv.run_ended {
                         None
                     } else {
-                        error_within_budget(points, scene, reference, UNIFORM, metric, b).map(|u| u.value)
+                        error_within_budget(points, scene, reference, UNIFORM, metric, b).filter(|u| !u.run_ended).map(|u| u.value)
                     };
                     let star = if bv.run_ended { "*" } else { "" };
                     format!("{}{star}{}", fmt_sig3(bv.value), pct_suffix(bv.value, base))
@@ -469,18 +471,19 @@ pub fn equal_time_table_markdown(
 }
 
 /// Wall-time budgets for [`equal_time_table_markdown`]: the 1-2-5 values from the fastest mode's
-/// first checkpoint to the slowest mode's last checkpoint on `scene` against `reference`, thinned
-/// to at most 6. Empty without data.
+/// first checkpoint to the time every mode reached (the earliest last checkpoint) on `scene`
+/// against `reference`, thinned to at most 6: past it some mode's run has ended and the table
+/// would compare errors at different times. Empty without data.
 pub fn suggest_budgets_ms(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<f64> {
     let sel = select(points, scene, reference);
     let modes = ordered(sel.iter().map(|p| p.mode.as_str()));
     let mut lo = f64::INFINITY;
-    let mut hi = 0.0f64;
+    let mut hi = f64::INFINITY;
     for m in &modes {
         let ws = sel.iter().filter(|p| &p.mode == m).map(|p| p.wall_ms).filter(|w| w.is_finite() && *w > 0.0);
         let (mn, mx) = ws.fold((f64::INFINITY, 0.0f64), |(a, b), w| (a.min(w), b.max(w)));
         lo = lo.min(mn);
-        hi = hi.max(mx);
+        hi = hi.min(mx);
     }
     if !(lo.is_finite() && hi >= lo) {
         return Vec::new();
@@ -1067,7 +1070,8 @@ pub fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<
         if !rises.is_empty() {
             out.push(format!(
                 "{}'s RMSE rises with more frames ({}): a few very bright pixels (fireflies) make its RMSE at this \
-                 number of runs; FLIP and relMSE (`curves.csv`) are less sensitive to them.",
+                 number of runs; FLIP (`curves.csv`) is less sensitive to them (relMSE is more: it divides by the \
+                 reference's brightness).",
                 mode_display_name(m),
                 rises.join("; ")
             ));
