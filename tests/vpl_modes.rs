@@ -126,10 +126,7 @@ fn assert_frames_converge(label: &str, r: &mut Renderer, frames: u32, all: &[Vec
     }
     let mut worst = 0f64;
     for bi in 0..all.len() {
-        let xs: Vec<f64> = per_frame.iter().map(|m| m[bi]).collect();
-        let n = xs.len() as f64;
-        let m = xs.iter().sum::<f64>() / n;
-        let se = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+        let (m, se) = mean_and_se(per_frame.iter().map(|m| m[bi]));
         // A black block on both sides would pass any bound: the blocks must be lit and noisy.
         assert!(reference[bi] > 0.0 && se > 0.0, "{label}: block {bi}: reference {} and spread {se}: nothing to test", reference[bi]);
         let z = (m - reference[bi]) / se;
@@ -147,9 +144,16 @@ fn assert_frames_converge(label: &str, r: &mut Renderer, frames: u32, all: &[Vec
 /// The standard error of the whole image's mean (block 0) from independent samples of it (frames
 /// or runs).
 fn whole_image_se(samples: &[Vec<f64>]) -> f64 {
-    let n = samples.len() as f64;
-    let m = samples.iter().map(|s| s[0]).sum::<f64>() / n;
-    (samples.iter().map(|s| (s[0] - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt()
+    mean_and_se(samples.iter().map(|s| s[0])).1
+}
+
+/// The mean of independent samples and its standard error (sample standard deviation, n − 1,
+/// over √n).
+fn mean_and_se(xs: impl Iterator<Item = f64>) -> (f64, f64) {
+    let xs: Vec<f64> = xs.collect();
+    let n = xs.len() as f64;
+    let m = xs.iter().sum::<f64>() / n;
+    (m, (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt())
 }
 
 /// Runs `runs` independent seeds of `frames` frames each (ReSTIR: frames and pixels correlate, so
@@ -165,10 +169,7 @@ fn run_means(r: &mut Renderer, runs: u32, frames: u32, all: &[Vec<usize>], refer
     let mut ts = Vec::new();
     let mut lines = Vec::new();
     for bi in 0..all.len() {
-        let xs: Vec<f64> = per_run.iter().map(|m| m[bi]).collect();
-        let m = xs.iter().sum::<f64>() / runs as f64;
-        let sd = (xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (runs - 1) as f64).sqrt();
-        let se = sd / (runs as f64).sqrt();
+        let (m, se) = mean_and_se(per_run.iter().map(|m| m[bi]));
         assert!(reference[bi] > 0.0 && se > 0.0, "block {bi}: reference {} and spread {se}: nothing to test", reference[bi]);
         let t = (m - reference[bi]) / se;
         ts.push(t);
@@ -251,10 +252,7 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
         let (runs, ts, lines) = run_means(&mut r, RUNS, FRAMES, &all, &ref_means);
         let worst = ts.iter().fold(0f64, |w, t| w.max(t.abs()));
         // The test's power: the smallest whole-image bias that |t| < 6 would still let through.
-        let whole: Vec<f64> = runs.iter().map(|m| m[0]).collect();
-        let whole_mean = whole.iter().sum::<f64>() / RUNS as f64;
-        let whole_se = (whole.iter().map(|x| (x - whole_mean).powi(2)).sum::<f64>() / (RUNS as f64 - 1.0) / RUNS as f64).sqrt();
-        let detectable = 6.0 * whole_se / ref_means[0];
+        let detectable = 6.0 * whole_image_se(&runs) / ref_means[0];
         println!("restir {bias:?} (visibility {visibility}): a whole-image bias above {:.3}% fails the t-test", 100.0 * detectable);
         if bias == Bias::Unbiased {
             for (t, line) in ts.iter().zip(&lines) {
@@ -345,10 +343,7 @@ fn ris_beats_uniform_and_restir_beats_ris_at_equal_frames() {
         errors.push(per_seed);
     }
     let beats = |a: usize, b: usize| {
-        let d: Vec<f64> = errors[a].iter().zip(&errors[b]).map(|(x, y)| x - y).collect();
-        let n = d.len() as f64;
-        let mean = d.iter().sum::<f64>() / n;
-        let se = (d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt();
+        let (mean, se) = mean_and_se(errors[a].iter().zip(&errors[b]).map(|(x, y)| x - y));
         println!("{} against {}: mean difference {mean:.4} ± {se:.4} (standard error)", modes[a].0, modes[b].0);
         assert!(mean < -4.0 * se, "{}'s per-frame relMSE is not below {}'s by 4 standard errors: difference {mean:.4} ± {se:.4}", modes[a].0, modes[b].0);
     };
