@@ -804,9 +804,15 @@ impl Context {
     /// Fails a run whose context drew validation errors (their text went to the log) or, under
     /// validation (the strict runs), whose renderers replaced non-finite samples. What every
     /// command checks before it exits 0: a benchmark, `results`, a reference, a window closed by
-    /// its user.
+    /// its user ([`Context::ensure_clean_for`]).
     pub fn ensure_clean(&self) -> Result<()> {
-        let nonfinite = if self.validation_enabled { self.nonfinite_samples() } else { 0 };
+        self.ensure_clean_for(false)
+    }
+
+    /// [`Context::ensure_clean`] for a run that asked for validation (`validate_requested`): its
+    /// non-finite samples fail it whether or not the layer could be loaded, as a headless run's do.
+    pub fn ensure_clean_for(&self, validate_requested: bool) -> Result<()> {
+        let nonfinite = if self.validation_enabled || validate_requested { self.nonfinite_samples() } else { 0 };
         match (self.validation_errors(), nonfinite) {
             (0, 0) => Ok(()),
             (0, n) => anyhow::bail!("{n} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under validation: a shader produced them"),

@@ -161,20 +161,11 @@ impl ApplicationHandler for App {
 
     fn exiting(&mut self, _event_loop: &ActiveEventLoop) {
         if let Some(r) = &mut self.running {
-            // However the run ends (closed by its user, or --frames), the frames in flight complete
-            // so that their non-finite samples are counted, and it fails under validation as a
-            // headless run does, on errors or non-finite samples seen at any time.
-            // (With --frames the summary was written and main checks it, after printing it.)
+            // Closed by its user, the run has no summary for main to check (with --frames main
+            // checks it, after printing it): the frames in flight complete so that their
+            // non-finite samples count, and it fails under validation as a headless run does.
             if self.error.is_none() && self.summary.is_none() {
-                let validate = self.settings.validate;
-                let checked = r.renderer.complete_all().and_then(|_| r.ctx.ensure_clean()).and_then(|_| {
-                    // As a headless run: non-finite samples fail a run that asked for --validate,
-                    // whether or not the layer could be loaded.
-                    let n = r.ctx.nonfinite_samples();
-                    anyhow::ensure!(!(validate && n > 0), "{n} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under --validate: a shader produced them");
-                    Ok(())
-                });
-                if let Err(e) = checked {
+                if let Err(e) = r.renderer.complete_all().and_then(|_| r.ctx.ensure_clean_for(self.settings.validate)) {
                     self.error = Some(e.context("the window's run"));
                 }
             }
@@ -838,12 +829,14 @@ impl Presenter {
         Ok(Self { ctx: ctx.clone(), staging, cmds, fences, acquired, next: 0 })
     }
 
-    /// Waits until every present slot's last submission (blit and overlay) has finished.
+    /// Waits until present slot `f`'s last submission (blit and overlay) has finished.
+    fn wait_slot(&self, ctx: &Context, f: usize) -> Result<()> {
+        ctx.wait_fence(self.fences[f], &|| "a present slot (the last blit and overlay drawn into it)".into(), &|| None)
+    }
+
+    /// Waits until every present slot's last submission has finished.
     fn wait_all(&self, ctx: &Context) -> Result<()> {
-        for &fence in &self.fences {
-            ctx.wait_fence(fence, &|| "a present slot (the last blit and overlay drawn into it)".into(), &|| None)?;
-        }
-        Ok(())
+        (0..self.fences.len()).try_for_each(|f| self.wait_slot(ctx, f))
     }
 
     /// Acquires a swapchain image, submits the renderer's frame (`camera`; None: none, the last
@@ -861,7 +854,7 @@ impl Presenter {
         let p = ctx.presentation.as_ref().expect("a window context");
         let f = self.next;
         let d = &ctx.device;
-        ctx.wait_fence(self.fences[f], &|| "a present slot (the last blit and overlay drawn into it)".into(), &|| None)?;
+        self.wait_slot(ctx, f)?;
         // SAFETY: valid swapchain; the semaphore is unsignalled (its last wait has completed).
         let acquired =
             unsafe { p.swapchain_loader.acquire_next_image(swapchain.raw, ACQUIRE_TIMEOUT_NS, self.acquired[f], vk::Fence::null()) };
