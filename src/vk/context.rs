@@ -80,6 +80,21 @@ pub fn tracing_from_env() -> Result<Option<Tracing>> {
 /// finished.
 pub const GPU_WAIT_WARN_EVERY: Duration = Duration::from_secs(60);
 
+/// Serialises device creation and destruction against pipeline creation and destruction across
+/// every [`Context`] of the process. NVIDIA's driver (580.159 on an H200) deadlocked in test
+/// binaries, which hold several contexts at once: a thread in `vkDestroyDevice` or
+/// `vkCreateDevice` held the driver's process-wide lock and waited on a mutex, while a thread
+/// creating or destroying a pipeline on a device of its own held that mutex and waited on the
+/// process-wide lock (stacks taken with eu-stack; docs/gpu.md, "The test binaries hung"). A
+/// process with one context (the CLI, the window) never met it. Pipelines take it shared, so
+/// contexts still compile in parallel; the device's lifetime calls take it exclusively.
+static DEVICE_LIFETIME: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+/// Held (shared) while a pipeline is created or destroyed; see [`DEVICE_LIFETIME`].
+pub(crate) fn pipeline_creation_guard() -> std::sync::RwLockReadGuard<'static, ()> {
+    DEVICE_LIFETIME.read().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
+
 /// `RESTIR_VPL_GPU_TIMEOUT_S`: how long one submission may run before [`Context::wait_fence`]
 /// gives up on it, in seconds (fractions allowed); unset or 0: no limit. No limit by default,
 /// because one legitimate submission can be long: a brute-force frame is one dispatch, accepted up
@@ -657,9 +672,12 @@ impl Context {
             Tracing::Query => info.push_next(&mut frq),
             Tracing::Pipeline => info.push_next(&mut frt),
         };
-        // SAFETY: the create info references locals alive for the call; features were checked.
-        let device = unsafe { instance.create_device(physical_device, &info, None) }
-            .with_context(|| format!("vkCreateDevice failed on {}", report.name))?;
+        let device = {
+            let _lifetime = DEVICE_LIFETIME.write().unwrap_or_else(std::sync::PoisonError::into_inner);
+            // SAFETY: the create info references locals alive for the call; features were checked.
+            unsafe { instance.create_device(physical_device, &info, None) }
+        }
+        .with_context(|| format!("vkCreateDevice failed on {}", report.name))?;
         // SAFETY: queue family and index exist (created above).
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let accel = ash::khr::acceleration_structure::Device::new(&instance, &device);
@@ -1077,6 +1095,8 @@ impl Drop for Context {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(self.command_pool, None);
             ManuallyDrop::drop(&mut self.allocator);
+            // The pipeline cache belongs with the pipelines under DEVICE_LIFETIME.
+            let pipelines = pipeline_creation_guard();
             if let Some(path) = &self.pipeline_cache_file {
                 match self.device.get_pipeline_cache_data(self.pipeline_cache) {
                     Ok(data) if !data.is_empty() => {
@@ -1089,7 +1109,11 @@ impl Drop for Context {
                 }
             }
             self.device.destroy_pipeline_cache(self.pipeline_cache, None);
-            self.device.destroy_device(None);
+            drop(pipelines);
+            {
+                let _lifetime = DEVICE_LIFETIME.write().unwrap_or_else(std::sync::PoisonError::into_inner);
+                self.device.destroy_device(None);
+            }
             if let Some(p) = self.presentation.take() {
                 p.surface_loader.destroy_surface(p.surface, None);
             }

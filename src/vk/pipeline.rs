@@ -346,7 +346,7 @@ impl ComputePipeline {
                     Err(e) => {
                         // SAFETY: nothing uses the pipeline yet.
                         unsafe {
-                            ctx.device.destroy_pipeline(pipeline, None);
+                            destroy_pipeline(ctx, pipeline);
                             ctx.device.destroy_pipeline_layout(layout, None);
                         }
                         return Err(e);
@@ -496,10 +496,22 @@ fn compute_pipeline(ctx: &Context, name: &str, layout: vk::PipelineLayout, modul
     let stage = if local_size.is_some() { stage.specialization_info(&spec) } else { stage };
     let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
     // SAFETY: valid device, module and layout (create_pass_pipeline's contract).
+    let _guard = super::context::pipeline_creation_guard();
     match unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache, &info, None) } {
         Ok(pipelines) => Ok(pipelines[0]),
         Err((_, e)) => Err(anyhow::anyhow!("compute pipeline '{name}': {e}")),
     }
+}
+
+/// Destroys `pipeline` under [`super::context::pipeline_creation_guard`]: NVIDIA's driver takes
+/// the same locks to destroy a pipeline as to create one.
+///
+/// # Safety
+/// No pending work may use `pipeline`, and it must not be used afterwards.
+unsafe fn destroy_pipeline(ctx: &Context, pipeline: vk::Pipeline) {
+    let _guard = super::context::pipeline_creation_guard();
+    // SAFETY: the caller's contract.
+    unsafe { ctx.device.destroy_pipeline(pipeline, None) };
 }
 
 /// The shader groups of a ray-tracing pass pipeline: ray generation, the two miss shaders, the hit
@@ -552,6 +564,7 @@ fn ray_tracing_pipeline(
         .max_pipeline_ray_recursion_depth(1)
         .layout(layout)];
     // SAFETY: valid device, modules and layout (create_pass_pipeline's contract).
+    let _guard = super::context::pipeline_creation_guard();
     match unsafe { rt.loader.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), ctx.pipeline_cache, &info, None) } {
         Ok(pipelines) => Ok(pipelines[0]),
         Err((_, e)) => Err(anyhow::anyhow!("ray-tracing pipeline '{name}': {e}")),
@@ -638,7 +651,7 @@ impl Drop for ComputePipeline {
         }
         // SAFETY: no pending work uses the pipeline (nor its binding table, dropped after it).
         unsafe {
-            self.ctx.device.destroy_pipeline(self.pipeline, None);
+            destroy_pipeline(&self.ctx, self.pipeline);
             self.ctx.device.destroy_pipeline_layout(self.layout, None);
         }
     }
