@@ -15,6 +15,7 @@ fn pt(scene: &str, mode: &str, reference: &str, frames: u32, wall_ms: f64, rmse:
         rmse,
         relmse: rmse * rmse * 2.0,
         mean_ratio: 1.0 + rmse / 10.0,
+        mean_ratio_se: None,
         worst_share: 0.001 + rmse / 100.0,
         flip: None,
     }
@@ -46,12 +47,52 @@ fn csv_round_trip() {
     points[1].gpu_ms = 1.0 / 3.0;
     points[2].relmse = 1e-17;
     points.push(pt("sponza", "restir-unbiased", "vpl", 7, 123.456, 0.5));
+    points[3].mean_ratio_se = Some(0.000123456789);
     write_curves_csv(&path, &points).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.starts_with("scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip\n"));
+    assert!(text.starts_with("scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip,mean_ratio_se\n"));
     assert_eq!(text.lines().count(), points.len() + 1);
     let back = read_curves_csv(&path).unwrap();
     assert_eq!(back, points);
+}
+
+/// Files written before `mean_ratio_se` still read, with no standard error.
+#[test]
+fn csv_without_standard_errors_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("old.csv");
+    std::fs::write(&path, "scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip\nx,ris,pt,4,2,3,0.1,0.2,0.99,0.5,\n").unwrap();
+    let back = read_curves_csv(&path).unwrap();
+    assert_eq!(back.len(), 1);
+    assert_eq!((back[0].mean_ratio, back[0].mean_ratio_se), (0.99, None));
+    // A row with the new header but the old row length is an error naming the line.
+    std::fs::write(&path, "scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip,mean_ratio_se\nx,ris,pt,4,2,3,0.1,0.2,0.99,0.5,\n").unwrap();
+    let e = read_curves_csv(&path).unwrap_err().to_string();
+    assert!(e.contains("old.csv:2") && e.contains("expected 12 fields"), "{e}");
+}
+
+/// The standard error of a mean: 1, 2, 3 have sample variance 1, so SE = √(1/3); one value has none.
+#[test]
+fn standard_error_of_a_mean() {
+    let se = standard_error_from_sums(6.0, 14.0, 3).unwrap();
+    assert!((se - (1.0f64 / 3.0).sqrt()).abs() < 1e-12, "{se}");
+    assert_eq!(standard_error_from_sums(2.0, 4.0, 1), None);
+    assert_eq!(standard_error_from_sums(4.0, 8.0, 2), Some(0.0));
+}
+
+/// The bias table and the goals show the standard error where the runs give one.
+#[test]
+fn bias_with_standard_error() {
+    let mut points = thesis();
+    for p in points.iter_mut().filter(|p| p.mode == "restir") {
+        p.mean_ratio = 0.995;
+        p.mean_ratio_se = Some(0.002);
+    }
+    let table = bias_table_markdown(&points, &["cornell_box".to_string()]);
+    assert!(table.contains("0.9950 ± 0.0020"), "{table}");
+    assert!(!table.contains("1.0280 ±"), "uniform has no standard error: {table}");
+    let goals = goals_markdown(&points, &["cornell_box".to_string()], "restir", "ris", 20, &[1], 0.2, 0.01);
+    assert!(goals.contains("-0.50 ± 0.20 % ✓"), "{goals}");
 }
 
 #[test]

@@ -280,6 +280,7 @@ pub fn plots(dir: &Path, points: &[MotionPoint]) -> Result<Vec<PathBuf>> {
             rmse: p.rmse,
             relmse: p.relmse,
             mean_ratio: 1.0,
+            mean_ratio_se: None,
             worst_share: 0.0,
             flip: p.flip,
         })

@@ -42,6 +42,8 @@ pub struct CurvePoint {
     pub relmse: f64,
     /// mean(image) / mean(reference): the estimator's bias shows here once the noise averages out.
     pub mean_ratio: f64,
+    /// Standard error of `mean_ratio` over independent runs (None from a single run).
+    pub mean_ratio_se: Option<f64>,
     /// Share of the squared error in the worst 0.1% of pixels (fireflies when near 1).
     pub worst_share: f64,
     pub flip: Option<f64>,
@@ -194,12 +196,24 @@ fn pct_suffix(v: f64, base: Option<f64>) -> String {
 const UNIFORM: &str = "uniform";
 const DASH: &str = "—";
 
+/// The standard error of the mean of `n` values from their sum and sum of squares (the sample
+/// variance over n − 1, divided by n); None for fewer than two values.
+pub fn standard_error_from_sums(sum: f64, sum_sq: f64, n: usize) -> Option<f64> {
+    (n > 1).then(|| {
+        let n = n as f64;
+        ((sum_sq - sum * sum / n).max(0.0) / (n - 1.0) / n).sqrt()
+    })
+}
+
 // ---------------------------------------------------------------------------------------------
 // CSV
 
-const CSV_HEADER: [&str; 11] = [
+const CSV_HEADER: [&str; 12] = [
     "scene", "mode", "reference", "frames", "gpu_ms", "wall_ms", "rmse", "relmse", "mean_ratio", "worst_share", "flip",
+    "mean_ratio_se",
 ];
+/// The header before `mean_ratio_se` (stop 38); such files still read, without standard errors.
+const CSV_HEADER_V1: usize = 11;
 
 fn csv_field<'a>(path: &Path, what: &str, s: &'a str) -> Result<&'a str> {
     if s.contains([',', '"', '\n', '\r']) {
@@ -208,8 +222,8 @@ fn csv_field<'a>(path: &Path, what: &str, s: &'a str) -> Result<&'a str> {
     Ok(s)
 }
 
-/// Writes `points` as CSV: a header row (`scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip`)
-/// and one row per point; FLIP is empty when `None`. Numbers are written so that they read back
+/// Writes `points` as CSV: a header row (`scene,mode,reference,frames,gpu_ms,wall_ms,rmse,relmse,mean_ratio,worst_share,flip,mean_ratio_se`)
+/// and one row per point; FLIP and the standard error are empty when `None`. Numbers are written so that they read back
 /// exactly. Text fields must not contain commas, quotes or line breaks (an error otherwise).
 /// Creates the parent directory.
 pub fn write_curves_csv(path: impl AsRef<Path>, points: &[CurvePoint]) -> Result<()> {
@@ -218,9 +232,10 @@ pub fn write_curves_csv(path: impl AsRef<Path>, points: &[CurvePoint]) -> Result
     s.push('\n');
     for p in points {
         let flip = p.flip.map(|f| f.to_string()).unwrap_or_default();
+        let se = p.mean_ratio_se.map(|f| f.to_string()).unwrap_or_default();
         writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{}",
             csv_field(path, "scene", &p.scene)?,
             csv_field(path, "mode", &p.mode)?,
             csv_field(path, "reference", &p.reference)?,
@@ -231,7 +246,8 @@ pub fn write_curves_csv(path: impl AsRef<Path>, points: &[CurvePoint]) -> Result
             p.relmse,
             p.mean_ratio,
             p.worst_share,
-            flip
+            flip,
+            se
         )
         .unwrap();
     }
@@ -239,7 +255,8 @@ pub fn write_curves_csv(path: impl AsRef<Path>, points: &[CurvePoint]) -> Result
     std::fs::write(path, s).with_context(|| format!("writing {}", path.display()))
 }
 
-/// Reads a file written by [`write_curves_csv`]. Blank lines are skipped; the header must match.
+/// Reads a file written by [`write_curves_csv`] (or before `mean_ratio_se` was added). Blank lines
+/// are skipped; the header must match.
 pub fn read_curves_csv(path: impl AsRef<Path>) -> Result<Vec<CurvePoint>> {
     let path = path.as_ref();
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
@@ -248,14 +265,15 @@ pub fn read_curves_csv(path: impl AsRef<Path>) -> Result<Vec<CurvePoint>> {
         bail!("{}: empty CSV file (expected the header {})", path.display(), CSV_HEADER.join(","));
     };
     let got: Vec<&str> = header.split(',').map(str::trim).collect();
-    if got != CSV_HEADER {
+    if got != CSV_HEADER && got != CSV_HEADER[..CSV_HEADER_V1] {
         bail!("{}: unexpected CSV header {header:?} (expected {})", path.display(), CSV_HEADER.join(","));
     }
+    let fields = got.len();
     let mut out = Vec::new();
     for (n, line) in lines {
         let f: Vec<&str> = line.split(',').map(str::trim).collect();
-        if f.len() != CSV_HEADER.len() {
-            bail!("{}:{n}: expected {} fields, found {}", path.display(), CSV_HEADER.len(), f.len());
+        if f.len() != fields {
+            bail!("{}:{n}: expected {fields} fields, found {}", path.display(), f.len());
         }
         let num = |i: usize| -> Result<f64> {
             f[i].parse::<f64>()
@@ -275,6 +293,7 @@ pub fn read_curves_csv(path: impl AsRef<Path>) -> Result<Vec<CurvePoint>> {
             mean_ratio: num(8)?,
             worst_share: num(9)?,
             flip: if f[10].is_empty() { None } else { Some(num(10)?) },
+            mean_ratio_se: if fields <= 11 || f[11].is_empty() { None } else { Some(num(11)?) },
         });
     }
     Ok(out)
@@ -915,9 +934,14 @@ pub fn bias_table_markdown(points: &[CurvePoint], scene_labels: &[String]) -> St
             let _ = write!(s, "| {label} (t = {last_t}) | {reference} |");
             for m in &modes {
                 match here.iter().find(|p| p.mode == *m && p.frames == last_t) {
-                    Some(p) => {
-                        let _ = write!(s, " {:.4} |", p.mean_ratio);
-                    }
+                    Some(p) => match p.mean_ratio_se {
+                        Some(se) => {
+                            let _ = write!(s, " {:.4} ± {:.4} |", p.mean_ratio, se);
+                        }
+                        None => {
+                            let _ = write!(s, " {:.4} |", p.mean_ratio);
+                        }
+                    },
                     None => s.push_str(" — |"),
                 }
             }
@@ -965,7 +989,8 @@ pub fn goals_markdown(
                 let (f, b) = (p.worst_share <= max_firefly_share, (p.mean_ratio - 1.0).abs() < max_bias);
                 fireflies_ok += f as usize;
                 bias_ok += b as usize;
-                let _ = write!(s, " {:.0} % {} | {:+.2} % {} |", 100.0 * p.worst_share, mark(f), 100.0 * (p.mean_ratio - 1.0), mark(b));
+                let se = p.mean_ratio_se.map(|se| format!(" ± {:.2}", 100.0 * se)).unwrap_or_default();
+                let _ = write!(s, " {:.0} % {} | {:+.2}{se} % {} |", 100.0 * p.worst_share, mark(f), 100.0 * (p.mean_ratio - 1.0), mark(b));
             }
             None => s.push_str(" — | — |"),
         }

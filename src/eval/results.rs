@@ -142,7 +142,7 @@ pub fn curves(
         renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
     }
     // Sums over runs, keyed by (mode index, reference index, checkpoint index).
-    let mut sums: BTreeMap<(usize, usize, usize), [f64; 7]> = BTreeMap::new();
+    let mut sums: BTreeMap<(usize, usize, usize), [f64; 8]> = BTreeMap::new();
     let mut flip_counts: BTreeMap<(usize, usize, usize), u32> = BTreeMap::new();
     let mut frame_gpu: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
     let mut frame_wall: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
@@ -179,8 +179,9 @@ pub fn curves(
                     let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean()? };
                     for (k, (_, reference)) in references.iter().enumerate() {
                         let c = compare(&img, reference, compare_opts)?;
-                        let e = sums.entry((i, k, next)).or_insert([0.0; 7]);
-                        e[0] += c.rmse;
+                        let e = sums.entry((i, k, next)).or_insert([0.0; 8]);
+                        e[0] += c.rmse * c.rmse;
+                        e[7] += c.mean_ratio * c.mean_ratio;
                         e[1] += c.relmse;
                         e[5] += c.mean_ratio;
                         e[6] += c.worst_share;
@@ -208,9 +209,11 @@ pub fn curves(
             frames: checkpoints[*c],
             gpu_ms: e[3] / n,
             wall_ms: e[4] / n,
-            rmse: e[0] / n,
+            // The root of the runs' mean MSE (not the mean of their RMSEs, which is biased low).
+            rmse: (e[0] / n).sqrt(),
             relmse: e[1] / n,
             mean_ratio: e[5] / n,
+            mean_ratio_se: report::standard_error_from_sums(e[5], e[7], runs as usize),
             worst_share: e[6] / n,
             flip: (flips > 0).then(|| e[2] / flips as f64),
         });
@@ -549,7 +552,8 @@ fn results_markdown(
     let _ = writeln!(
         s,
         "Scenes and sizes: {}. VPLs: {} direct + {} indirect (photon paths). Checkpoints t = {:?} accumulated frames, \
-         {} independent run(s) averaged. Every mode first renders {WARMUP_FRAMES} warm-up frames (shader compilation, \
+         {} independent run(s) averaged (RMSE: the root of the runs' mean squared error; the other errors and the times: \
+         their means; ± the standard error of the mean over the runs). Every mode first renders {WARMUP_FRAMES} warm-up frames (shader compilation, \
          ReSTIR history) that are not counted; then frames of all modes interleave so that machine drift hits them alike. \
          Times are cumulative over the t frames: GPU time from timestamps, wall time of the frame submissions \
          (read-back and error computation excluded).\n",
@@ -627,8 +631,8 @@ fn results_markdown(
     let _ = writeln!(s, "## Bias at the last checkpoint\n");
     let _ = writeln!(
         s,
-        "mean(image) / mean(reference) after the last checkpoint, averaged over the runs. Against the VPL reference an \
-         unbiased mode tends to 1 (up to the noise of a few frames, which heavy-tailed modes have much of); biased ReSTIR \
+        "mean(image) / mean(reference) after the last checkpoint, averaged over the runs, ± its standard error over them \
+         (with 3 runs, from 2 degrees of freedom: a rough one). Against the VPL reference an unbiased mode tends to 1 (up to the noise of a few frames, which heavy-tailed modes have much of); biased ReSTIR \
          need not.\n"
     );
     let labels: Vec<String> = opts.scenes.iter().map(SceneSpec::label).collect();
@@ -645,7 +649,8 @@ fn results_markdown(
              an RMSE below RIS's at equal time after {first} and after {t_goal} frames on at least two of the three scenes. \
              Equal time: RIS's error within the wall time ReSTIR took for its t frames, interpolated along RIS's curve \
              (RIS fits more frames in that time, hence checkpoints past {t_goal}). The bias is a mean over the runs of \
-             t frames each, so it carries their noise.\n"
+             t frames each, so it carries their noise: ± is its standard error over the runs, and the mark compares the \
+             mean alone.\n"
         );
         s.push_str(&report::goals_markdown(points, &labels, DEFAULT_MODE, "ris", t_goal, &[first, t_goal], 0.20, 0.01));
         let _ = writeln!(s);
