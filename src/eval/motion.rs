@@ -167,12 +167,15 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
             let settings = RenderSettings { mode: m.mode, restir: m.restir, ..base.clone() };
             renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
         }
-        // Sums over runs per (mode, frame): gpu, rmse, relmse, flip.
+        // Sums over runs per (mode, frame): gpu, squared rmse, relmse, flip.
         let mut sums = vec![vec![[0.0f64; 4]; opts.frames as usize]; modes.len()];
         let compare_opts = CompareOptions { flip: opts.flip, ..Default::default() };
         for run in 0..opts.runs {
             for r in renderers.iter_mut() {
-                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run)))?;
+                // Seeds other than the base seed, the first run's too: the references are rendered
+                // with the base seed (as in `results`, where a run with it repeated the reference's
+                // own random numbers and came out with too low an error).
+                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1)))?;
                 let start = path.at(0.0);
                 for _ in 0..WARMUP_FRAMES {
                     r.render_frame(&start, false)?;
@@ -186,7 +189,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
                     let c = compare(&img, &references[f as usize], &compare_opts)?;
                     let e = &mut sums[i][f as usize];
                     e[0] += stats.gpu_ms();
-                    e[1] += c.rmse;
+                    e[1] += c.rmse * c.rmse;
                     e[2] += c.relmse;
                     e[3] += c.flip.unwrap_or(0.0);
                 }
@@ -202,7 +205,8 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
                     mode: m.label.to_string(),
                     frame: f,
                     gpu_ms: e[0] / n,
-                    rmse: e[1] / n,
+                    // The root of the runs' mean squared error.
+                    rmse: (e[1] / n).sqrt(),
                     relmse: e[2] / n,
                     flip: opts.flip.then(|| e[3] / n),
                 });
@@ -332,7 +336,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         "A camera moves along the path committed beside each scene (`scenes/<name>.path.json`); every displayed frame \
          (progressive accumulation off: the image is that frame alone) is compared with a {}-frame path-traced reference \
          of that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames after {WARMUP_FRAMES} still \
-         warm-up frames, {} run(s) averaged; modes interleave frame by frame. ReSTIR variants use unshadowed targets. \
+         warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error); modes interleave frame by frame. ReSTIR variants use unshadowed targets. \
          The references' own noise adds the same amount to every mode's squared error (the images are independent of \
          the reference): it shifts the columns, never reorders the modes.\n",
         opts.reference_frames,
