@@ -71,13 +71,26 @@ fn csv_without_standard_errors_reads() {
     assert!(e.contains("old.csv:2") && e.contains("expected 12 fields"), "{e}");
 }
 
-/// The standard error of a mean: 1, 2, 3 have sample variance 1, so SE = √(1/3); one value has none.
+/// How runs combine: 1, 2, 3 have mean 2, sample variance 1, so a standard error of √(1/3), and a
+/// root mean square of √(14/3) (what per-run RMSEs of 1, 2, 3 give: the root of their mean MSE,
+/// not their mean); one value has no standard error, none has zeros.
 #[test]
-fn standard_error_of_a_mean() {
-    let se = standard_error_from_sums(6.0, 14.0, 3).unwrap();
+fn over_runs_mean_rms_and_standard_error() {
+    let mut r = OverRuns::default();
+    assert_eq!((r.count(), r.mean(), r.rms(), r.standard_error()), (0, 0.0, 0.0, None));
+    r.add(1.0);
+    assert_eq!((r.count(), r.mean(), r.rms(), r.standard_error()), (1, 1.0, 1.0, None));
+    r.add(2.0);
+    r.add(3.0);
+    assert_eq!(r.count(), 3);
+    assert!((r.mean() - 2.0).abs() < 1e-12, "{r:?}");
+    assert!((r.rms() - (14.0f64 / 3.0).sqrt()).abs() < 1e-12, "{r:?}");
+    let se = r.standard_error().unwrap();
     assert!((se - (1.0f64 / 3.0).sqrt()).abs() < 1e-12, "{se}");
-    assert_eq!(standard_error_from_sums(2.0, 4.0, 1), None);
-    assert_eq!(standard_error_from_sums(4.0, 8.0, 2), Some(0.0));
+    let mut same = OverRuns::default();
+    same.add(0.5);
+    same.add(0.5);
+    assert_eq!(same.standard_error(), Some(0.0));
 }
 
 /// The bias table and the goals show the standard error where the runs give one.

@@ -65,10 +65,19 @@ fn bench_curves_quick_writes_csv_tables_and_plots() {
             assert!(svg.contains("<svg") && svg.contains("Uniform") && svg.contains("ReSTIR"));
         }
     }
-    // Both references were written and are reused by a second run (nothing re-rendered).
-    let o = cli(&["bench", "--curves", "--quick", "--out", dir.path().to_str().unwrap()]);
-    assert!(o.status.success());
+    // One run (--quick): no standard error of the bias.
+    assert!(points.iter().all(|p| p.mean_ratio_se.is_none()), "{points:?}");
+    assert!(md.contains("one run: no standard error"), "{md}");
+    // Both references were written and are reused by a second run (nothing re-rendered); with two
+    // runs every point's bias has a standard error, shown in the bias table.
+    let o = cli(&["bench", "--curves", "--quick", "--runs", "2", "--out", dir.path().to_str().unwrap()]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stderr).contains("reusing"), "{}", String::from_utf8_lossy(&o.stderr));
+    let points = read_curves_csv(dir.path().join("curves.csv")).unwrap();
+    assert!(points.iter().all(|p| p.mean_ratio_se.is_some_and(|se| se.is_finite() && se >= 0.0)), "{points:?}");
+    assert!(points.iter().any(|p| p.mean_ratio_se.is_some_and(|se| se > 0.0)), "two runs with different seeds differ: {points:?}");
+    let md = non_empty(&dir.path().join("curves.md"));
+    assert!(md.contains(" ± ") && md.contains("from 2 runs, 1 degree of freedom"), "{md}");
 }
 
 #[test]

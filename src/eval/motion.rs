@@ -22,6 +22,7 @@ use anyhow::{bail, Context as _, Result};
 use crate::camera::{Camera, CameraPath};
 use crate::eval::compare::{compare, CompareOptions};
 use crate::eval::reference::{make_reference, ReferenceTarget};
+use crate::eval::report::OverRuns;
 use crate::eval::results::SceneSpec;
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
@@ -167,8 +168,8 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
             let settings = RenderSettings { mode: m.mode, restir: m.restir, ..base.clone() };
             renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
         }
-        // Sums over runs per (mode, frame): gpu, squared rmse, relmse, flip.
-        let mut sums = vec![vec![[0.0f64; 4]; opts.frames as usize]; modes.len()];
+        // Per (mode, frame) over the runs: gpu, rmse, relmse, flip.
+        let mut sums = vec![vec![[OverRuns::default(); 4]; opts.frames as usize]; modes.len()];
         let compare_opts = CompareOptions { flip: opts.flip, ..Default::default() };
         for run in 0..opts.runs {
             for r in renderers.iter_mut() {
@@ -188,15 +189,14 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
                     let img = RgbImage { width: spec.width, height: spec.height, pixels: r.read_mean()? };
                     let c = compare(&img, &references[f as usize], &compare_opts)?;
                     let e = &mut sums[i][f as usize];
-                    e[0] += stats.gpu_ms();
-                    e[1] += c.rmse * c.rmse;
-                    e[2] += c.relmse;
-                    e[3] += c.flip.unwrap_or(0.0);
+                    e[0].add(stats.gpu_ms());
+                    e[1].add(c.rmse);
+                    e[2].add(c.relmse);
+                    e[3].add(c.flip.unwrap_or(0.0));
                 }
             }
             log(format!("  {label}: run {}/{} done", run + 1, opts.runs));
         }
-        let n = opts.runs as f64;
         for (i, m) in modes.iter().enumerate() {
             for f in 0..opts.frames {
                 let e = sums[i][f as usize];
@@ -204,11 +204,10 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
                     scene: label.clone(),
                     mode: m.label.to_string(),
                     frame: f,
-                    gpu_ms: e[0] / n,
-                    // The root of the runs' mean squared error.
-                    rmse: (e[1] / n).sqrt(),
-                    relmse: e[2] / n,
-                    flip: opts.flip.then(|| e[3] / n),
+                    gpu_ms: e[0].mean(),
+                    rmse: e[1].rms(),
+                    relmse: e[2].mean(),
+                    flip: opts.flip.then(|| e[3].mean()),
                 });
             }
         }

@@ -154,7 +154,7 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
             let setup_s = start.elapsed().as_secs_f64();
             let radius = r.vpl_summary().and_then(|v| v.yuksel_radius).context("the VPL modes report their radius")?;
             let camera = r.initial_camera();
-            let mut sums = [0.0f64; 9];
+            let mut sums = [crate::eval::report::OverRuns::default(); 9];
             for run in 0..opts.runs {
                 r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1)))?;
                 let mut ms = 0.0;
@@ -182,24 +182,24 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                     last.worst_share,
                     0.0,
                 ]) {
-                    *s += v;
+                    s.add(v);
                 }
             }
-            let n = opts.runs as f64;
             rows.push(RadiusRow {
                 scene: label.clone(),
                 rule: rule.clone(),
                 radius,
                 setup_s,
                 compensate,
-                gpu_ms: sums[0] / n,
-                bias: sums[1] / n,
-                frame_variance: sums[2] / n,
-                rmse_1: sums[3] / n,
-                rmse_n: sums[4] / n,
-                flip_1: opts.flip.then(|| sums[5] / n),
-                flip_n: opts.flip.then(|| sums[6] / n),
-                worst_share_n: sums[7] / n,
+                gpu_ms: sums[0].mean(),
+                bias: sums[1].mean(),
+                frame_variance: sums[2].mean(),
+                // RMSEs over the runs: the root of their mean squared error.
+                rmse_1: sums[3].rms(),
+                rmse_n: sums[4].rms(),
+                flip_1: opts.flip.then(|| sums[5].mean()),
+                flip_n: opts.flip.then(|| sums[6].mean()),
+                worst_share_n: sums[7].mean(),
             });
             log(format!("  {label}: {rule} done"));
         }
@@ -216,7 +216,7 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
         s,
         "ReSTIR (unbiased, default settings) with each Yuksel radius rule against a {}-frame path-traced reference \
          (8 bounces; the photons' 7 give the VPL images the same light paths). Scenes: {}. VPLs: {} direct + {} indirect (one VPL set per rule; the mean VPL \
-         spacing is √(A/(πN))). {} run(s) with independent pixel seeds averaged; t = 1 is the first frame, t = {} the \
+         spacing is √(A/(πN))). {} run(s) with independent pixel seeds averaged (RMSE: the root of their mean squared error); t = 1 is the first frame, t = {} the \
          mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames. Frame variance: mean per-pixel variance \
          of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. Per-VPL \
          rules (`--yuksel-knn {KNN_K} --yuksel-spacings M`): each VPL's r is M × its local spacing d_K/√K from its K \

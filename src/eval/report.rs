@@ -196,13 +196,46 @@ fn pct_suffix(v: f64, base: Option<f64>) -> String {
 const UNIFORM: &str = "uniform";
 const DASH: &str = "—";
 
-/// The standard error of the mean of `n` values from their sum and sum of squares (the sample
-/// variance over n − 1, divided by n); None for fewer than two values.
-pub fn standard_error_from_sums(sum: f64, sum_sq: f64, n: usize) -> Option<f64> {
-    (n > 1).then(|| {
-        let n = n as f64;
-        ((sum_sq - sum * sum / n).max(0.0) / (n - 1.0) / n).sqrt()
-    })
+/// One quantity over independent runs: how `results`, `bench --motion` and `bench --radius`
+/// combine the runs' errors and biases.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct OverRuns {
+    n: usize,
+    sum: f64,
+    sum_sq: f64,
+}
+
+impl OverRuns {
+    pub fn add(&mut self, x: f64) {
+        self.n += 1;
+        self.sum += x;
+        self.sum_sq += x * x;
+    }
+
+    /// How many values were added.
+    pub fn count(&self) -> usize {
+        self.n
+    }
+
+    /// The mean of the values (0 for none).
+    pub fn mean(&self) -> f64 {
+        if self.n == 0 { 0.0 } else { self.sum / self.n as f64 }
+    }
+
+    /// The root of the mean square: for per-run RMSEs, the RMSE over all runs (their mean MSE's
+    /// root; the mean of the RMSEs would be biased low). 0 for none.
+    pub fn rms(&self) -> f64 {
+        if self.n == 0 { 0.0 } else { (self.sum_sq / self.n as f64).sqrt() }
+    }
+
+    /// The standard error of [`OverRuns::mean`]: the sample variance (over n − 1) divided by n,
+    /// rooted; None for fewer than two values.
+    pub fn standard_error(&self) -> Option<f64> {
+        (self.n > 1).then(|| {
+            let n = self.n as f64;
+            ((self.sum_sq - self.sum * self.sum / n).max(0.0) / (n - 1.0) / n).sqrt()
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

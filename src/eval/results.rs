@@ -12,7 +12,8 @@
 //!   read-back and comparison are outside the timed region. Times are cumulative over the t frames:
 //!   GPU time from timestamps (sum of the pass scopes) and wall time of `render_frame`.
 //! - Each run has its own pixel seed (same VPL set), never the base seed the references used, and
-//!   with `runs > 1` errors and times are averaged over the runs.
+//!   with `runs > 1` the RMSE is the root of the runs' mean squared error, the other errors and the
+//!   times their means, and the bias carries its standard error over the runs.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -26,11 +27,24 @@ use crate::output::{RgbImage, TimingStats};
 use crate::camera::Camera;
 use crate::eval::reference::{make_reference, ReferenceMeta, ReferenceTarget};
 use crate::renderer::Renderer;
-use crate::eval::report::{self, CurvePoint, FrameTimeRow, Metric};
+use crate::eval::report::{self, CurvePoint, FrameTimeRow, Metric, OverRuns};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::settings::{Bias, Mode, RenderSettings, RestirSettings};
 use crate::vk::Context;
+
+/// One checkpoint's values over the runs (one mode, one reference).
+#[derive(Default)]
+struct CheckpointSums {
+    rmse: OverRuns,
+    relmse: OverRuns,
+    mean_ratio: OverRuns,
+    worst_share: OverRuns,
+    gpu_ms: OverRuns,
+    wall_ms: OverRuns,
+    /// Only the runs that computed FLIP.
+    flip: OverRuns,
+}
 
 /// Frames rendered (and discarded) by every mode before its accumulation starts.
 pub const WARMUP_FRAMES: u32 = 2;
@@ -142,8 +156,7 @@ pub fn curves(
         renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
     }
     // Sums over runs, keyed by (mode index, reference index, checkpoint index).
-    let mut sums: BTreeMap<(usize, usize, usize), [f64; 8]> = BTreeMap::new();
-    let mut flip_counts: BTreeMap<(usize, usize, usize), u32> = BTreeMap::new();
+    let mut sums: BTreeMap<(usize, usize, usize), CheckpointSums> = BTreeMap::new();
     let mut frame_gpu: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
     let mut frame_wall: Vec<Vec<f64>> = vec![Vec::new(); modes.len()];
     let mut pass_ms: Vec<BTreeMap<String, Vec<f64>>> = vec![BTreeMap::new(); modes.len()];
@@ -179,17 +192,15 @@ pub fn curves(
                     let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean()? };
                     for (k, (_, reference)) in references.iter().enumerate() {
                         let c = compare(&img, reference, compare_opts)?;
-                        let e = sums.entry((i, k, next)).or_insert([0.0; 8]);
-                        e[0] += c.rmse * c.rmse;
-                        e[7] += c.mean_ratio * c.mean_ratio;
-                        e[1] += c.relmse;
-                        e[5] += c.mean_ratio;
-                        e[6] += c.worst_share;
-                        e[3] += cum[i].0;
-                        e[4] += cum[i].1;
+                        let e = sums.entry((i, k, next)).or_default();
+                        e.rmse.add(c.rmse);
+                        e.relmse.add(c.relmse);
+                        e.mean_ratio.add(c.mean_ratio);
+                        e.worst_share.add(c.worst_share);
+                        e.gpu_ms.add(cum[i].0);
+                        e.wall_ms.add(cum[i].1);
                         if let Some(f) = c.flip {
-                            e[2] += f;
-                            *flip_counts.entry((i, k, next)).or_default() += 1;
+                            e.flip.add(f);
                         }
                     }
                 }
@@ -198,24 +209,21 @@ pub fn curves(
         }
         log(format!("  {scene_label}: run {}/{runs} done", run + 1));
     }
-    let n = runs as f64;
     let mut points = Vec::new();
     for ((i, k, c), e) in &sums {
-        let flips = flip_counts.get(&(*i, *k, *c)).copied().unwrap_or(0);
         points.push(CurvePoint {
             scene: scene_label.into(),
             mode: modes[*i].label.clone(),
             reference: references[*k].0.clone(),
             frames: checkpoints[*c],
-            gpu_ms: e[3] / n,
-            wall_ms: e[4] / n,
-            // The root of the runs' mean MSE (not the mean of their RMSEs, which is biased low).
-            rmse: (e[0] / n).sqrt(),
-            relmse: e[1] / n,
-            mean_ratio: e[5] / n,
-            mean_ratio_se: report::standard_error_from_sums(e[5], e[7], runs as usize),
-            worst_share: e[6] / n,
-            flip: (flips > 0).then(|| e[2] / flips as f64),
+            gpu_ms: e.gpu_ms.mean(),
+            wall_ms: e.wall_ms.mean(),
+            rmse: e.rmse.rms(),
+            relmse: e.relmse.mean(),
+            mean_ratio: e.mean_ratio.mean(),
+            mean_ratio_se: e.mean_ratio.standard_error(),
+            worst_share: e.worst_share.mean(),
+            flip: (e.flip.count() > 0).then(|| e.flip.mean()),
         });
     }
     // Order: reference, mode (as given), frames.
@@ -631,9 +639,18 @@ fn results_markdown(
     let _ = writeln!(s, "## Bias at the last checkpoint\n");
     let _ = writeln!(
         s,
-        "mean(image) / mean(reference) after the last checkpoint, averaged over the runs, ± its standard error over them \
-         (with 3 runs, from 2 degrees of freedom: a rough one). Against the VPL reference an unbiased mode tends to 1 (up to the noise of a few frames, which heavy-tailed modes have much of); biased ReSTIR \
-         need not.\n"
+        "mean(image) / mean(reference) after the last checkpoint, averaged over the runs{}. Against the VPL reference an \
+         unbiased mode tends to 1 (up to the noise of a few frames, which heavy-tailed modes have much of); biased ReSTIR \
+         need not.\n",
+        match opts.runs {
+            1 => " (one run: no standard error)".to_string(),
+            r => format!(
+                ", ± its standard error over them (from {r} runs, {} degree{} of freedom{})",
+                r - 1,
+                if r == 2 { "" } else { "s" },
+                if r < 6 { ": a rough one" } else { "" }
+            ),
+        }
     );
     let labels: Vec<String> = opts.scenes.iter().map(SceneSpec::label).collect();
     s.push_str(&report::bias_table_markdown(points, &labels));

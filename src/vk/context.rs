@@ -84,13 +84,15 @@ pub const GPU_WAIT_WARN_EVERY: Duration = Duration::from_secs(60);
 /// every [`Context`] of the process. NVIDIA's driver (580.159 on an H200) deadlocked in test
 /// binaries, which hold several contexts at once: a thread in `vkDestroyDevice` or
 /// `vkCreateDevice` held the driver's process-wide lock and waited on a mutex, while a thread
-/// creating or destroying a pipeline on a device of its own held that mutex and waited on the
-/// process-wide lock (stacks taken with eu-stack; docs/gpu.md, "The test binaries hung"). A
+/// creating or destroying a pipeline on a device of its own waited on the process-wide lock, and
+/// (by elimination: the driver's frames have no names) held that mutex (stacks taken with eu-stack;
+/// docs/gpu.md, "The test binaries hung"). A
 /// process with one context (the CLI, the window) never met it. Pipelines take it shared, so
 /// contexts still compile in parallel; the device's lifetime calls take it exclusively.
 static DEVICE_LIFETIME: std::sync::RwLock<()> = std::sync::RwLock::new(());
 
-/// Held (shared) while a pipeline is created or destroyed; see [`DEVICE_LIFETIME`].
+/// Held (shared) while a pipeline (with its set, modules, layout and binding table) or the pipeline
+/// cache is created or destroyed; see [`DEVICE_LIFETIME`]. Not re-entrant: take it once per call.
 pub(crate) fn pipeline_creation_guard() -> std::sync::RwLockReadGuard<'static, ()> {
     DEVICE_LIFETIME.read().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
@@ -717,6 +719,7 @@ impl Context {
             },
             None => Vec::new(),
         };
+        let pipelines = pipeline_creation_guard();
         // SAFETY: valid device; the initial data's header was checked against this device.
         let pipeline_cache = unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default().initial_data(&initial), None) }
             .or_else(|e| {
@@ -725,6 +728,7 @@ impl Context {
                 unsafe { device.create_pipeline_cache(&vk::PipelineCacheCreateInfo::default(), None) }
             })
             .context("vkCreatePipelineCache")?;
+        drop(pipelines);
         if let Some(path) = &pipeline_cache_file {
             log::info!("pipeline cache: {} ({} bytes loaded)", path.display(), initial.len());
         }
@@ -1097,19 +1101,24 @@ impl Drop for Context {
             ManuallyDrop::drop(&mut self.allocator);
             // The pipeline cache belongs with the pipelines under DEVICE_LIFETIME.
             let pipelines = pipeline_creation_guard();
-            if let Some(path) = &self.pipeline_cache_file {
-                match self.device.get_pipeline_cache_data(self.pipeline_cache) {
-                    Ok(data) if !data.is_empty() => {
-                        if let Err(e) = super::pipeline_cache::save(path, &data) {
-                            log::warn!("pipeline cache: cannot write {}: {e}", path.display());
-                        }
+            let cache_data = match &self.pipeline_cache_file {
+                Some(_) => match self.device.get_pipeline_cache_data(self.pipeline_cache) {
+                    Ok(data) => data,
+                    Err(e) => {
+                        log::warn!("pipeline cache: reading it back failed: {e}");
+                        Vec::new()
                     }
-                    Ok(_) => {}
-                    Err(e) => log::warn!("pipeline cache: reading it back failed: {e}"),
-                }
-            }
+                },
+                None => Vec::new(),
+            };
             self.device.destroy_pipeline_cache(self.pipeline_cache, None);
             drop(pipelines);
+            // The file is written outside the lock: other contexts' pipelines need not wait for it.
+            if let (Some(path), false) = (&self.pipeline_cache_file, cache_data.is_empty()) {
+                if let Err(e) = super::pipeline_cache::save(path, &cache_data) {
+                    log::warn!("pipeline cache: cannot write {}: {e}", path.display());
+                }
+            }
             {
                 let _lifetime = DEVICE_LIFETIME.write().unwrap_or_else(std::sync::PoisonError::into_inner);
                 self.device.destroy_device(None);

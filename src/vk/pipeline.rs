@@ -259,7 +259,8 @@ pub struct ComputePipeline {
     pub name: String,
     pub pipeline: vk::Pipeline,
     pub layout: vk::PipelineLayout,
-    pub set1: DescriptorSet,
+    /// Dropped in [`ComputePipeline`]'s `Drop`, under the same lock as the pipeline.
+    pub set1: std::mem::ManuallyDrop<DescriptorSet>,
     pub push_size: u32,
     pub local_size: [u32; 3],
     /// Some: a ray-tracing pipeline, traced through this table instead of dispatched.
@@ -320,6 +321,10 @@ impl ComputePipeline {
         local_size: [u32; 3],
         variants: u32,
     ) -> Result<Self> {
+        // Everything the pipeline is made of (set 1, modules, layout, pipeline, binding table) is
+        // made under the lock that keeps NVIDIA's driver from deadlocking (Context's
+        // DEVICE_LIFETIME); the driver's frames were not named, so all of it, not only the call.
+        let _guard = super::context::pipeline_creation_guard();
         let (set1, layout, pipeline, sbt) = match shader {
             PassShader::Compute { spirv, specialise } => {
                 let sources = [(spirv, name.to_string())];
@@ -346,7 +351,7 @@ impl ComputePipeline {
                     Err(e) => {
                         // SAFETY: nothing uses the pipeline yet.
                         unsafe {
-                            destroy_pipeline(ctx, pipeline);
+                            ctx.device.destroy_pipeline(pipeline, None);
                             ctx.device.destroy_pipeline_layout(layout, None);
                         }
                         return Err(e);
@@ -354,6 +359,7 @@ impl ComputePipeline {
                 }
             }
         };
+        let set1 = std::mem::ManuallyDrop::new(set1);
         Ok(Self { ctx: ctx.clone(), name: name.to_string(), pipeline, layout, set1, push_size, local_size, sbt })
     }
 
@@ -496,22 +502,10 @@ fn compute_pipeline(ctx: &Context, name: &str, layout: vk::PipelineLayout, modul
     let stage = if local_size.is_some() { stage.specialization_info(&spec) } else { stage };
     let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
     // SAFETY: valid device, module and layout (create_pass_pipeline's contract).
-    let _guard = super::context::pipeline_creation_guard();
     match unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache, &info, None) } {
         Ok(pipelines) => Ok(pipelines[0]),
         Err((_, e)) => Err(anyhow::anyhow!("compute pipeline '{name}': {e}")),
     }
-}
-
-/// Destroys `pipeline` under [`super::context::pipeline_creation_guard`]: NVIDIA's driver takes
-/// the same locks to destroy a pipeline as to create one.
-///
-/// # Safety
-/// No pending work may use `pipeline`, and it must not be used afterwards.
-unsafe fn destroy_pipeline(ctx: &Context, pipeline: vk::Pipeline) {
-    let _guard = super::context::pipeline_creation_guard();
-    // SAFETY: the caller's contract.
-    unsafe { ctx.device.destroy_pipeline(pipeline, None) };
 }
 
 /// The shader groups of a ray-tracing pass pipeline: ray generation, the two miss shaders, the hit
@@ -564,7 +558,6 @@ fn ray_tracing_pipeline(
         .max_pipeline_ray_recursion_depth(1)
         .layout(layout)];
     // SAFETY: valid device, modules and layout (create_pass_pipeline's contract).
-    let _guard = super::context::pipeline_creation_guard();
     match unsafe { rt.loader.create_ray_tracing_pipelines(vk::DeferredOperationKHR::null(), ctx.pipeline_cache, &info, None) } {
         Ok(pipelines) => Ok(pipelines[0]),
         Err((_, e)) => Err(anyhow::anyhow!("ray-tracing pipeline '{name}': {e}")),
@@ -646,14 +639,18 @@ fn shader_binding_table(ctx: &Arc<Context>, name: &str, pipeline: vk::Pipeline, 
 
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
-        if self.ctx.is_hung() {
-            return; // a submission that did not finish may still use it (Context::wait_fence)
-        }
-        // SAFETY: no pending work uses the pipeline (nor its binding table, dropped after it).
-        unsafe {
-            destroy_pipeline(&self.ctx, self.pipeline);
-            self.ctx.device.destroy_pipeline_layout(self.layout, None);
-        }
+        // All of it under the lock it was made under (see with_variants).
+        let _guard = super::context::pipeline_creation_guard();
+        if !self.ctx.is_hung() {
+            // SAFETY: no pending work uses the pipeline (nor its binding table, dropped below).
+            unsafe {
+                self.ctx.device.destroy_pipeline(self.pipeline, None);
+                self.ctx.device.destroy_pipeline_layout(self.layout, None);
+            }
+        } // else a submission that did not finish may still use them (Context::wait_fence)
+        self.sbt = None;
+        // SAFETY: dropped once, here; the field is not used after. (Its own Drop skips a hung device.)
+        unsafe { std::mem::ManuallyDrop::drop(&mut self.set1) };
     }
 }
 
