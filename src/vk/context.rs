@@ -86,9 +86,9 @@ pub const GPU_WAIT_WARN_EVERY: Duration = Duration::from_secs(60);
 /// `vkCreateDevice` held the driver's process-wide lock and waited on a mutex, while a thread
 /// creating or destroying a pipeline on a device of its own waited on the process-wide lock, and
 /// (by elimination: the driver's frames have no names) held that mutex (stacks taken with eu-stack;
-/// docs/gpu.md, "The test binaries hung"). A
-/// process with one context (the CLI, the window) never met it. Pipelines take it shared, so
-/// contexts still compile in parallel; the device's lifetime calls take it exclusively.
+/// docs/gpu.md, "The test binaries hung"). A process with one context (the CLI, the window) never
+/// met it. Pipelines take it shared, so contexts still compile in parallel; the device's lifetime
+/// calls take it exclusively.
 static DEVICE_LIFETIME: std::sync::RwLock<()> = std::sync::RwLock::new(());
 
 /// Held (shared) while a pipeline (with its set, modules, layout and binding table) or the pipeline
