@@ -14,12 +14,13 @@
 //! entries estimates the same sum with variance Var[p̂(Y) W] / M. So each source's *relative
 //! variance per candidate* (Var / mean²) says how many candidates it needs for a given quality,
 //! and the ratio of two is the ratio of candidate evaluations at equal quality. Printed per source,
-//! as the median and the mean over the sampled pixels (the mean is what an image's relMSE
-//! averages): uniform (the default), power (∝ lum Φ, `--candidate-source power`), the grid with k
+//! as the median and the mean over the sampled pixels (the mean approximates, for the unshadowed
+//! luminance target, the per-pixel relative error an image's relMSE averages): uniform (the default), power (∝ lum Φ, `--candidate-source power`), the grid with k
 //! candidates per entry and in the limit k → ∞, and a defensive mixture in that limit (half the
-//! candidates uniform, half from the grid, balance-heuristic weights). All exact: sums over every
-//! VPL, no Monte Carlo. Unshadowed only: visibility, spatiotemporal reuse and the grid's build
-//! cost are not in it.
+//! candidates uniform, half from the grid, balance-heuristic weights: an upper bound, exact for a
+//! source chosen at random per candidate). Sums over every VPL, no Monte Carlo. Unshadowed only:
+//! visibility, spatiotemporal reuse, pixels sharing a cell's finite pool of entries (variance ×
+//! 1 + (M − 1)/E for M of E entries) and the grid's build cost are not in it.
 use std::io::Read;
 
 use anyhow::{bail, Context as _, Result};
@@ -130,12 +131,15 @@ impl Rng {
 
 fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().collect();
-    let dir = std::path::PathBuf::from(args.get(1).context("usage: regir_study DIR [CELLS] [K] [PIXELS]")?);
+    let dir = std::path::PathBuf::from(args.get(1).context("usage: regir_study DIR [CELLS] [K] [PIXELS] [normals]")?);
     let cells: usize = args.get(2).map_or(Ok(8), |s| s.parse())?;
     let k: usize = args.get(3).map_or(Ok(8), |s| s.parse())?;
     let pixels: usize = args.get(4).map_or(Ok(400), |s| s.parse())?;
     // "normals": cells split into 6 bins by the receiver's normal, with its cosine bounded.
     let binned = args.get(5).is_some_and(|s| s == "normals");
+    if cells == 0 || k == 0 || pixels == 0 {
+        bail!("CELLS, K and PIXELS must be at least 1");
+    }
     let vpls = read_ply(&dir.join("vpls.ply"))?;
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json"))?)?;
     let r = summary["vpl"]["yuksel_radius"].as_f64().context("summary.json: vpl.yuksel_radius")? as f32;
@@ -165,13 +169,6 @@ fn main() -> Result<()> {
     let centre = |c: [usize; 3]| lo + (Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32) + 0.5) * size;
     let total_lum: f64 = vpls.iter().map(|v| v.lum as f64).sum();
     let n = vpls.len() as f64;
-    // An alias-free power sampler: the cumulative luminance, searched.
-    let mut cdf = Vec::with_capacity(vpls.len());
-    let mut acc = 0.0f64;
-    for v in &vpls {
-        acc += v.lum as f64;
-        cdf.push(acc);
-    }
     let mut rng = Rng(0x9e37_79b9_7f4a_7c15);
     let (mut ru, mut rp, mut rg, mut ri, mut rm) = (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut eval_cells = std::collections::HashMap::new();
@@ -226,6 +223,9 @@ fn main() -> Result<()> {
         let (ru_here, ri_here) = (ru[ru.len() - 1], ri[ri.len() - 1]);
         rg.push(ru_here / k as f64 + (k as f64 - 1.0) / k as f64 * ri_here);
     }
+    if ru.is_empty() {
+        bail!("none of the {pixels} sampled pixels is lit");
+    }
     let stats = |v: &mut Vec<f64>| {
         v.sort_by(|a, b| a.total_cmp(b));
         (v[v.len() / 2], v.iter().sum::<f64>() / v.len() as f64)
@@ -241,6 +241,6 @@ fn main() -> Result<()> {
     println!("  power:   {mp:.3} / {ap:.3}");
     println!("  grid, {k} uniform candidates per entry: {mg:.3} / {ag:.3}   (pixel-side candidates for uniform's quality: {:.2}× / {:.2}×)", mg / mu, ag / au);
     println!("  grid, k → ∞: {mi:.3} / {ai:.3}   ({:.2}× / {:.2}×)", mi / mu, ai / au);
-    println!("  half uniform, half grid, k → ∞ (exact): {mm:.3} / {am:.3}   ({:.2}× / {:.2}×)", mm / mu, am / au);
+    println!("  half uniform, half grid, k → ∞ (upper bound; exact for a source chosen at random): {mm:.3} / {am:.3}   ({:.2}× / {:.2}×)", mm / mu, am / au);
     Ok(())
 }
