@@ -80,9 +80,9 @@ pub fn tracing_from_env() -> Result<Option<Tracing>> {
 /// finished.
 pub const GPU_WAIT_WARN_EVERY: Duration = Duration::from_secs(60);
 
-/// Serialises device creation and destruction against pipeline creation and destruction across
-/// every [`Context`] of the process. NVIDIA's driver (580.159 on an H200) deadlocked in test
-/// binaries, which hold several contexts at once: a thread in `vkDestroyDevice` or
+/// Serialises device (and instance) creation and destruction against pipeline creation and
+/// destruction across every [`Context`] of the process. NVIDIA's driver (580.159 on an H200)
+/// deadlocked in test binaries, which hold several contexts at once: a thread in `vkDestroyDevice` or
 /// `vkCreateDevice` held the driver's process-wide lock and waited on a mutex, while a thread
 /// creating or destroying a pipeline on a device of its own waited on the process-wide lock, and
 /// (by elimination: the driver's frames have no names) held that mutex (stacks taken with eu-stack;
@@ -90,6 +90,14 @@ pub const GPU_WAIT_WARN_EVERY: Duration = Duration::from_secs(60);
 /// met it. Pipelines take it shared, so contexts still compile in parallel; the device's lifetime
 /// calls take it exclusively.
 static DEVICE_LIFETIME: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+/// Held (exclusively) while a device or an instance is created or destroyed; see
+/// [`DEVICE_LIFETIME`]. Never while the same thread holds [`pipeline_creation_guard`] (that would
+/// wait on itself): a pipeline's drop, which holds it, cannot drop the last `Arc<Context>`, since
+/// the pipeline's own `ctx` field outlives its `Drop::drop`.
+fn lifetime_exclusive() -> std::sync::RwLockWriteGuard<'static, ()> {
+    DEVICE_LIFETIME.write().unwrap_or_else(std::sync::PoisonError::into_inner)
+}
 
 /// Held (shared) while a pipeline (with its set, modules, layout and binding table) or the pipeline
 /// cache is created or destroyed; see [`DEVICE_LIFETIME`]. Not re-entrant: take it once per call.
@@ -471,8 +479,15 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
     if layer_has_features {
         info = info.push_next(&mut features);
     }
-    // SAFETY: the create info points at locals that outlive the call.
-    let instance = match unsafe { entry.create_instance(&info, None) } {
+    // Under the device-lifetime lock too: on an H200, one of 16 test contexts made at once failed
+    // here (most likely VK_ERROR_INCOMPATIBLE_DRIVER, below) while another thread was in
+    // vkDestroyDevice (docs/gpu.md; not confirmed, not yet re-run there).
+    let created = {
+        let _lifetime = lifetime_exclusive();
+        // SAFETY: the create info points at locals that outlive the call.
+        unsafe { entry.create_instance(&info, None) }
+    };
+    let instance = match created {
         Ok(instance) => instance,
         // The loader found no driver at all: no device, said as such (exit code 2).
         Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
@@ -504,6 +519,7 @@ pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
     // SAFETY: the instance is valid; destroyed below after use.
     let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
     let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd, request).0).collect();
+    let _lifetime = lifetime_exclusive();
     // SAFETY: nothing created from the instance outlives this point.
     unsafe { instance.destroy_instance(None) };
     Ok(reports)
@@ -675,7 +691,7 @@ impl Context {
             Tracing::Pipeline => info.push_next(&mut frt),
         };
         let device = {
-            let _lifetime = DEVICE_LIFETIME.write().unwrap_or_else(std::sync::PoisonError::into_inner);
+            let _lifetime = lifetime_exclusive();
             // SAFETY: the create info references locals alive for the call; features were checked.
             unsafe { instance.create_device(physical_device, &info, None) }
         }
@@ -1081,6 +1097,7 @@ fn destroy_instance(
         if let Some((loader, m)) = debug {
             loader.destroy_debug_utils_messenger(*m, None);
         }
+        let _lifetime = lifetime_exclusive();
         instance.destroy_instance(None);
     }
 }
@@ -1120,7 +1137,7 @@ impl Drop for Context {
                 }
             }
             {
-                let _lifetime = DEVICE_LIFETIME.write().unwrap_or_else(std::sync::PoisonError::into_inner);
+                let _lifetime = lifetime_exclusive();
                 self.device.destroy_device(None);
             }
             if let Some(p) = self.presentation.take() {
@@ -1129,6 +1146,7 @@ impl Drop for Context {
             if let Some((loader, m)) = self.debug_instance.take() {
                 loader.destroy_debug_utils_messenger(m, None);
             }
+            let _lifetime = lifetime_exclusive();
             self.instance.destroy_instance(None);
         }
     }
