@@ -326,3 +326,38 @@ fn goals_table_checks_each_goal_and_refuses_extrapolation() {
     assert!(md.contains("+0.80 % ✗") && md.contains("bias within it on 0 of 1"), "{md}");
     assert!(md.contains("at every t on 1 of 1 scenes"), "{md}");
 }
+
+/// bench --motion's spread over runs: each run's mean over the frames, its standard error, and the
+/// run-by-run share of two modes.
+#[test]
+fn motion_spread_over_runs() {
+    use restir_vpl::eval::motion::{mean_rmse_standard_error, paired_ratio, run_means, MotionPoint};
+    let point = |mode: &str, frame: u32, runs: &[f64]| MotionPoint {
+        scene: "s".into(),
+        mode: mode.into(),
+        frame,
+        gpu_ms: 1.0,
+        rmse: (runs.iter().map(|r| r * r).sum::<f64>() / runs.len() as f64).sqrt(),
+        relmse: 0.0,
+        flip: None,
+        rmse_runs: runs.to_vec(),
+    };
+    // Mode a: frames 0 and 1, runs 1..3; mode b: twice a's, so the share is 1/2 in every run.
+    let points = vec![
+        point("a", 0, &[1.0, 2.0, 3.0]),
+        point("a", 1, &[3.0, 4.0, 5.0]),
+        point("b", 0, &[2.0, 4.0, 6.0]),
+        point("b", 1, &[6.0, 8.0, 10.0]),
+    ];
+    assert_eq!(run_means(&points, "s", "a"), vec![2.0, 3.0, 4.0]);
+    // 2, 3, 4: sample variance 1, so a standard error of √(1/3).
+    let se = mean_rmse_standard_error(&points, "s", "a").unwrap();
+    assert!((se - (1.0f64 / 3.0).sqrt()).abs() < 1e-12, "{se}");
+    let (share, share_se) = paired_ratio(&points, "s", "a", "b").unwrap();
+    assert!((share - 0.5).abs() < 1e-12 && share_se == Some(0.0), "{share} {share_se:?}");
+    // One run: no spread; an unknown mode: nothing.
+    let one = vec![point("a", 0, &[1.0]), point("b", 0, &[2.0])];
+    assert_eq!(mean_rmse_standard_error(&one, "s", "a"), None);
+    assert_eq!(paired_ratio(&one, "s", "a", "b"), Some((0.5, None)));
+    assert_eq!(paired_ratio(&points, "s", "a", "c"), None);
+}

@@ -66,6 +66,9 @@ pub struct MotionPoint {
     pub rmse: f64,
     pub relmse: f64,
     pub flip: Option<f64>,
+    /// This frame's RMSE in each run, in run order (for the spread over runs).
+    #[serde(skip)]
+    pub rmse_runs: Vec<f64>,
 }
 
 /// What `bench --motion` measures.
@@ -168,8 +171,9 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
             let settings = RenderSettings { mode: m.mode, restir: m.restir, ..base.clone() };
             renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
         }
-        // Per (mode, frame) over the runs: gpu, rmse, relmse, flip.
+        // Per (mode, frame) over the runs: gpu, rmse, relmse, flip; and each run's RMSE.
         let mut sums = vec![vec![[OverRuns::default(); 4]; opts.frames as usize]; modes.len()];
+        let mut rmse_runs = vec![vec![Vec::with_capacity(opts.runs as usize); opts.frames as usize]; modes.len()];
         let compare_opts = CompareOptions { flip: opts.flip, ..Default::default() };
         for run in 0..opts.runs {
             for r in renderers.iter_mut() {
@@ -191,6 +195,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
                     let e = &mut sums[i][f as usize];
                     e[0].add(stats.gpu_ms());
                     e[1].add(c.rmse);
+                    rmse_runs[i][f as usize].push(c.rmse);
                     e[2].add(c.relmse);
                     e[3].add(c.flip.unwrap_or(0.0));
                 }
@@ -208,6 +213,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
                     rmse: e[1].rms(),
                     relmse: e[2].mean(),
                     flip: opts.flip.then(|| e[3].mean()),
+                    rmse_runs: std::mem::take(&mut rmse_runs[i][f as usize]),
                 });
             }
         }
@@ -263,7 +269,11 @@ pub fn table_markdown(points: &[MotionPoint]) -> String {
             } else {
                 "—".into()
             };
-            s += &format!("| {m} | {ms:.1} | {rmse:.4} | {relmse:.4} | {flip} | {:.2} |\n", relmse * ms);
+            let rmse = match mean_rmse_standard_error(points, scene, m) {
+                Some(se) => format!("{rmse:.4} ± {se:.4}"),
+                None => format!("{rmse:.4}"),
+            };
+            s += &format!("| {m} | {ms:.1} | {rmse} | {relmse:.4} | {flip} | {:.2} |\n", relmse * ms);
         }
     }
     s
@@ -324,6 +334,30 @@ fn mean_rmse(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
     (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
 }
 
+/// Each run's mean over the moving frames of `mode`'s RMSE on `scene`, in run order (empty when
+/// the points carry no runs).
+pub fn run_means(points: &[MotionPoint], scene: &str, mode: &str) -> Vec<f64> {
+    let sel: Vec<&MotionPoint> = points.iter().filter(|p| p.scene == scene && p.mode == mode).collect();
+    let runs = sel.iter().map(|p| p.rmse_runs.len()).min().unwrap_or(0);
+    (0..runs).map(|r| sel.iter().map(|p| p.rmse_runs[r]).sum::<f64>() / sel.len() as f64).collect()
+}
+
+/// The standard error over runs of `mode`'s mean RMSE over the moving frames (None with one run).
+pub fn mean_rmse_standard_error(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
+    let mut o = OverRuns::default();
+    run_means(points, scene, mode).into_iter().for_each(|m| o.add(m));
+    o.standard_error()
+}
+
+/// `a`'s mean RMSE over the moving frames as a share of `b`'s, run by run (the runs share their
+/// seeds, so the pair moves together): the mean of the runs' ratios and its standard error.
+pub fn paired_ratio(points: &[MotionPoint], scene: &str, a: &str, b: &str) -> Option<(f64, Option<f64>)> {
+    let (ra, rb) = (run_means(points, scene, a), run_means(points, scene, b));
+    let mut o = OverRuns::default();
+    ra.iter().zip(&rb).filter(|(_, d)| **d > 0.0).for_each(|(n, d)| o.add(n / d));
+    (o.count() > 0).then(|| (o.mean(), o.standard_error()))
+}
+
 /// The Markdown section: protocol, headline (temporal reuse following the reprojected pixels
 /// against none, per scene), the table and the plots (paths relative to the Markdown's folder).
 pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[PathBuf]) -> String {
@@ -335,7 +369,8 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         "A camera moves along the path committed beside each scene (`scenes/<name>.path.json`); every displayed frame \
          (progressive accumulation off: the image is that frame alone) is compared with a {}-frame path-traced reference \
          of that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames after {WARMUP_FRAMES} still \
-         warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error); modes interleave frame by frame. ReSTIR variants use unshadowed targets. \
+         warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error; ± the standard error over the runs of \
+         each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets. \
          The references' own noise adds the same amount to every mode's squared error (the images are independent of \
          the reference): it shifts the columns, never reorders the modes.\n",
         opts.reference_frames,
@@ -356,11 +391,15 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         let off = mean_rmse(points, scene, "restir-no-temporal");
         let uniform = mean_rmse(points, scene, "uniform");
         if let (Some(on), Some(off), Some(u)) = (on, off, uniform) {
+            // The share run by run (± its standard error over the runs, which share their seeds).
+            let share = match paired_ratio(points, scene, "restir-unbiased", "restir-no-temporal") {
+                Some((r, Some(se))) => format!("{:.0} ± {:.0}%", 100.0 * r, 100.0 * se),
+                _ => format!("{:.0}%", 100.0 * on / off),
+            };
             let _ = writeln!(
                 s,
-                "- **{scene}**: unbiased ReSTIR with temporal reuse following the reprojected pixels has {:.0}% of the \
-                 per-frame RMSE of ReSTIR that drops its history on motion ({on:.4} vs {off:.4}); uniform sampling: {u:.4}.",
-                100.0 * on / off
+                "- **{scene}**: unbiased ReSTIR with temporal reuse following the reprojected pixels has {share} of the \
+                 per-frame RMSE of ReSTIR that drops its history on motion ({on:.4} vs {off:.4}); uniform sampling: {u:.4}."
             );
         }
     }
