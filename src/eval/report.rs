@@ -196,8 +196,8 @@ fn pct_suffix(v: f64, base: Option<f64>) -> String {
 const UNIFORM: &str = "uniform";
 const DASH: &str = "—";
 
-/// One quantity over independent runs: how `results`, `bench --motion` and `bench --radius`
-/// combine the runs' errors and biases.
+/// One quantity over independent runs (or any sample): how `results`, `bench --motion` and
+/// `bench --radius` combine the runs' errors and biases.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct OverRuns {
     n: usize,
@@ -326,7 +326,7 @@ pub fn read_curves_csv(path: impl AsRef<Path>) -> Result<Vec<CurvePoint>> {
             mean_ratio: num(8)?,
             worst_share: num(9)?,
             flip: if f[10].is_empty() { None } else { Some(num(10)?) },
-            mean_ratio_se: if fields <= 11 || f[11].is_empty() { None } else { Some(num(11)?) },
+            mean_ratio_se: if fields <= CSV_HEADER_V1 || f[CSV_HEADER_V1].is_empty() { None } else { Some(num(CSV_HEADER_V1)?) },
         });
     }
     Ok(out)

@@ -402,19 +402,14 @@ struct ModelBias {
 
 /// The standard error of the mean squared difference of two images (finite pixels only).
 fn mse_standard_error(a: &RgbImage, b: &RgbImage) -> f64 {
-    let d: Vec<f64> = a
-        .pixels
+    let mut d = OverRuns::default();
+    a.pixels
         .iter()
         .zip(&b.pixels)
         .flat_map(|(p, q)| (0..3).map(move |c| (f64::from(p[c]) - f64::from(q[c])).powi(2)))
         .filter(|x| x.is_finite())
-        .collect();
-    let n = d.len() as f64;
-    if n < 2.0 {
-        return f64::INFINITY;
-    }
-    let m = d.iter().sum::<f64>() / n;
-    (d.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt()
+        .for_each(|x| d.add(x));
+    d.standard_error().unwrap_or(f64::INFINITY)
 }
 
 /// Renders (or reuses) the references, measures the curves of every scene and writes the Markdown

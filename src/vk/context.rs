@@ -519,9 +519,8 @@ pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
     // SAFETY: the instance is valid; destroyed below after use.
     let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
     let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd, request).0).collect();
-    let _lifetime = lifetime_exclusive();
-    // SAFETY: nothing created from the instance outlives this point.
-    unsafe { instance.destroy_instance(None) };
+    // Nothing created from the instance outlives this point.
+    destroy_instance(&instance, &None);
     Ok(reports)
 }
 
@@ -1088,11 +1087,13 @@ fn destroy_surface(surface: &Option<(ash::khr::surface::Instance, vk::SurfaceKHR
     }
 }
 
+/// Destroys the debug messenger, if any, then the instance, under [`DEVICE_LIFETIME`].
 fn destroy_instance(
     instance: &ash::Instance,
     debug: &Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
 ) {
-    // SAFETY: called on error paths before any device object exists.
+    // SAFETY: called once every object made from the instance is gone (on error paths before any
+    // device object exists, from Context's Drop after the device and surface).
     unsafe {
         if let Some((loader, m)) = debug {
             loader.destroy_debug_utils_messenger(*m, None);
@@ -1118,21 +1119,19 @@ impl Drop for Context {
             ManuallyDrop::drop(&mut self.allocator);
             // The pipeline cache belongs with the pipelines under DEVICE_LIFETIME.
             let pipelines = pipeline_creation_guard();
-            let cache_data = match &self.pipeline_cache_file {
-                Some(_) => match self.device.get_pipeline_cache_data(self.pipeline_cache) {
-                    Ok(data) => data,
-                    Err(e) => {
-                        log::warn!("pipeline cache: reading it back failed: {e}");
-                        Vec::new()
-                    }
-                },
-                None => Vec::new(),
-            };
+            let cache = self.pipeline_cache_file.as_ref().and_then(|path| match self.device.get_pipeline_cache_data(self.pipeline_cache) {
+                Ok(data) if !data.is_empty() => Some((path, data)),
+                Ok(_) => None,
+                Err(e) => {
+                    log::warn!("pipeline cache: reading it back failed: {e}");
+                    None
+                }
+            });
             self.device.destroy_pipeline_cache(self.pipeline_cache, None);
             drop(pipelines);
             // The file is written outside the lock: other contexts' pipelines need not wait for it.
-            if let (Some(path), false) = (&self.pipeline_cache_file, cache_data.is_empty()) {
-                if let Err(e) = super::pipeline_cache::save(path, &cache_data) {
+            if let Some((path, data)) = cache {
+                if let Err(e) = super::pipeline_cache::save(path, &data) {
                     log::warn!("pipeline cache: cannot write {}: {e}", path.display());
                 }
             }
@@ -1143,11 +1142,7 @@ impl Drop for Context {
             if let Some(p) = self.presentation.take() {
                 p.surface_loader.destroy_surface(p.surface, None);
             }
-            if let Some((loader, m)) = self.debug_instance.take() {
-                loader.destroy_debug_utils_messenger(m, None);
-            }
-            let _lifetime = lifetime_exclusive();
-            self.instance.destroy_instance(None);
+            destroy_instance(&self.instance, &self.debug_instance.take());
         }
     }
 }
