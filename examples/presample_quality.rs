@@ -4,7 +4,8 @@
 //!
 //! `cargo run --release --example presample_quality -- [SCENE] [W] [H] [REF_FRAMES] [VARIANTS] [SEEDS]`
 //! VARIANTS: comma-separated `ris:on`, `restir:off/16/4`, `restir:on/32/8/10`
-//! (mode:presample[/candidates[/neighbours[/spatial radius in pixels]]]; defaults 32, 8, 20).
+//! (mode:presample[/candidates[/neighbours[/spatial radius in pixels[/grid candidates[/grid cells[/grid entries]]]]]];
+//! defaults 32, 8, 20, 0 (no ReGIR grid), 16, 128).
 //! Per variant: mean relMSE of single frames 5..16 (what a moving camera shows), of the accumulated
 //! image after 1 and 16 frames, and the median GPU ms per frame, over SEEDS runs.
 
@@ -52,10 +53,16 @@ fn main() -> anyhow::Result<()> {
         let candidates: u32 = parts.get(1).unwrap_or(&"32").parse()?;
         let neighbours: u32 = parts.get(2).unwrap_or(&"8").parse()?;
         let radius: f32 = parts.get(3).unwrap_or(&"20").parse()?;
+        let grid = restir_vpl::settings::GridSettings {
+            candidates: parts.get(4).unwrap_or(&"0").parse()?,
+            cells: parts.get(5).unwrap_or(&"16").parse()?,
+            entries: parts.get(6).unwrap_or(&"128").parse()?,
+            ..Default::default()
+        };
         let (mut frame_err, mut t1, mut t16, mut ms) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         for seed in 0..seeds {
             let restir = RestirSettings { spatial_neighbours: neighbours, spatial_radius: Some(radius), ..Default::default() };
-            let s = RenderSettings { mode, presample: parts[0] == "on", candidates, restir, seed, frames: 16, ..base.clone() };
+            let s = RenderSettings { mode, presample: parts[0] == "on", candidates, restir, grid, seed, frames: 16, ..base.clone() };
             let mut r = Renderer::new(ctx.clone(), scene.clone(), s)?;
             let camera = r.initial_camera();
             for f in 0..16 {

@@ -301,6 +301,48 @@ gpu_struct! {
     }
 }
 
+/// Threads of a `regir_build` workgroup (one workgroup per grid cell; each thread builds
+/// `entries / REGIR_WORKGROUP` of the cell's entries).
+pub const REGIR_WORKGROUP: u32 = 64;
+
+gpu_struct! {
+    /// The world-space grid of presampled VPLs (ReGIR; `regir_build`, read by `restir_initial`).
+    /// `cells == 0`: no grid (every candidate from the source pdf).
+    pub struct GpuGridParams as "GridParams" (48) {
+        /// The grid's lower corner (scene units).
+        pub lo: [f32; 3],
+        /// Cells per axis (0: no grid).
+        pub cells: u32,
+        /// One cell's extent along each axis.
+        pub cell_size: [f32; 3],
+        /// Entries per cell (a multiple of `REGIR_WORKGROUP`).
+        pub entries: u32,
+        /// Candidates from the source pdf behind each entry (RIS with the cell's target).
+        pub entry_candidates: u32,
+        /// Of a pixel's `GpuVplParams::candidates`, how many come from its cell's entries.
+        pub grid_candidates: u32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+    }
+}
+
+gpu_struct! {
+    /// One entry of a ReGIR grid cell (`regir_build`): a VPL drawn by RIS with the cell's target,
+    /// and its unbiased contribution weight W (0: the entry is empty).
+    pub struct GpuGridEntry as "GridEntry" (48) {
+        pub position: [f32; 3],
+        /// As `GpuVplCandidate::vpl_kind`.
+        pub vpl_kind: u32,
+        pub flux: [f32; 3],
+        pub normal_oct: u32,
+        /// W = Σ w / p̂_c(y) of the entry's RIS.
+        pub ucw: f32,
+        pub _pad0: u32,
+        pub _pad1: u32,
+        pub _pad2: u32,
+    }
+}
+
 /// `vpl_shade`'s `view` push constant: what the pass writes.
 pub const SHADE_VIEW_FINAL: u32 = 0;
 pub const SHADE_VIEW_RESERVOIR_W: u32 = 1;
@@ -436,6 +478,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     PHOTON_EMIT_DIRECT,
     PHOTON_EMIT_PATHS,
     PHOTON_EMIT_SCALE,
+    REGIR_WORKGROUP,
     RAY_RATE_PRIMARY,
     RAY_RATE_SHADOW,
     RAY_RATE_BOUNCE,

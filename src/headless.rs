@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::camera::{Camera, CameraPath};
 use crate::output::{write_exr, write_png, TimingStats};
-use crate::renderer::Renderer;
+use crate::renderer::{Renderer, VplSummary};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
 use crate::settings::RenderSettings;
@@ -295,7 +295,10 @@ pub fn finish_run(
         wall_ms_per_frame: log.wall(),
         rays_per_pixel: log.rays_per_pixel(),
         rays_per_pixel_by_pass: log.rays_per_pixel_by_pass(),
-        vpl: renderer.vpl_summary(),
+        vpl: match renderer.vpl_summary() {
+            Some(v) => Some(VplSummary { grid_cells_built: renderer.grid_cells_built()?, ..v }),
+            None => None,
+        },
         nonfinite_samples: renderer.nonfinite_samples_total(),
         photons: renderer.photon_stats().cloned(),
         total_seconds: start.elapsed().as_secs_f64(),

@@ -144,6 +144,19 @@ struct RenderArgs {
     /// faster).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.presample))]
     presample: Toggle,
+    /// Of --candidates, how many come from a world-space grid of presampled VPLs (ReGIR: each cell
+    /// holds VPLs drawn for the cell by RIS; ris and restir). 0: none. Unbiased for any value.
+    #[arg(long, default_value_t = DEFAULTS.grid.candidates)]
+    grid_candidates: u32,
+    /// Cells per axis of the ReGIR grid over the scene's bounds (only the cells pixels see are built).
+    #[arg(long, default_value_t = DEFAULTS.grid.cells)]
+    grid_cells: u32,
+    /// Entries per ReGIR grid cell (a multiple of 64).
+    #[arg(long, default_value_t = DEFAULTS.grid.entries)]
+    grid_entries: u32,
+    /// Candidates from the source pdf behind each ReGIR grid entry.
+    #[arg(long, default_value_t = DEFAULTS.grid.entry_candidates)]
+    grid_entry_candidates: u32,
     /// ReSTIR's passes fused in pairs (restir_initial_temporal, restir_spatial_shade), as Bevy
     /// Solari runs them: the same image, fewer dispatches. Frames whose pass outputs are dumped or
     /// checked run the passes apart; the reservoir views keep vpl_shade apart (it draws them).
@@ -275,6 +288,11 @@ enum Command {
         /// passes apart and fused (--fuse-passes off / on), interleaved in one run.
         #[arg(long, requires = "modes")]
         fusion: bool,
+        /// With --modes: instead of the usual cases, uniform, RIS and ReSTIR (biased, unbiased) with
+        /// 32 candidates and with 8, 4 of them from the ReGIR grid (--grid-candidates), interleaved
+        /// in one run.
+        #[arg(long, requires = "modes", conflicts_with = "fusion")]
+        grid: bool,
         /// Instead: GPU ms of every per-pixel pass of ReSTIR and the path tracer at seven workgroup
         /// shapes (--workgroup; 8x8 default, 4x4 … 64x1), interleaved frame by frame, with the
         /// ratio to 8x8. Default size 1280×720.
@@ -606,6 +624,12 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         candidates: cli.candidates,
         candidate_source: cli.candidate_source,
         presample: cli.presample.on(),
+        grid: restir_vpl::settings::GridSettings {
+            candidates: cli.grid_candidates,
+            cells: cli.grid_cells,
+            entries: cli.grid_entries,
+            entry_candidates: cli.grid_entry_candidates,
+        },
         fuse_passes: cli.fuse_passes.map(Toggle::on),
         workgroup: cli.workgroup.0,
         restir: RestirSettings {
@@ -705,7 +729,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
         return results_main(&opts);
     }
-    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, fusion, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
+    if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, fusion, grid, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
         check_counts(&[("--runs", *runs)], checkpoints.as_deref())?;
@@ -721,7 +745,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             _ if *curves => ("--curves", &["scene", "width", "height", "quick", "out", "checkpoints", "runs", "device"]),
             _ if *rays => ("--rays", &["width", "height", "frames", "json", "device"]),
             _ if *workgroups => ("--workgroups", &["scene", "width", "height", "frames", "json", "device"]),
-            _ if *modes => ("--modes", &["scene", "width", "height", "frames", "json", "device", "moving", "fusion"]),
+            _ if *modes => ("--modes", &["scene", "width", "height", "frames", "json", "device", "moving", "fusion", "grid"]),
             _ if *photons => ("--photons", &["scene", "frames", "device"]),
             _ => ("(the primary-ray and path-tracing benchmark)", &["scene", "width", "height", "frames", "json", "device"]),
         };
@@ -868,7 +892,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             } else {
                 vec![(1280, 720), (1280, 1280)]
             };
-            let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device, *moving, *fusion)?;
+            let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device, *moving, *fusion, *grid)?;
             print!("{}", restir_vpl::eval::bench::modes_markdown(&rows));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
@@ -963,11 +987,21 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     }
     if let Some(v) = &s.vpl {
         println!(
-            "vpl: {} VPLs, {} candidate(s) ({} source{}), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}{}",
+            "vpl: {} VPLs, {} candidate(s) ({} source{}{}), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}{}",
             v.vpl_count,
             v.candidates,
             v.candidate_source,
             if v.presample { ", presampled tiles" } else { "" },
+            v.grid
+                .map(|g| format!(
+                    ", {} from a ReGIR grid of {}³ cells × {} entries of {} candidates, {} cells built in the last frame",
+                    g.candidates,
+                    g.cells,
+                    g.entries,
+                    g.entry_candidates,
+                    v.grid_cells_built.map_or("?".to_string(), |n| n.to_string())
+                ))
+                .unwrap_or_default(),
             v.yuksel_radius.map(|r| format!("{r:.4}")).unwrap_or_else(|| "- (inverse square)".into()),
             v.initial_visibility,
             v.unbiased_reuse,

@@ -21,7 +21,7 @@ use crate::gpu_types::{
 };
 use crate::output::TimingStats;
 use crate::passes::{
-    FramePlan, FrameTargets, Passes, PhotonEmitPass, PhotonStats, Reservoirs, RestirBoilingPass, RestirInitialPass, RestirInitialTemporalPass,
+    FramePlan, FrameTargets, GridBuffers, GridLayout, Passes, PhotonEmitPass, PhotonStats, RegirBuildPass, Reservoirs, RestirBoilingPass, RestirInitialPass, RestirInitialTemporalPass,
     RestirSpatialPass, RestirSpatialShadePass, RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_SLOTS,
 };
 use crate::lights::{LightSet, PointEmitter};
@@ -139,6 +139,8 @@ struct VplSetup {
     _alias: Buffer,
     /// Bound as `restir_initial`'s tiles when there is no `vpl_presample` pass.
     _no_tiles: Option<Buffer>,
+    /// Bound as `restir_initial`'s grid (entries, cells) when there is no `regir_build` pass.
+    _no_grid: Option<(Buffer, Buffer)>,
     reservoirs: Option<Reservoirs>,
 }
 
@@ -154,6 +156,11 @@ pub struct VplSummary {
     pub candidate_source: &'static str,
     /// Candidates come from `vpl_presample`'s tiles.
     pub presample: bool,
+    /// The ReGIR grid that `grid.candidates` of the candidates come from (None: no grid).
+    pub grid: Option<crate::settings::GridSettings>,
+    /// Of the grid's cells, those `regir_build` built in the last frame (the cells its pixels lay
+    /// in the frame before); filled by [`Renderer::grid_cells_built`].
+    pub grid_cells_built: Option<u32>,
     /// Targets include visibility (initial sample shadow-tested).
     pub initial_visibility: bool,
     pub unbiased_reuse: bool,
@@ -743,6 +750,7 @@ impl Renderer {
         let inputs = VplInputs { vpls: &photon_pass.vpls, alias: &alias };
         let mut reservoirs = None;
         let mut no_tiles: Option<Buffer> = None;
+        let mut no_grid: Option<(Buffer, Buffer)> = None;
         if mode == Mode::Bruteforce {
             passes.vpl.bruteforce = Some(VplBruteforcePass::new(ctx, layout, targets, &inputs)?);
         } else if mode.uses_reservoirs() {
@@ -755,13 +763,29 @@ impl Renderer {
                 // The binding is declared by the shader but not read without presampling.
                 None => &*no_tiles.insert(VplPresamplePass::tiles_buffer(ctx, "vpl_presample.tiles(unused)", 32)?),
             };
-            passes.vpl.initial = Some(RestirInitialPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
+            if settings.uses_grid() {
+                let g = &settings.grid;
+                let layout_g = GridLayout { cells: g.cells, entries: g.entries, entry_candidates: g.entry_candidates, grid_candidates: g.candidates };
+                passes.vpl.regir = Some(RegirBuildPass::new(ctx, layout, &inputs, scene_gpu.info.bounds, &layout_g)?);
+            } else {
+                // The bindings are declared by the shaders but not read without a grid.
+                no_grid = Some((
+                    VplPresamplePass::tiles_buffer(ctx, "regir.entries(unused)", 48)?,
+                    crate::vk::Buffer::with_data(ctx, "regir.cells(unused)", &[0u8; 16], ash::vk::BufferUsageFlags::STORAGE_BUFFER)?,
+                ));
+            }
+            let grid = match (&passes.vpl.regir, &no_grid) {
+                (Some(p), _) => GridBuffers { entries: &p.entries, cells: &p.cells },
+                (None, Some((entries, cells))) => GridBuffers { entries, cells },
+                (None, None) => unreachable!("made above"),
+            };
+            passes.vpl.initial = Some(RestirInitialPass::new(ctx, layout, targets, &inputs, &res, tiles, &grid)?);
             passes.vpl.shade = Some(VplShadePass::new(ctx, layout, targets, &inputs, &res)?);
             if mode == Mode::Restir {
                 if r.temporal {
                     passes.vpl.temporal = Some(RestirTemporalPass::new(ctx, layout, targets, &inputs, &res)?);
                     if settings.fuse_passes == Some(true) {
-                        passes.vpl.initial_temporal = Some(RestirInitialTemporalPass::new(ctx, layout, targets, &inputs, &res, tiles)?);
+                        passes.vpl.initial_temporal = Some(RestirInitialTemporalPass::new(ctx, layout, targets, &inputs, &res, tiles, &grid)?);
                     }
                     if r.boiling_filter > 0.0 {
                         passes.vpl.boiling = Some(RestirBoilingPass::new(ctx, layout, &res)?);
@@ -797,6 +821,7 @@ impl Renderer {
             compensate,
             _alias: alias,
             _no_tiles: no_tiles,
+            _no_grid: no_grid,
             reservoirs,
         })
     }
@@ -860,6 +885,13 @@ impl Renderer {
                 shading(false, if mode == Mode::Uniform { "uniform sampling reads one VPL per pixel" } else { "--presample off" })
             } else {
                 shading(false, "mode picks no VPLs per pixel")
+            },
+            regir_build: if s.uses_grid() {
+                shading(true, "")
+            } else if matches!(mode, Mode::Ris | Mode::Restir) {
+                shading(false, "--grid-candidates 0")
+            } else {
+                shading(false, "mode draws no RIS candidates")
             },
             restir_initial: shading(mode.uses_reservoirs(), "mode picks no VPLs per pixel"),
             restir_temporal: restir_step(
@@ -1361,6 +1393,16 @@ impl Renderer {
         self.parts.photons.as_ref().map(|p| &p.1)
     }
 
+    /// How many of the ReGIR grid's cells the last frame built (None: no grid). Waits for the GPU.
+    pub fn grid_cells_built(&mut self) -> Result<Option<u32>> {
+        self.complete_all()?;
+        let Some(pass) = &self.parts.passes.vpl.regir else { return Ok(None) };
+        let cells = read_back_records::<[u32; 4]>(&self.ctx, &pass.cells, (pass.params.cells as usize).pow(3))?;
+        // The last frame rendered was frame_index - 1, whose build stamped frame_index.
+        let stamp = self.state.frame_index;
+        Ok(Some(cells.iter().filter(|c| stamp > 0 && c[1] == stamp).count() as u32))
+    }
+
     /// The VPL setup as summary.json reports it.
     pub fn vpl_summary(&self) -> Option<VplSummary> {
         self.parts.vpl.as_ref().map(|v| VplSummary {
@@ -1370,6 +1412,8 @@ impl Renderer {
             candidates: if self.settings.mode.uses_reservoirs() { v.params.candidates } else { 0 },
             candidate_source: if v.params.source == 1 { "power" } else { "uniform" },
             presample: self.parts.passes.vpl.presample.is_some(),
+            grid: self.parts.passes.vpl.regir.is_some().then_some(self.settings.grid),
+            grid_cells_built: None,
             initial_visibility: v.params.flags & VPL_FLAG_INITIAL_VISIBILITY != 0,
             unbiased_reuse: v.params.flags & VPL_FLAG_UNBIASED != 0,
             spatial_radius_px: self

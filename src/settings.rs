@@ -364,6 +364,10 @@ pub struct RenderSettings {
     /// buffer.
     #[serde(default = "default_presample")]
     pub presample: bool,
+    /// A world-space grid of presampled VPLs (ReGIR) that part of the RIS candidates come from
+    /// (ris and restir; `grid.candidates == 0`: none).
+    #[serde(default)]
+    pub grid: GridSettings,
     /// ReSTIR's passes fused in pairs, as Bevy Solari runs them: `restir_initial_temporal`
     /// (initial RIS + temporal merge) and `restir_spatial_shade` (last spatial merge + shading),
     /// each one dispatch with the same functions and random streams as the two passes it replaces
@@ -443,6 +447,7 @@ impl Default for RenderSettings {
             candidates: 32,
             candidate_source: CandidateSource::Uniform,
             presample: default_presample(),
+            grid: GridSettings::default(),
             fuse_passes: None,
             workgroup: default_workgroup(),
             restir: RestirSettings::default(),
@@ -464,6 +469,32 @@ fn default_merge_blas() -> u32 {
 fn default_presample() -> bool {
     true
 }
+
+/// The ReGIR grid (`regir_build`; shaders/restir/regir.glsl): cells over the scene's bounds, each
+/// holding entries drawn by RIS with a target bounding every receiver in the cell; a pixel takes
+/// `candidates` of its `--candidates` from its cell, the rest from the source pdf, weighted by the
+/// balance heuristic (unbiased either way).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct GridSettings {
+    /// Candidates per pixel from the grid (`--grid-candidates`; 0: no grid).
+    pub candidates: u32,
+    /// Cells per axis (`--grid-cells`).
+    pub cells: u32,
+    /// Entries per cell (`--grid-entries`, a multiple of 64).
+    pub entries: u32,
+    /// Source-pdf candidates behind each entry (`--grid-entry-candidates`).
+    pub entry_candidates: u32,
+}
+
+impl Default for GridSettings {
+    fn default() -> Self {
+        Self { candidates: 0, cells: 16, entries: 128, entry_candidates: 8 }
+    }
+}
+
+/// Most cells per axis of the ReGIR grid (`--grid-cells`).
+pub const MAX_GRID_CELLS: u32 = 64;
 
 /// 8×8: a 64-invocation workgroup (a warp or wavefront pair on GPUs; eight 8-lane SIMD steps on
 /// lavapipe), the size RTXDI and Bevy Solari use for their per-pixel passes.
@@ -532,7 +563,9 @@ impl RenderSettings {
                 "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" if !self.mode.uses_vpls() => {
                     "it shapes how VPLs shade, and --mode pt does not shade with VPLs".to_string()
                 }
-                "candidates" | "candidate_source" | "presample" if !matches!(self.mode, Mode::Ris | Mode::Restir) => {
+                "candidates" | "candidate_source" | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates"
+                    if !matches!(self.mode, Mode::Ris | Mode::Restir) =>
+                {
                     format!("it sets the RIS candidates of --mode ris and restir, not of --mode {mode}")
                 }
                 "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
@@ -569,12 +602,15 @@ impl RenderSettings {
                 {
                     "it sets reservoir reuse, and with --temporal off and no spatial reuse there is none".to_string()
                 }
+                "grid_cells" | "grid_entries" | "grid_entry_candidates" if self.grid.candidates == 0 => {
+                    "it shapes the ReGIR grid, and --grid-candidates 0 uses none".to_string()
+                }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
                 "vpls_indirect" | "photon_min_bounces" | "photon_max_bounces" if !self.gi => {
                     "it shapes the indirect VPLs, and --no-gi traces none".to_string()
                 }
                 "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" | "candidates" | "candidate_source"
-                | "presample" | "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
+                | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates" | "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
                 | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes"
                     if self.view == View::Vpls =>
                 {
@@ -600,6 +636,11 @@ impl RenderSettings {
     /// one VPL per pixel: a tile would cost more than it saves).
     pub fn presamples(&self) -> bool {
         self.presample && matches!(self.mode, Mode::Ris | Mode::Restir)
+    }
+
+    /// Whether `regir_build` runs: ris and restir with `--grid-candidates` above 0.
+    pub fn uses_grid(&self) -> bool {
+        self.grid.candidates > 0 && matches!(self.mode, Mode::Ris | Mode::Restir)
     }
 
     /// RIS candidates the restir_initial pass draws: one for uniform sampling.
@@ -727,6 +768,19 @@ impl RenderSettings {
         }
         if self.candidates == 0 || self.candidates > 1024 {
             bail!("--candidates {}: must be between 1 and 1024", self.candidates);
+        }
+        let g = &self.grid;
+        if g.candidates > self.candidates {
+            bail!("--grid-candidates {}: at most --candidates ({}), of which they are a part", g.candidates, self.candidates);
+        }
+        if g.cells == 0 || g.cells > MAX_GRID_CELLS {
+            bail!("--grid-cells {}: must be between 1 and {MAX_GRID_CELLS}", g.cells);
+        }
+        if g.entries == 0 || g.entries % crate::gpu_types::REGIR_WORKGROUP != 0 || g.entries > 4096 {
+            bail!("--grid-entries {}: must be a multiple of {} between {} and 4096", g.entries, crate::gpu_types::REGIR_WORKGROUP, crate::gpu_types::REGIR_WORKGROUP);
+        }
+        if g.entry_candidates == 0 || g.entry_candidates > 1024 {
+            bail!("--grid-entry-candidates {}: must be between 1 and 1024", g.entry_candidates);
         }
         let r = &self.restir;
         if !(r.mcap >= 0.0 && r.mcap.is_finite()) {

@@ -275,6 +275,16 @@ fn vpl_params_layout_matches() {
 }
 
 #[test]
+fn grid_params_layout_matches() {
+    check::<GpuGridParams>();
+}
+
+#[test]
+fn grid_entry_layout_matches() {
+    check::<GpuGridEntry>();
+}
+
+#[test]
 fn texture_layout_matches() {
     check::<GpuTexture>();
 }

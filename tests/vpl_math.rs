@@ -146,6 +146,63 @@ fn vpl_on_the_shaded_point_gives_finite_contribution() {
     }
 }
 
+/// The ReGIR grid's cell target (shaders/restir/regir.glsl) at random VPLs, cells and receivers
+/// inside each cell's bounding sphere: positive wherever the pixel's target is (so a pixel drawing
+/// all its candidates from the grid stays unbiased), and with Yuksel's attenuation at least the
+/// pixel's target (it bounds it over the sphere). Includes receivers near the sphere's edge, VPLs
+/// inside the sphere and VPLs just behind the plane through a receiver.
+#[test]
+fn regir_cell_target_covers_and_bounds_the_pixel_target() {
+    let mut rng = 0x2545_f491_4f6c_dd1du64;
+    let mut next = move || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 11) as f32 / (1u64 << 53) as f32
+    };
+    let unit = |next: &mut dyn FnMut() -> f32| loop {
+        let v = glam::Vec3::new(2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0);
+        if v.length_squared() > 1e-4 && v.length_squared() <= 1.0 {
+            return v.normalize();
+        }
+    };
+    const N: usize = 20_000;
+    let (mut vpls, mut spheres, mut points) = (Vec::new(), Vec::new(), Vec::new());
+    for i in 0..N {
+        let c = glam::Vec3::new(next(), next(), next()) * 4.0;
+        let rc = 0.05 + next();
+        // A receiver anywhere in the sphere (a tenth of them on its surface).
+        let r = if i % 10 == 0 { rc * 0.9999 } else { rc * next().cbrt() };
+        let x = c + unit(&mut next) * r;
+        let n = unit(&mut next);
+        // The VPL: near the receiver (inside the sphere) or anywhere around it.
+        let y = if i % 3 == 0 { c + unit(&mut next) * rc * next() } else { x + unit(&mut next) * (0.01 + 3.0 * next()) };
+        let kind = [VPL_INDIRECT, VPL_DIRECT_AREA, VPL_DIRECT_POINT][i % 3];
+        vpls.push(GpuVpl { position: y.to_array(), kind, normal: unit(&mut next).to_array(), path: 0, flux: [next(), next(), next()], yuksel_r2: 0.0 });
+        spheres.push([c.x, c.y, c.z, rc]);
+        points.push([x.x, x.y, x.z, 0.0]);
+        points.push([n.x, n.y, n.z, 0.0]);
+    }
+    for (attenuation, r2) in [(ATTENUATION_YUKSEL, 1e-3), (ATTENUATION_YUKSEL, 0.0), (ATTENUATION_INVERSE_SQUARE, 0.0)] {
+        let params = GpuVplParams { vpl_count: N as u32, attenuation, yuksel_r2: r2, kind_mask: KIND_MASK_DIRECT | KIND_MASK_INDIRECT, ..Default::default() };
+        let out = run(6, N as u32, 0, &spheres, &vpls, &points, params);
+        let mut lit = 0;
+        for (i, o) in out.outputs.iter().enumerate() {
+            let (t, c) = (o[0], o[1]);
+            assert!(t.is_finite() && c.is_finite() && c >= 0.0, "case {i}: target {t}, cell target {c}");
+            if t > 0.0 {
+                lit += 1;
+                assert!(c > 0.0, "attenuation {attenuation}, case {i}: the pixel's target is {t} but the cell's is 0 ({:?}, sphere {:?})", vpls[i], spheres[i]);
+                if attenuation == ATTENUATION_YUKSEL {
+                    assert!(c >= t * (1.0 - 1e-4), "attenuation {attenuation} r² {r2}, case {i}: cell target {c} below the pixel's {t}");
+                }
+            }
+        }
+        // Enough lit cases for the checks to mean something.
+        assert!(lit > N / 10, "only {lit} of {N} receivers lit");
+    }
+}
+
 /// Upper 0.9999 quantile of the chi-square distribution (Wilson–Hilferty approximation).
 fn chi2_quantile_9999(dof: f64) -> f64 {
     let z = 3.719; // standard normal 0.9999 quantile

@@ -1,7 +1,8 @@
 //! The VPL estimators against the brute-force sum over the same VPL set (the VPL model's exact
 //! answer), on the Cornell box at small size with few VPLs.
 //!
-//! - uniform and RIS (both candidate sources, with and without presampling): frames are independent,
+//! - uniform and RIS (both candidate sources, with and without presampling, with and without the
+//!   ReGIR grid): frames are independent,
 //!   so each block's standard error comes from the spread of its per-frame means; every 12×12
 //!   block's mean must lie within 5 standard errors of the brute-force block mean (17 checks per
 //!   mode; a false alarm under 1e-4 per mode).
@@ -18,7 +19,7 @@ use std::sync::Arc;
 use restir_vpl::renderer::Renderer;
 use restir_vpl::scene::Scene;
 use restir_vpl::scene_gpu::SceneGpu;
-use restir_vpl::settings::{Attenuation, Bias, CandidateSource, Mode, RenderSettings};
+use restir_vpl::settings::{Attenuation, Bias, CandidateSource, GridSettings, Mode, RenderSettings};
 use restir_vpl::vk::Context;
 
 const W: u32 = 48;
@@ -97,17 +98,25 @@ fn uniform_and_ris_converge_to_brute_force() {
     let mut all = vec![(0usize..(W * H) as usize).collect::<Vec<_>>()];
     all.extend(blocks(W, H));
     let ref_all = block_means(&reference, &all);
+    // The last field: candidates (of 8) from the ReGIR grid (regir_build), the rest from the
+    // source pdf with balance-heuristic weights; 8 of 8: the grid alone, which is unbiased only
+    // because the cell target is positive wherever a pixel's target can be.
     let cases = [
-        ("uniform", Mode::Uniform, CandidateSource::Uniform, false, 256),
-        ("ris (uniform source)", Mode::Ris, CandidateSource::Uniform, false, 96),
-        ("ris (power source)", Mode::Ris, CandidateSource::Power, false, 96),
-        ("ris (uniform source, presampled)", Mode::Ris, CandidateSource::Uniform, true, 96),
-        ("ris (power source, presampled)", Mode::Ris, CandidateSource::Power, true, 96),
+        ("uniform", Mode::Uniform, CandidateSource::Uniform, false, 256, 0),
+        ("ris (uniform source)", Mode::Ris, CandidateSource::Uniform, false, 96, 0),
+        ("ris (power source)", Mode::Ris, CandidateSource::Power, false, 96, 0),
+        ("ris (uniform source, presampled)", Mode::Ris, CandidateSource::Uniform, true, 96, 0),
+        ("ris (power source, presampled)", Mode::Ris, CandidateSource::Power, true, 96, 0),
+        ("ris (uniform source, presampled, 4 from the grid)", Mode::Ris, CandidateSource::Uniform, true, 96, 4),
+        ("ris (power source, 4 from the grid)", Mode::Ris, CandidateSource::Power, false, 96, 4),
+        ("ris (8 from the grid: the grid alone)", Mode::Ris, CandidateSource::Uniform, true, 96, 8),
     ];
-    for (label, mode, source, presample, frames) in cases {
-        let s = RenderSettings { mode, candidate_source: source, candidates: 8, presample, ..base.clone() };
+    for (label, mode, source, presample, frames, grid) in cases {
+        let grid = GridSettings { candidates: grid, cells: 6, entries: 64, ..Default::default() };
+        let s = RenderSettings { mode, candidate_source: source, candidates: 8, presample, grid, ..base.clone() };
         let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         assert_eq!(r.vpl_summary().unwrap().presample, presample && mode == Mode::Ris, "{label}: presample pass present");
+        assert_eq!(r.vpl_summary().unwrap().grid.is_some(), grid.candidates > 0, "{label}: regir_build present");
         assert_frames_converge(label, &mut r, frames, &all, &ref_all);
     }
     common::assert_no_validation_errors(&ctx);
@@ -245,15 +254,17 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     let ref_means = block_means(&reference, &all);
     const RUNS: u32 = 32;
     const FRAMES: u32 = 16;
-    for (bias, visibility) in [(Bias::Unbiased, true), (Bias::Unbiased, false), (Bias::Biased, false)] {
+    // The last field: candidates (of 8) from the ReGIR grid.
+    for (bias, visibility, grid) in [(Bias::Unbiased, true, 0), (Bias::Unbiased, false, 0), (Bias::Unbiased, false, 4), (Bias::Biased, false, 0)] {
         let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: Some(visibility), ..Default::default() };
-        let s = RenderSettings { restir, candidates: 8, ..base.clone() };
+        let grid = GridSettings { candidates: grid, cells: 6, entries: 64, ..Default::default() };
+        let s = RenderSettings { restir, candidates: 8, grid, ..base.clone() };
         let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         let (runs, ts, lines) = run_means(&mut r, RUNS, FRAMES, &all, &ref_means);
         let worst = ts.iter().fold(0f64, |w, t| w.max(t.abs()));
         // The test's power: the smallest whole-image bias that |t| < 6 would still let through.
         let detectable = 6.0 * whole_image_se(&runs) / ref_means[0];
-        println!("restir {bias:?} (visibility {visibility}): a whole-image bias above {:.3}% fails the t-test", 100.0 * detectable);
+        println!("restir {bias:?} (visibility {visibility}, {} grid candidates): a whole-image bias above {:.3}% fails the t-test", grid.candidates, 100.0 * detectable);
         if bias == Bias::Unbiased {
             for (t, line) in ts.iter().zip(&lines) {
                 assert!(t.abs() < 6.0, "unbiased restir, {line}");

@@ -80,15 +80,29 @@ Reservoir reservoir_texels(utextureBuffer b, uint i) {
     return r;
 }
 
-VplCandidate candidate_texels(utextureBuffer b, uint i) {
-    uvec4 t0 = texel_at(b, 2u * i);
-    uvec4 t1 = texel_at(b, 2u * i + 1u);
+// The VplCandidate whose two texels start at texel k.
+VplCandidate candidate_texels_at(utextureBuffer b, uint k) {
+    uvec4 t0 = texel_at(b, k);
+    uvec4 t1 = texel_at(b, k + 1u);
     VplCandidate c;
     c.position = uintBitsToFloat(t0.xyz);
     c.vpl_kind = t0.w;
     c.flux = uintBitsToFloat(t1.xyz);
     c.normal_oct = t1.w;
     return c;
+}
+
+VplCandidate candidate_texels(utextureBuffer b, uint i) {
+    return candidate_texels_at(b, 2u * i);
+}
+
+// A GridEntry is 3 texels: its VplCandidate's two, then (ucw, padding).
+VplCandidate grid_entry_candidate_texels(utextureBuffer b, uint i) {
+    return candidate_texels_at(b, 3u * i);
+}
+
+float grid_entry_ucw_texels(utextureBuffer b, uint i) {
+    return uintBitsToFloat(texel_at(b, 3u * i + 2u).x);
 }
 
 Vertex vertex_texels(utextureBuffer b, uint i) {

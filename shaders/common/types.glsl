@@ -197,4 +197,29 @@ struct VplParams {
     uint flags;
 };
 
+// The world-space grid of presampled VPLs (ReGIR): GpuGridParams in src/gpu_types.rs.
+const uint REGIR_WORKGROUP = 64u;
+struct GridParams {
+    vec3 lo;
+    uint cells;
+    vec3 cell_size;
+    uint entries;
+    uint entry_candidates;
+    uint grid_candidates;
+    uint _pad0;
+    uint _pad1;
+};
+
+// A VplCandidate (the first 32 bytes) and its contribution weight: GpuGridEntry.
+struct GridEntry {
+    vec3 position;
+    uint vpl_kind;
+    vec3 flux;
+    uint normal_oct;
+    float ucw;
+    uint _pad0;
+    uint _pad1;
+    uint _pad2;
+};
+
 #endif

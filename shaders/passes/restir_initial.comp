@@ -19,11 +19,16 @@ layout(set = 1, binding = 2) uniform utextureBuffer vpl_alias;  // AliasEntry, R
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 layout(set = 1, binding = 5) uniform utextureBuffer tiles;  // VplCandidate, 2 texels each
+layout(set = 1, binding = 6) uniform utextureBuffer grid_entries;  // GridEntry, 3 texels each
+layout(set = 1, binding = 7, std430) buffer GridCells { uvec4 grid_cells[]; };  // regir_build.comp
 
 layout(push_constant) uniform Push {
     VplParams params;
+    GridParams grid;  // cells == 0: no grid
     uint tiles;  // presampled tiles to read (0: draw from the VPL buffer)
 } pc;
+
+#include "regir_pixel.glsl"
 
 void main() {
     uvec2 pixel = dispatch_pixel();
@@ -33,7 +38,8 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     Surface s = surface_texels(surfaces, surface_slot(index));
     uint rays = 0u;
-    reservoirs_out[index] = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
+    GridPick k = regir_pixel(s, pc.grid, pc.params);
+    reservoirs_out[index] = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, pc.grid, k, grid_entries, rays);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_INITIAL], rays);
     }

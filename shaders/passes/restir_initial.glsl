@@ -22,40 +22,116 @@
 #include "../lib/random.glsl"
 #include "../restir/reservoir.glsl"
 #include "../common/texel_records.glsl"
+#include "../restir/regir.glsl"
 
 const uint SALT_INITIAL = 0x7269u;
 
+// The source pdf q(i) of a VPL of flux Phi: 1/N, or lum(Phi) / sum lum for the power source.
+float initial_source_pdf(vec3 flux, VplParams p) {
+    return p.source == 1u ? luminance(flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
+}
+
 // Streams candidate VPL `i` (target t, flux Phi) into the reservoir with the RIS weight
-// t / (M p(i)), p the source pdf: 1/N, or lum(Phi) / sum lum for the power source.
+// t / (M q(i)).
 void initial_offer(inout ReservoirStream st, uint i, float t, vec3 flux, VplParams p, float u) {
-    float source_pdf = p.source == 1u ? luminance(flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
+    float source_pdf = initial_source_pdf(flux, p);
     float w = source_pdf > 0.0 ? t * (1.0 / float(p.candidates)) / source_pdf : 0.0;
     stream_update(st, i, w, t, u);
 }
 
+// The pixel's use of the ReGIR grid (regir.glsl): its cell (-1: none, every candidate from q),
+// the cell's bounding sphere, and 1/S of the cell's previous build (0: no estimate, so constant
+// MIS weights 1/M).
+struct GridPick {
+    int cell;
+    uint n_grid;
+    float inv_norm;
+    vec3 centre;
+    float radius;
+};
+
+GridPick grid_pick(GridParams g, int cell, float norm, VplParams p) {
+    GridPick k;
+    k.cell = cell;
+    k.n_grid = cell >= 0 ? min(g.grid_candidates, p.candidates) : 0u;
+    k.inv_norm = k.n_grid > 0u && norm > 0.0 ? 1.0 / norm : 0.0;
+    k.centre = cell >= 0 ? regir_cell_centre(g, uint(cell)) : vec3(0.0);
+    k.radius = regir_cell_radius(g);
+    return k;
+}
+
+// The RIS weight of a candidate from q (target t, source pdf q, cell target pc) when the pixel
+// mixes in grid candidates: balance heuristic between n_u draws from q and n_g from the grid, whose
+// density is replaced by the pseudo-density pc / S; constant weights 1/M without an S.
+float mixed_weight_from_source(float t, float q, float pc, GridPick k, uint n_u, uint m) {
+    if (k.inv_norm > 0.0) {
+        float denom = float(n_u) * q + float(k.n_grid) * regir_pseudo_pdf(pc, k.inv_norm);
+        return denom > 0.0 ? t / denom : 0.0;
+    }
+    return q > 0.0 ? t / (float(m) * q) : 0.0;
+}
+
+// The same for a grid entry (contribution weight W): m_g(y) t W / n_g with the balance heuristic's
+// m_g, or t W / M.
+float mixed_weight_from_grid(float t, float ucw, float q, float pc, GridPick k, uint n_u, uint m) {
+    if (k.inv_norm > 0.0) {
+        float pg = regir_pseudo_pdf(pc, k.inv_norm);
+        float denom = float(n_u) * q + float(k.n_grid) * pg;
+        return denom > 0.0 ? t * pg * ucw / denom : 0.0;
+    }
+    return t * ucw / float(m);
+}
+
 // The initial reservoir of `pixel`, whose surface is `s` (a hit or not). `tile_count`: presampled
-// tiles in `tiles` (0: draw from `vpls`, through `vpl_alias` for the power source). Adds the
-// shadow rays it traced to `rays`.
+// tiles in `tiles` (0: draw from `vpls`, through `vpl_alias` for the power source). `k` (grid_pick):
+// the first k.n_grid candidates come from the pixel's grid cell's entries in `grid_entries`.
+// Adds the shadow rays it traced to `rays`.
 Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count, utextureBuffer vpls, utextureBuffer vpl_alias,
-                            utextureBuffer tiles, inout uint rays) {
+                            utextureBuffer tiles, GridParams g, GridPick k, utextureBuffer grid_entries, inout uint rays) {
     if (s.offset_scale < 0.0 || p.vpl_count == 0u || p.candidates == 0u) {
         return reservoir_empty(1.0);
     }
     Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_INITIAL);
     ReservoirStream st = stream_begin();
+    uint m = p.candidates;
+    uint n_u = m - k.n_grid;
+    bool per_vpl_r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u;
+    // Grid candidates (none without a grid or outside it).
+    for (uint j = 0u; j < k.n_grid; ++j) {
+        uint e = uint(k.cell) * g.entries + rand_index(rng, g.entries);
+        float ucw = grid_entry_ucw_texels(grid_entries, e);
+        float u = rand(rng);
+        if (ucw > 0.0) {
+            VplCandidate c = grid_entry_candidate_texels(grid_entries, e);
+            uint kind = c.vpl_kind >> CANDIDATE_INDEX_BITS;
+            vec3 n = oct_decode(c.normal_oct);
+            float r2 = per_vpl_r2 ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
+            float t = vpl_target_at(c.position, kind, n, c.flux, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
+            float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, n, c.flux, k.centre, k.radius, p) : 0.0;
+            float w = mixed_weight_from_grid(t, ucw, initial_source_pdf(c.flux, p), pc, k, n_u, m);
+            stream_update(st, candidate_index(c), w, t, u);
+        }
+    }
     if (tile_count > 0u) {
         uint tile = rand_index(rng, tile_count);
         uint base = tile * PRESAMPLE_TILE_SIZE;
         uint start = rand_index(rng, PRESAMPLE_TILE_SIZE);
-        for (uint j = 0u; j < p.candidates; ++j) {
+        for (uint j = 0u; j < n_u; ++j) {
             VplCandidate c = candidate_texels(tiles, base + ((start + j) & (PRESAMPLE_TILE_SIZE - 1u)));
             // A per-VPL radius costs one extra read of the full record (off by default).
-            float r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
+            float r2 = per_vpl_r2 ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = candidate_target(c, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            initial_offer(st, candidate_index(c), t, c.flux, p, rand(rng));
+            if (k.n_grid == 0u) {
+                initial_offer(st, candidate_index(c), t, c.flux, p, rand(rng));
+            } else {
+                uint kind = c.vpl_kind >> CANDIDATE_INDEX_BITS;
+                float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, oct_decode(c.normal_oct), c.flux, k.centre, k.radius, p) : 0.0;
+                float w = mixed_weight_from_source(t, initial_source_pdf(c.flux, p), pc, k, n_u, m);
+                stream_update(st, candidate_index(c), w, t, rand(rng));
+            }
         }
     } else {
-        for (uint j = 0u; j < p.candidates; ++j) {
+        for (uint j = 0u; j < n_u; ++j) {
             uint i = rand_index(rng, p.vpl_count);
             if (p.source == 1u) {
                 AliasEntry e = alias_texels(vpl_alias, i);
@@ -63,7 +139,13 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             }
             Vpl v = vpl_texels(vpls, i);
             float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            initial_offer(st, i, t, v.flux, p, rand(rng));
+            if (k.n_grid == 0u) {
+                initial_offer(st, i, t, v.flux, p, rand(rng));
+            } else {
+                float pc = k.inv_norm > 0.0 ? regir_cell_target(v.position, v.kind, v.normal, v.flux, k.centre, k.radius, p) : 0.0;
+                float w = mixed_weight_from_source(t, initial_source_pdf(v.flux, p), pc, k, n_u, m);
+                stream_update(st, i, w, t, rand(rng));
+            }
         }
     }
     st.confidence = 1.0;

@@ -25,14 +25,19 @@ layout(set = 1, binding = 3) uniform utextureBuffer tiles;  // VplCandidate, 2 t
 layout(set = 1, binding = 4) uniform utextureBuffer history;  // Reservoir, 1 texel each
 layout(set = 1, binding = 5, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
 layout(set = 1, binding = 6, std430) buffer RayCounter { uint ray_count[]; };
+layout(set = 1, binding = 7) uniform utextureBuffer grid_entries;  // GridEntry, 3 texels each
+layout(set = 1, binding = 8, std430) buffer GridCells { uvec4 grid_cells[]; };  // regir_build.comp
 
 layout(push_constant) uniform Push {
     VplParams params;
+    GridParams grid;  // cells == 0: no grid
     uint tiles;  // presampled tiles to read (0: draw from the VPL buffer)
     float mcap;
     float normal_threshold;
     float depth_threshold;
 } pc;
+
+#include "regir_pixel.glsl"
 
 void main() {
     uvec2 pixel = dispatch_pixel();
@@ -42,7 +47,8 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     uint rays = 0u;
     Surface s = surface_texels(surfaces, surface_slot(index));
-    Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, rays);
+    GridPick k = regir_pixel(s, pc.grid, pc.params);
+    Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, pc.grid, k, grid_entries, rays);
     Reservoir r = initial;
     if (s.offset_scale >= 0.0) {
         TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);

@@ -20,6 +20,8 @@ layout(set = 0, binding = 9, std430) buffer B9 { Reservoir layout_reservoir[]; }
 layout(set = 0, binding = 10, std430) buffer B10 { VplParams layout_vpl_params[]; };
 layout(set = 0, binding = 11, std430) buffer B11 { TextureInfo layout_texture[]; };
 layout(set = 0, binding = 12, std430) buffer B12 { VplCandidate layout_vpl_candidate[]; };
+layout(set = 0, binding = 13, std430) buffer B13 { GridParams layout_grid_params[]; };
+layout(set = 0, binding = 14, std430) buffer B14 { GridEntry layout_grid_entry[]; };
 
 void main() {
     // Touch every buffer so glslang keeps their declarations.
@@ -27,5 +29,5 @@ void main() {
         + layout_light[0].area + layout_alias[0].keep + layout_surface[0].offset_scale
         + layout_frame_std430[0].aspect + layout_frame_std140.aspect + layout_vpl[0].flux.x
         + layout_reservoir[0].ucw + layout_vpl_params[0].yuksel_r2 + float(layout_texture[0].width)
-        + layout_vpl_candidate[0].flux.x;
+        + layout_vpl_candidate[0].flux.x + layout_grid_params[0].cell_size.x + layout_grid_entry[0].ucw;
 }

@@ -9,12 +9,16 @@
 //     frame i / 16384 -> `chosen[i * n + j]`
 //  5: pairwise MIS weights of one pair: `inputs[i]` = (m_i, p_i, m_c / k, p_c), `points[i].x` =
 //     total confidence -> (neighbour weight, canonical weight) in `outputs[i].xy`
+//  6: the ReGIR cell target: VPL `vpls[i]`, a cell's bounding sphere `inputs[i]` = (centre, radius),
+//     a receiver `points[2i]` (position) with normal `points[2i+1]`, albedo 1 -> (pixel target,
+//     cell target) in `outputs[i].xy`
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
 #include "../lib/random.glsl"
 #include "../restir/vpl.glsl"
 #include "../restir/reservoir.glsl"
+#include "../restir/regir.glsl"
 
 layout(local_size_x = 64) in;
 // after the local size: dispatch_index() reads gl_WorkGroupSize
@@ -83,6 +87,13 @@ void main() {
         vec4 a = inputs[i];
         float total = points[i].x;
         outputs[i] = vec4(pairwise_neighbour_weight(a.x, a.y, a.z, a.w, total), pairwise_canonical_weight(a.x, a.y, a.z, a.w, total), 0.0, 0.0);
+    } else if (pc.test == 6u) {
+        Vpl v = vpls[i];
+        vec3 x = points[2u * i].xyz;
+        vec3 n = points[2u * i + 1u].xyz;
+        float t = vpl_target(v, x, n, n, vec3(1.0), pc.params);
+        float c = regir_cell_target(v.position, v.kind, v.normal, v.flux, inputs[i].xyz, inputs[i].w, pc.params);
+        outputs[i] = vec4(t, c, 0.0, 0.0);
     } else if (pc.test == 4u) {
         Rng rng = rng_init(i % 128u, (i / 128u) % 128u, i / 16384u, pc.seed);
         for (uint j = 0u; j < pc.n; ++j) {

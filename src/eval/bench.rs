@@ -238,7 +238,7 @@ pub fn mode_cases() -> Vec<(&'static str, crate::settings::Mode, crate::settings
 /// the path committed beside the scene (`<scene>.path.json`, see [`moving_camera`]) and every frame
 /// is displayed alone (progressive off), as in the window while flying; otherwise the camera stands
 /// still at the scene's own and the G-buffer is traced once. `fusion`: [`fusion_cases`] instead of
-/// [`mode_cases`].
+/// [`mode_cases`]; `grid`: [`grid_cases`].
 #[allow(clippy::too_many_arguments)]
 pub fn modes(
     scene_path: &std::path::Path,
@@ -249,6 +249,7 @@ pub fn modes(
     device: Option<usize>,
     moving: bool,
     fusion: bool,
+    grid: bool,
 ) -> Result<Vec<ModeBench>> {
     let path = if moving {
         let file = crate::eval::motion::path_file(scene_path);
@@ -270,6 +271,8 @@ pub fn modes(
         };
         if fusion {
             out.extend(time_settings(&ctx, &scene, &fusion_cases(&base), frames, path.as_ref())?);
+        } else if grid {
+            out.extend(time_settings(&ctx, &scene, &grid_cases(&base), frames, path.as_ref())?);
         } else {
             out.extend(time_modes(&ctx, &scene, &base, &mode_cases(), frames, path.as_ref())?);
         }
@@ -287,6 +290,29 @@ pub fn fusion_cases(base: &RenderSettings) -> Vec<(String, RenderSettings)> {
             let restir = RestirSettings { bias, initial_visibility: Some(false), ..Default::default() };
             cases.push((format!("restir {name}, {how}"), RenderSettings { mode: Mode::Restir, restir, fuse_passes: Some(fuse_passes), ..base.clone() }));
         }
+    }
+    cases
+}
+
+/// Candidates per pixel of [`grid_cases`]' grid rows, and how many of them come from the grid:
+/// where unbiased ReSTIR with 4 + 4 had about the per-frame error of 32 uniform candidates on the
+/// Cornell box (docs/performance.md, "The ReGIR grid").
+pub const GRID_CASE_CANDIDATES: (u32, u32) = (8, 4);
+
+/// `bench --modes --grid`: uniform, then RIS and ReSTIR (biased, unbiased) with the default 32
+/// candidates and with [`GRID_CASE_CANDIDATES`] from the ReGIR grid and the source pdf.
+pub fn grid_cases(base: &RenderSettings) -> Vec<(String, RenderSettings)> {
+    use crate::settings::{Bias, GridSettings, Mode, RestirSettings};
+    let (m, g) = GRID_CASE_CANDIDATES;
+    let grid = GridSettings { candidates: g, ..Default::default() };
+    let mut cases = vec![("uniform".to_string(), RenderSettings { mode: Mode::Uniform, ..base.clone() })];
+    let mut both = |name: &str, mode: Mode, restir: RestirSettings| {
+        cases.push((format!("{name}, {} candidates", base.candidates), RenderSettings { mode, restir, ..base.clone() }));
+        cases.push((format!("{name}, {m} candidates ({g} from the grid)"), RenderSettings { mode, restir, candidates: m, grid, ..base.clone() }));
+    };
+    both("ris", Mode::Ris, RestirSettings::default());
+    for (name, bias) in [("restir biased", Bias::Biased), ("restir unbiased", Bias::Unbiased)] {
+        both(name, Mode::Restir, RestirSettings { bias, initial_visibility: Some(false), ..Default::default() });
     }
     cases
 }

@@ -9,6 +9,7 @@ pub mod desc;
 pub mod gbuffer;
 pub mod pathtrace;
 pub mod photon_emit;
+pub mod regir_build;
 pub mod restir_boiling;
 pub mod restir_initial;
 pub mod restir_initial_temporal;
@@ -28,7 +29,7 @@ use anyhow::Result;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-use crate::gpu_types::{GpuReservoir, GpuSurfaceTexels, GpuVpl, GpuVplCandidate, GpuVplParams, GBUFFER_CHUNKS, GLSL_CONSTANTS};
+use crate::gpu_types::{GpuGridParams, GpuReservoir, GpuSurfaceTexels, GpuVpl, GpuVplCandidate, GpuVplParams, GBUFFER_CHUNKS, GLSL_CONSTANTS};
 use crate::settings::{RestirSettings, View};
 use crate::vk::pipeline::compute_barrier;
 use crate::vk::{Buffer, Context, GpuTimer, TexelFormat};
@@ -38,6 +39,7 @@ pub use desc::PassDesc;
 pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
 pub use photon_emit::{PhotonEmitPass, PhotonStats};
+pub use regir_build::{GridLayout, RegirBuildPass};
 pub use restir_boiling::RestirBoilingPass;
 pub use restir_initial::RestirInitialPass;
 pub use restir_initial_temporal::RestirInitialTemporalPass;
@@ -58,6 +60,7 @@ pub const ALL_PASSES: &[&PassDesc] = &[
     &PhotonEmitPass::DESC,
     &VplBruteforcePass::DESC,
     &VplPresamplePass::DESC,
+    &RegirBuildPass::DESC,
     &RestirInitialPass::DESC,
     &RestirTemporalPass::DESC,
     &RestirInitialTemporalPass::DESC,
@@ -235,6 +238,13 @@ pub struct VplInputs<'a> {
     pub alias: &'a Buffer,
 }
 
+/// The ReGIR grid's buffers as `restir_initial` binds them (`regir_build`'s, or placeholders when
+/// there is no grid).
+pub struct GridBuffers<'a> {
+    pub entries: &'a Buffer,
+    pub cells: &'a Buffer,
+}
+
 /// The two reservoir buffers the ReSTIR passes ping-pong between. Which one holds what is decided
 /// per frame in [`FramePlan`]: `current` receives the initial reservoirs, the other one holds the
 /// previous frame's final reservoirs (the temporal history).
@@ -277,6 +287,7 @@ pub struct FramePlan {
     pub pathtrace: Step,
     pub vpl_bruteforce: Step,
     pub vpl_presample: Step,
+    pub regir_build: Step,
     pub restir_initial: Step,
     pub restir_temporal: Step,
     /// `restir_initial` + `restir_temporal` in one dispatch (then both of those skip).
@@ -327,6 +338,7 @@ impl FramePlan {
             (PathtracePass::NAME, &self.pathtrace),
             (VplBruteforcePass::NAME, &self.vpl_bruteforce),
             (VplPresamplePass::NAME, &self.vpl_presample),
+            (RegirBuildPass::NAME, &self.regir_build),
             (RestirInitialPass::NAME, &self.restir_initial),
             (RestirTemporalPass::NAME, &self.restir_temporal),
             (RestirInitialTemporalPass::NAME, &self.restir_initial_temporal),
@@ -396,6 +408,8 @@ pub struct VplPasses {
     pub bruteforce: Option<VplBruteforcePass>,
     /// Only with presampling (ris and restir, `--presample on`).
     pub presample: Option<VplPresamplePass>,
+    /// Only with a ReGIR grid (ris and restir, `--grid-candidates` > 0).
+    pub regir: Option<RegirBuildPass>,
     pub initial: Option<RestirInitialPass>,
     pub temporal: Option<RestirTemporalPass>,
     /// Only with `--fuse-passes on` (and a temporal pass).
@@ -472,7 +486,7 @@ impl Passes {
             scoped(ctx, cmd, timer, after, 0, &plan.pathtrace, PathtracePass::NAME, |cmd| pass.record(cmd, scene_set, w, h));
         }
 
-        // VPL modes: brute force, or (presample ->) initial RIS -> temporal (-> boiling filter) ->
+        // VPL modes: brute force, or (presample ->) (ReGIR grid ->) initial RIS -> temporal (-> boiling filter) ->
         // spatial ×n -> shade; then compensate. With --fuse-passes: initial + temporal in one dispatch, and the last
         // spatial pass + shade in one (FramePlan says which run).
         let v = &plan.vpl;
@@ -487,9 +501,16 @@ impl Passes {
             (Some(pass), Step::Run) => pass.tile_count,
             _ => 0,
         };
+        if let Some(pass) = &self.vpl.regir {
+            scoped(ctx, cmd, timer, after, 0, &plan.regir_build, RegirBuildPass::NAME, |cmd| pass.record(cmd, scene_set, p));
+        }
+        let grid = match (&self.vpl.regir, &plan.regir_build) {
+            (Some(pass), Step::Run) => pass.params,
+            _ => GpuGridParams::default(),
+        };
         if let Some(pass) = &self.vpl.initial {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_initial, RestirInitialPass::NAME, |cmd| {
-                pass.record(cmd, scene_set, p, tiles, v.current, w, h)
+                pass.record(cmd, scene_set, p, &grid, tiles, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.temporal {
@@ -499,7 +520,7 @@ impl Passes {
         }
         if let Some(pass) = &self.vpl.initial_temporal {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_initial_temporal, RestirInitialTemporalPass::NAME, |cmd| {
-                pass.record(cmd, scene_set, p, tiles, &v.restir, v.current, w, h)
+                pass.record(cmd, scene_set, p, &grid, tiles, &v.restir, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.boiling {

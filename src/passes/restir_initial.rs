@@ -7,17 +7,19 @@ use std::sync::Arc;
 use anyhow::Result;
 use ash::vk;
 
-use crate::gpu_types::GpuVplParams;
+use crate::gpu_types::{GpuGridParams, GpuVplParams};
 use crate::shaders;
 use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
-use super::{FrameTargets, Reservoirs, VplInputs};
+use super::{FrameTargets, GridBuffers, Reservoirs, VplInputs};
 
 push_constants! {
     struct Push {
         params: GpuVplParams,
+        /// The ReGIR grid (`regir_build`); `cells == 0`: none.
+        grid: GpuGridParams,
         /// Presampled tiles to read (`vpl_presample`); 0: draw from the VPL buffer.
         tiles: u32,
     }
@@ -35,6 +37,7 @@ impl RestirInitialPass {
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"),
             storage(3, "reservoirs_out"), storage(4, "ray_count"), texels(5, "tiles"),
+            texels(6, "grid_entries"), storage(7, "grid_cells"),
         ]);
 
     pub fn new(
@@ -44,20 +47,23 @@ impl RestirInitialPass {
         vpls: &VplInputs,
         reservoirs: &Reservoirs,
         tiles: &Buffer,
+        grid: &GridBuffers,
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
             .workgroup(targets.workgroup)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (4, &targets.ray_counter), (5, tiles)])
+            .buffers(&[(6, grid.entries), (7, grid.cells)])
             .ping_pong(reservoirs, 3, None)
             .build()?;
         Ok(Self { pipeline })
     }
 
-    /// `tiles`: the presampled tiles to read (0: none, draw from the VPL buffer).
+    /// `tiles`: the presampled tiles to read (0: none, draw from the VPL buffer); `grid`: the
+    /// ReGIR grid's parameters (`cells == 0`: none).
     #[allow(clippy::too_many_arguments)]
-    pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, tiles: u32, out: usize, w: u32, h: u32) {
-        let push = Push { params: *params, tiles };
+    pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, grid: &GpuGridParams, tiles: u32, out: usize, w: u32, h: u32) {
+        let push = Push { params: *params, grid: *grid, tiles };
         self.pipeline.dispatch_2d_variant(cmd, out, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }

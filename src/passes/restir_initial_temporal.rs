@@ -9,18 +9,20 @@ use std::sync::Arc;
 use anyhow::Result;
 use ash::vk;
 
-use crate::gpu_types::GpuVplParams;
+use crate::gpu_types::{GpuGridParams, GpuVplParams};
 use crate::settings::RestirSettings;
 use crate::shaders;
 use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
 
 use super::desc::{push_constants, PassDesc};
-use super::{FrameTargets, Reservoirs, VplInputs};
+use super::{FrameTargets, GridBuffers, Reservoirs, VplInputs};
 
 push_constants! {
     struct Push {
         params: GpuVplParams,
+        /// The ReGIR grid (`regir_build`); `cells == 0`: none.
+        grid: GpuGridParams,
         /// Presampled tiles to read (`vpl_presample`); 0: draw from the VPL buffer.
         tiles: u32,
         mcap: f32,
@@ -42,6 +44,7 @@ impl RestirInitialTemporalPass {
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"), texels(3, "tiles"),
             texels(4, "history"), storage(5, "reservoirs_out"), storage(6, "ray_count"),
+            texels(7, "grid_entries"), storage(8, "grid_cells"),
         ]);
 
     pub fn new(
@@ -51,22 +54,26 @@ impl RestirInitialTemporalPass {
         vpls: &VplInputs,
         reservoirs: &Reservoirs,
         tiles: &Buffer,
+        grid: &GridBuffers,
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (3, tiles), (6, &targets.ray_counter)])
+            .buffers(&[(7, grid.entries), (8, grid.cells)])
             .ping_pong(reservoirs, 5, Some(4))
             .build()?;
         Ok(Self { pipeline })
     }
 
-    /// `tiles`: the presampled tiles to read (0: none); `current`: the reservoir buffer written.
+    /// `tiles`: the presampled tiles to read (0: none); `grid`: the ReGIR grid (`cells == 0`:
+    /// none); `current`: the reservoir buffer written.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
         cmd: vk::CommandBuffer,
         scene_set: vk::DescriptorSet,
         params: &GpuVplParams,
+        grid: &GpuGridParams,
         tiles: u32,
         restir: &RestirSettings,
         current: usize,
@@ -75,6 +82,7 @@ impl RestirInitialTemporalPass {
     ) {
         let push = Push {
             params: *params,
+            grid: *grid,
             tiles,
             mcap: restir.mcap,
             normal_threshold: restir.normal_threshold,

@@ -1,0 +1,23 @@
+// The per-pixel side of the ReGIR grid that restir_initial.comp and restir_initial_temporal.comp
+// share (included after their `grid_cells` binding, which it reads and writes): the pixel's cell,
+// whether this frame's regir_build built it, and the cell's normalisation from its previous build;
+// then the pixel asks for its cell for the next frame's build.
+#ifndef REGIR_PIXEL_GLSL
+#define REGIR_PIXEL_GLSL
+
+GridPick regir_pixel(Surface s, GridParams g, VplParams p) {
+    int cell = s.offset_scale >= 0.0 && g.grid_candidates > 0u ? regir_cell(g, s.position) : -1;
+    if (cell < 0) {
+        return grid_pick(g, -1, 0.0, p);
+    }
+    uvec4 rec = grid_cells[cell];
+    uint stamp = frame.frame_index + 1u;
+    if (rec.x != stamp) {
+        grid_cells[cell].x = stamp;  // build it next frame (every writer stores the same value)
+    }
+    // Built this frame: its entries are this frame's draws over the current VPLs.
+    bool built = rec.y == stamp;
+    return grid_pick(g, built ? cell : -1, uintBitsToFloat(rec.w), p);
+}
+
+#endif

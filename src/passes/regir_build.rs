@@ -1,0 +1,106 @@
+//! `regir_build`: fills the world-space grid of presampled VPLs (ReGIR) that `restir_initial`
+//! draws part of its candidates from (shaders/passes/regir_build.comp; the estimator is in
+//! shaders/restir/regir.glsl). One workgroup per cell; only the cells a pixel asked for in the
+//! previous frame are built.
+
+use std::sync::Arc;
+
+use anyhow::Result;
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use glam::Vec3;
+
+use crate::gpu_types::{GpuGridEntry, GpuGridParams, GpuVplParams, REGIR_WORKGROUP};
+use crate::shaders;
+use crate::vk::pipeline::{storage, texels};
+use crate::vk::{Buffer, ComputePipeline, Context};
+
+use super::desc::{push_constants, PassDesc};
+use super::VplInputs;
+
+push_constants! {
+    struct Push {
+        params: GpuVplParams,
+        grid: GpuGridParams,
+    }
+}
+
+/// The grid's layout as the settings ask for it (`--grid-*`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GridLayout {
+    pub cells: u32,
+    pub entries: u32,
+    pub entry_candidates: u32,
+    pub grid_candidates: u32,
+}
+
+/// Owns the grid: `regir.entries` (`GpuGridEntry` per cell × entry, read by `restir_initial` as
+/// texels) and `regir.cells` (per cell: the frame a pixel last asked for it, the frame it was
+/// built in, and its normalisation of this and the previous build).
+pub struct RegirBuildPass {
+    pipeline: ComputePipeline,
+    pub entries: Buffer,
+    pub cells: Buffer,
+    pub params: GpuGridParams,
+}
+
+impl RegirBuildPass {
+    pub const NAME: &'static str = "regir_build";
+    pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_REGIR_BUILD, [REGIR_WORKGROUP, 1, 1])
+        .with_push(Push::LAYOUT)
+        .with_bindings(&[texels(0, "vpls"), texels(1, "vpl_alias"), storage(2, "entries"), storage(3, "cells")]);
+
+    /// The grid over the scene's bounds `(lo, hi)`, grown by 1 % of the diagonal on each side so
+    /// that every surface point lies strictly inside a cell (a receiver outside the grid takes no
+    /// grid candidates, which is unbiased but wastes them).
+    pub fn grid_params(bounds: (Vec3, Vec3), layout: &GridLayout) -> GpuGridParams {
+        let (lo, hi) = bounds;
+        let pad = Vec3::splat(0.01 * (hi - lo).length().max(1e-6));
+        let (lo, hi) = (lo - pad, hi + pad);
+        // No axis thinner than a hundredth of the longest (a flat scene would get zero-size cells).
+        let extent = (hi - lo).max(Vec3::splat((hi - lo).max_element() * 0.01));
+        GpuGridParams {
+            lo: lo.to_array(),
+            cells: layout.cells,
+            cell_size: (extent / layout.cells as f32).to_array(),
+            entries: layout.entries,
+            entry_candidates: layout.entry_candidates,
+            grid_candidates: layout.grid_candidates,
+            _pad0: 0,
+            _pad1: 0,
+        }
+    }
+
+    /// Bytes of the entries buffer of `layout`.
+    pub fn entries_bytes(layout: &GridLayout) -> u64 {
+        u64::from(layout.cells).pow(3) * u64::from(layout.entries) * std::mem::size_of::<GpuGridEntry>() as u64
+    }
+
+    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, vpls: &VplInputs, bounds: (Vec3, Vec3), layout: &GridLayout) -> Result<Self> {
+        let limits = &ctx.properties.limits;
+        let bytes = Self::entries_bytes(layout);
+        let texels = bytes / super::RECORD_TEXELS.bytes;
+        anyhow::ensure!(
+            bytes <= u64::from(limits.max_storage_buffer_range) && texels <= u64::from(limits.max_texel_buffer_elements),
+            "--grid-cells {} --grid-entries {}: the grid's entries take {bytes} bytes, more than this device's buffer limits \
+             (maxStorageBufferRange {} bytes, maxTexelBufferElements {}); use fewer cells or entries",
+            layout.cells,
+            layout.entries,
+            limits.max_storage_buffer_range,
+            limits.max_texel_buffer_elements
+        );
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let entries = Buffer::new(ctx, "regir.entries", bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(super::RECORD_TEXELS)?;
+        // Zero records: never asked for, never built, no normalisation yet.
+        let cells_bytes = vec![0u8; layout.cells.pow(3) as usize * 16];
+        let cells = Buffer::with_data(ctx, "regir.cells", &cells_bytes, vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC)?;
+        let pipeline = Self::DESC.pipeline(ctx, scene_layout).buffers(&[(0, vpls.vpls), (1, vpls.alias), (2, &entries), (3, &cells)]).build()?;
+        Ok(Self { pipeline, entries, cells, params: Self::grid_params(bounds, layout) })
+    }
+
+    pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams) {
+        let push = Push { params: *params, grid: self.params };
+        let n = self.params.cells;
+        self.pipeline.dispatch(cmd, scene_set, bytemuck::bytes_of(&push), [n, n, n]);
+    }
+}
