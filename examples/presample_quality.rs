@@ -6,7 +6,8 @@
 //! VARIANTS: comma-separated `ris:on`, `restir:off/16/4`, `restir:on/32/8/10`
 //! (mode:presample[/candidates[/neighbours[/spatial radius in pixels[/grid candidates[/grid cells[/grid entries]]]]]];
 //! defaults 32, 8, 20, 0 (no ReGIR grid), 16, 128).
-//! Per variant: mean relMSE of single frames 5..16 (what a moving camera shows), of the accumulated
+//! Per variant: mean relMSE of single frames 5..16 (what a moving camera shows; ± the standard error
+//! over the seeds of each seed's mean), of the accumulated
 //! image after 1 and 16 frames, and the median GPU ms per frame, over SEEDS runs.
 
 use std::sync::Arc;
@@ -60,11 +61,14 @@ fn main() -> anyhow::Result<()> {
             ..Default::default()
         };
         let (mut frame_err, mut t1, mut t16, mut ms) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        // Each seed's mean per-frame relMSE: the seeds are independent, its frames are not.
+        let mut per_seed = restir_vpl::eval::report::OverRuns::default();
         for seed in 0..seeds {
             let restir = RestirSettings { spatial_neighbours: neighbours, spatial_radius: Some(radius), ..Default::default() };
             let s = RenderSettings { mode, presample: parts[0] == "on", candidates, restir, grid, seed, frames: 16, ..base.clone() };
             let mut r = Renderer::new(ctx.clone(), scene.clone(), s)?;
             let camera = r.initial_camera();
+            let first = frame_err.len();
             for f in 0..16 {
                 r.render_frame(&camera, false)?;
                 if f >= 4 {
@@ -74,12 +78,14 @@ fn main() -> anyhow::Result<()> {
                     t1.push(rel_mse(&r.read_mean()?, &reference, w, h)?);
                 }
             }
+            per_seed.add(mean(&frame_err[first..]));
             t16.push(rel_mse(&r.read_mean()?, &reference, w, h)?);
             ms.push(r.log().gpu().median);
         }
         println!(
-            "{scene_path} {w}x{h} {v}: per-frame relMSE {:.5}, t=1 {:.5}, t=16 {:.5}, GPU ms {:.1}",
+            "{scene_path} {w}x{h} {v}: per-frame relMSE {:.5} ± {:.5}, t=1 {:.5}, t=16 {:.5}, GPU ms {:.1}",
             mean(&frame_err),
+            per_seed.standard_error().unwrap_or(f64::NAN),
             mean(&t1),
             mean(&t16),
             mean(&ms)

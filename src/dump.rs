@@ -286,7 +286,7 @@ pub fn write_frame(
     let mut values = Vec::new();
     // The dispatch's position in the frame: the plan is the frame's order, and a pass that ran
     // was dispatched once per capture of it (restir_spatial ×P), or once if it writes no
-    // per-pixel output (vpl_presample).
+    // per-pixel output (vpl_presample, regir_build).
     let mut next_dispatch = 0usize;
     for (name, step) in plan.steps() {
         let desc = descs.iter().find(|d| d.name == name);
@@ -308,11 +308,22 @@ pub fn write_frame(
         let captures = captured.iter().filter(|c| c.pass == name).count();
         match step {
             Step::Skip(why) => passes.push(common(None, 0, "skipped", Some(*why))),
-            // A pass without a per-pixel output (vpl_presample writes VPL tiles): listed as run,
+            // A pass without a per-pixel output (vpl_presample writes VPL tiles, regir_build grid
+            // entries): listed as run,
             // with its time and why there is no image.
             Step::Run if captures == 0 => {
-                let mut e = common(Some(next_dispatch), 0, "run", Some("no per-pixel output (it writes the frame's presampled VPL tiles)"));
+                let why = if name == crate::passes::RegirBuildPass::NAME {
+                    "no per-pixel output (it writes the ReGIR grid's entries)"
+                } else {
+                    "no per-pixel output (it writes the frame's presampled VPL tiles)"
+                };
+                let mut e = common(Some(next_dispatch), 0, "run", Some(why));
                 next_dispatch += 1;
+                if name == crate::passes::RegirBuildPass::NAME {
+                    // One workgroup per cell.
+                    let n = settings.grid.cells;
+                    e.workgroups = Some([n, n, n]);
+                }
                 if name == crate::passes::VplPresamplePass::NAME {
                     // One invocation per tile entry.
                     let entries = crate::passes::VplPresamplePass::tile_count(width, height) * crate::gpu_types::PRESAMPLE_TILE_SIZE;

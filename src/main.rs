@@ -288,9 +288,9 @@ enum Command {
         /// passes apart and fused (--fuse-passes off / on), interleaved in one run.
         #[arg(long, requires = "modes")]
         fusion: bool,
-        /// With --modes: instead of the usual cases, uniform, RIS and ReSTIR (biased, unbiased) with
-        /// 32 candidates and with 8, 4 of them from the ReGIR grid (--grid-candidates), interleaved
-        /// in one run.
+        /// With --modes: instead of the usual cases, uniform, then RIS and unbiased ReSTIR with 32
+        /// candidates, with 16, and with 16 of which 8 from the ReGIR grid (--grid-candidates),
+        /// interleaved in one run.
         #[arg(long, requires = "modes", conflicts_with = "fusion")]
         grid: bool,
         /// Instead: GPU ms of every per-pixel pass of ReSTIR and the path tracer at seven workgroup

@@ -15,6 +15,12 @@
 // reading 128 x 32 KB of tiles instead of the whole VPL buffer. (One tile per workgroup reads less
 // memory still, but neighbours then share candidates and spatial reuse loses: +47% accumulated
 // ReSTIR error at 16 frames on the Cornell box, against +12% with a tile per pixel.)
+// With the ReGIR grid (GridParams.grid_candidates > 0, regir.glsl): the first of the M candidates
+// are consecutive entries of the pixel's grid cell, the rest come from the source pdf as above, and
+// every candidate's weight is m(y) p^(y) W(y) with the balance heuristic between the two sources
+// (the grid's density replaced by the cell target over the cell's previous normalisation S; 1/M
+// weights before the cell has one). Without a grid, or in a cell not built this frame, the code
+// and random stream are those above.
 #ifndef RESTIR_INITIAL_GLSL
 #define RESTIR_INITIAL_GLSL
 
@@ -96,9 +102,12 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
     uint m = p.candidates;
     uint n_u = m - k.n_grid;
     bool per_vpl_r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u;
-    // Grid candidates (none without a grid or outside it).
+    // Grid candidates (none without a grid or outside it): consecutive entries of the pixel's cell
+    // from a random start, as from a presampled tile (the cell's entries are independent draws, so
+    // any distinct ones will do; beyond `entries` they wrap).
+    uint grid_start = k.n_grid > 0u ? rand_index(rng, g.entries) : 0u;
     for (uint j = 0u; j < k.n_grid; ++j) {
-        uint e = uint(k.cell) * g.entries + rand_index(rng, g.entries);
+        uint e = uint(k.cell) * g.entries + (grid_start + j) % g.entries;
         float ucw = grid_entry_ucw_texels(grid_entries, e);
         float u = rand(rng);
         if (ucw > 0.0) {
