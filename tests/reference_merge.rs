@@ -275,6 +275,21 @@ fn reference_configs_ignore_settings_the_mode_does_not_use() {
         s.candidates = 3;
     })));
 
+    // The ReGIR grid: no key unless RIS or ReSTIR take candidates from it, so references written
+    // before it existed still match; with grid candidates the config differs.
+    let with_grid = |mode: Mode, candidates: u32| {
+        config(&|s| {
+            s.mode = mode;
+            s.grid.candidates = candidates;
+            s.grid.cells = 7;
+        })
+    };
+    assert!(!pt.contains("grid") && !ris.contains("grid"), "{ris}");
+    assert_eq!(with_grid(Mode::Pt, 4), pt);
+    assert_eq!(with_grid(Mode::Ris, 0), ris);
+    assert!(!same_config(&with_grid(Mode::Ris, 4), &ris));
+    assert!(with_grid(Mode::Ris, 4).contains("\"grid\""));
+
     // An older file's config still holds the keys now dropped, with other values.
     let mut old: serde_json::Value = serde_json::from_str(&pt).unwrap();
     old.as_object_mut().unwrap().insert("restir".into(), serde_json::json!({"bias": "biased"}));

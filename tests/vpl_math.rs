@@ -150,7 +150,7 @@ fn vpl_on_the_shaded_point_gives_finite_contribution() {
 /// inside each cell's bounding sphere: positive wherever the pixel's target is (so a pixel drawing
 /// all its candidates from the grid stays unbiased), and with Yuksel's attenuation at least the
 /// pixel's target (it bounds it over the sphere). Includes receivers near the sphere's edge, VPLs
-/// inside the sphere and VPLs just behind the plane through a receiver.
+/// inside the sphere and VPLs just behind the plane through a receiver, and per-VPL radii.
 #[test]
 fn regir_cell_target_covers_and_bounds_the_pixel_target() {
     let mut rng = 0x2545_f491_4f6c_dd1du64;
@@ -178,13 +178,20 @@ fn regir_cell_target_covers_and_bounds_the_pixel_target() {
         // The VPL: near the receiver (inside the sphere) or anywhere around it.
         let y = if i % 3 == 0 { c + unit(&mut next) * rc * next() } else { x + unit(&mut next) * (0.01 + 3.0 * next()) };
         let kind = [VPL_INDIRECT, VPL_DIRECT_AREA, VPL_DIRECT_POINT][i % 3];
-        vpls.push(GpuVpl { position: y.to_array(), kind, normal: unit(&mut next).to_array(), path: 0, flux: [next(), next(), next()], yuksel_r2: 0.0 });
+        vpls.push(GpuVpl { position: y.to_array(), kind, normal: unit(&mut next).to_array(), path: 0, flux: [next(), next(), next()], yuksel_r2: 0.01 * next() });
         spheres.push([c.x, c.y, c.z, rc]);
         points.push([x.x, x.y, x.z, 0.0]);
         points.push([n.x, n.y, n.z, 0.0]);
     }
-    for (attenuation, r2) in [(ATTENUATION_YUKSEL, 1e-3), (ATTENUATION_YUKSEL, 0.0), (ATTENUATION_INVERSE_SQUARE, 0.0)] {
-        let params = GpuVplParams { vpl_count: N as u32, attenuation, yuksel_r2: r2, kind_mask: KIND_MASK_DIRECT | KIND_MASK_INDIRECT, ..Default::default() };
+    // The last field: each VPL's own r² (`--yuksel-knn`), which both targets must use.
+    for (attenuation, r2, flags) in [
+        (ATTENUATION_YUKSEL, 1e-3, 0),
+        (ATTENUATION_YUKSEL, 0.0, 0),
+        (ATTENUATION_YUKSEL, 5e-3, VPL_FLAG_PER_VPL_RADIUS),
+        (ATTENUATION_INVERSE_SQUARE, 0.0, 0),
+    ] {
+        let params =
+            GpuVplParams { vpl_count: N as u32, attenuation, yuksel_r2: r2, kind_mask: KIND_MASK_DIRECT | KIND_MASK_INDIRECT, flags, ..Default::default() };
         let out = run(6, N as u32, 0, &spheres, &vpls, &points, params);
         let mut lit = 0;
         for (i, o) in out.outputs.iter().enumerate() {
@@ -194,7 +201,7 @@ fn regir_cell_target_covers_and_bounds_the_pixel_target() {
                 lit += 1;
                 assert!(c > 0.0, "attenuation {attenuation}, case {i}: the pixel's target is {t} but the cell's is 0 ({:?}, sphere {:?})", vpls[i], spheres[i]);
                 if attenuation == ATTENUATION_YUKSEL {
-                    assert!(c >= t * (1.0 - 1e-4), "attenuation {attenuation} r² {r2}, case {i}: cell target {c} below the pixel's {t}");
+                    assert!(c >= t * (1.0 - 1e-4), "attenuation {attenuation} r² {r2} flags {flags}, case {i}: cell target {c} below the pixel's {t}");
                 }
             }
         }

@@ -78,12 +78,12 @@ float mixed_weight_from_source(float t, float q, float pc, GridPick k, uint n_u,
 }
 
 // The same for a grid entry (contribution weight W): m_g(y) t W / n_g with the balance heuristic's
-// m_g, or t W / M.
+// m_g, written t W / (n_u q / pg + n_g) so that a huge pseudo-density cannot make inf / inf; or
+// t W / M.
 float mixed_weight_from_grid(float t, float ucw, float q, float pc, GridPick k, uint n_u, uint m) {
     if (k.inv_norm > 0.0) {
         float pg = regir_pseudo_pdf(pc, k.inv_norm);
-        float denom = float(n_u) * q + float(k.n_grid) * pg;
-        return denom > 0.0 ? t * pg * ucw / denom : 0.0;
+        return pg > 0.0 ? t * ucw / (float(n_u) * q / pg + float(k.n_grid)) : 0.0;
     }
     return t * ucw / float(m);
 }
@@ -116,7 +116,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             vec3 n = oct_decode(c.normal_oct);
             float r2 = per_vpl_r2 ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = vpl_target_at(c.position, kind, n, c.flux, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, n, c.flux, k.centre, k.radius, p) : 0.0;
+            float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, n, c.flux, r2, k.centre, k.radius, p) : 0.0;
             float w = mixed_weight_from_grid(t, ucw, initial_source_pdf(c.flux, p), pc, k, n_u, m);
             stream_update(st, candidate_index(c), w, t, u);
         }
@@ -134,7 +134,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
                 initial_offer(st, candidate_index(c), t, c.flux, p, rand(rng));
             } else {
                 uint kind = c.vpl_kind >> CANDIDATE_INDEX_BITS;
-                float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, oct_decode(c.normal_oct), c.flux, k.centre, k.radius, p) : 0.0;
+                float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, oct_decode(c.normal_oct), c.flux, r2, k.centre, k.radius, p) : 0.0;
                 float w = mixed_weight_from_source(t, initial_source_pdf(c.flux, p), pc, k, n_u, m);
                 stream_update(st, candidate_index(c), w, t, rand(rng));
             }
@@ -151,7 +151,10 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             if (k.n_grid == 0u) {
                 initial_offer(st, i, t, v.flux, p, rand(rng));
             } else {
-                float pc = k.inv_norm > 0.0 ? regir_cell_target(v.position, v.kind, v.normal, v.flux, k.centre, k.radius, p) : 0.0;
+                // The normal as the grid's and the tiles' candidate records carry it (octahedral), so
+                // that both sources' weights use one function and sum to one exactly.
+                vec3 n = oct_decode(oct_encode(v.normal));
+                float pc = k.inv_norm > 0.0 ? regir_cell_target(v.position, v.kind, n, v.flux, vpl_r2(v.yuksel_r2, p), k.centre, k.radius, p) : 0.0;
                 float w = mixed_weight_from_source(t, initial_source_pdf(v.flux, p), pc, k, n_u, m);
                 stream_update(st, i, w, t, rand(rng));
             }

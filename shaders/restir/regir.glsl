@@ -48,10 +48,10 @@ float regir_cell_radius(GridParams g) {
     return 0.5 * length(g.cell_size);
 }
 
-// p^_c: the cell target of a VPL (position y, kind, unit normal ny, flux) for the cell of centre c
-// and bounding radius rc. Zero only where no point of the sphere can receive the VPL's light
-// (behind its surface, or its kind masked out).
-float regir_cell_target(vec3 y, uint kind, vec3 ny, vec3 flux, vec3 c, float rc, VplParams p) {
+// p^_c: the cell target of a VPL (position y, kind, unit normal ny, flux, Yuksel r2 as the pixel's
+// target uses it: vpl_r2) for the cell of centre c and bounding radius rc. Zero only where no point
+// of the sphere can receive the VPL's light (behind its surface, or its kind masked out).
+float regir_cell_target(vec3 y, uint kind, vec3 ny, vec3 flux, float r2, vec3 c, float rc, VplParams p) {
     if (!vpl_kind_enabled(kind, p.kind_mask)) {
         return 0.0;
     }
@@ -73,8 +73,9 @@ float regir_cell_target(vec3 y, uint kind, vec3 ny, vec3 flux, vec3 c, float rc,
     // Inverse square would be unbounded at dmin = 0: there the attenuation is capped at the one of
     // a tenth of the cell radius (any positive value keeps the support).
     float d2 = p.attenuation == ATTENUATION_YUKSEL ? dmin * dmin : max(dmin * dmin, 0.01 * rc * rc);
-    float t = luminance(flux) * INV_PI * INV_PI * emit * vpl_attenuation(d2, p.attenuation, p.yuksel_r2);
-    return t <= 3.0e38 ? t : 3.0e38;
+    float t = luminance(flux) * INV_PI * INV_PI * emit * vpl_attenuation(d2, p.attenuation, r2);
+    // Overflow clamps (the support must stay); a NaN (0 * inf at degenerate scales) counts as 0.
+    return isnan(t) ? 0.0 : min(t, 3.0e38);
 }
 
 // The grid source's pseudo-density at a candidate: p^_c / S (S <= 0: no estimate yet, 0).

@@ -92,7 +92,7 @@ void main() {
         vec3 x = points[2u * i].xyz;
         vec3 n = points[2u * i + 1u].xyz;
         float t = vpl_target(v, x, n, n, vec3(1.0), pc.params);
-        float c = regir_cell_target(v.position, v.kind, v.normal, v.flux, inputs[i].xyz, inputs[i].w, pc.params);
+        float c = regir_cell_target(v.position, v.kind, v.normal, v.flux, vpl_r2(v.yuksel_r2, pc.params), inputs[i].xyz, inputs[i].w, pc.params);
         outputs[i] = vec4(t, c, 0.0, 0.0);
     } else if (pc.test == 4u) {
         Rng rng = rng_init(i % 128u, (i / 128u) % 128u, i / 16384u, pc.seed);

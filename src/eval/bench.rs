@@ -296,7 +296,8 @@ pub fn fusion_cases(base: &RenderSettings) -> Vec<(String, RenderSettings)> {
 
 /// Candidates per pixel of [`grid_cases`]' grid rows, and how many of them come from the grid:
 /// half of the default 32, half of them from the grid, where RIS had less per-frame error than with
-/// 32 uniform candidates on all three scenes (docs/performance.md, "The ReGIR grid, built").
+/// 32 uniform candidates on average on all three scenes (docs/performance.md, "The ReGIR grid,
+/// built").
 pub const GRID_CASE_CANDIDATES: (u32, u32) = (16, 8);
 
 /// `bench --modes --grid`: uniform, then RIS and unbiased ReSTIR with the default 32 candidates,

@@ -405,6 +405,13 @@ fn strip_unused(obj: &mut serde_json::Map<String, serde_json::Value>, mode: Mode
     for k in unused_keys(mode) {
         obj.remove(*k);
     }
+    // The ReGIR grid shapes only RIS and ReSTIR images, and only with grid candidates: without
+    // them the image is the one of a build before the grid existed, whose files have no such key.
+    let grid_used = matches!(mode, Mode::Ris | Mode::Restir)
+        && obj.get("grid").and_then(|g| g.get("candidates")).and_then(|c| c.as_u64()).is_some_and(|c| c > 0);
+    if !grid_used {
+        obj.remove("grid");
+    }
 }
 
 /// Whether two references' configs ([`reference_config`]) describe the same image: equal once the
