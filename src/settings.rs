@@ -776,7 +776,7 @@ impl RenderSettings {
         if g.cells == 0 || g.cells > MAX_GRID_CELLS {
             bail!("--grid-cells {}: must be between 1 and {MAX_GRID_CELLS}", g.cells);
         }
-        if g.entries == 0 || g.entries % crate::gpu_types::REGIR_WORKGROUP != 0 || g.entries > 4096 {
+        if g.entries == 0 || !g.entries.is_multiple_of(crate::gpu_types::REGIR_WORKGROUP) || g.entries > 4096 {
             bail!("--grid-entries {}: must be a multiple of {} between {} and 4096", g.entries, crate::gpu_types::REGIR_WORKGROUP, crate::gpu_types::REGIR_WORKGROUP);
         }
         if g.entry_candidates == 0 || g.entry_candidates > 1024 {

@@ -354,6 +354,11 @@ fn vpl_mode_flag_errors() {
     let h = ["--headless", "--width", "8", "--height", "8", "--frames", "1"];
     let with = |extra: &[&'static str]| -> Vec<&'static str> { h.iter().copied().chain(extra.iter().copied()).collect() };
     assert_fails(&with(&["--mode", "ris", "--candidates", "0"]), &["--candidates 0"]);
+    assert_fails(&with(&["--mode", "ris", "--candidates", "8", "--grid-candidates", "9"]), &["--grid-candidates 9", "--candidates (8)"]);
+    assert_fails(&with(&["--mode", "ris", "--grid-candidates", "4", "--grid-cells", "0"]), &["--grid-cells 0"]);
+    assert_fails(&with(&["--mode", "ris", "--grid-candidates", "4", "--grid-cells", "65"]), &["--grid-cells 65"]);
+    assert_fails(&with(&["--mode", "ris", "--grid-candidates", "4", "--grid-entries", "100"]), &["--grid-entries 100", "multiple of 64"]);
+    assert_fails(&with(&["--mode", "ris", "--grid-candidates", "4", "--grid-entry-candidates", "0"]), &["--grid-entry-candidates 0"]);
     assert_fails(&with(&["--mode", "restir", "--spatial-neighbours", "33"]), &["--spatial-neighbours 33"]);
     assert_fails(&with(&["--mode", "restir", "--spatial-radius", "0"]), &["--spatial-radius 0"]);
     assert_fails(&with(&["--mode", "restir", "--normal-threshold", "2"]), &["--normal-threshold 2"]);
