@@ -74,7 +74,9 @@ void main() {
             }
             Vpl v = vpl_texels(vpls, i);
             float q = p.source == 1u ? luminance(v.flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
-            float t = regir_cell_target(v.position, v.kind, v.normal, v.flux, vpl_r2(v.yuksel_r2, p), centre, rc, p);
+            // With the normal as the entry's candidate record carries it (octahedral), as the pixels
+            // evaluate the cell target.
+            float t = regir_cell_target(v.position, v.kind, oct_decode(oct_encode(v.normal)), v.flux, vpl_r2(v.yuksel_r2, p), centre, rc, p);
             float w = q > 0.0 ? t * inv_k / q : 0.0;
             float u = rand(rng);
             if (w > 0.0) {

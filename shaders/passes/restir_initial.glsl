@@ -81,6 +81,10 @@ float mixed_weight_from_source(float t, float q, float pc, GridPick k, uint n_u,
 // m_g, written t W / (n_u q / pg + n_g) so that a huge pseudo-density cannot make inf / inf; or
 // t W / M.
 float mixed_weight_from_grid(float t, float ucw, float q, float pc, GridPick k, uint n_u, uint m) {
+    if (n_u == 0u) {
+        // The grid alone: m_g = 1 wherever it can sample, whatever the pseudo-density.
+        return t * ucw / float(k.n_grid);
+    }
     if (k.inv_norm > 0.0) {
         float pg = regir_pseudo_pdf(pc, k.inv_norm);
         return pg > 0.0 ? t * ucw / (float(n_u) * q / pg + float(k.n_grid)) : 0.0;
