@@ -295,6 +295,23 @@ fn trace_choice_is_listed_and_checked() {
     assert!(!o.status.success() && err.contains("bench --workgroups") && err.contains("ray-tracing pipelines") && !err.contains("panicked"), "{err}");
 }
 
+/// `bench --modes --grid`: RIS and unbiased ReSTIR at 32, 16 and 16 with 8 from the ReGIR grid,
+/// each row timed, the grid rows with their `regir_build` pass; and it does not combine with
+/// `--fusion`.
+#[test]
+fn bench_modes_grid_times_the_grid_rows() {
+    let o = run(&["bench", "--modes", "--grid", "--width", "24", "--height", "16", "--frames", "1"]);
+    let out = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rows: Vec<&str> = out.lines().filter(|l| l.starts_with("| 24×16")).collect();
+    assert_eq!(rows.len(), 7, "{out}");
+    let grid_rows: Vec<&&str> = rows.iter().filter(|l| l.contains("(8 from the grid)")).collect();
+    assert_eq!(grid_rows.len(), 2, "{out}");
+    assert!(grid_rows.iter().all(|l| l.contains("regir_build")), "{out}");
+    assert!(rows.iter().filter(|l| !l.contains("from the grid")).all(|l| !l.contains("regir_build")), "{out}");
+    assert_fails(&["bench", "--modes", "--grid", "--fusion"], &["--grid", "--fusion"]);
+}
+
 #[test]
 fn vpl_count_errors() {
     assert_fails(&["--headless", "--vpls-direct", "0", "--frames", "1"], &["--vpls-direct 0"]);
