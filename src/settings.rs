@@ -489,7 +489,7 @@ pub struct GridSettings {
 
 impl Default for GridSettings {
     fn default() -> Self {
-        Self { candidates: 0, cells: 16, entries: 128, entry_candidates: 8 }
+        Self { candidates: 0, cells: 16, entries: 64, entry_candidates: 8 }
     }
 }
 
