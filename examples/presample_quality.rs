@@ -4,8 +4,8 @@
 //!
 //! `cargo run --release --example presample_quality -- [SCENE] [W] [H] [REF_FRAMES] [VARIANTS] [SEEDS]`
 //! VARIANTS: comma-separated `ris:on`, `restir:off/16/4`, `restir:on/32/8/10`
-//! (mode:presample[/candidates[/neighbours[/spatial radius in pixels[/grid candidates[/grid cells[/grid entries]]]]]];
-//! defaults 32, 8, 20, 0 (no ReGIR grid), 16, 64).
+//! (mode:presample[/candidates[/neighbours[/spatial radius in pixels[/grid candidates[/grid cells[/grid entries[/constant]]]]]]];
+//! defaults 32, 8, 20, 0 (no ReGIR grid), 16, 64, balance-heuristic weights).
 //! Per variant: mean relMSE of single frames 5..16 (what a moving camera shows; ± the standard error
 //! over the seeds of each seed's mean), of the accumulated
 //! image after 1 and 16 frames, and the median GPU ms per frame, over SEEDS runs.
@@ -58,6 +58,7 @@ fn main() -> anyhow::Result<()> {
             candidates: parts.get(4).unwrap_or(&"0").parse()?,
             cells: parts.get(5).unwrap_or(&"16").parse()?,
             entries: parts.get(6).unwrap_or(&"64").parse()?,
+            balance: parts.get(7) != Some(&"constant"),
             ..Default::default()
         };
         let (mut frame_err, mut t1, mut t16, mut ms) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());

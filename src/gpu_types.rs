@@ -301,6 +301,10 @@ gpu_struct! {
     }
 }
 
+/// `GpuGridParams::flags`: balance-heuristic weights between the grid and the source pdf (off:
+/// constant 1/M weights, which lean on the cell target's coverage).
+pub const GRID_FLAG_BALANCE: u32 = 1;
+
 /// Threads of a `regir_build` workgroup (one workgroup per grid cell; each thread builds
 /// `entries / REGIR_WORKGROUP` of the cell's entries).
 pub const REGIR_WORKGROUP: u32 = 64;
@@ -321,7 +325,8 @@ gpu_struct! {
         pub entry_candidates: u32,
         /// Of a pixel's `GpuVplParams::candidates`, how many come from its cell's entries.
         pub grid_candidates: u32,
-        pub _pad0: u32,
+        /// `GRID_FLAG_*`.
+        pub flags: u32,
         pub _pad1: u32,
     }
 }
@@ -479,6 +484,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     PHOTON_EMIT_PATHS,
     PHOTON_EMIT_SCALE,
     REGIR_WORKGROUP,
+    GRID_FLAG_BALANCE,
     RAY_RATE_PRIMARY,
     RAY_RATE_SHADOW,
     RAY_RATE_BOUNCE,

@@ -157,6 +157,10 @@ struct RenderArgs {
     /// Candidates from the source pdf behind each ReGIR grid entry.
     #[arg(long, default_value_t = DEFAULTS.grid.entry_candidates)]
     grid_entry_candidates: u32,
+    /// Balance-heuristic weights between the ReGIR grid's candidates and the source pdf's (off:
+    /// constant 1/M weights; both unbiased).
+    #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.grid.balance))]
+    grid_balance: Toggle,
     /// ReSTIR's passes fused in pairs (restir_initial_temporal, restir_spatial_shade), as Bevy
     /// Solari runs them: the same image, fewer dispatches. Frames whose pass outputs are dumped or
     /// checked run the passes apart; the reservoir views keep vpl_shade apart (it draws them).
@@ -629,6 +633,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
             cells: cli.grid_cells,
             entries: cli.grid_entries,
             entry_candidates: cli.grid_entry_candidates,
+            balance: cli.grid_balance.on(),
         },
         fuse_passes: cli.fuse_passes.map(Toggle::on),
         workgroup: cli.workgroup.0,

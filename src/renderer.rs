@@ -765,7 +765,7 @@ impl Renderer {
             };
             if settings.uses_grid() {
                 let g = &settings.grid;
-                let layout_g = GridLayout { cells: g.cells, entries: g.entries, entry_candidates: g.entry_candidates, grid_candidates: g.candidates };
+                let layout_g = GridLayout { cells: g.cells, entries: g.entries, entry_candidates: g.entry_candidates, grid_candidates: g.candidates, balance: g.balance };
                 passes.vpl.regir = Some(RegirBuildPass::new(ctx, layout, &inputs, scene_gpu.info.bounds, &layout_g)?);
             } else {
                 // The bindings are declared by the shaders but not read without a grid.

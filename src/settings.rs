@@ -485,11 +485,14 @@ pub struct GridSettings {
     pub entries: u32,
     /// Source-pdf candidates behind each entry (`--grid-entry-candidates`).
     pub entry_candidates: u32,
+    /// Balance-heuristic weights between the grid and the source pdf (`--grid-balance`); off:
+    /// constant 1/M weights, unbiased through the cell target's coverage alone.
+    pub balance: bool,
 }
 
 impl Default for GridSettings {
     fn default() -> Self {
-        Self { candidates: 0, cells: 16, entries: 64, entry_candidates: 8 }
+        Self { candidates: 0, cells: 16, entries: 64, entry_candidates: 8, balance: true }
     }
 }
 
@@ -563,7 +566,7 @@ impl RenderSettings {
                 "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" if !self.mode.uses_vpls() => {
                     "it shapes how VPLs shade, and --mode pt does not shade with VPLs".to_string()
                 }
-                "candidates" | "candidate_source" | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates"
+                "candidates" | "candidate_source" | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates" | "grid_balance"
                     if !matches!(self.mode, Mode::Ris | Mode::Restir) =>
                 {
                     format!("it sets the RIS candidates of --mode ris and restir, not of --mode {mode}")
@@ -602,7 +605,7 @@ impl RenderSettings {
                 {
                     "it sets reservoir reuse, and with --temporal off and no spatial reuse there is none".to_string()
                 }
-                "grid_cells" | "grid_entries" | "grid_entry_candidates" if self.grid.candidates == 0 => {
+                "grid_cells" | "grid_entries" | "grid_entry_candidates" | "grid_balance" if self.grid.candidates == 0 => {
                     "it shapes the ReGIR grid, and --grid-candidates 0 uses none".to_string()
                 }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
@@ -610,7 +613,7 @@ impl RenderSettings {
                     "it shapes the indirect VPLs, and --no-gi traces none".to_string()
                 }
                 "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" | "candidates" | "candidate_source"
-                | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates" | "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
+                | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates" | "grid_balance" | "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
                 | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes"
                     if self.view == View::Vpls =>
                 {

@@ -122,6 +122,13 @@ fn uniform_and_ris_converge_to_brute_force() {
             assert_grid_used(label, &mut r);
         }
     }
+    // Constant 1/M weights (--grid-balance off), which the balance heuristic otherwise uses only in
+    // a cell's first built frame: unbiased through the cell target's coverage alone.
+    let label = "ris (4 of 8 from the grid, constant weights)";
+    let grid = GridSettings { candidates: 4, cells: 6, entries: 64, balance: false, ..Default::default() };
+    let mut r = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { mode: Mode::Ris, candidates: 8, grid, ..base.clone() }).unwrap();
+    assert_frames_converge(label, &mut r, 96, &all, &ref_all);
+    assert_grid_used(label, &mut r);
     common::assert_no_validation_errors(&ctx);
 }
 

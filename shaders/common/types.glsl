@@ -199,6 +199,7 @@ struct VplParams {
 
 // The world-space grid of presampled VPLs (ReGIR): GpuGridParams in src/gpu_types.rs.
 const uint REGIR_WORKGROUP = 64u;
+const uint GRID_FLAG_BALANCE = 1u;
 struct GridParams {
     vec3 lo;
     uint cells;
@@ -206,7 +207,7 @@ struct GridParams {
     uint entries;
     uint entry_candidates;
     uint grid_candidates;
-    uint _pad0;
+    uint flags;  // GRID_FLAG_*
     uint _pad1;
 };
 

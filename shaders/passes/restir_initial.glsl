@@ -60,7 +60,7 @@ GridPick grid_pick(GridParams g, int cell, float norm, VplParams p) {
     GridPick k;
     k.cell = cell;
     k.n_grid = cell >= 0 ? min(g.grid_candidates, p.candidates) : 0u;
-    k.inv_norm = k.n_grid > 0u && norm > 0.0 ? 1.0 / norm : 0.0;
+    k.inv_norm = k.n_grid > 0u && norm > 0.0 && (g.flags & GRID_FLAG_BALANCE) != 0u ? 1.0 / norm : 0.0;
     k.centre = cell >= 0 ? regir_cell_centre(g, uint(cell)) : vec3(0.0);
     k.radius = regir_cell_radius(g);
     return k;

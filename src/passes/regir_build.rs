@@ -10,7 +10,7 @@ use ash::vk;
 use gpu_allocator::MemoryLocation;
 use glam::Vec3;
 
-use crate::gpu_types::{GpuGridEntry, GpuGridParams, GpuVplParams, REGIR_WORKGROUP};
+use crate::gpu_types::{GpuGridEntry, GpuGridParams, GpuVplParams, GRID_FLAG_BALANCE, REGIR_WORKGROUP};
 use crate::shaders;
 use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
@@ -32,6 +32,8 @@ pub struct GridLayout {
     pub entries: u32,
     pub entry_candidates: u32,
     pub grid_candidates: u32,
+    /// Balance-heuristic weights (off: 1/M).
+    pub balance: bool,
 }
 
 /// Owns the grid: `regir.entries` (`GpuGridEntry` per cell × entry, read by `restir_initial` as
@@ -66,7 +68,7 @@ impl RegirBuildPass {
             entries: layout.entries,
             entry_candidates: layout.entry_candidates,
             grid_candidates: layout.grid_candidates,
-            _pad0: 0,
+            flags: if layout.balance { GRID_FLAG_BALANCE } else { 0 },
             _pad1: 0,
         }
     }
