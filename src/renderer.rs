@@ -21,7 +21,7 @@ use crate::gpu_types::{
 };
 use crate::output::TimingStats;
 use crate::passes::{
-    FramePlan, FrameTargets, GridBuffers, GridLayout, Passes, PhotonEmitPass, PhotonStats, RegirBuildPass, Reservoirs, RestirBoilingPass, RestirInitialPass, RestirInitialTemporalPass,
+    FramePlan, FrameTargets, GridBuffers, Passes, PhotonEmitPass, PhotonStats, RegirBuildPass, Reservoirs, RestirBoilingPass, RestirInitialPass, RestirInitialTemporalPass,
     RestirSpatialPass, RestirSpatialShadePass, RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_SLOTS,
 };
 use crate::lights::{LightSet, PointEmitter};
@@ -764,9 +764,7 @@ impl Renderer {
                 None => &*no_tiles.insert(VplPresamplePass::tiles_buffer(ctx, "vpl_presample.tiles(unused)", 32)?),
             };
             if settings.uses_grid() {
-                let g = &settings.grid;
-                let layout_g = GridLayout { cells: g.cells, entries: g.entries, entry_candidates: g.entry_candidates, grid_candidates: g.candidates, balance: g.balance };
-                passes.vpl.regir = Some(RegirBuildPass::new(ctx, layout, &inputs, scene_gpu.info.bounds, &layout_g)?);
+                passes.vpl.regir = Some(RegirBuildPass::new(ctx, layout, &inputs, scene_gpu.info.bounds, &settings.grid)?);
             } else {
                 // The bindings are declared by the shaders but not read without a grid.
                 no_grid = Some((

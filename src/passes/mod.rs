@@ -39,7 +39,7 @@ pub use desc::PassDesc;
 pub use gbuffer::GbufferPass;
 pub use pathtrace::PathtracePass;
 pub use photon_emit::{PhotonEmitPass, PhotonStats};
-pub use regir_build::{GridLayout, RegirBuildPass};
+pub use regir_build::RegirBuildPass;
 pub use restir_boiling::RestirBoilingPass;
 pub use restir_initial::RestirInitialPass;
 pub use restir_initial_temporal::RestirInitialTemporalPass;

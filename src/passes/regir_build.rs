@@ -11,6 +11,7 @@ use gpu_allocator::MemoryLocation;
 use glam::Vec3;
 
 use crate::gpu_types::{GpuGridEntry, GpuGridParams, GpuVplParams, GRID_FLAG_BALANCE, REGIR_WORKGROUP};
+use crate::settings::GridSettings;
 use crate::shaders;
 use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
@@ -23,17 +24,6 @@ push_constants! {
         params: GpuVplParams,
         grid: GpuGridParams,
     }
-}
-
-/// The grid's layout as the settings ask for it (`--grid-*`).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GridLayout {
-    pub cells: u32,
-    pub entries: u32,
-    pub entry_candidates: u32,
-    pub grid_candidates: u32,
-    /// Balance-heuristic weights (off: 1/M).
-    pub balance: bool,
 }
 
 /// Owns the grid: `regir.entries` (`GpuGridEntry` per cell × entry, read by `restir_initial` as
@@ -55,7 +45,7 @@ impl RegirBuildPass {
     /// The grid over the scene's bounds `(lo, hi)`, grown by 1 % of the diagonal on each side so
     /// that every surface point lies strictly inside a cell (a receiver outside the grid takes no
     /// grid candidates, which is unbiased but wastes them).
-    pub fn grid_params(bounds: (Vec3, Vec3), layout: &GridLayout) -> GpuGridParams {
+    pub fn grid_params(bounds: (Vec3, Vec3), grid: &GridSettings) -> GpuGridParams {
         let (lo, hi) = bounds;
         let pad = Vec3::splat(0.01 * (hi - lo).length().max(1e-6));
         let (lo, hi) = (lo - pad, hi + pad);
@@ -63,41 +53,41 @@ impl RegirBuildPass {
         let extent = (hi - lo).max(Vec3::splat((hi - lo).max_element() * 0.01));
         GpuGridParams {
             lo: lo.to_array(),
-            cells: layout.cells,
-            cell_size: (extent / layout.cells as f32).to_array(),
-            entries: layout.entries,
-            entry_candidates: layout.entry_candidates,
-            grid_candidates: layout.grid_candidates,
-            flags: if layout.balance { GRID_FLAG_BALANCE } else { 0 },
+            cells: grid.cells,
+            cell_size: (extent / grid.cells as f32).to_array(),
+            entries: grid.entries,
+            entry_candidates: grid.entry_candidates,
+            grid_candidates: grid.candidates,
+            flags: if grid.balance { GRID_FLAG_BALANCE } else { 0 },
             _pad1: 0,
         }
     }
 
-    /// Bytes of the entries buffer of `layout`.
-    pub fn entries_bytes(layout: &GridLayout) -> u64 {
-        u64::from(layout.cells).pow(3) * u64::from(layout.entries) * std::mem::size_of::<GpuGridEntry>() as u64
+    /// Bytes of the entries buffer of `grid`.
+    pub fn entries_bytes(grid: &GridSettings) -> u64 {
+        u64::from(grid.cells).pow(3) * u64::from(grid.entries) * std::mem::size_of::<GpuGridEntry>() as u64
     }
 
-    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, vpls: &VplInputs, bounds: (Vec3, Vec3), layout: &GridLayout) -> Result<Self> {
+    pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, vpls: &VplInputs, bounds: (Vec3, Vec3), grid: &GridSettings) -> Result<Self> {
         let limits = &ctx.properties.limits;
-        let bytes = Self::entries_bytes(layout);
+        let bytes = Self::entries_bytes(grid);
         let texels = bytes / super::RECORD_TEXELS.bytes;
         anyhow::ensure!(
             bytes <= u64::from(limits.max_storage_buffer_range) && texels <= u64::from(limits.max_texel_buffer_elements),
             "--grid-cells {} --grid-entries {}: the grid's entries take {bytes} bytes, more than this device's buffer limits \
              (maxStorageBufferRange {} bytes, maxTexelBufferElements {}); use fewer cells or entries",
-            layout.cells,
-            layout.entries,
+            grid.cells,
+            grid.entries,
             limits.max_storage_buffer_range,
             limits.max_texel_buffer_elements
         );
         let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
         let entries = Buffer::new(ctx, "regir.entries", bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(super::RECORD_TEXELS)?;
         // Zero records: never asked for, never built, no normalisation yet.
-        let cells_bytes = vec![0u8; layout.cells.pow(3) as usize * 16];
+        let cells_bytes = vec![0u8; grid.cells.pow(3) as usize * 16];
         let cells = Buffer::with_data(ctx, "regir.cells", &cells_bytes, vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC)?;
         let pipeline = Self::DESC.pipeline(ctx, scene_layout).buffers(&[(0, vpls.vpls), (1, vpls.alias), (2, &entries), (3, &cells)]).build()?;
-        Ok(Self { pipeline, entries, cells, params: Self::grid_params(bounds, layout) })
+        Ok(Self { pipeline, entries, cells, params: Self::grid_params(bounds, grid) })
     }
 
     pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams) {
