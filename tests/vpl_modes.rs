@@ -112,7 +112,7 @@ fn uniform_and_ris_converge_to_brute_force() {
         ("ris (8 from the grid: the grid alone)", Mode::Ris, CandidateSource::Uniform, true, 96, 8),
     ];
     for (label, mode, source, presample, frames, grid) in cases {
-        let grid = GridSettings { candidates: grid, cells: 6, entries: 64, ..Default::default() };
+        let grid = small_grid(grid);
         let s = RenderSettings { mode, candidate_source: source, candidates: 8, presample, grid, ..base.clone() };
         let mut r = Renderer::new(ctx.clone(), scene.clone(), s).unwrap();
         assert_eq!(r.vpl_summary().unwrap().presample, presample && mode == Mode::Ris, "{label}: presample pass present");
@@ -125,7 +125,7 @@ fn uniform_and_ris_converge_to_brute_force() {
     // Constant 1/M weights (--grid-balance off), which the balance heuristic otherwise uses only in
     // a cell's first built frame: unbiased through the cell target's coverage alone.
     let label = "ris (4 of 8 from the grid, constant weights)";
-    let grid = GridSettings { candidates: 4, cells: 6, entries: 64, balance: false, ..Default::default() };
+    let grid = GridSettings { balance: false, ..small_grid(4) };
     let mut r = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { mode: Mode::Ris, candidates: 8, grid, ..base.clone() }).unwrap();
     assert_frames_converge(label, &mut r, 96, &all, &ref_all);
     assert_grid_used(label, &mut r);
@@ -158,6 +158,12 @@ fn assert_frames_converge(label: &str, r: &mut Renderer, frames: u32, all: &[Vec
     let detectable = 5.0 * whole_image_se(&per_frame) / reference[0];
     println!("{label}: {frames} frames, worst block |z| = {worst:.2}, image mean {image_mean:.5} vs {:.5}; a whole-image bias above {:.3}% fails", reference[0], 100.0 * detectable);
     assert!(detectable < 0.01, "{label}: too few frames to see a 1 % bias: 5 SE = {:.3}% of the mean", 100.0 * detectable);
+}
+
+/// The ReGIR grid of these 48×48 tests with `candidates` of a pixel's candidates from it: 6³ cells
+/// of 64 entries (16³ would build far more cells than so few pixels need).
+fn small_grid(candidates: u32) -> GridSettings {
+    GridSettings { candidates, cells: 6, entries: 64, ..Default::default() }
 }
 
 /// The grid was built in the last frame, so the frames tested drew from it (a stamp bug that never
@@ -232,7 +238,7 @@ fn per_vpl_radius_modes_converge_to_their_brute_force() {
     for (label, grid, presample, frames) in
         [("ris, per-VPL radius, 4 of 8 from the grid", 4, false, 96), ("ris, per-VPL radius, the grid alone", 8, true, 256)]
     {
-        let grid = GridSettings { candidates: grid, cells: 6, entries: 64, ..Default::default() };
+        let grid = small_grid(grid);
         let mut r = Renderer::new(ctx.clone(), scene.clone(), RenderSettings { candidates: 8, presample, grid, ..base.clone() }).unwrap();
         assert_frames_converge(label, &mut r, frames, &all, &ref_all);
         assert_grid_used(label, &mut r);
@@ -285,7 +291,7 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     // The last field: candidates (of 8) from the ReGIR grid.
     for (bias, visibility, grid) in [(Bias::Unbiased, true, 0), (Bias::Unbiased, false, 0), (Bias::Unbiased, false, 4), (Bias::Biased, false, 0)] {
         let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: Some(visibility), ..Default::default() };
-        let grid = GridSettings { candidates: grid, cells: 6, entries: 64, ..Default::default() };
+        let grid = small_grid(grid);
         // With the grid, the fused initial + temporal pass (its own binding of the grid), which a
         // CPU device does not run by default.
         let fuse_passes = (grid.candidates > 0).then_some(true);

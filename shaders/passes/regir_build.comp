@@ -14,6 +14,7 @@
 #include "../common/scene.glsl"
 #include "../lib/random.glsl"
 #include "../restir/regir.glsl"
+#include "../restir/reservoir.glsl"
 #include "../common/texel_records.glsl"
 
 layout(local_size_x = 64) in;  // REGIR_WORKGROUP
@@ -62,9 +63,7 @@ void main() {
     for (uint e = lane; e < g.entries; e += REGIR_WORKGROUP) {
         uint slot = cell * g.entries + e;
         Rng rng = rng_init(slot, frame.frame_index, frame.seed, SALT_REGIR);
-        float w_sum = 0.0;
-        float chosen_target = 0.0;
-        uint chosen = RESERVOIR_EMPTY;
+        ReservoirStream st = stream_begin();
         Vpl chosen_vpl;
         for (uint j = 0u; j < g.entry_candidates; ++j) {
             uint i = rand_index(rng, p.vpl_count);
@@ -73,34 +72,28 @@ void main() {
                 i = alias_resolve(i, a.keep, a.alias, rand(rng));
             }
             Vpl v = vpl_texels(vpls, i);
-            float q = p.source == 1u ? luminance(v.flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
+            float q = vpl_source_pdf(v.flux, p);
             // With the normal as the entry's candidate record carries it (octahedral), as the pixels
             // evaluate the cell target.
             float t = regir_cell_target(v.position, v.kind, oct_decode(oct_encode(v.normal)), v.flux, vpl_r2(v.yuksel_r2, p), centre, rc, p);
             float w = q > 0.0 ? t * inv_k / q : 0.0;
-            float u = rand(rng);
-            if (w > 0.0) {
-                w_sum += w;
-                if (u * w_sum < w) {
-                    chosen = i;
-                    chosen_target = t;
-                    chosen_vpl = v;
-                }
+            if (stream_update(st, i, w, t, rand(rng))) {
+                chosen_vpl = v;
             }
         }
+        // W = sum w / p^_c(y); an empty or non-finite one is 0 (stream_finish).
+        Reservoir r = stream_finish(st);
+        float ucw = r.ucw;
         GridEntry entry;
-        float ucw = chosen != RESERVOIR_EMPTY && chosen_target > 0.0 ? w_sum / chosen_target : 0.0;
-        if (!(ucw > 0.0 && ucw <= 3.0e38)) {
-            ucw = 0.0;
-        }
-        if (ucw > 0.0) {
-            VplCandidate c = vpl_candidate(chosen_vpl, chosen);
+        if (reservoir_valid(r)) {
+            VplCandidate c = vpl_candidate(chosen_vpl, r.vpl);
             entry.position = c.position;
             entry.vpl_kind = c.vpl_kind;
             entry.flux = c.flux;
             entry.normal_oct = c.normal_oct;
-            sum += w_sum;
+            sum += st.w_sum;
         } else {
+            ucw = 0.0;
             entry.position = vec3(0.0);
             entry.vpl_kind = 0u;
             entry.flux = vec3(0.0);

@@ -32,19 +32,6 @@
 
 const uint SALT_INITIAL = 0x7269u;
 
-// The source pdf q(i) of a VPL of flux Phi: 1/N, or lum(Phi) / sum lum for the power source.
-float initial_source_pdf(vec3 flux, VplParams p) {
-    return p.source == 1u ? luminance(flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
-}
-
-// Streams candidate VPL `i` (target t, flux Phi) into the reservoir with the RIS weight
-// t / (M q(i)).
-void initial_offer(inout ReservoirStream st, uint i, float t, vec3 flux, VplParams p, float u) {
-    float source_pdf = initial_source_pdf(flux, p);
-    float w = source_pdf > 0.0 ? t * (1.0 / float(p.candidates)) / source_pdf : 0.0;
-    stream_update(st, i, w, t, u);
-}
-
 // The pixel's use of the ReGIR grid (regir.glsl): its cell (-1: none, every candidate from q),
 // the cell's bounding sphere, and 1/S of the cell's previous build (0: no estimate, so constant
 // MIS weights 1/M).
@@ -66,15 +53,15 @@ GridPick grid_pick(GridParams g, int cell, float norm, VplParams p) {
     return k;
 }
 
-// The RIS weight of a candidate from q (target t, source pdf q, cell target pc) when the pixel
-// mixes in grid candidates: balance heuristic between n_u draws from q and n_g from the grid, whose
-// density is replaced by the pseudo-density pc / S; constant weights 1/M without an S.
+// The RIS weight of a candidate from q (target t, source pdf q, cell target pc): t / (M q) without
+// a grid (or without the cell's S: constant weights 1/M); with one, the balance heuristic between
+// n_u draws from q and n_g from the grid, whose density is replaced by the pseudo-density pc / S.
 float mixed_weight_from_source(float t, float q, float pc, GridPick k, uint n_u, uint m) {
     if (k.inv_norm > 0.0) {
         float denom = float(n_u) * q + float(k.n_grid) * regir_pseudo_pdf(pc, k.inv_norm);
         return denom > 0.0 ? t / denom : 0.0;
     }
-    return q > 0.0 ? t / (float(m) * q) : 0.0;
+    return q > 0.0 ? t * (1.0 / float(m)) / q : 0.0;
 }
 
 // The same for a grid entry (contribution weight W): m_g(y) t W / n_g with the balance heuristic's
@@ -121,7 +108,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             float r2 = per_vpl_r2 ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = vpl_target_at(c.position, kind, n, c.flux, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
             float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, n, c.flux, r2, k.centre, k.radius, p) : 0.0;
-            float w = mixed_weight_from_grid(t, ucw, initial_source_pdf(c.flux, p), pc, k, n_u, m);
+            float w = mixed_weight_from_grid(t, ucw, vpl_source_pdf(c.flux, p), pc, k, n_u, m);
             stream_update(st, candidate_index(c), w, t, u);
         }
     }
@@ -134,14 +121,10 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             // A per-VPL radius costs one extra read of the full record (off by default).
             float r2 = per_vpl_r2 ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = candidate_target(c, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            if (k.n_grid == 0u) {
-                initial_offer(st, candidate_index(c), t, c.flux, p, rand(rng));
-            } else {
-                uint kind = c.vpl_kind >> CANDIDATE_INDEX_BITS;
-                float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, oct_decode(c.normal_oct), c.flux, r2, k.centre, k.radius, p) : 0.0;
-                float w = mixed_weight_from_source(t, initial_source_pdf(c.flux, p), pc, k, n_u, m);
-                stream_update(st, candidate_index(c), w, t, rand(rng));
-            }
+            uint kind = c.vpl_kind >> CANDIDATE_INDEX_BITS;
+            float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, oct_decode(c.normal_oct), c.flux, r2, k.centre, k.radius, p) : 0.0;
+            float w = mixed_weight_from_source(t, vpl_source_pdf(c.flux, p), pc, k, n_u, m);
+            stream_update(st, candidate_index(c), w, t, rand(rng));
         }
     } else {
         for (uint j = 0u; j < n_u; ++j) {
@@ -152,16 +135,13 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             }
             Vpl v = vpl_texels(vpls, i);
             float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            if (k.n_grid == 0u) {
-                initial_offer(st, i, t, v.flux, p, rand(rng));
-            } else {
-                // The normal as the grid's and the tiles' candidate records carry it (octahedral), so
-                // that both sources' weights use one function and sum to one exactly.
-                vec3 n = oct_decode(oct_encode(v.normal));
-                float pc = k.inv_norm > 0.0 ? regir_cell_target(v.position, v.kind, n, v.flux, vpl_r2(v.yuksel_r2, p), k.centre, k.radius, p) : 0.0;
-                float w = mixed_weight_from_source(t, initial_source_pdf(v.flux, p), pc, k, n_u, m);
-                stream_update(st, i, w, t, rand(rng));
-            }
+            // The cell target with the normal as the grid's and the tiles' candidate records carry it
+            // (octahedral), so that both sources' weights use one function and sum to one exactly.
+            float pc = k.inv_norm > 0.0
+                ? regir_cell_target(v.position, v.kind, oct_decode(oct_encode(v.normal)), v.flux, vpl_r2(v.yuksel_r2, p), k.centre, k.radius, p)
+                : 0.0;
+            float w = mixed_weight_from_source(t, vpl_source_pdf(v.flux, p), pc, k, n_u, m);
+            stream_update(st, i, w, t, rand(rng));
         }
     }
     st.confidence = 1.0;

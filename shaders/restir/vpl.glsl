@@ -94,6 +94,12 @@ uint candidate_index(VplCandidate c) {
     return c.vpl_kind & ((1u << CANDIDATE_INDEX_BITS) - 1u);
 }
 
+// The RIS source pdf q(i) of a VPL of flux Phi: 1/N (uniform), or lum(Phi) / sum lum through the
+// alias table (power source).
+float vpl_source_pdf(vec3 flux, VplParams p) {
+    return p.source == 1u ? luminance(flux) / p.total_vpl_lum : 1.0 / float(p.vpl_count);
+}
+
 // The resampling target p^ (without visibility) of a VPL at x: the luminance of its unshadowed
 // contribution, lum(rho Phi) / pi times the geometry, as a scalar (the candidate loop's inner step;
 // every pass evaluates targets through this one function).
