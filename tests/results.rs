@@ -146,12 +146,12 @@ fn bench_rays_reports_raw_rates_and_every_tracing_pass() {
     assert!(table.contains("share of raw rate") && table.contains("vpl_compensate") && table.contains("photon_emit"), "{table}");
 }
 
-/// `bench --radius --quick`: the table and CSV for the three scenes, every rule once per scene, the
-/// radii growing with the multiple of the VPL spacing (global and per-VPL rules), every figure
-/// finite.
+/// `bench --radius --quick --runs 2`: the table and CSV for the three scenes, every rule once per
+/// scene, the radii growing with the multiple of the VPL spacing (global and per-VPL rules), every
+/// figure finite, the bias with a standard error over the two runs.
 #[test]
 fn bench_radius_quick_writes_the_table_and_csv() {
-    let dir = quick_run(&["bench", "--radius"]);
+    let dir = quick_run(&["bench", "--radius", "--runs", "2"]);
     let md = non_empty(&dir.path().join("radius.md"));
     let csv = non_empty(&dir.path().join("radius.csv"));
     use restir_vpl::eval::radius::{COMPENSATED_MULTIPLES, KNN_MULTIPLES, SPACING_MULTIPLES};
@@ -167,13 +167,16 @@ fn bench_radius_quick_writes_the_table_and_csv() {
         assert_eq!(local.len(), KNN_MULTIPLES.len());
         assert!(local[0] > 0.0 && local.windows(2).all(|w| w[1] > w[0]), "median per-VPL radii grow with M: {local:?}");
         for r in &rows {
-            // radius, setup_s, gpu_ms, bias, frame_variance, rmse_1, rmse_n, worst_share_n
-            for i in [2, 3, 5, 6, 7, 8, 9, 12] {
+            // radius, setup_s, gpu_ms, bias, bias_se, frame_variance, rmse_1, rmse_n, worst_share_n
+            for i in [2, 3, 5, 6, 7, 8, 9, 10, 13] {
                 let v = r[i];
                 let x: f64 = v.parse().unwrap_or_else(|_| panic!("{v} in {r:?}"));
                 assert!(x.is_finite(), "{r:?}");
             }
+            // Two runs differ (their own VPL sets and pixel noise), so the bias has a spread.
+            assert!(r[7].parse::<f64>().unwrap() > 0.0, "{r:?}");
         }
+        assert!(md.contains(" ± "), "the bias carries its standard error: {md}");
     }
 }
 

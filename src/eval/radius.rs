@@ -5,8 +5,11 @@
 //! `frames` accumulated frames, the share of the squared error in the worst 0.1 % of pixels, and
 //! GPU ms per frame.
 //!
-//! Protocol (per scene): one renderer per rule, all sharing the device and scene; `runs` runs with
-//! independent pixel seeds (same VPL set), averaged. The reference is the path tracer with default
+//! Protocol (per scene): one renderer per rule and run, all sharing the device and scene; run k
+//! has its own seed, so its own VPL set and pixel noise, and every rule's run k has the same one
+//! (rows stay paired). The runs are averaged, and the bias carries its standard error over them:
+//! one VPL set's own error moves the image's mean by tenths of a percent (0.4 % from set to set on
+//! the living room), so a bias measured on one set says little below that. The reference is the path tracer with default
 //! settings (8 bounces; the photons' default 7 gives the VPL images the same light paths), cached in `out/references`.
 
 use std::path::{Path, PathBuf};
@@ -93,8 +96,11 @@ pub struct RadiusRow {
     pub setup_s: f64,
     pub compensate: bool,
     pub gpu_ms: f64,
-    /// mean ratio − 1 of the image after `frames` frames against the path tracer.
+    /// mean ratio − 1 of the image after `frames` frames against the path tracer, averaged over
+    /// the runs (each with its own VPL set).
     pub bias: f64,
+    /// The bias's standard error over the runs: VPL sets and pixel noise together (None for one run).
+    pub bias_se: Option<f64>,
     /// Mean over pixels of the per-pixel variance of single frames (channel mean).
     pub frame_variance: f64,
     pub rmse_1: f64,
@@ -103,6 +109,12 @@ pub struct RadiusRow {
     pub flip_n: Option<f64>,
     /// Worst 0.1 % pixels' share of the squared error after `frames` frames.
     pub worst_share_n: f64,
+}
+
+/// Run `run`'s seed, the same for every rule (so is its VPL set): a fixed stride from the base
+/// seed, never the base seed itself, which rendered the reference.
+pub fn run_seed(base: u32, run: u32) -> u32 {
+    base.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1))
 }
 
 /// Measures every rule on every scene.
@@ -149,14 +161,17 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
         log(format!("{label}: {} rules at {}x{} (spacing {spacing:.5})", rules.len(), spec.width, spec.height));
         for (rule, settings) in rules {
             let compensate = settings.compensate;
-            let start = std::time::Instant::now();
-            let mut r = Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("{label}: {rule}"))?;
-            let setup_s = start.elapsed().as_secs_f64();
-            let radius = r.vpl_summary().and_then(|v| v.yuksel_radius).context("the VPL modes report their radius")?;
-            let camera = r.initial_camera();
             let mut sums = [crate::eval::report::OverRuns::default(); 9];
+            let (mut radius_sum, mut setup_sum) = (0.0f64, 0.0f64);
             for run in 0..opts.runs {
-                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1)))?;
+                // Run k traces its own VPL set (the seed seeds the photons and the pixels), the
+                // same for every rule: the bias then averages over VPL sets, and rows stay paired.
+                let seeded = RenderSettings { seed: run_seed(base.seed, run), ..settings.clone() };
+                let start = std::time::Instant::now();
+                let mut r = Renderer::new(ctx.clone(), scene.clone(), seeded).with_context(|| format!("{label}: {rule}, run {}", run + 1))?;
+                setup_sum += start.elapsed().as_secs_f64();
+                radius_sum += r.vpl_summary().and_then(|v| v.yuksel_radius).context("the VPL modes report their radius")? as f64;
+                let camera = r.initial_camera();
                 let mut ms = 0.0;
                 let mut first = None;
                 for f in 0..opts.frames {
@@ -185,6 +200,8 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                     s.add(v);
                 }
             }
+            let radius = (radius_sum / opts.runs as f64) as f32;
+            let setup_s = setup_sum / opts.runs as f64;
             rows.push(RadiusRow {
                 scene: label.clone(),
                 rule: rule.clone(),
@@ -193,6 +210,7 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                 compensate,
                 gpu_ms: sums[0].mean(),
                 bias: sums[1].mean(),
+                bias_se: sums[1].standard_error(),
                 frame_variance: sums[2].mean(),
                 // RMSEs over the runs: the root of their mean squared error.
                 rmse_1: sums[3].rms(),
@@ -215,9 +233,11 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
     let _ = writeln!(
         s,
         "ReSTIR (unbiased, default settings) with each Yuksel radius rule against a {}-frame path-traced reference \
-         (8 bounces; the photons' 7 give the VPL images the same light paths). Scenes: {}. VPLs: {} direct + {} indirect (one VPL set per rule; the mean VPL \
-         spacing is √(A/(πN))). {} run(s) with independent pixel seeds averaged (RMSE: the root of their mean squared error); t = 1 is the first frame, t = {} the \
-         mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames. Frame variance: mean per-pixel variance \
+         (8 bounces; the photons' 7 give the VPL images the same light paths). Scenes: {}. VPLs: {} direct + {} indirect (the mean VPL \
+         spacing is √(A/(πN))). {} run(s) averaged, each with its own seed, so its own VPL set and pixel noise; run k has the same VPL set \
+         under every rule, so differences between rows are paired (RMSE: the root of the runs' mean squared error); t = 1 is the first frame, t = {} the \
+         mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames, ± its standard error over the runs (VPL sets and pixel noise together; \
+         with few runs a rough one). Frame variance: mean per-pixel variance \
          of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. Per-VPL \
          rules (`--yuksel-knn {KNN_K} --yuksel-spacings M`): each VPL's r is M × its local spacing d_K/√K from its K \
          nearest VPLs; their r column is the median over VPLs. Setup: wall seconds to build the renderer (photons, \
@@ -251,10 +271,11 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
             let flip = |f: Option<f64>| f.map(|v| format!("{v:.4}")).unwrap_or_else(|| "–".into());
             let _ = writeln!(
                 s,
-                "| {} | {:.4} | {:+.2}% | {:.4} | {:.4} | {:.4} | {} | {} | {:.0}% | {:.1} | {:.1} |",
+                "| {} | {:.4} | {:+.2}{} % | {:.4} | {:.4} | {:.4} | {} | {} | {:.0}% | {:.1} | {:.1} |",
                 r.rule,
                 r.radius,
                 100.0 * r.bias,
+                r.bias_se.map(|se| format!(" ± {:.2}", 100.0 * se)).unwrap_or_default(),
                 r.frame_variance,
                 r.rmse_1,
                 r.rmse_n,
@@ -272,13 +293,31 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
 
 /// radius.csv: one row per scene × rule.
 pub fn write_csv(path: &Path, rows: &[RadiusRow]) -> Result<()> {
-    let mut text = String::from("scene,rule,radius,setup_s,compensate,gpu_ms,bias,frame_variance,rmse_1,rmse_n,flip_1,flip_n,worst_share_n\n");
+    let mut text = String::from("scene,rule,radius,setup_s,compensate,gpu_ms,bias,bias_se,frame_variance,rmse_1,rmse_n,flip_1,flip_n,worst_share_n\n");
     for r in rows {
         let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
         text.push_str(&format!(
-            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{}\n",
-            r.scene, r.rule, r.radius, r.setup_s, r.compensate, r.gpu_ms, r.bias, r.frame_variance, r.rmse_1, r.rmse_n, opt(r.flip_1), opt(r.flip_n), r.worst_share_n
+            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.scene, r.rule, r.radius, r.setup_s, r.compensate, r.gpu_ms, r.bias, opt(r.bias_se), r.frame_variance, r.rmse_1, r.rmse_n, opt(r.flip_1), opt(r.flip_n), r.worst_share_n
         ));
     }
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::run_seed;
+
+    /// Runs have seeds of their own (so VPL sets of their own), none of them the reference's.
+    #[test]
+    fn run_seeds_are_distinct_and_not_the_base() {
+        for base in [0u32, 7, u32::MAX] {
+            let seeds: Vec<u32> = (0..64).map(|k| run_seed(base, k)).collect();
+            assert!(!seeds.contains(&base), "{base}: {seeds:?}");
+            let mut sorted = seeds.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            assert_eq!(sorted.len(), seeds.len(), "{base}: {seeds:?}");
+        }
+    }
 }
