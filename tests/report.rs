@@ -104,7 +104,7 @@ fn bias_with_standard_error() {
     let table = bias_table_markdown(&points, &["cornell_box".to_string()]);
     assert!(table.contains("0.9950 ± 0.0020"), "{table}");
     assert!(!table.contains("1.0280 ±"), "uniform has no standard error: {table}");
-    let goals = goals_markdown(&points, &["cornell_box".to_string()], "restir", "ris", 20, &[1], 0.2, 0.01);
+    let goals = goals_markdown(&points, &["cornell_box".to_string()], &[], "restir", "ris", 20, &[1], 0.2, 0.01);
     assert!(goals.contains("-0.50 ± 0.20 % ✓"), "{goals}");
 }
 
@@ -314,7 +314,7 @@ fn plots_extreme_ranges() {
 #[test]
 fn goals_table_checks_each_goal_and_refuses_extrapolation() {
     let p = thesis();
-    let md = goals_markdown(&p, &["cornell_box".into()], "restir", "ris", 20, &[1, 20], 0.20, 0.01);
+    let md = goals_markdown(&p, &["cornell_box".into()], &[], "restir", "ris", 20, &[1, 20], 0.20, 0.01);
     let row = md.lines().find(|l| l.starts_with("| cornell_box")).expect(&md);
     assert!(row.contains("0 % ✓"), "{row}");
     assert!(row.contains("+0.80 % ✓"), "{row}");
@@ -322,9 +322,33 @@ fn goals_table_checks_each_goal_and_refuses_extrapolation() {
     assert!(row.contains("0.0800 vs — (RIS run ended first)"), "{row}");
     assert!(md.contains("below RIS at equal time at every t on 0 of 1 scenes"), "{md}");
     // A tighter bias bound fails; RIS against a slower uniform reaches its t = 1 and t = 2 goals.
-    let md = goals_markdown(&p, &["cornell_box".into()], "restir", "ris", 20, &[1], 0.20, 0.005);
+    let md = goals_markdown(&p, &["cornell_box".into()], &[], "restir", "ris", 20, &[1], 0.20, 0.005);
     assert!(md.contains("+0.80 % ✗") && md.contains("bias within it on 0 of 1"), "{md}");
     assert!(md.contains("at every t on 1 of 1 scenes"), "{md}");
+}
+
+/// The bias over VPL sets: ReSTIR's ratio to its own set's converged answer (1.002 ± 0.001) times
+/// the VPL model's mean ratio over sets (0.985 ± 0.002) gives 0.98697, −1.30 %, with standard error
+/// √((0.001 · 0.985)² + (1.002 · 0.002)²) = 0.223 %. The mark follows that estimate, not the
+/// runs' own set (+0.80 % against the path tracer); a scene without a model ratio keeps the old
+/// mark.
+#[test]
+fn goals_bias_over_vpl_sets_combines_both_ratios() {
+    let mut p = thesis();
+    let mut own = pt("cornell_box", "restir", "vpl", 20, 400.0, 0.02);
+    own.mean_ratio = 1.002;
+    own.mean_ratio_se = Some(0.001);
+    p.push(own);
+    let model = [("cornell_box".to_string(), 0.985, 0.002)];
+    let md = goals_markdown(&p, &["cornell_box".into()], &model, "restir", "ris", 20, &[1], 0.20, 0.01);
+    let row = md.lines().find(|l| l.starts_with("| cornell_box")).expect(&md);
+    assert!(row.contains("-1.30 ± 0.22 % over VPL sets (+0.80 % on the runs' set) ✗"), "{row}");
+    assert!(md.contains("bias within it on 0 of 1"), "{md}");
+    let md = goals_markdown(&p, &["cornell_box".into()], &model, "restir", "ris", 20, &[1], 0.20, 0.015);
+    assert!(md.contains("bias within it on 1 of 1"), "{md}");
+    let other = [("living_room".to_string(), 0.5, 0.0)];
+    let md = goals_markdown(&p, &["cornell_box".into()], &other, "restir", "ris", 20, &[1], 0.20, 0.01);
+    assert!(md.contains("+0.80 % ✓"), "{md}");
 }
 
 /// bench --motion's spread over runs: each run's mean over the frames, its standard error, and the

@@ -86,6 +86,10 @@ fn results_quick_covers_the_three_scenes() {
     let md = non_empty(&dir.path().join("results.md"));
     for scene in ["cornell_box", "living_room", "open_box_figure"] {
         assert!(md.contains(&format!("## {scene}")), "results.md lacks {scene}");
+        // The VPL model's mean ratio over other VPL sets (2 in the quick run), finite.
+        let row = md.lines().find(|l| l.starts_with(&format!("| {scene} |")) && l.ends_with(" 2 sets) |")).expect(&md);
+        let over_sets: f64 = row.rsplit('|').nth(1).unwrap().split_whitespace().next().unwrap().parse().expect(row);
+        assert!(over_sets.is_finite() && over_sets > 0.0, "{row}");
         for reference in ["pt", "vpl"] {
             non_empty(&dir.path().join(format!("plots/{scene}_{reference}_rmse_vs_time.svg")));
         }

@@ -180,7 +180,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
                 // Seeds other than the base seed, the first run's too: the references are rendered
                 // with the base seed (as in `results`, where a run with it repeated the reference's
                 // own random numbers and came out with too low an error).
-                r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1)))?;
+                r.restart(crate::eval::run_seed(base.seed, run))?;
                 let start = path.at(0.0);
                 for _ in 0..WARMUP_FRAMES {
                     r.render_frame(&start, false)?;

@@ -20,6 +20,7 @@ use serde::Serialize;
 
 use crate::eval::compare::{compare, CompareOptions};
 use crate::eval::reference::{make_reference, ReferenceTarget};
+use crate::eval::run_seed;
 use crate::eval::results::SceneSpec;
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
@@ -109,12 +110,6 @@ pub struct RadiusRow {
     pub flip_n: Option<f64>,
     /// Worst 0.1 % pixels' share of the squared error after `frames` frames.
     pub worst_share_n: f64,
-}
-
-/// Run `run`'s seed, the same for every rule (so is its VPL set): a fixed stride from the base
-/// seed, never the base seed itself, which rendered the reference.
-pub fn run_seed(base: u32, run: u32) -> u32 {
-    base.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1))
 }
 
 /// Measures every rule on every scene.
@@ -304,20 +299,3 @@ pub fn write_csv(path: &Path, rows: &[RadiusRow]) -> Result<()> {
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::run_seed;
-
-    /// Runs have seeds of their own (so VPL sets of their own), none of them the reference's.
-    #[test]
-    fn run_seeds_are_distinct_and_not_the_base() {
-        for base in [0u32, 7, u32::MAX] {
-            let seeds: Vec<u32> = (0..64).map(|k| run_seed(base, k)).collect();
-            assert!(!seeds.contains(&base), "{base}: {seeds:?}");
-            let mut sorted = seeds.clone();
-            sorted.sort_unstable();
-            sorted.dedup();
-            assert_eq!(sorted.len(), seeds.len(), "{base}: {seeds:?}");
-        }
-    }
-}

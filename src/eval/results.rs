@@ -166,7 +166,7 @@ pub fn curves(
             // Every run, the first too, draws pixel seeds other than the base seed: the VPL
             // reference is RIS rendered with the base seed from frame 0, and a run with it would
             // repeat the reference's own random numbers (its error came out up to 27 % too low).
-            r.restart(base.seed.wrapping_add(0x9e37_79b9u32.wrapping_mul(run + 1)))?;
+            r.restart(crate::eval::run_seed(base.seed, run))?;
             for _ in 0..WARMUP_FRAMES {
                 r.render_frame(&camera, false)?;
             }
@@ -313,6 +313,10 @@ pub struct ResultsOptions {
     /// Frames of the path-traced ground truth and of the converged VPL reference (RIS).
     pub pt_reference_frames: u32,
     pub vpl_reference_frames: u32,
+    /// Other VPL sets (photon seeds) rendered converged (RIS, `vpl_set_frames` frames each) to
+    /// measure how far one set's answer strays from the VPL model's mean (0: none).
+    pub vpl_sets: u32,
+    pub vpl_set_frames: u32,
     pub vpls_direct: u32,
     pub vpls_indirect: u32,
     /// Measure the unbiased ReSTIR variants too.
@@ -339,6 +343,8 @@ impl ResultsOptions {
             runs: 3,
             pt_reference_frames: 1024,
             vpl_reference_frames: 1024,
+            vpl_sets: 8,
+            vpl_set_frames: 64,
             vpls_direct: 100_000,
             vpls_indirect: 100_000,
             all_modes: true,
@@ -359,6 +365,8 @@ impl ResultsOptions {
             runs: 1,
             pt_reference_frames: 16,
             vpl_reference_frames: 16,
+            vpl_sets: 2,
+            vpl_set_frames: 4,
             vpls_direct: 5_000,
             vpls_indirect: 5_000,
             all_modes: false,
@@ -398,6 +406,53 @@ struct ModelBias {
     /// Standard error of the MSE between the references (the spread of the per-pixel, per-channel
     /// squared differences over their count).
     mse_se: f64,
+    /// mean(vpl) / mean(pt) over other VPL sets: the VPL model's mean ratio, free of one set's own
+    /// error.
+    over_sets: Option<SetSpread>,
+}
+
+/// mean(image) / mean(pt reference) of converged VPL answers over independent VPL sets.
+#[derive(Clone, Copy, Debug)]
+pub struct SetSpread {
+    pub sets: usize,
+    pub mean_ratio: f64,
+    /// Standard error of `mean_ratio` over the sets.
+    pub se: f64,
+    /// One set's standard deviation: how far a single set's answer strays.
+    pub sd: f64,
+}
+
+/// Renders `opts.vpl_sets` VPL sets of `base` (each its own photon seed) converged with RIS and
+/// measures mean(image) / mean(`pt`) over them (None for fewer than two sets).
+fn vpl_set_spread(
+    ctx: &Arc<Context>,
+    scene: &Arc<SceneGpu>,
+    base: &RenderSettings,
+    pt: &RgbImage,
+    opts: &ResultsOptions,
+    log: &mut dyn FnMut(String),
+) -> Result<Option<SetSpread>> {
+    if opts.vpl_sets < 2 || opts.vpl_set_frames == 0 {
+        return Ok(None);
+    }
+    let mut ratios = OverRuns::default();
+    for k in 0..opts.vpl_sets {
+        let settings = RenderSettings { mode: Mode::Ris, seed: crate::eval::run_seed(base.seed, k), ..base.clone() };
+        let mut r = Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("VPL set {}", k + 1))?;
+        let camera = r.initial_camera();
+        for _ in 0..opts.vpl_set_frames {
+            r.render_frame(&camera, false)?;
+        }
+        let img = RgbImage { width: pt.width, height: pt.height, pixels: r.read_mean()? };
+        ratios.add(compare(&img, pt, &CompareOptions { flip: false, ..Default::default() })?.mean_ratio);
+    }
+    let se = ratios.standard_error().expect("two sets or more");
+    let spread = SetSpread { sets: ratios.count(), mean_ratio: ratios.mean(), se, sd: se * (ratios.count() as f64).sqrt() };
+    log(format!(
+        "  {} VPL sets: mean(vpl) / mean(pt) = {:.4} ± {:.4} (one set's sd {:.4})",
+        spread.sets, spread.mean_ratio, spread.se, spread.sd
+    ));
+    Ok(Some(spread))
 }
 
 /// The standard error of the mean squared difference of two images (finite pixels only).
@@ -441,12 +496,14 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         let (vpl_img, vpl_meta) =
             cached_reference(ctx, &scene, &vpl_settings, &vpl_path, opts.vpl_reference_frames, log)?;
         let agreement = compare(&vpl_img, &pt_img, &CompareOptions { flip: false, ..Default::default() })?;
+        let over_sets = vpl_set_spread(ctx, &scene, &base, &pt_img, opts, log)?;
         model_bias.push(ModelBias {
             scene: label.clone(),
             rmse: agreement.rmse,
             mean_ratio: agreement.mean_ratio,
             noise_rmse: pt_meta.noise_mse.zip(vpl_meta.noise_mse).map(|(a, b)| (a + b).sqrt()),
             mse_se: mse_standard_error(&vpl_img, &pt_img),
+            over_sets,
         });
         ref_infos.push(ReferenceInfo { scene: label.clone(), kind: "pt", meta: pt_meta, path: pt_path });
         ref_infos.push(ReferenceInfo { scene: label.clone(), kind: "vpl", meta: vpl_meta, path: vpl_path });
@@ -604,10 +661,16 @@ fn results_markdown(
         "The VPL model's own bias (the converged VPL answer against the path-traced one). The MSE between the \
          references is the bias's plus their noise's; the bias is resolved where that MSE exceeds the noise's by more \
          than 4 standard errors of the MSE (from the spread of the per-pixel squared differences; the noise estimates, \
-         from 1024 frames per pixel, are taken as exact), and its RMSE is then √(MSE − noise²):\n"
+         from at least {} frames per pixel, are taken as exact), and its RMSE is then √(MSE − noise²). The VPL reference is \
+         one VPL set, whose own error moves its mean: the last column is the same ratio over {} other VPL sets (photon \
+         seeds), each converged with RIS over {} frames, ± its standard error over them, and one set's standard \
+         deviation (sd). That column is the VPL model's mean ratio; the reference's column is one draw from around it.\n",
+        opts.pt_reference_frames.min(opts.vpl_reference_frames),
+        opts.vpl_sets,
+        opts.vpl_set_frames
     );
-    let _ = writeln!(s, "| scene | RMSE(vpl, pt) | noise alone | mean(vpl) / mean(pt) | verdict |");
-    let _ = writeln!(s, "|---|---:|---:|---:|---|");
+    let _ = writeln!(s, "| scene | RMSE(vpl, pt) | noise alone | mean(vpl) / mean(pt) | verdict | mean(vpl) / mean(pt) over VPL sets |");
+    let _ = writeln!(s, "|---|---:|---:|---:|---|---:|");
     for b in model_bias {
         let verdict = match b.noise_rmse {
             Some(n) => {
@@ -623,11 +686,14 @@ fn results_markdown(
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {:.4} | {verdict} |",
+            "| {} | {} | {} | {:.4} | {verdict} | {} |",
             b.scene,
             report::fmt_sig3(b.rmse),
             b.noise_rmse.map(report::fmt_sig3).unwrap_or_else(|| "—".into()),
-            b.mean_ratio
+            b.mean_ratio,
+            b.over_sets
+                .map(|o| format!("{:.4} ± {:.4} (sd {:.4}, {} sets)", o.mean_ratio, o.se, o.sd, o.sets))
+                .unwrap_or_else(|| "—".into())
         );
     }
     let _ = writeln!(s);
@@ -661,10 +727,15 @@ fn results_markdown(
              an RMSE below RIS's at equal time after {first} and after {t_goal} frames on at least two of the three scenes. \
              Equal time: RIS's error within the wall time ReSTIR took for its t frames, interpolated along RIS's curve \
              (RIS fits more frames in that time, hence checkpoints past {t_goal}). The bias is a mean over the runs of \
-             t frames each, so it carries their noise: ± is its standard error over the runs, and the mark compares the \
-             mean alone.\n"
+             t frames each, so it carries their noise: ± is its standard error over the runs. The runs share the VPL \
+             reference's VPL set, whose own error offsets their ratio to the path tracer (the model-bias table's sd), so \
+             the bias over VPL sets is estimated as their ratio to that set's converged answer times the VPL model's \
+             mean ratio over VPL sets (the table's last column), with the standard error of both; the mark compares \
+             that estimate's mean alone.\n"
         );
-        s.push_str(&report::goals_markdown(points, &labels, DEFAULT_MODE, "ris", t_goal, &[first, t_goal], 0.20, 0.01));
+        let model_ratio: Vec<(String, f64, f64)> =
+            model_bias.iter().filter_map(|b| b.over_sets.map(|o| (b.scene.clone(), o.mean_ratio, o.se))).collect();
+        s.push_str(&report::goals_markdown(points, &labels, &model_ratio, DEFAULT_MODE, "ris", t_goal, &[first, t_goal], 0.20, 0.01));
         let _ = writeln!(s);
     }
     let _ = writeln!(s, "## Frame times (thesis Table 1 shape)\n");
