@@ -773,8 +773,8 @@ impl Renderer {
                 ));
             }
             let grid = match (&passes.vpl.regir, &no_grid) {
-                (Some(p), _) => GridBuffers { entries: &p.entries, cells: &p.cells },
-                (None, Some((entries, cells))) => GridBuffers { entries, cells },
+                (Some(p), _) => GridBuffers { entries: &p.entries, cells: &p.cells, built: true },
+                (None, Some((entries, cells))) => GridBuffers { entries, cells, built: false },
                 (None, None) => unreachable!("made above"),
             };
             passes.vpl.initial = Some(RestirInitialPass::new(ctx, layout, targets, &inputs, &res, tiles, &grid)?);

@@ -1,11 +1,17 @@
 // The per-pixel side of the ReGIR grid that restir_initial.comp and restir_initial_temporal.comp
 // share (included after their `grid_cells` binding, which it reads and writes): the pixel's cell,
 // whether this frame's regir_build built it, and the cell's normalisation from its previous build;
-// then the pixel asks for its cell for the next frame's build.
+// then the pixel asks for its cell for the next frame's build. Only the passes' `grid` variants
+// (build.rs, REGIR_GRID) have a grid.
 #ifndef REGIR_PIXEL_GLSL
 #define REGIR_PIXEL_GLSL
 
 GridPick regir_pixel(Surface s, GridParams g, VplParams p) {
+#ifndef REGIR_GRID
+    // The default variant: no grid, a compile-time constant, so the candidate loops hold none of
+    // the grid's code (lavapipe would run it: +50 % in restir_initial, measured).
+    return grid_pick(g, -1, 0.0, p);
+#endif
     int cell = s.offset_scale >= 0.0 && g.grid_candidates > 0u ? regir_cell(g, s.position) : -1;
     if (cell < 0) {
         return grid_pick(g, -1, 0.0, p);

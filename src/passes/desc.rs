@@ -59,6 +59,10 @@ pub struct PassDesc {
     /// the pass as a ray-generation shader, for a context that traces with ray-tracing pipelines.
     pub raygen: Option<&'static [u8]>,
     pub textured_raygen: Option<&'static [u8]>,
+    /// SPIR-V of its `grid` variant (takes candidates from the ReGIR grid), and its ray-generation
+    /// form, where they exist.
+    pub grid: Option<&'static [u8]>,
+    pub grid_raygen: Option<&'static [u8]>,
     /// Set 1, as the shader declares it.
     pub bindings: &'static [Binding],
     pub push: PushLayout,
@@ -79,6 +83,8 @@ impl PassDesc {
             textured: None,
             raygen: None,
             textured_raygen: None,
+            grid: None,
+            grid_raygen: None,
             bindings: &[],
             push: PushLayout::NONE,
             local_size,
@@ -104,6 +110,11 @@ impl PassDesc {
         Self { textured_raygen: Some(spirv), ..self }
     }
 
+    /// The `grid` variant and its ray-generation form.
+    pub const fn with_grid(self, spirv: &'static [u8], raygen: &'static [u8]) -> Self {
+        Self { grid: Some(spirv), grid_raygen: Some(raygen), ..self }
+    }
+
     pub const fn with_bindings(self, bindings: &'static [Binding]) -> Self {
         Self { bindings, ..self }
     }
@@ -122,19 +133,21 @@ impl PassDesc {
         }
     }
 
-    /// (variant name, SPIR-V) of every compiled variant: `default`, then `textured`, `raygen` and
-    /// `textured_raygen` where they exist.
+    /// (variant name, SPIR-V) of every compiled variant: `default`, then `textured`, `raygen`,
+    /// `textured_raygen`, `grid` and `grid_raygen` where they exist.
     pub fn spirv_variants(&self) -> Vec<(&'static str, &'static [u8])> {
         let mut out = vec![("default", self.spirv)];
         out.extend(self.textured.map(|spirv| ("textured", spirv)));
         out.extend(self.raygen.map(|spirv| ("raygen", spirv)));
         out.extend(self.textured_raygen.map(|spirv| ("textured_raygen", spirv)));
+        out.extend(self.grid.map(|spirv| ("grid", spirv)));
+        out.extend(self.grid_raygen.map(|spirv| ("grid_raygen", spirv)));
         out
     }
 
     /// Starts building the pass's pipeline on `scene_layout` (set 0).
     pub fn pipeline<'a>(&'a self, ctx: &'a Arc<Context>, scene_layout: vk::DescriptorSetLayout) -> PipelineBuilder<'a> {
-        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, workgroup: None, shared: Vec::new(), per_variant: Vec::new(), ranges: Vec::new() }
+        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, grid: false, workgroup: None, shared: Vec::new(), per_variant: Vec::new(), ranges: Vec::new() }
     }
 }
 
@@ -145,6 +158,7 @@ pub struct PipelineBuilder<'a> {
     ctx: &'a Arc<Context>,
     scene_layout: vk::DescriptorSetLayout,
     textured: bool,
+    grid: bool,
     workgroup: Option<[u32; 2]>,
     shared: Vec<(u32, &'a Buffer)>,
     /// Empty: one set-1 variant.
@@ -157,6 +171,12 @@ impl<'a> PipelineBuilder<'a> {
     /// Use the `textured` SPIR-V when `textured` (the scene set has textures bound).
     pub fn textured(mut self, textured: bool) -> Self {
         self.textured = textured;
+        self
+    }
+
+    /// Use the `grid` SPIR-V when `grid` (the pass takes candidates from the ReGIR grid).
+    pub fn grid(mut self, grid: bool) -> Self {
+        self.grid = grid;
         self
     }
 
@@ -207,17 +227,20 @@ impl<'a> PipelineBuilder<'a> {
                 ensure!(times == 1, "pass '{}': binding {} ('{}') of variant {v} is bound {times} times", d.name, row.binding, row.name);
             }
         }
-        let textured = |spirv: Option<&'static [u8]>, plain: &'static [u8]| match self.textured {
-            true => spirv.with_context(|| format!("pass '{}' has no textured variant", d.name)),
-            false => Ok(plain),
+        ensure!(!(self.textured && self.grid), "pass '{}' has no variant both textured and with the grid", d.name);
+        // The variant asked for: textured, grid, or the default.
+        let variant = |textured: Option<&'static [u8]>, grid: Option<&'static [u8]>, plain: &'static [u8]| match (self.textured, self.grid) {
+            (true, _) => textured.with_context(|| format!("pass '{}' has no textured variant", d.name)),
+            (_, true) => grid.with_context(|| format!("pass '{}' has no grid variant", d.name)),
+            _ => Ok(plain),
         };
         let push_size = u32::try_from(d.push.size).context("push-constant size")?;
         let workgroup = self.workgroup.unwrap_or([d.local_size[0], d.local_size[1]]);
         let local_size = d.local_size_with(workgroup);
         ensure!(local_size[..2] == workgroup, "pass '{}' has a fixed {:?} workgroup, not {workgroup:?}", d.name, d.local_size);
         let shader = match (self.ctx.tracing, d.raygen) {
-            (Tracing::Pipeline, Some(raygen)) => PassShader::RayGen(textured(d.textured_raygen, raygen)?),
-            _ => PassShader::Compute { spirv: textured(d.textured, d.spirv)?, specialise: d.workgroup_spec },
+            (Tracing::Pipeline, Some(raygen)) => PassShader::RayGen(variant(d.textured_raygen, d.grid_raygen, raygen)?),
+            _ => PassShader::Compute { spirv: variant(d.textured, d.grid, d.spirv)?, specialise: d.workgroup_spec },
         };
         let pipeline =
             ComputePipeline::with_variants(self.ctx, d.name, shader, self.scene_layout, d.bindings, push_size, local_size, variants as u32)?;

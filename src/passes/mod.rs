@@ -243,6 +243,8 @@ pub struct VplInputs<'a> {
 pub struct GridBuffers<'a> {
     pub entries: &'a Buffer,
     pub cells: &'a Buffer,
+    /// A real grid: the passes use their `grid` variants (the default ones hold no grid code).
+    pub built: bool,
 }
 
 /// The two reservoir buffers the ReSTIR passes ping-pong between. Which one holds what is decided

@@ -32,6 +32,7 @@ impl RestirInitialPass {
     pub const NAME: &'static str = "restir_initial";
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_INITIAL, [8, 8, 1])
         .with_raygen(shaders::PASSES_RESTIR_INITIAL_RAYGEN)
+        .with_grid(shaders::PASSES_RESTIR_INITIAL_GRID, shaders::PASSES_RESTIR_INITIAL_GRID_RAYGEN)
         .with_workgroup_spec()
         .with_push(Push::LAYOUT)
         .with_bindings(&[
@@ -52,6 +53,7 @@ impl RestirInitialPass {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
             .workgroup(targets.workgroup)
+            .grid(grid.built)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (4, &targets.ray_counter), (5, tiles)])
             .buffers(&[(6, grid.entries), (7, grid.cells)])
             .ping_pong(reservoirs, 3, None)

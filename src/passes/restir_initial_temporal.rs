@@ -40,6 +40,7 @@ impl RestirInitialTemporalPass {
     /// Fixed 8×8, as `restir_temporal`.
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_RESTIR_INITIAL_TEMPORAL, [8, 8, 1])
         .with_raygen(shaders::PASSES_RESTIR_INITIAL_TEMPORAL_RAYGEN)
+        .with_grid(shaders::PASSES_RESTIR_INITIAL_TEMPORAL_GRID, shaders::PASSES_RESTIR_INITIAL_TEMPORAL_GRID_RAYGEN)
         .with_push(Push::LAYOUT)
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"), texels(3, "tiles"),
@@ -58,6 +59,7 @@ impl RestirInitialTemporalPass {
     ) -> Result<Self> {
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
+            .grid(grid.built)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (3, tiles), (6, &targets.ray_counter)])
             .buffers(&[(7, grid.entries), (8, grid.cells)])
             .ping_pong(reservoirs, 5, Some(4))
