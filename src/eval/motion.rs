@@ -242,28 +242,19 @@ pub fn write_csv(path: &Path, points: &[MotionPoint]) -> Result<()> {
 /// The per-scene table: mean over the moving frames of each error and of the GPU time, and the
 /// inverse efficiency relMSE × ms (lower is better: the error a mode buys with its time).
 pub fn table_markdown(points: &[MotionPoint]) -> String {
-    let mut scenes: Vec<&str> = Vec::new();
-    for p in points {
-        if !scenes.contains(&p.scene.as_str()) {
-            scenes.push(&p.scene);
-        }
-    }
+    let scenes = crate::eval::report::ordered(points.iter().map(|p| p.scene.as_str()));
     let mut s = String::new();
     for scene in scenes {
         s += &format!(
             "\n**{scene}** (mean over the moving frames)\n\n| mode | GPU ms / frame | RMSE | relMSE | FLIP | relMSE × ms |\n|---|---:|---:|---:|---:|---:|\n"
         );
-        let mut modes: Vec<&str> = Vec::new();
-        for p in points.iter().filter(|p| p.scene == scene) {
-            if !modes.contains(&p.mode.as_str()) {
-                modes.push(&p.mode);
-            }
-        }
+        let modes = crate::eval::report::ordered(points.iter().filter(|p| p.scene == scene).map(|p| p.mode.as_str()));
         for m in modes {
             let sel: Vec<&MotionPoint> = points.iter().filter(|p| p.scene == scene && p.mode == m).collect();
             let n = sel.len() as f64;
             let mean = |f: &dyn Fn(&MotionPoint) -> f64| sel.iter().map(|p| f(p)).sum::<f64>() / n;
-            let (ms, rmse, relmse) = (mean(&|p| p.gpu_ms), mean(&|p| p.rmse), mean(&|p| p.relmse));
+            let (ms, relmse) = (mean(&|p| p.gpu_ms), mean(&|p| p.relmse));
+            let rmse = mean_rmse(points, scene, m).expect("the mode has points on the scene");
             let flip = if sel.iter().all(|p| p.flip.is_some()) {
                 format!("{:.4}", mean(&|p| p.flip.unwrap_or(0.0)))
             } else {
@@ -298,12 +289,7 @@ pub fn plots(dir: &Path, points: &[MotionPoint]) -> Result<Vec<PathBuf>> {
             flip: p.flip,
         })
         .collect();
-    let mut scenes: Vec<&str> = Vec::new();
-    for p in points {
-        if !scenes.contains(&p.scene.as_str()) {
-            scenes.push(&p.scene);
-        }
-    }
+    let scenes = crate::eval::report::ordered(points.iter().map(|p| p.scene.as_str()));
     let mut out = Vec::new();
     for scene in scenes {
         let f = dir.join(format!("{scene}_motion_rmse.svg"));
@@ -380,12 +366,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         opts.frames,
         opts.runs,
     );
-    let mut scenes: Vec<&str> = Vec::new();
-    for p in points {
-        if !scenes.contains(&p.scene.as_str()) {
-            scenes.push(&p.scene);
-        }
-    }
+    let scenes = crate::eval::report::ordered(points.iter().map(|p| p.scene.as_str()));
     for scene in &scenes {
         let on = mean_rmse(points, scene, "restir-unbiased");
         let off = mean_rmse(points, scene, "restir-no-temporal");

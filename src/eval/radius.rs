@@ -248,12 +248,7 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
         opts.frames,
         opts.frames
     );
-    let mut scenes: Vec<&str> = Vec::new();
-    for r in rows {
-        if !scenes.contains(&r.scene.as_str()) {
-            scenes.push(&r.scene);
-        }
-    }
+    let scenes = crate::eval::report::ordered(rows.iter().map(|r| r.scene.as_str()));
     for scene in scenes {
         let _ = writeln!(s, "**{scene}**\n");
         let _ = writeln!(

@@ -346,12 +346,12 @@ fn select<'a>(points: &'a [CurvePoint], scene: &str, reference: &str) -> Vec<&'a
     points.iter().filter(|p| p.scene == scene && p.reference == reference).collect()
 }
 
-/// Distinct values in first-appearance order.
-fn ordered<'a>(items: impl IntoIterator<Item = &'a str>) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
+/// Distinct values in first-appearance order (scenes, modes, passes as the tables list them).
+pub fn ordered<T: PartialEq>(items: impl IntoIterator<Item = T>) -> Vec<T> {
+    let mut out: Vec<T> = Vec::new();
     for s in items {
-        if !out.iter().any(|o| o == s) {
-            out.push(s.to_string());
+        if !out.contains(&s) {
+            out.push(s);
         }
     }
     out
@@ -380,7 +380,7 @@ pub fn error_table_markdown(points: &[CurvePoint], scene: &str, reference: &str,
     if sel.is_empty() {
         return no_data(scene, reference);
     }
-    let modes = ordered(sel.iter().map(|p| p.mode.as_str()));
+    let modes = ordered(sel.iter().map(|p| p.mode.clone()));
     let mut ts: Vec<u32> = sel.iter().map(|p| p.frames).collect();
     ts.sort_unstable();
     ts.dedup();
@@ -482,7 +482,7 @@ pub fn equal_time_table_markdown(
     if budgets_ms.is_empty() {
         return format!("_No time budgets given for scene `{scene}`._\n");
     }
-    let modes = ordered(sel.iter().map(|p| p.mode.as_str()));
+    let modes = ordered(sel.iter().map(|p| p.mode.clone()));
     let mut out = String::new();
     writeln!(
         out,
@@ -528,7 +528,7 @@ pub fn equal_time_table_markdown(
 /// would compare errors at different times. Empty without data.
 pub fn suggest_budgets_ms(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<f64> {
     let sel = select(points, scene, reference);
-    let modes = ordered(sel.iter().map(|p| p.mode.as_str()));
+    let modes = ordered(sel.iter().map(|p| p.mode.clone()));
     let mut lo = f64::INFINITY;
     let mut hi = f64::INFINITY;
     for m in &modes {
@@ -580,14 +580,8 @@ pub fn frame_time_table_markdown(rows: &[FrameTimeRow]) -> String {
     if rows.is_empty() {
         return "_No frame-time data._\n".into();
     }
-    let modes = ordered(rows.iter().map(|r| r.mode.as_str()));
-    let mut scenes: Vec<(String, u32, u32)> = Vec::new();
-    for r in rows {
-        let key = (r.scene.clone(), r.width, r.height);
-        if !scenes.contains(&key) {
-            scenes.push(key);
-        }
-    }
+    let modes = ordered(rows.iter().map(|r| r.mode.clone()));
+    let scenes = ordered(rows.iter().map(|r| (r.scene.clone(), r.width, r.height)));
     let find = |s: &(String, u32, u32), mode: &str| {
         rows.iter().find(|r| r.scene == s.0 && r.width == s.1 && r.height == s.2 && r.mode == mode)
     };
@@ -626,7 +620,7 @@ pub fn frame_time_table_markdown(rows: &[FrameTimeRow]) -> String {
         writeln!(out, "\n**{}** ({}×{}): median GPU ms per pass\n", s.0, s.1, s.2).unwrap();
         let cols: Vec<String> = present.iter().map(|r| mode_display_name(&r.mode)).collect();
         table_header(&mut out, "Pass", &cols);
-        let mut passes = ordered(present.iter().flat_map(|r| r.pass_ms.keys().map(String::as_str)));
+        let mut passes = ordered(present.iter().flat_map(|r| r.pass_ms.keys().cloned()));
         passes.sort();
         for pass in &passes {
             let cells: Vec<String> =
@@ -774,7 +768,7 @@ fn padded(lo: f64, hi: f64, pad: f64, min_ratio: f64) -> (f64, f64) {
 
 fn plot(path: &Path, points: &[CurvePoint], scene: &str, reference: &str, metric: Metric, x: XAxis) -> Result<()> {
     let sel = select(points, scene, reference);
-    let modes = ordered(sel.iter().map(|p| p.mode.as_str()));
+    let modes = ordered(sel.iter().map(|p| p.mode.clone()));
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for m in &modes {
         let mut pts: Vec<(f64, f64)> = sel
@@ -946,12 +940,7 @@ pub fn host_description() -> String {
 
 /// mean ratio per scene × mode at each scene's last checkpoint, against both references.
 pub fn bias_table_markdown(points: &[CurvePoint], scene_labels: &[String]) -> String {
-    let mut modes: Vec<&str> = Vec::new();
-    for p in points {
-        if !modes.contains(&p.mode.as_str()) {
-            modes.push(&p.mode);
-        }
-    }
+    let modes = ordered(points.iter().map(|p| p.mode.as_str()));
     let mut s = String::from("| scene | reference |");
     for m in &modes {
         let _ = write!(s, " {} |", mode_display_name(m));
@@ -1124,12 +1113,7 @@ pub fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<
     }
     // Accumulating more frames of an unbiased estimator lowers the expected error; a rise says a few
     // rare, very bright samples (fireflies) dominate the RMSE at these run counts.
-    let mut modes: Vec<&str> = Vec::new();
-    for p in points.iter().filter(|p| p.scene == scene && p.reference == reference) {
-        if !modes.contains(&p.mode.as_str()) {
-            modes.push(&p.mode);
-        }
-    }
+    let modes = ordered(points.iter().filter(|p| p.scene == scene && p.reference == reference).map(|p| p.mode.as_str()));
     for m in modes {
         let mut curve: Vec<&CurvePoint> =
             points.iter().filter(|p| p.scene == scene && p.reference == reference && p.mode == m).collect();

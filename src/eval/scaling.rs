@@ -229,12 +229,7 @@ pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) ->
         let mut xs: Vec<f64> = sel.iter().map(|p| p.x).collect();
         xs.sort_by(f64::total_cmp);
         xs.dedup();
-        let mut whats: Vec<&str> = Vec::new();
-        for p in &sel {
-            if !whats.contains(&p.what.as_str()) {
-                whats.push(&p.what);
-            }
-        }
+        let whats = crate::eval::report::ordered(sel.iter().map(|p| p.what.as_str()));
         s += &format!("**{title}**\n\n| ms at {unit} |");
         for x in &xs {
             s += &format!(" {} |", fmt_count(*x));
