@@ -733,3 +733,64 @@ fn a_drifted_constant_is_detected() {
 fn the_device_check_asks_for_the_storage_buffers_a_pass_uses() {
     assert_eq!(passes::storage_buffers_per_stage(), restir_vpl::vk::context::REQUIRED_STORAGE_BUFFERS_PER_STAGE);
 }
+
+/// Set-1 bindings of `spirv` that some function reads or writes (an instruction in a function body
+/// names the binding's variable), as opposed to bindings only declared; and the names of the
+/// functions the module holds (glslang names them `name(signature`).
+fn used_set1_bindings_and_functions(spirv: &[u8]) -> (Vec<u32>, Vec<String>) {
+    let module = rspirv::dr::load_bytes(spirv).expect("build.rs's SPIR-V parses");
+    let decoration = |target: u32, which: Decoration| {
+        module.annotations.iter().find_map(|i| match i.operands.as_slice() {
+            [Operand::IdRef(t), Operand::Decoration(d), value] if *t == target && *d == which => Some(lit_u32(value)),
+            _ => None,
+        })
+    };
+    let body = || module.functions.iter().flat_map(|f| f.blocks.iter().flat_map(|b| b.instructions.iter()));
+    let mut used: Vec<u32> = module
+        .types_global_values
+        .iter()
+        .filter(|i| i.class.opcode == Op::Variable)
+        .filter_map(|i| i.result_id)
+        .filter(|&id| decoration(id, Decoration::DescriptorSet) == Some(1))
+        .filter(|&id| body().any(|inst| inst.operands.iter().any(|o| matches!(o, Operand::IdRef(r) if *r == id))))
+        .filter_map(|id| decoration(id, Decoration::Binding))
+        .collect();
+    used.sort_unstable();
+    let function_ids: Vec<u32> = module.functions.iter().filter_map(|f| f.def.as_ref().and_then(|d| d.result_id)).collect();
+    let functions = module
+        .debug_names
+        .iter()
+        .filter_map(|i| match i.operands.as_slice() {
+            [Operand::IdRef(id), Operand::LiteralString(name)] if function_ids.contains(id) => Some(name.clone()),
+            _ => None,
+        })
+        .collect();
+    (used, functions)
+}
+
+/// The ReGIR grid lives in the passes' `grid` variants only: the default variants of
+/// `restir_initial` and `restir_initial_temporal` hold none of the grid's functions and never touch
+/// its cells, so a pass without a grid runs none of the grid's code (on lavapipe that code, left
+/// to the driver to skip, cost 50 % of `restir_initial` with the grid off); the grid variants hold
+/// them all and stamp the cells.
+#[test]
+fn only_the_grid_variants_hold_the_grid_code() {
+    const GRID_FUNCTIONS: [&str; 4] = ["regir_cell(", "regir_cell_target(", "grid_entry_ucw_texels(", "grid_entry_candidate_texels("];
+    for d in [&passes::RestirInitialPass::DESC, &passes::RestirInitialTemporalPass::DESC] {
+        let cells = d.bindings.iter().find(|b| b.name == "grid_cells").expect("a grid_cells binding").binding;
+        for (variant, spirv) in d.spirv_variants() {
+            let (used, functions) = used_set1_bindings_and_functions(spirv);
+            let held: Vec<&str> = GRID_FUNCTIONS.iter().copied().filter(|f| functions.iter().any(|n| n.starts_with(f))).collect();
+            if variant.starts_with("grid") {
+                assert_eq!(held, GRID_FUNCTIONS, "{} ({variant}) holds the grid's functions", d.name);
+                assert!(used.contains(&cells), "{} ({variant}) stamps the grid's cells: {used:?}", d.name);
+            } else {
+                assert!(held.is_empty(), "{} ({variant}) holds grid functions {held:?}", d.name);
+                assert!(!used.contains(&cells), "{} ({variant}) touches grid_cells: {used:?}", d.name);
+                // The check sees functions and uses at all.
+                assert!(functions.iter().any(|n| n.starts_with("initial_reservoir(")), "{} ({variant}): {functions:?}", d.name);
+                assert!(used.len() >= 4, "{} ({variant}): used set-1 bindings {used:?}", d.name);
+            }
+        }
+    }
+}

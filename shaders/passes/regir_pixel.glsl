@@ -8,10 +8,10 @@
 
 GridPick regir_pixel(Surface s, GridParams g, VplParams p) {
 #ifndef REGIR_GRID
-    // The default variant: no grid, a compile-time constant, so the candidate loops hold none of
-    // the grid's code (lavapipe would run it: +50 % in restir_initial, measured).
+    // The default variant: no grid, a compile-time constant (lavapipe would otherwise run the
+    // grid's code in the candidate loops: +50 % in restir_initial, measured).
     return grid_pick(g, -1, 0.0, p);
-#endif
+#else
     int cell = s.offset_scale >= 0.0 && g.grid_candidates > 0u ? regir_cell(g, s.position) : -1;
     if (cell < 0) {
         return grid_pick(g, -1, 0.0, p);
@@ -24,6 +24,7 @@ GridPick regir_pixel(Surface s, GridParams g, VplParams p) {
     // Built this frame: its entries are this frame's draws over the current VPLs.
     bool built = rec.y == stamp;
     return grid_pick(g, built ? cell : -1, uintBitsToFloat(rec.w), p);
+#endif
 }
 
 #endif

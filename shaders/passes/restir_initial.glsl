@@ -15,12 +15,13 @@
 // reading 128 x 32 KB of tiles instead of the whole VPL buffer. (One tile per workgroup reads less
 // memory still, but neighbours then share candidates and spatial reuse loses: +47% accumulated
 // ReSTIR error at 16 frames on the Cornell box, against +12% with a tile per pixel.)
-// With the ReGIR grid (GridParams.grid_candidates > 0, regir.glsl): the first of the M candidates
+// With the ReGIR grid (the passes' `grid` variant, REGIR_GRID; GridParams.grid_candidates > 0;
+// regir.glsl): the first of the M candidates
 // are consecutive entries of the pixel's grid cell, the rest come from the source pdf as above, and
 // every candidate's weight is m(y) p^(y) W(y) with the balance heuristic between the two sources
 // (the grid's density replaced by the cell target over the cell's previous normalisation S; 1/M
-// weights before the cell has one). Without a grid, or in a cell not built this frame, the code
-// and random stream are those above.
+// weights before the cell has one). The default variant holds none of the grid's code; in a cell
+// not built this frame the grid variant's code and random stream are those above.
 #ifndef RESTIR_INITIAL_GLSL
 #define RESTIR_INITIAL_GLSL
 
@@ -79,6 +80,17 @@ float mixed_weight_from_grid(float t, float ucw, float q, float pc, GridPick k, 
     return t * ucw / float(m);
 }
 
+// The cell target of a candidate at y (its normal as the candidate records carry it, octahedral)
+// for its balance-heuristic weight: 0 without the cell's normalisation, and always 0 in the
+// default variant, which holds none of the grid's code (build.rs, REGIR_GRID).
+float candidate_cell_target(GridPick k, vec3 y, uint kind, uint normal_oct, vec3 flux, float r2, VplParams p) {
+#ifdef REGIR_GRID
+    return k.inv_norm > 0.0 ? regir_cell_target(y, kind, oct_decode(normal_oct), flux, r2, k.centre, k.radius, p) : 0.0;
+#else
+    return 0.0;
+#endif
+}
+
 // The initial reservoir of `pixel`, whose surface is `s` (a hit or not). `tile_count`: presampled
 // tiles in `tiles` (0: draw from `vpls`, through `vpl_alias` for the power source). `k` (grid_pick):
 // the first k.n_grid candidates come from the pixel's grid cell's entries in `grid_entries`.
@@ -93,6 +105,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
     uint m = p.candidates;
     uint n_u = m - k.n_grid;
     bool per_vpl_r2 = (p.flags & VPL_FLAG_PER_VPL_RADIUS) != 0u;
+#ifdef REGIR_GRID
     // Grid candidates (none without a grid or outside it): consecutive entries of the pixel's cell
     // from a random start, as from a presampled tile (the cell's entries are independent draws, so
     // any distinct ones will do; beyond `entries` they wrap).
@@ -107,11 +120,12 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             vec3 n = oct_decode(c.normal_oct);
             float r2 = per_vpl_r2 ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = vpl_target_at(c.position, kind, n, c.flux, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, n, c.flux, r2, k.centre, k.radius, p) : 0.0;
+            float pc = candidate_cell_target(k, c.position, kind, c.normal_oct, c.flux, r2, p);
             float w = mixed_weight_from_grid(t, ucw, vpl_source_pdf(c.flux, p), pc, k, n_u, m);
             stream_update(st, candidate_index(c), w, t, u);
         }
     }
+#endif
     if (tile_count > 0u) {
         uint tile = rand_index(rng, tile_count);
         uint base = tile * PRESAMPLE_TILE_SIZE;
@@ -121,8 +135,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             // A per-VPL radius costs one extra read of the full record (off by default).
             float r2 = per_vpl_r2 ? vpl_texels(vpls, candidate_index(c)).yuksel_r2 : p.yuksel_r2;
             float t = candidate_target(c, r2, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
-            uint kind = c.vpl_kind >> CANDIDATE_INDEX_BITS;
-            float pc = k.inv_norm > 0.0 ? regir_cell_target(c.position, kind, oct_decode(c.normal_oct), c.flux, r2, k.centre, k.radius, p) : 0.0;
+            float pc = candidate_cell_target(k, c.position, c.vpl_kind >> CANDIDATE_INDEX_BITS, c.normal_oct, c.flux, r2, p);
             float w = mixed_weight_from_source(t, vpl_source_pdf(c.flux, p), pc, k, n_u, m);
             stream_update(st, candidate_index(c), w, t, rand(rng));
         }
@@ -137,9 +150,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);
             // The cell target with the normal as the grid's and the tiles' candidate records carry it
             // (octahedral), so that both sources' weights use one function and sum to one exactly.
-            float pc = k.inv_norm > 0.0
-                ? regir_cell_target(v.position, v.kind, oct_decode(oct_encode(v.normal)), v.flux, vpl_r2(v.yuksel_r2, p), k.centre, k.radius, p)
-                : 0.0;
+            float pc = candidate_cell_target(k, v.position, v.kind, oct_encode(v.normal), v.flux, vpl_r2(v.yuksel_r2, p), p);
             float w = mixed_weight_from_source(t, vpl_source_pdf(v.flux, p), pc, k, n_u, m);
             stream_update(st, i, w, t, rand(rng));
         }
