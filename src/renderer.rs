@@ -790,9 +790,9 @@ impl Renderer {
                     }
                 }
                 if r.spatial_passes > 0 && r.spatial_neighbours > 0 {
-                    passes.vpl.spatial = Some(RestirSpatialPass::new(ctx, layout, targets, &inputs, &res)?);
+                    passes.vpl.spatial = Some(RestirSpatialPass::new(ctx, layout, targets, &inputs, &res, params.flags)?);
                     if settings.fuse_passes == Some(true) {
-                        passes.vpl.spatial_shade = Some(RestirSpatialShadePass::new(ctx, layout, targets, &inputs, &res)?);
+                        passes.vpl.spatial_shade = Some(RestirSpatialShadePass::new(ctx, layout, targets, &inputs, &res, params.flags)?);
                     }
                 }
             }

@@ -12,6 +12,13 @@ layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id 
 #endif
 #include "../lib/dispatch.glsl"
 
+// The reuse's kind, fixed per pipeline (specialisation constants 2 and 3, the pass desc's
+// `constants`; the renderer sets them from the VPL flags it pushes): unbiased pairwise MIS, and
+// visibility in its targets. The driver then compiles only the branch the settings run (on
+// lavapipe the other branches, inlined ray query included, cost 12-24 % of this pass).
+layout(constant_id = 2) const bool UNBIASED = true;
+layout(constant_id = 3) const bool VISIBLE_TARGETS = false;
+
 // Records read at per-pixel addresses come through texel views (texel_records.glsl says why).
 layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFACE_TEXELS (4) texels each
 layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
@@ -42,7 +49,7 @@ void main() {
     }
     uint rays = 0u;
     SpatialReuse sr = SpatialReuse(pc.neighbours, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
-    dst[index] = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, rays);
+    dst[index] = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, UNBIASED, VISIBLE_TARGETS, rays);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_SPATIAL], rays);
     }

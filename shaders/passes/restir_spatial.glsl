@@ -46,13 +46,13 @@ bool pick_neighbour(uvec2 pixel, Surface s, vec2 u, SpatialReuse sr, utextureBuf
 }
 
 // The spatial merge of `pixel` (surface `s`, a hit; canonical reservoir `rc`) with the reservoirs
-// in `src`. Adds the shadow rays it traced to `rays`.
+// in `src`. `unbiased`: pairwise MIS (p.flags' VPL_FLAG_UNBIASED); `visible_targets`: unbiased
+// reuse evaluates every target the way the reservoirs were built, with visibility when the initial
+// samples were shadow-tested (VPL_FLAG_INITIAL_VISIBILITY). The passes give both as
+// specialisation constants, so a pipeline holds only the code its settings run. Adds the shadow
+// rays it traced to `rays`.
 Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplParams p, SpatialReuse sr, utextureBuffer surfaces,
-                        utextureBuffer vpls, utextureBuffer src, inout uint rays) {
-    bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
-    // Unbiased reuse evaluates every target the way the reservoirs were built: with visibility
-    // when the initial samples were shadow-tested, without otherwise.
-    bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
+                        utextureBuffer vpls, utextureBuffer src, bool unbiased, bool visible_targets, inout uint rays) {
     Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (sr.pass_index << 16));
 
     uint wanted = min(sr.neighbours, MAX_SPATIAL_NEIGHBOURS);

@@ -71,6 +71,10 @@ pub struct PassDesc {
     /// The shader's x and y local size are specialisation constants 0 and 1 (`local_size_x_id`,
     /// `local_size_y_id`), so the renderer can set them (`--workgroup`).
     pub workgroup_spec: bool,
+    /// The shader's other specialisation constants, (constant_id, name) as its GLSL declares them
+    /// (`layout(constant_id = N) const ... NAME`): settings fixed per pipeline, so the driver
+    /// compiles only the code they select. A pipeline sets each with [`PipelineBuilder::constant`].
+    pub constants: &'static [(u32, &'static str)],
 }
 
 impl PassDesc {
@@ -89,7 +93,13 @@ impl PassDesc {
             push: PushLayout::NONE,
             local_size,
             workgroup_spec: false,
+            constants: &[],
         }
+    }
+
+    /// The shader's specialisation constants beyond the workgroup's.
+    pub const fn with_constants(self, constants: &'static [(u32, &'static str)]) -> Self {
+        Self { constants, ..self }
     }
 
     /// The shader's x and y local size are specialisation constants 0 and 1.
@@ -147,7 +157,7 @@ impl PassDesc {
 
     /// Starts building the pass's pipeline on `scene_layout` (set 0).
     pub fn pipeline<'a>(&'a self, ctx: &'a Arc<Context>, scene_layout: vk::DescriptorSetLayout) -> PipelineBuilder<'a> {
-        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, grid: false, workgroup: None, shared: Vec::new(), per_variant: Vec::new(), ranges: Vec::new() }
+        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, grid: false, constants: Vec::new(), workgroup: None, shared: Vec::new(), per_variant: Vec::new(), ranges: Vec::new() }
     }
 }
 
@@ -159,6 +169,8 @@ pub struct PipelineBuilder<'a> {
     scene_layout: vk::DescriptorSetLayout,
     textured: bool,
     grid: bool,
+    /// (constant_id, value) of the desc's specialisation constants.
+    constants: Vec<(u32, u32)>,
     workgroup: Option<[u32; 2]>,
     shared: Vec<(u32, &'a Buffer)>,
     /// Empty: one set-1 variant.
@@ -171,6 +183,13 @@ impl<'a> PipelineBuilder<'a> {
     /// Use the `textured` SPIR-V when `textured` (the scene set has textures bound).
     pub fn textured(mut self, textured: bool) -> Self {
         self.textured = textured;
+        self
+    }
+
+    /// Sets the specialisation constant `name` (one of the desc's `constants`) to `value`.
+    pub fn constant(mut self, name: &str, value: u32) -> Self {
+        let id = self.desc.constants.iter().find(|c| c.1 == name).map_or(u32::MAX, |c| c.0);
+        self.constants.push((id, value));
         self
     }
 
@@ -234,13 +253,20 @@ impl<'a> PipelineBuilder<'a> {
             (_, true) => grid.with_context(|| format!("pass '{}' has no grid variant", d.name)),
             _ => Ok(plain),
         };
+        ensure!(!self.constants.iter().any(|c| c.0 == u32::MAX), "pass '{}' declares no such specialisation constant", d.name);
+        for &(id, name) in d.constants {
+            let times = self.constants.iter().filter(|c| c.0 == id).count();
+            ensure!(times == 1, "pass '{}': specialisation constant {id} ('{name}') is set {times} times", d.name);
+        }
         let push_size = u32::try_from(d.push.size).context("push-constant size")?;
         let workgroup = self.workgroup.unwrap_or([d.local_size[0], d.local_size[1]]);
         let local_size = d.local_size_with(workgroup);
         ensure!(local_size[..2] == workgroup, "pass '{}' has a fixed {:?} workgroup, not {workgroup:?}", d.name, d.local_size);
         let shader = match (self.ctx.tracing, d.raygen) {
-            (Tracing::Pipeline, Some(raygen)) => PassShader::RayGen(variant(d.textured_raygen, d.grid_raygen, raygen)?),
-            _ => PassShader::Compute { spirv: variant(d.textured, d.grid, d.spirv)?, specialise: d.workgroup_spec },
+            (Tracing::Pipeline, Some(raygen)) => {
+                PassShader::RayGen { spirv: variant(d.textured_raygen, d.grid_raygen, raygen)?, constants: &self.constants }
+            }
+            _ => PassShader::Compute { spirv: variant(d.textured, d.grid, d.spirv)?, specialise: d.workgroup_spec, constants: &self.constants },
         };
         let pipeline =
             ComputePipeline::with_variants(self.ctx, d.name, shader, self.scene_layout, d.bindings, push_size, local_size, variants as u32)?;

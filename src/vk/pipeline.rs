@@ -284,11 +284,23 @@ fn align_up(x: u64, a: u64) -> u64 {
 /// specialisable, `local_size_x_id = 0, local_size_y_id = 1`, and the pipeline's local size x and y
 /// are passed as those constants), or a pass that traces compiled as a ray-generation shader (its
 /// `raygen` SPIR-V variant), run by a ray-tracing pipeline with the hit and miss shaders of
-/// shaders/rt/ on a context that traces with [`super::context::Tracing::Pipeline`].
+/// shaders/rt/ on a context that traces with [`super::context::Tracing::Pipeline`]. `constants`:
+/// further (constant_id, 32-bit value) specialisation constants of the pass's shader (ids from 2).
 #[derive(Clone, Copy)]
 pub enum PassShader<'a> {
-    Compute { spirv: &'a [u8], specialise: bool },
-    RayGen(&'a [u8]),
+    Compute { spirv: &'a [u8], specialise: bool, constants: &'a [(u32, u32)] },
+    RayGen { spirv: &'a [u8], constants: &'a [(u32, u32)] },
+}
+
+/// Specialisation map entries and data for `constants` ((constant_id, 32-bit value) pairs).
+fn specialisation(constants: &[(u32, u32)]) -> (Vec<vk::SpecializationMapEntry>, Vec<u8>) {
+    let entries = constants
+        .iter()
+        .enumerate()
+        .map(|(i, &(id, _))| vk::SpecializationMapEntry { constant_id: id, offset: 4 * i as u32, size: 4 })
+        .collect();
+    let data = constants.iter().flat_map(|&(_, v)| v.to_ne_bytes()).collect();
+    (entries, data)
 }
 
 impl ComputePipeline {
@@ -303,7 +315,7 @@ impl ComputePipeline {
         push_size: u32,
         local_size: [u32; 3],
     ) -> Result<Self> {
-        let shader = PassShader::Compute { spirv, specialise: false };
+        let shader = PassShader::Compute { spirv, specialise: false, constants: &[] };
         Self::with_variants(ctx, name, shader, scene_layout, table, push_size, local_size, 1)
     }
 
@@ -326,14 +338,14 @@ impl ComputePipeline {
         // DEVICE_LIFETIME); the driver's frames were not named, so all of it, not only the call.
         let _guard = super::context::pipeline_creation_guard();
         let (set1, layout, pipeline, sbt) = match shader {
-            PassShader::Compute { spirv, specialise } => {
+            PassShader::Compute { spirv, specialise, constants } => {
                 let sources = [(spirv, name.to_string())];
                 let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
-                    compute_pipeline(ctx, name, layout, modules[0], specialise.then_some(local_size))
+                    compute_pipeline(ctx, name, layout, modules[0], specialise.then_some(local_size), constants)
                 })?;
                 (set1, layout, pipeline, None)
             }
-            PassShader::RayGen(raygen) => {
+            PassShader::RayGen { spirv: raygen, constants } => {
                 let rt = ctx.ray_tracing.as_ref().with_context(|| {
                     format!("pass '{name}': a ray-tracing pipeline on a context that traces with {}", ctx.tracing.describe())
                 })?;
@@ -344,7 +356,7 @@ impl ComputePipeline {
                     (crate::shaders::RT_CLOSEST_HIT, format!("{name}.closest_hit")),
                 ];
                 let (set1, layout, pipeline) = create_pass_pipeline(ctx, name, scene_layout, table, push_size, variants, &sources, |layout, modules| {
-                    ray_tracing_pipeline(ctx, rt, name, layout, modules)
+                    ray_tracing_pipeline(ctx, rt, name, layout, modules, constants)
                 })?;
                 match shader_binding_table(ctx, name, pipeline, RT_GROUPS) {
                     Ok(sbt) => (set1, layout, pipeline, Some(sbt)),
@@ -490,16 +502,20 @@ fn create_pass_pipeline(
 }
 
 /// A compute pipeline of `module` on `layout`; `local_size` Some: its x and y passed as
-/// specialisation constants 0 and 1.
-fn compute_pipeline(ctx: &Context, name: &str, layout: vk::PipelineLayout, module: vk::ShaderModule, local_size: Option<[u32; 3]>) -> Result<vk::Pipeline> {
-    let spec_entries = [
-        vk::SpecializationMapEntry { constant_id: 0, offset: 0, size: 4 },
-        vk::SpecializationMapEntry { constant_id: 1, offset: 4, size: 4 },
-    ];
-    let spec_data: [u8; 8] = bytemuck::cast(local_size.map_or([0, 0], |l| [l[0], l[1]]));
+/// specialisation constants 0 and 1; `constants`: the shader's others.
+fn compute_pipeline(
+    ctx: &Context,
+    name: &str,
+    layout: vk::PipelineLayout,
+    module: vk::ShaderModule,
+    local_size: Option<[u32; 3]>,
+    constants: &[(u32, u32)],
+) -> Result<vk::Pipeline> {
+    let all: Vec<(u32, u32)> = local_size.map(|l| [(0, l[0]), (1, l[1])]).into_iter().flatten().chain(constants.iter().copied()).collect();
+    let (spec_entries, spec_data) = specialisation(&all);
     let spec = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
     let stage = vk::PipelineShaderStageCreateInfo::default().stage(vk::ShaderStageFlags::COMPUTE).module(module).name(c"main");
-    let stage = if local_size.is_some() { stage.specialization_info(&spec) } else { stage };
+    let stage = if all.is_empty() { stage } else { stage.specialization_info(&spec) };
     let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
     // SAFETY: valid device, module and layout (create_pass_pipeline's contract).
     match unsafe { ctx.device.create_compute_pipelines(ctx.pipeline_cache, &info, None) } {
@@ -513,14 +529,18 @@ fn compute_pipeline(ctx: &Context, name: &str, layout: vk::PipelineLayout, modul
 const RT_GROUPS: u32 = 4;
 
 /// A ray-tracing pipeline of `modules` (ray generation, miss, shadow miss, closest hit) on
-/// `layout`: one general group per shader but the last, one triangle hit group with it.
+/// `layout`: one general group per shader but the last, one triangle hit group with it;
+/// `constants` specialise the ray-generation shader.
 fn ray_tracing_pipeline(
     ctx: &Context,
     rt: &super::context::RayTracingPipelines,
     name: &str,
     layout: vk::PipelineLayout,
     modules: &[vk::ShaderModule],
+    constants: &[(u32, u32)],
 ) -> Result<vk::Pipeline> {
+    let (spec_entries, spec_data) = specialisation(constants);
+    let spec = vk::SpecializationInfo::default().map_entries(&spec_entries).data(&spec_data);
     let kinds = [
         vk::ShaderStageFlags::RAYGEN_KHR,
         vk::ShaderStageFlags::MISS_KHR,
@@ -531,6 +551,8 @@ fn ray_tracing_pipeline(
         .iter()
         .zip(modules)
         .map(|(stage, module)| vk::PipelineShaderStageCreateInfo::default().stage(*stage).module(*module).name(c"main"))
+        .enumerate()
+        .map(|(i, stage)| if i == 0 && !constants.is_empty() { stage.specialization_info(&spec) } else { stage })
         .collect();
     let general = |i: u32| {
         vk::RayTracingShaderGroupCreateInfoKHR::default()
