@@ -398,6 +398,19 @@ fn pass_mismatches_against(desc: &PassDesc, variant: &str, spirv: &[u8], scene: 
     if m.execution_models != [model] {
         out.push(format!("{at}: the entry points are {:?}, expected [{model:?}]", m.execution_models));
     }
+    // Its specialisation constants beyond the workgroup's: (constant_id, name) as the desc lists
+    // them, in every variant.
+    let mut declared: Vec<(u32, String)> = m
+        .decorations
+        .iter()
+        .filter(|((_, d), &id)| *d == Decoration::SpecId && id >= 2)
+        .map(|((target, _), &id)| (id, m.names.get(target).cloned().unwrap_or_default()))
+        .collect();
+    declared.sort();
+    let listed: Vec<(u32, String)> = desc.constants.iter().map(|&(id, name)| (id, name.to_string())).collect();
+    if declared != listed {
+        out.push(format!("{at}: specialisation constants {declared:?} in the shader, {listed:?} in the desc"));
+    }
     if raygen {
         return out;
     }
@@ -630,6 +643,17 @@ fn a_drifted_local_size_is_detected() {
 fn a_raygen_variant_that_is_a_compute_shader_is_detected() {
     let wrong = PassDesc { raygen: Some(GbufferPass::DESC.spirv), ..GbufferPass::DESC };
     assert_reported(&wrong, "gbuffer (raygen): the entry points are [GLCompute], expected [RayGenerationKHR]");
+}
+
+#[test]
+fn a_specialisation_constant_that_drifted_is_detected() {
+    let fewer = PassDesc { constants: &[(2, "UNBIASED")], ..RestirSpatialPass::DESC };
+    assert_reported(&fewer, "restir_spatial (default): specialisation constants [(2, \"UNBIASED\"), (3, \"VISIBLE_TARGETS\")] in the shader");
+    assert_reported(&fewer, "restir_spatial (raygen): specialisation constants");
+    let renamed = PassDesc { constants: &[(2, "UNBIASED"), (3, "VISIBLE")], ..RestirSpatialPass::DESC };
+    assert_reported(&renamed, "in the desc");
+    let stray = PassDesc { constants: &[(2, "UNBIASED")], ..RestirTemporalPass::DESC };
+    assert_reported(&stray, "restir_temporal (default): specialisation constants [] in the shader");
 }
 
 #[test]
