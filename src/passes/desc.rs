@@ -157,7 +157,7 @@ impl PassDesc {
 
     /// Starts building the pass's pipeline on `scene_layout` (set 0).
     pub fn pipeline<'a>(&'a self, ctx: &'a Arc<Context>, scene_layout: vk::DescriptorSetLayout) -> PipelineBuilder<'a> {
-        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, grid: false, constants: Vec::new(), workgroup: None, shared: Vec::new(), per_variant: Vec::new(), ranges: Vec::new() }
+        PipelineBuilder { desc: self, ctx, scene_layout, textured: false, grid: false, constants: Vec::new(), unknown_constants: Vec::new(), workgroup: None, shared: Vec::new(), per_variant: Vec::new(), ranges: Vec::new() }
     }
 }
 
@@ -171,6 +171,8 @@ pub struct PipelineBuilder<'a> {
     grid: bool,
     /// (constant_id, value) of the desc's specialisation constants.
     constants: Vec<(u32, u32)>,
+    /// Names given to [`PipelineBuilder::constant`] that the desc does not list.
+    unknown_constants: Vec<String>,
     workgroup: Option<[u32; 2]>,
     shared: Vec<(u32, &'a Buffer)>,
     /// Empty: one set-1 variant.
@@ -188,8 +190,10 @@ impl<'a> PipelineBuilder<'a> {
 
     /// Sets the specialisation constant `name` (one of the desc's `constants`) to `value`.
     pub fn constant(mut self, name: &str, value: u32) -> Self {
-        let id = self.desc.constants.iter().find(|c| c.1 == name).map_or(u32::MAX, |c| c.0);
-        self.constants.push((id, value));
+        match self.desc.constants.iter().find(|c| c.1 == name) {
+            Some(&(id, _)) => self.constants.push((id, value)),
+            None => self.unknown_constants.push(name.to_string()),
+        }
         self
     }
 
@@ -253,7 +257,13 @@ impl<'a> PipelineBuilder<'a> {
             (_, true) => grid.with_context(|| format!("pass '{}' has no grid variant", d.name)),
             _ => Ok(plain),
         };
-        ensure!(!self.constants.iter().any(|c| c.0 == u32::MAX), "pass '{}' declares no such specialisation constant", d.name);
+        ensure!(
+            self.unknown_constants.is_empty(),
+            "pass '{}' declares no specialisation constant {:?} (it has {:?})",
+            d.name,
+            self.unknown_constants,
+            d.constants
+        );
         for &(id, name) in d.constants {
             let times = self.constants.iter().filter(|c| c.0 == id).count();
             ensure!(times == 1, "pass '{}': specialisation constant {id} ('{name}') is set {times} times", d.name);
