@@ -180,6 +180,15 @@ fn bench_radius_quick_writes_the_table_and_csv() {
             // Two runs differ (their own VPL sets and pixel noise), so the bias has a spread.
             assert!(r[7].parse::<f64>().unwrap() > 0.0, "{r:?}");
         }
+        // Each row's bias against the default rule's, run by run: the mean of the differences is
+        // the difference of the means; the default row has none.
+        let default = rows.iter().find(|r| r[1] == "\"8× spacing\"").expect("the default rule's row");
+        assert!(default[14].is_empty() && default[15].is_empty(), "{default:?}");
+        let default_bias: f64 = default[6].parse().unwrap();
+        for r in rows.iter().filter(|r| r[1] != "\"8× spacing\"") {
+            let (bias, paired, se): (f64, f64, f64) = (r[6].parse().unwrap(), r[14].parse().unwrap(), r[15].parse().unwrap());
+            assert!((paired - (bias - default_bias)).abs() < 1e-9 && se.is_finite() && se >= 0.0, "{r:?}");
+        }
         assert!(md.contains(" ± "), "the bias carries its standard error: {md}");
     }
 }

@@ -102,6 +102,14 @@ pub struct RadiusRow {
     pub bias: f64,
     /// The bias's standard error over the runs: VPL sets and pixel noise together (None for one run).
     pub bias_se: Option<f64>,
+    /// The bias minus the default rule's (`DEFAULT_RADIUS_SPACINGS` × the mean spacing), run by run
+    /// (run k has the same VPL set and seed under every rule), averaged: the rule's own effect.
+    pub bias_vs_default: Option<f64>,
+    /// Its standard error over the runs (None for one run).
+    pub bias_vs_default_se: Option<f64>,
+    /// Each run's bias, in run order.
+    #[serde(skip)]
+    pub bias_runs: Vec<f64>,
     /// Mean over pixels of the per-pixel variance of single frames (channel mean).
     pub frame_variance: f64,
     pub rmse_1: f64,
@@ -157,6 +165,7 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
         for (rule, settings) in rules {
             let compensate = settings.compensate;
             let mut sums = [crate::eval::report::OverRuns::default(); 9];
+            let mut bias_runs = Vec::new();
             let (mut radius_sum, mut setup_sum) = (0.0f64, 0.0f64);
             for run in 0..opts.runs {
                 // Run k traces its own VPL set (the seed seeds the photons and the pixels), the
@@ -179,6 +188,7 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                 let img = RgbImage { width: spec.width, height: spec.height, pixels: r.read_mean()? };
                 let last = compare(&img, &reference, &compare_opts)?;
                 let first = first.expect("frames > 0");
+                bias_runs.push(last.mean_ratio - 1.0);
                 let var = r.read_variance()?;
                 let frame_variance = var.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum::<f64>() / var.len().max(1) as f64;
                 for (s, v) in sums.iter_mut().zip([
@@ -206,6 +216,9 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                 gpu_ms: sums[0].mean(),
                 bias: sums[1].mean(),
                 bias_se: sums[1].standard_error(),
+                bias_vs_default: None,
+                bias_vs_default_se: None,
+                bias_runs,
                 frame_variance: sums[2].mean(),
                 // RMSEs over the runs: the root of their mean squared error.
                 rmse_1: sums[3].rms(),
@@ -216,8 +229,26 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
             });
             log(format!("  {label}: {rule} done"));
         }
+        pair_with_default(rows.iter_mut().filter(|r| r.scene == label));
     }
     Ok(rows)
+}
+
+/// The default rule's row label.
+fn default_rule() -> String {
+    format!("{}× spacing", crate::settings::DEFAULT_RADIUS_SPACINGS)
+}
+
+/// Fills each row's bias against the default rule's, run by run, in one scene's rows.
+fn pair_with_default<'a>(rows: impl Iterator<Item = &'a mut RadiusRow>) {
+    let mut rows: Vec<&mut RadiusRow> = rows.collect();
+    let Some(default) = rows.iter().find(|r| r.rule == default_rule()).map(|r| r.bias_runs.clone()) else { return };
+    for r in rows.iter_mut().filter(|r| r.rule != default_rule() && r.bias_runs.len() == default.len()) {
+        let mut d = crate::eval::report::OverRuns::default();
+        r.bias_runs.iter().zip(&default).for_each(|(a, b)| d.add(a - b));
+        r.bias_vs_default = Some(d.mean());
+        r.bias_vs_default_se = d.standard_error();
+    }
 }
 
 /// The table, one block per scene.
@@ -232,7 +263,8 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
          spacing is √(A/(πN))). {} run(s) averaged, each with its own seed, so its own VPL set and pixel noise; run k has the same VPL set \
          under every rule, so differences between rows are paired (RMSE: the root of the runs' mean squared error); t = 1 is the first frame, t = {} the \
          mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames, ± its standard error over the runs (VPL sets and pixel noise together; \
-         with few runs a rough one). Frame variance: mean per-pixel variance \
+         with few runs a rough one). Bias − default's: a row's bias minus the default rule's ({}), run by run, which share \
+         their VPL set and seed, averaged ± its standard error: the rule's own effect, free of a set's offset and of most of the noise. Frame variance: mean per-pixel variance \
          of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. Per-VPL \
          rules (`--yuksel-knn {KNN_K} --yuksel-spacings M`): each VPL's r is M × its local spacing d_K/√K from its K \
          nearest VPLs; their r column is the median over VPLs. Setup: wall seconds to build the renderer (photons, \
@@ -246,6 +278,7 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
         opts.frames,
         opts.frames,
         opts.frames,
+        default_rule(),
         opts.frames
     );
     let scenes = crate::eval::report::ordered(rows.iter().map(|r| r.scene.as_str()));
@@ -253,19 +286,23 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
         let _ = writeln!(s, "**{scene}**\n");
         let _ = writeln!(
             s,
-            "| rule | r | bias | frame variance | RMSE t=1 | RMSE t={n} | FLIP t=1 | FLIP t={n} | worst 0.1 % t={n} | GPU ms | setup s |",
+            "| rule | r | bias | bias − default's | frame variance | RMSE t=1 | RMSE t={n} | FLIP t=1 | FLIP t={n} | worst 0.1 % t={n} | GPU ms | setup s |",
             n = opts.frames
         );
-        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+        let _ = writeln!(s, "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
         for r in rows.iter().filter(|r| r.scene == scene) {
             let flip = |f: Option<f64>| f.map(|v| format!("{v:.4}")).unwrap_or_else(|| "–".into());
             let _ = writeln!(
                 s,
-                "| {} | {:.4} | {:+.2}{} % | {:.4} | {:.4} | {:.4} | {} | {} | {:.0}% | {:.1} | {:.1} |",
+                "| {} | {:.4} | {:+.2}{} % | {} | {:.4} | {:.4} | {:.4} | {} | {} | {:.0}% | {:.1} | {:.1} |",
                 r.rule,
                 r.radius,
                 100.0 * r.bias,
                 r.bias_se.map(|se| format!(" ± {:.2}", 100.0 * se)).unwrap_or_default(),
+                match r.bias_vs_default {
+                    Some(d) => format!("{:+.2}{} %", 100.0 * d, r.bias_vs_default_se.map(|se| format!(" ± {:.2}", 100.0 * se)).unwrap_or_default()),
+                    None => "–".into(),
+                },
                 r.frame_variance,
                 r.rmse_1,
                 r.rmse_n,
@@ -283,12 +320,28 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
 
 /// radius.csv: one row per scene × rule.
 pub fn write_csv(path: &Path, rows: &[RadiusRow]) -> Result<()> {
-    let mut text = String::from("scene,rule,radius,setup_s,compensate,gpu_ms,bias,bias_se,frame_variance,rmse_1,rmse_n,flip_1,flip_n,worst_share_n\n");
+    let mut text =
+        String::from("scene,rule,radius,setup_s,compensate,gpu_ms,bias,bias_se,frame_variance,rmse_1,rmse_n,flip_1,flip_n,worst_share_n,bias_vs_default,bias_vs_default_se\n");
     for r in rows {
         let opt = |v: Option<f64>| v.map(|x| x.to_string()).unwrap_or_default();
         text.push_str(&format!(
-            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            r.scene, r.rule, r.radius, r.setup_s, r.compensate, r.gpu_ms, r.bias, opt(r.bias_se), r.frame_variance, r.rmse_1, r.rmse_n, opt(r.flip_1), opt(r.flip_n), r.worst_share_n
+            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.scene,
+            r.rule,
+            r.radius,
+            r.setup_s,
+            r.compensate,
+            r.gpu_ms,
+            r.bias,
+            opt(r.bias_se),
+            r.frame_variance,
+            r.rmse_1,
+            r.rmse_n,
+            opt(r.flip_1),
+            opt(r.flip_n),
+            r.worst_share_n,
+            opt(r.bias_vs_default),
+            opt(r.bias_vs_default_se)
         ));
     }
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
