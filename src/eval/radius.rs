@@ -164,7 +164,7 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
         log(format!("{label}: {} rules at {}x{} (spacing {spacing:.5})", rules.len(), spec.width, spec.height));
         for (rule, settings) in rules {
             let compensate = settings.compensate;
-            let mut sums = [crate::eval::report::OverRuns::default(); 9];
+            let mut sums = [crate::eval::report::OverRuns::default(); 7];
             let mut bias_runs = Vec::new();
             let (mut radius_sum, mut setup_sum) = (0.0f64, 0.0f64);
             for run in 0..opts.runs {
@@ -193,20 +193,20 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                 let frame_variance = var.iter().map(|p| p.iter().map(|&c| c as f64).sum::<f64>() / 3.0).sum::<f64>() / var.len().max(1) as f64;
                 for (s, v) in sums.iter_mut().zip([
                     ms / opts.frames as f64,
-                    last.mean_ratio - 1.0,
                     frame_variance,
                     first.rmse,
                     last.rmse,
                     first.flip.unwrap_or(0.0),
                     last.flip.unwrap_or(0.0),
                     last.worst_share,
-                    0.0,
                 ]) {
                     s.add(v);
                 }
             }
             let radius = (radius_sum / opts.runs as f64) as f32;
             let setup_s = setup_sum / opts.runs as f64;
+            let mut bias = crate::eval::report::OverRuns::default();
+            bias_runs.iter().for_each(|&b| bias.add(b));
             rows.push(RadiusRow {
                 scene: label.clone(),
                 rule: rule.clone(),
@@ -214,18 +214,18 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                 setup_s,
                 compensate,
                 gpu_ms: sums[0].mean(),
-                bias: sums[1].mean(),
-                bias_se: sums[1].standard_error(),
+                bias: bias.mean(),
+                bias_se: bias.standard_error(),
                 bias_vs_default: None,
                 bias_vs_default_se: None,
                 bias_runs,
-                frame_variance: sums[2].mean(),
+                frame_variance: sums[1].mean(),
                 // RMSEs over the runs: the root of their mean squared error.
-                rmse_1: sums[3].rms(),
-                rmse_n: sums[4].rms(),
-                flip_1: opts.flip.then(|| sums[5].mean()),
-                flip_n: opts.flip.then(|| sums[6].mean()),
-                worst_share_n: sums[7].mean(),
+                rmse_1: sums[2].rms(),
+                rmse_n: sums[3].rms(),
+                flip_1: opts.flip.then(|| sums[4].mean()),
+                flip_n: opts.flip.then(|| sums[5].mean()),
+                worst_share_n: sums[6].mean(),
             });
             log(format!("  {label}: {rule} done"));
         }
@@ -346,4 +346,3 @@ pub fn write_csv(path: &Path, rows: &[RadiusRow]) -> Result<()> {
     }
     std::fs::write(path, text).with_context(|| format!("writing {}", path.display()))
 }
-

@@ -1040,7 +1040,7 @@ pub fn goals_markdown(
             }
             None => s.push_str(" — | — |"),
         }
-    let mut all_below = !equal_time_at.is_empty();
+        let mut all_below = !equal_time_at.is_empty();
         for &t in equal_time_at {
             let ours = at(label, mode, t);
             let theirs = ours.and_then(|p| error_within_budget(points, label, "pt", rival, Metric::Rmse, p.wall_ms));
