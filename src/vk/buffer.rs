@@ -139,6 +139,15 @@ impl Buffer {
         Ok(())
     }
 
+    /// Zeroes a host-visible buffer (no allocation, unlike `write` of a zeroed vector).
+    pub fn zero(&self) -> Result<()> {
+        let slice = self.mapped_ptr()?;
+        // SAFETY: the mapping covers `size` bytes and no GPU work uses the buffer now (callers
+        // write between fenced submissions).
+        unsafe { std::ptr::write_bytes(slice.as_ptr() as *mut u8, 0, self.size as usize) };
+        Ok(())
+    }
+
     /// Reads bytes from a host-visible buffer.
     pub fn read(&self, offset: usize, len: usize) -> Result<Vec<u8>> {
         let alloc = self.allocation.as_ref().with_context(|| format!("buffer '{}' is freed", self.name))?;

@@ -82,7 +82,7 @@ impl GpuTimer {
         self.open.clear();
         self.ended = None;
         self.begun.clear();
-        self.breadcrumbs.write(0, &vec![0u8; self.breadcrumbs.size as usize]).expect("the breadcrumbs are host-visible (GpuToCpu)");
+        self.breadcrumbs.zero().expect("the breadcrumbs are host-visible (GpuToCpu)");
     }
 
     /// Opens a debug label and a timestamp scope named `name`.
