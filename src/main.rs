@@ -164,8 +164,8 @@ struct RenderArgs {
     /// ReSTIR's passes fused in pairs (restir_initial_temporal, restir_spatial_shade), as Bevy
     /// Solari runs them: the same image, fewer dispatches. Frames whose pass outputs are dumped or
     /// checked run the passes apart; the reservoir views keep vpl_shade apart (it draws them).
-    /// Default: on a GPU (it paid on every scene on an H100), off on a CPU device such as
-    /// lavapipe (it pays on the Cornell box only there; docs/performance.md, "Pass fusion").
+    /// Default: on (it paid on every scene on an H100, and on lavapipe since the reuse's kind
+    /// became specialisation constants; docs/performance.md, "Pass fusion").
     #[arg(long, value_enum)]
     fuse_passes: Option<Toggle>,
     /// Workgroup WxH of the per-pixel passes (gbuffer, pathtrace, restir_initial, restir_spatial,
@@ -317,7 +317,7 @@ enum Command {
         motion: bool,
         /// Instead: this device's raw ray rate on the three scenes (coherent primary rays,
         /// incoherent shadow rays of random length and incoherent closest-hit rays, nothing else in
-        /// the shader), and every tracing pass's rays per second in real frames (uniform, RIS,
+        /// the shader), and every tracing pass's rays per second in real frames (ReSTIR's passes apart; uniform, RIS,
         /// ReSTIR, ReSTIR --initial-visibility on, ReSTIR --compensate, pt) and in the photon pass
         /// as a share of the raw rate of its kind. Default size 1280×720.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion"])]

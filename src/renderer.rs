@@ -403,13 +403,11 @@ fn dispatch_output<'a>(
     })
 }
 
-/// `settings` checked (`validate`, [`check_tracing`]) and with what depends on the device decided
-/// for `ctx`'s: `--fuse-passes auto` (None) becomes on or off
-/// ([`RenderSettings::fuses_passes_on`]), so that the renderer's settings, and the summary written
-/// from them, say which ran.
+/// `settings` checked (`validate`, [`check_tracing`]) and resolved: `--fuse-passes` not given
+/// (None) becomes on ([`RenderSettings::fuses_passes`]), so that the renderer's settings, and the
+/// summary written from them, say which ran.
 fn settings_for_device(ctx: &Context, mut settings: RenderSettings) -> Result<RenderSettings> {
-    let cpu = ctx.properties.device_type == vk::PhysicalDeviceType::CPU;
-    settings.fuse_passes = Some(settings.fuses_passes_on(cpu));
+    settings.fuse_passes = Some(settings.fuses_passes());
     settings.validate()?;
     check_tracing(ctx, &settings)?;
     Ok(settings)

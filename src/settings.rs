@@ -373,11 +373,10 @@ pub struct RenderSettings {
     /// each one dispatch with the same functions and random streams as the two passes it replaces
     /// (the same image, bit for bit). A frame whose pass outputs are captured (`--dump-passes`,
     /// `--check-finite`) and the reservoir views run the passes apart. None (auto, the default):
-    /// fused on a GPU, where it saved 4–13 % of every ReSTIR frame measured (NVIDIA H100), apart on
-    /// a CPU device such as lavapipe, where it saves 4–9 % on the Cornell box but cost up to 7 % of
-    /// an unbiased frame on the two heavier scenes on one of the two hosts measured
-    /// (docs/performance.md, "Pass fusion"). The renderer resolves it for its device
-    /// ([`RenderSettings::fuses_passes_on`]), so its settings and the run's summary say which ran.
+    /// fused (None), which saved 4–13 % of every ReSTIR frame measured on an NVIDIA H100 and, since
+    /// the reuse's kind became specialisation constants, 0–10 % on lavapipe on both hosts measured
+    /// (docs/performance.md, "Pass fusion"). The renderer resolves it
+    /// ([`RenderSettings::fuses_passes`]), so its settings and the run's summary say which ran.
     #[serde(default)]
     pub fuse_passes: Option<bool>,
     /// Workgroup (x, y) of the per-pixel passes whose shaders take it as specialisation constants
@@ -540,10 +539,9 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 pub const MAX_PHOTON_BOUNCES: u32 = 1024;
 
 impl RenderSettings {
-    /// Whether ReSTIR's passes are fused on a device that is (`cpu`) or is not a CPU device:
-    /// `--fuse-passes on|off`, or auto (None): fused on a GPU, apart on a CPU device.
-    pub fn fuses_passes_on(&self, cpu: bool) -> bool {
-        self.fuse_passes.unwrap_or(!cpu)
+    /// Whether ReSTIR's passes are fused: `--fuse-passes on|off`, fused when not given (None).
+    pub fn fuses_passes(&self) -> bool {
+        self.fuse_passes.unwrap_or(true)
     }
 
     /// Of the command-line flags `given` (clap ids: the field names of the CLI's render arguments,
@@ -879,13 +877,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn fuse_passes_auto_fuses_on_a_gpu_only_and_a_choice_holds_on_both() {
+    fn fuse_passes_fuses_unless_told_off() {
         let with = |fuse_passes| RenderSettings { fuse_passes, ..RenderSettings::default() };
-        assert_eq!(RenderSettings::default().fuse_passes, None, "auto is the default");
-        assert_eq!([with(None).fuses_passes_on(true), with(None).fuses_passes_on(false)], [false, true]);
-        for choice in [true, false] {
-            assert_eq!([with(Some(choice)).fuses_passes_on(true), with(Some(choice)).fuses_passes_on(false)], [choice, choice]);
-        }
+        assert_eq!(RenderSettings::default().fuse_passes, None, "not given is the default");
+        assert_eq!([with(None), with(Some(true)), with(Some(false))].map(|s| s.fuses_passes()), [true, true, false]);
     }
 
     #[test]

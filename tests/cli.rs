@@ -414,15 +414,13 @@ fn restir_summary_reports_rays_per_pass() {
         "--headless", "--mode", "restir", "--bias", "unbiased", "--initial-visibility", "on", "--width", "24", "--height", "24",
         "--frames", "3", "--vpls-direct", "100", "--vpls-indirect", "200", "--out", out, "--verbose",
     ];
-    // --fuse-passes auto (the default) fuses on a GPU only, and the summary records what it
-    // resolved to on this device.
+    // Not given, --fuse-passes is on, and the summary records what it resolved to.
     let o = run(&args);
     assert!(o.status.success(), "{}", stderr(&o));
     let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("summary.json")).unwrap()).unwrap();
-    let cpu = summary["device"]["kind"] == "CPU";
-    assert_eq!(summary["settings"]["fuse_passes"], !cpu, "auto fuses on a GPU only: {}", summary["device"]);
-    // Passes apart (the default on a CPU device such as lavapipe): the four ReSTIR passes.
-    let o = if cpu { o } else { run(&[&args[..], &["--fuse-passes", "off"]].concat()) };
+    assert_eq!(summary["settings"]["fuse_passes"], true, "fused unless told off: {}", summary["device"]);
+    // Passes apart: the four ReSTIR passes.
+    let o = run(&[&args[..], &["--fuse-passes", "off"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     let err = stderr(&o);
     for pass in ["restir_initial", "restir_temporal", "restir_spatial", "vpl_shade"] {
@@ -503,9 +501,15 @@ fn restir_defaults_to_unbiased_reuse_with_unshadowed_targets() {
     assert_eq!(summary["vpl"]["initial_visibility"], false, "{summary}");
     // The spatial radius scales with the width (20 px per 1280), at least 4 px: 4 at 24 px.
     assert_eq!(summary["vpl"]["spatial_radius_px"], 4.0, "{summary}");
-    // No visibility in the targets: the one shadow ray per pixel is vpl_shade's.
+    // No visibility in the targets: the one shadow ray per pixel at most is the shading's, which
+    // runs fused with the last spatial pass by default; the reuse traces none.
+    assert_eq!(summary["settings"]["fuse_passes"], true, "{summary}");
     let by_pass = &summary["rays_per_pixel_by_pass"];
-    assert!(by_pass.get("restir_spatial").is_none() && by_pass["vpl_shade"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
+    let shade = by_pass["restir_spatial_shade"]["mean"].as_f64().unwrap();
+    assert!(shade > 0.0 && shade <= 1.0, "{by_pass}");
+    for pass in ["restir_initial", "restir_initial_temporal", "restir_spatial", "vpl_shade"] {
+        assert!(by_pass.get(pass).is_none(), "{pass} traced: {by_pass}");
+    }
 }
 
 #[test]

@@ -155,6 +155,9 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
             aa: true,
             compensate,
             restir: RestirSettings { initial_visibility: initial_visibility.then_some(true), ..Default::default() },
+            // Passes apart, so that each tracing pass has its own rate (fused, the spatial
+            // reuse's rays and the shading's would share one row).
+            fuse_passes: Some(false),
             ..Default::default()
         };
         let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).with_context(|| format!("bench --rays: {label}"))?;
