@@ -97,14 +97,16 @@ fn results_quick_covers_the_three_scenes() {
     let points = read_curves_csv(dir.path().join("curves.csv")).unwrap();
     assert_eq!(points.len(), 3 * 18);
     // The moving-camera section: a headline per scene, the table, a plot per scene, the CSV
-    // (3 scenes × 5 modes × 4 quick frames, plus the header).
+    // (3 scenes × 7 modes × 4 quick frames, plus the header), with the ReGIR grid's line per scene.
     assert!(md.contains("## Moving camera"), "results.md lacks the motion section:\n{md}");
     assert!(md.contains("restir-no-temporal") && md.contains("of the per-frame RMSE"), "{md}");
+    assert_eq!(md.matches("the ReGIR grid (16 candidates, 8 of them from the grid").count(), 3, "{md}");
+    assert!(md.contains("| ris-grid |") && md.contains("| restir-unbiased-grid |"), "{md}");
     for scene in ["cornell_box", "living_room", "open_box_figure"] {
         non_empty(&dir.path().join(format!("plots/{scene}_motion_rmse.svg")));
     }
     let csv = non_empty(&dir.path().join("motion.csv"));
-    assert_eq!(csv.lines().count(), 1 + 3 * 5 * 4, "{csv}");
+    assert_eq!(csv.lines().count(), 1 + 3 * 7 * 4, "{csv}");
 }
 
 /// `bench --rays` at a tiny size: a raw primary, shadow and bounce rate for each of the three

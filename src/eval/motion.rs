@@ -26,7 +26,8 @@ use crate::eval::report::OverRuns;
 use crate::eval::results::SceneSpec;
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
-use crate::settings::{Bias, CameraOverride, Mode, RenderSettings, RestirSettings};
+use crate::eval::bench::GRID_CASE_CANDIDATES;
+use crate::settings::{Bias, CameraOverride, GridSettings, Mode, RenderSettings, RestirSettings};
 use crate::vk::Context;
 
 /// Frames every mode renders at the path's first camera before the path starts.
@@ -38,19 +39,40 @@ pub struct MotionMode {
     pub label: &'static str,
     pub mode: Mode,
     pub restir: RestirSettings,
+    /// With the ReGIR grid: (candidates per pixel, of which from the grid); None: the default
+    /// candidates, all from the source pdf.
+    pub grid: Option<(u32, u32)>,
+}
+
+impl MotionMode {
+    /// `base` with this mode's sampling.
+    pub fn settings(&self, base: &RenderSettings) -> RenderSettings {
+        let mut s = RenderSettings { mode: self.mode, restir: self.restir, ..base.clone() };
+        if let Some((candidates, from_grid)) = self.grid {
+            s.candidates = candidates;
+            s.grid = GridSettings { candidates: from_grid, ..Default::default() };
+        }
+        s
+    }
 }
 
 /// Uniform, RIS, ReSTIR biased and unbiased with temporal reuse following the reprojected pixel,
-/// and ReSTIR without temporal reuse (what the thesis's viewer did whenever the camera moved: it
-/// reset every reservoir).
+/// ReSTIR without temporal reuse (what the thesis's viewer did whenever the camera moved: it
+/// reset every reservoir), and RIS and unbiased ReSTIR with the ReGIR grid
+/// ([`GRID_CASE_CANDIDATES`], as `bench --modes --grid` times them): the grid's cells follow the
+/// visible surfaces, so a cell the camera has just come to has no entries of its own yet.
 pub fn motion_modes() -> Vec<MotionMode> {
     let restir = |bias, temporal| RestirSettings { bias, initial_visibility: Some(false), temporal, ..Default::default() };
+    let mode = |label, mode, restir| MotionMode { label, mode, restir, grid: None };
+    let grid = Some(GRID_CASE_CANDIDATES);
     vec![
-        MotionMode { label: "uniform", mode: Mode::Uniform, restir: RestirSettings::default() },
-        MotionMode { label: "ris", mode: Mode::Ris, restir: RestirSettings::default() },
-        MotionMode { label: "restir", mode: Mode::Restir, restir: restir(Bias::Biased, true) },
-        MotionMode { label: "restir-unbiased", mode: Mode::Restir, restir: restir(Bias::Unbiased, true) },
-        MotionMode { label: "restir-no-temporal", mode: Mode::Restir, restir: restir(Bias::Unbiased, false) },
+        mode("uniform", Mode::Uniform, RestirSettings::default()),
+        mode("ris", Mode::Ris, RestirSettings::default()),
+        mode("restir", Mode::Restir, restir(Bias::Biased, true)),
+        mode("restir-unbiased", Mode::Restir, restir(Bias::Unbiased, true)),
+        mode("restir-no-temporal", Mode::Restir, restir(Bias::Unbiased, false)),
+        MotionMode { grid, ..mode("ris-grid", Mode::Ris, RestirSettings::default()) },
+        MotionMode { grid, ..mode("restir-unbiased-grid", Mode::Restir, restir(Bias::Unbiased, true)) },
     ]
 }
 
@@ -168,7 +190,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
         log(format!("{label}: measuring {} modes over {} moving frames at {}x{}", modes.len(), opts.frames, spec.width, spec.height));
         let mut renderers = Vec::new();
         for m in &modes {
-            let settings = RenderSettings { mode: m.mode, restir: m.restir, ..base.clone() };
+            let settings = m.settings(&base);
             renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
         }
         // Per (mode, frame) over the runs: gpu, rmse, relmse, flip; and each run's RMSE.
@@ -320,6 +342,12 @@ fn mean_rmse(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
     (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
 }
 
+/// Mean GPU ms per displayed frame of one scene and mode.
+fn mean_ms(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
+    let sel: Vec<f64> = points.iter().filter(|p| p.scene == scene && p.mode == mode).map(|p| p.gpu_ms).collect();
+    (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
+}
+
 /// Each run's mean over the moving frames of `mode`'s RMSE on `scene`, in run order (empty when
 /// the points carry no runs).
 pub fn run_means(points: &[MotionPoint], scene: &str, mode: &str) -> Vec<f64> {
@@ -381,6 +409,29 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
                 s,
                 "- **{scene}**: unbiased ReSTIR with temporal reuse following the reprojected pixels has {share} of the \
                  per-frame RMSE of ReSTIR that drops its history on motion ({on:.4} vs {off:.4}); uniform sampling: {u:.4}."
+            );
+        }
+        // The ReGIR grid against the same mode without it, run by run.
+        let (m, g) = GRID_CASE_CANDIDATES;
+        let mut grid = Vec::new();
+        for (name, with, without) in [("RIS", "ris-grid", "ris"), ("unbiased ReSTIR", "restir-unbiased-grid", "restir-unbiased")] {
+            let (Some((r, se)), Some(ms_with), Some(ms_without)) =
+                (paired_ratio(points, scene, with, without), mean_ms(points, scene, with), mean_ms(points, scene, without))
+            else {
+                continue;
+            };
+            let share = match se {
+                Some(se) => format!("{:.0} ± {:.0}%", 100.0 * r, 100.0 * se),
+                None => format!("{:.0}%", 100.0 * r),
+            };
+            grid.push(format!("{name} {share} at {:.2}× its GPU time", ms_with / ms_without));
+        }
+        if !grid.is_empty() {
+            let _ = writeln!(
+                s,
+                "- **{scene}**, the ReGIR grid ({m} candidates, {g} of them from the grid, against the default candidates from \
+                 the source pdf alone): per-frame RMSE {}.",
+                grid.join("; ")
             );
         }
     }
