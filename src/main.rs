@@ -190,6 +190,15 @@ struct RenderArgs {
     /// Spatial reuse passes per frame.
     #[arg(long, default_value_t = DEFAULTS.restir.spatial_passes)]
     spatial_passes: u32,
+    /// RIS candidates of a ReSTIR frame displayed alone (the camera moved, or --progressive off)
+    /// while temporal reuse has history: its error hardly depends on them there, unlike an
+    /// accumulation's (docs/performance.md, "Frames displayed alone"). At most --candidates; 0:
+    /// --candidates.
+    #[arg(long, default_value_t = DEFAULTS.restir.moving_candidates)]
+    moving_candidates: u32,
+    /// Spatial neighbours of such a frame (at most --spatial-neighbours; 0: --spatial-neighbours).
+    #[arg(long, default_value_t = DEFAULTS.restir.moving_neighbours)]
+    moving_neighbours: u32,
     /// Reject spatial neighbours whose shading normals' dot product is below this.
     #[arg(long, default_value_t = DEFAULTS.restir.normal_threshold, allow_negative_numbers = true)]
     normal_threshold: f32,
@@ -648,6 +657,8 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
             bias: cli.bias,
             initial_visibility: cli.initial_visibility.map(Toggle::on),
             boiling_filter: cli.boiling_filter,
+            moving_candidates: cli.moving_candidates,
+            moving_neighbours: cli.moving_neighbours,
         },
         attenuation: cli.attenuation,
         yuksel_radius: cli.yuksel_radius,
@@ -1012,6 +1023,11 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             v.unbiased_reuse,
             v.spatial_radius_px.map(|r| format!(", spatial radius {r:.1} px")).unwrap_or_default()
         );
+        if let (Some([c, n]), m) = (v.moving_sampling, v.moving_frames) {
+            if m > 0 {
+                println!("  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours (--moving-candidates, --moving-neighbours)");
+            }
+        }
     }
     println!("GPU ms per pass (median / min / max), rays per pixel per frame (mean):");
     for (name, t) in &s.pass_ms {

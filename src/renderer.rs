@@ -43,6 +43,9 @@ pub struct FrameStats {
     pub rays_by_pass: Vec<(&'static str, u64)>,
     /// Wall-clock time from the start of recording to the frame's completion.
     pub wall_ms: f64,
+    /// ReSTIR ran with the sampling of a frame displayed alone
+    /// ([`RenderSettings::moving_sampling`]).
+    pub moving: bool,
 }
 
 impl FrameStats {
@@ -78,6 +81,8 @@ pub struct FrameLog {
     pub pass_ms: BTreeMap<&'static str, Vec<f64>>,
     /// Rays per tracing pass, one entry per frame it traced in.
     pub pass_rays: BTreeMap<&'static str, Vec<u64>>,
+    /// Frames that ran with the sampling of a frame displayed alone ([`FrameStats::moving`]).
+    pub moving_frames: u32,
 }
 
 impl FrameLog {
@@ -91,6 +96,7 @@ impl FrameLog {
         for (name, n) in &s.rays_by_pass {
             self.pass_rays.entry(name).or_default().push(*n);
         }
+        self.moving_frames += u32::from(s.moving);
     }
 
     pub fn frames(&self) -> usize {
@@ -167,6 +173,11 @@ pub struct VplSummary {
     /// The spatial reuse disc's radius in pixels (given, or scaled with the width); None without
     /// spatial reuse.
     pub spatial_radius_px: Option<f32>,
+    /// ReSTIR with temporal reuse: [candidates, spatial neighbours] of a frame displayed alone
+    /// while temporal reuse has history ([`RenderSettings::moving_sampling`]).
+    pub moving_sampling: Option<[u32; 2]>,
+    /// Frames of the log that ran with them.
+    pub moving_frames: u32,
 }
 
 /// What the first ray of `vpl_compensate` carries for `view` (`COMPENSATE_*` bits; 0: nothing,
@@ -221,7 +232,8 @@ struct FrameSlot {
     /// The frame waiting for this slot's fence: its start time, whether the gbuffer ran and
     /// whether it restarted the accumulation (and with it the GPU's non-finite count), and its
     /// index (for a wait that takes long to name it).
-    pending: Option<(Instant, bool, bool, u32)>,
+    /// (recording start, G-buffer traced, accumulation reset, frame index, moving sampling).
+    pending: Option<(Instant, bool, bool, u32, bool)>,
 }
 
 /// Accumulation and reuse state carried from frame to frame.
@@ -238,6 +250,8 @@ struct FrameState {
     current_reservoirs: usize,
     /// The other reservoir buffer holds a previous frame's final reservoirs.
     history_valid: bool,
+    /// The next frame is displayed alone: the camera moved, or `--progressive off`.
+    displayed_alone: bool,
     /// Non-finite samples replaced by zero in this accumulation (counted by the accumulate pass).
     nonfinite_samples: u64,
 }
@@ -852,9 +866,17 @@ impl Renderer {
         } else {
             Step::Run
         };
+        // A frame displayed alone whose temporal reuse has history: its own error hardly depends
+        // on the candidates and neighbours there, so it draws fewer (--moving-candidates,
+        // --moving-neighbours; docs/performance.md, "Frames displayed alone").
+        let moving = mode == Mode::Restir && temporal_runs && st.displayed_alone && s.moving_sampling() != (s.candidates, r.spatial_neighbours);
         let vpl = match &self.parts.vpl {
             Some(v) => {
                 let mut params = v.params;
+                let mut restir = *r;
+                if moving {
+                    (params.candidates, restir.spatial_neighbours) = s.moving_sampling();
+                }
                 if gbuffer != Step::Run {
                     // The previous frame's surfaces are this frame's: reuse needs no reprojection
                     // and its MIS weights reduce to confidence weights.
@@ -862,7 +884,8 @@ impl Renderer {
                 }
                 VplFrame {
                     params,
-                    restir: *r,
+                    restir,
+                    moving,
                     view: s.view,
                     current: st.current_reservoirs,
                     compensate_params: v.compensate.0,
@@ -1052,7 +1075,9 @@ impl Renderer {
         let i = self.next_slot;
         let completed = if self.slots[i].pending.is_some() { Some(self.complete_frame(i)?) } else { None };
         let prev_camera = self.camera.unwrap_or(*camera);
-        if !prev_camera.same_view(camera) {
+        let moved = !prev_camera.same_view(camera);
+        self.state.displayed_alone = moved || !self.settings.progressive;
+        if moved {
             // A new view: new primary hits and a new accumulation; the ReSTIR history is kept and
             // reprojected.
             self.state.gbuffer_valid = false;
@@ -1155,7 +1180,7 @@ impl Renderer {
             d.reset_fences(&[slot.fence])?;
             d.queue_submit(ctx.queue, &submit, slot.fence).context("vkQueueSubmit (frame)")?;
         }
-        slot.pending = Some((start, plan.gbuffer == Step::Run, plan.reset_accumulation, self.state.frame_index));
+        slot.pending = Some((start, plan.gbuffer == Step::Run, plan.reset_accumulation, self.state.frame_index, plan.vpl.moving));
         let st = &mut self.state;
         if plan.gbuffer == Step::Run {
             st.gbuffer_valid = true;
@@ -1181,7 +1206,7 @@ impl Renderer {
     /// Waits for the frame in slot `i` and logs its statistics.
     fn complete_frame(&mut self, i: usize) -> Result<FrameStats> {
         let slot = &mut self.slots[i];
-        let (start, gbuffer_ran, reset, frame) = slot.pending.context("no frame is pending in this slot")?;
+        let (start, gbuffer_ran, reset, frame, moving) = slot.pending.context("no frame is pending in this slot")?;
         let timer = &slot.timer;
         self.ctx.wait_fence(slot.fence, &|| format!("frame {frame}"), &|| timer.progress())?;
         // Only now is the slot free (a wait that failed leaves it pending: the frame may run on).
@@ -1204,7 +1229,7 @@ impl Renderer {
             }
         }
         let rays = rays_by_pass.iter().map(|r| r.1).sum();
-        let stats = FrameStats { dispatch_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3 };
+        let stats = FrameStats { dispatch_ms, rays, rays_by_pass, wall_ms: start.elapsed().as_secs_f64() * 1e3, moving };
         self.log.push(&stats);
         self.last_stats = stats.clone();
         Ok(stats)
@@ -1419,6 +1444,11 @@ impl Renderer {
                 .spatial
                 .is_some()
                 .then(|| self.settings.restir.spatial_radius_px(self.settings.width)),
+            moving_sampling: (self.settings.mode == Mode::Restir && self.settings.restir.temporal).then(|| {
+                let (candidates, neighbours) = self.settings.moving_sampling();
+                [candidates, neighbours]
+            }),
+            moving_frames: self.log.moving_frames,
         })
     }
 

@@ -177,6 +177,26 @@ pub struct RestirSettings {
     /// Shadow-test the initial sample (targets include visibility). None: off (unbiased reuse
     /// stays unbiased without it; with it, two shadow rays per spatial neighbour).
     pub initial_visibility: Option<bool>,
+    /// RIS candidates of a frame that is displayed alone (the camera moved this frame, or
+    /// `--progressive off`) while temporal reuse has history: at most `--candidates`, at least the
+    /// grid's; 0: `--candidates`. Such a frame's own error hardly depends on the candidates once
+    /// reuse has history, where an accumulation's does (docs/performance.md, "Frames displayed
+    /// alone").
+    #[serde(default = "default_moving_candidates")]
+    pub moving_candidates: u32,
+    /// Spatial neighbours of such a frame: at most `--spatial-neighbours`; 0: `--spatial-neighbours`.
+    #[serde(default = "default_moving_neighbours")]
+    pub moving_neighbours: u32,
+}
+
+/// [`RestirSettings::moving_candidates`]' default.
+pub fn default_moving_candidates() -> u32 {
+    16
+}
+
+/// [`RestirSettings::moving_neighbours`]' default.
+pub fn default_moving_neighbours() -> u32 {
+    4
 }
 
 impl Default for RestirSettings {
@@ -194,6 +214,8 @@ impl Default for RestirSettings {
             bias: Bias::Unbiased,
             boiling_filter: 0.0,
             initial_visibility: None,
+            moving_candidates: default_moving_candidates(),
+            moving_neighbours: default_moving_neighbours(),
         }
     }
 }
@@ -570,13 +592,20 @@ impl RenderSettings {
                     format!("it sets the RIS candidates of --mode ris and restir, not of --mode {mode}")
                 }
                 "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
-                | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes"
+                | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes" | "moving_candidates"
+                | "moving_neighbours"
                     if self.mode != Mode::Restir =>
                 {
                     format!("it sets ReSTIR's reuse, and --mode {mode} reuses no reservoirs")
                 }
                 "mcap" | "boiling_filter" if self.mode == Mode::Restir && !self.restir.temporal => {
                     "it sets temporal reuse, which --temporal off turns off".to_string()
+                }
+                "moving_candidates" | "moving_neighbours" if self.mode == Mode::Restir && !self.restir.temporal => {
+                    "it sets the frames whose temporal reuse has history, and --temporal off has none".to_string()
+                }
+                "moving_neighbours" if self.mode == Mode::Restir && !self.reuses_spatially() => {
+                    "it sets spatial reuse, which --spatial-passes 0 or --spatial-neighbours 0 turns off".to_string()
                 }
                 // (Both set to 0 is the user turning spatial reuse off twice: not worth a word.)
                 "spatial_radius" | "spatial_neighbours"
@@ -612,7 +641,8 @@ impl RenderSettings {
                 }
                 "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" | "candidates" | "candidate_source"
                 | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates" | "grid_balance" | "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
-                | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes"
+                | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes" | "moving_candidates"
+                | "moving_neighbours"
                     if self.view == View::Vpls =>
                 {
                     "--view vpls draws the VPLs instead of shading with them".to_string()
@@ -622,6 +652,22 @@ impl RenderSettings {
             out.push(format!("{} has no effect here: {why}", flag(id)));
         }
         out
+    }
+
+    /// (RIS candidates, spatial neighbours) of a ReSTIR frame displayed alone while temporal reuse
+    /// has history ([`RestirSettings::moving_candidates`], [`RestirSettings::moving_neighbours`]):
+    /// never more than the still camera's, never fewer candidates than the grid's.
+    pub fn moving_sampling(&self) -> (u32, u32) {
+        let r = &self.restir;
+        let candidates = match r.moving_candidates {
+            0 => self.candidates,
+            m => m.min(self.candidates).max(self.grid.candidates).max(1),
+        };
+        let neighbours = match r.moving_neighbours {
+            0 => r.spatial_neighbours,
+            k => k.min(r.spatial_neighbours),
+        };
+        (candidates, neighbours)
     }
 
     /// Whether ReSTIR's settings ask for spatial reuse (passes and neighbours both above 0).
@@ -793,6 +839,12 @@ impl RenderSettings {
                 r.spatial_neighbours,
                 crate::gpu_types::MAX_SPATIAL_NEIGHBOURS
             );
+        }
+        if r.moving_neighbours > crate::gpu_types::MAX_SPATIAL_NEIGHBOURS {
+            bail!("--moving-neighbours {}: at most {}", r.moving_neighbours, crate::gpu_types::MAX_SPATIAL_NEIGHBOURS);
+        }
+        if r.moving_candidates > 1024 {
+            bail!("--moving-candidates {}: at most 1024 (0: as --candidates)", r.moving_candidates);
         }
         if let Some(radius) = r.spatial_radius {
             if !(radius >= 1.0 && radius.is_finite()) {
@@ -968,5 +1020,36 @@ mod tests {
         let given = RestirSettings { spatial_radius: Some(7.0), ..auto };
         assert_eq!(given.spatial_radius_px(64), 7.0);
         assert_eq!(given.spatial_radius_px(1920), 7.0);
+    }
+
+    /// A frame displayed alone never samples more than the still camera's settings, never fewer
+    /// candidates than the grid's, and 0 means the still settings; out-of-range values are refused
+    /// naming the flag, and the flags are named where they cannot apply.
+    #[test]
+    fn moving_sampling_is_bounded_by_the_still_settings() {
+        let with = |candidates, grid, spatial_neighbours, moving_candidates, moving_neighbours| RenderSettings {
+            mode: Mode::Restir,
+            candidates,
+            grid: GridSettings { candidates: grid, ..Default::default() },
+            restir: RestirSettings { spatial_neighbours, moving_candidates, moving_neighbours, ..Default::default() },
+            ..RenderSettings::default()
+        };
+        assert_eq!(RenderSettings { mode: Mode::Restir, ..Default::default() }.moving_sampling(), (16, 4));
+        assert_eq!(with(32, 0, 8, 0, 0).moving_sampling(), (32, 8));
+        assert_eq!(with(8, 0, 2, 16, 4).moving_sampling(), (8, 2));
+        assert_eq!(with(32, 24, 8, 16, 4).moving_sampling(), (24, 4));
+        for (s, flag) in [(with(32, 0, 8, 1025, 4), "--moving-candidates 1025"), (with(32, 0, 8, 16, 33), "--moving-neighbours 33")] {
+            let e = s.validate().unwrap_err().to_string();
+            assert!(e.starts_with(flag), "{e}");
+        }
+        let named = |s: &RenderSettings| -> Vec<String> {
+            s.unused_flags(&["moving_candidates", "moving_neighbours"]).iter().map(|w| w.split(' ').next().unwrap().to_string()).collect()
+        };
+        assert!(named(&with(32, 0, 8, 16, 4)).is_empty());
+        assert_eq!(named(&RenderSettings { mode: Mode::Ris, ..with(32, 0, 8, 16, 4) }), ["--moving-candidates", "--moving-neighbours"]);
+        let no_temporal = with(32, 0, 8, 16, 4);
+        let no_temporal = RenderSettings { restir: RestirSettings { temporal: false, ..no_temporal.restir }, ..no_temporal };
+        assert_eq!(named(&no_temporal), ["--moving-candidates", "--moving-neighbours"]);
+        assert_eq!(named(&with(32, 0, 0, 16, 4)), ["--moving-neighbours"]);
     }
 }

@@ -318,7 +318,54 @@ fn unbiased_along_the_path(visibility: bool) {
         assert!(se > 0.0, "block {b}: no variance across runs (are the seeds used?)");
         assert!(diff.abs() <= 4.0 * se, "block {b}: ReSTIR {mean} vs brute force {} ({:.1} standard errors)", truth_blocks[b], diff / se);
     }
+    // Every frame after the first moved the camera with history to reuse: all of them ran with
+    // the sampling of a frame displayed alone (the default --moving-candidates and
+    // --moving-neighbours), so the check above covers it.
+    assert_eq!(r.log().moving_frames, last, "the last run's moving frames");
     common::assert_no_nonfinite_samples(&r, "run");
+    assert_no_validation_errors(&ctx);
+}
+
+/// `--moving-candidates` and `--moving-neighbours` apply exactly to ReSTIR frames displayed alone
+/// (camera moved, or `--progressive off`) with temporal history: never to a still camera's
+/// accumulation, never to the first frame (no history), not when set equal to the still
+/// settings or to 0; and they change the frames they apply to.
+#[test]
+fn frames_displayed_alone_with_history_take_the_moving_sampling() {
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let base = RenderSettings { mode: Mode::Restir, vpls_direct: 1000, vpls_indirect: 1000, ..small(32, 24, 1) };
+    let ctx = context();
+    let gpu = upload(&ctx, &scene, &base);
+    let frames = 4;
+    // (moving frames, last frame's image) of `frames` frames on the scene's still camera.
+    let run = |s: RenderSettings| {
+        let mut r = Renderer::new(ctx.clone(), gpu.clone(), s).unwrap();
+        let camera = r.initial_camera();
+        let mut first = None;
+        for _ in 0..frames {
+            r.render_frame(&camera, false).unwrap();
+            first.get_or_insert_with(|| r.read_mean().unwrap());
+        }
+        let img = r.read_mean().unwrap();
+        assert_all_finite(&img, "ReSTIR frame");
+        (r.log().moving_frames, first.unwrap(), img)
+    };
+    let alone = |restir: RestirSettings| RenderSettings { progressive: false, restir, ..base.clone() };
+    let defaults = RestirSettings::default();
+    assert_eq!((defaults.moving_candidates, defaults.moving_neighbours), (16, 4), "README's defaults");
+    let (still, ..) = run(base.clone());
+    assert_eq!(still, 0, "a still camera's accumulation keeps the full sampling");
+    let (moving, first_moving, last_moving) = run(alone(defaults));
+    assert_eq!(moving, frames - 1, "every frame displayed alone but the first (no history yet)");
+    let off = RestirSettings { moving_candidates: 0, moving_neighbours: 0, ..defaults };
+    let (none, first_off, last_off) = run(alone(off));
+    assert_eq!(none, 0, "0: the still settings");
+    let same = RestirSettings { moving_candidates: base.candidates, moving_neighbours: defaults.spatial_neighbours, ..defaults };
+    let (equal, _, last_same) = run(alone(same));
+    assert_eq!(equal, 0, "the still settings again: nothing to switch");
+    assert!(first_moving == first_off, "the first frame has no history and keeps the full sampling");
+    assert!(last_same == last_off, "equal settings, equal frames");
+    assert!(last_moving != last_off, "the moving sampling changes the frames it applies to");
     assert_no_validation_errors(&ctx);
 }
 

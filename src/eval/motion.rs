@@ -39,18 +39,21 @@ pub struct MotionMode {
     pub label: &'static str,
     pub mode: Mode,
     pub restir: RestirSettings,
-    /// With the ReGIR grid: (candidates per pixel, of which from the grid); None: the default
-    /// candidates, all from the source pdf.
-    pub grid: Option<(u32, u32)>,
+    /// RIS candidates per pixel; None: the default.
+    pub candidates: Option<u32>,
+    /// Of them, from the ReGIR grid (0: none, all from the source pdf).
+    pub grid_candidates: u32,
 }
 
 impl MotionMode {
     /// `base` with this mode's sampling.
     pub fn settings(&self, base: &RenderSettings) -> RenderSettings {
         let mut s = RenderSettings { mode: self.mode, restir: self.restir, ..base.clone() };
-        if let Some((candidates, from_grid)) = self.grid {
+        if let Some(candidates) = self.candidates {
             s.candidates = candidates;
-            s.grid = GridSettings { candidates: from_grid, ..Default::default() };
+        }
+        if self.grid_candidates > 0 {
+            s.grid = GridSettings { candidates: self.grid_candidates, ..Default::default() };
         }
         s
     }
@@ -63,16 +66,17 @@ impl MotionMode {
 /// visible surfaces, so a cell the camera has just come to has no entries of its own yet.
 pub fn motion_modes() -> Vec<MotionMode> {
     let restir = |bias, temporal| RestirSettings { bias, initial_visibility: Some(false), temporal, ..Default::default() };
-    let mode = |label, mode, restir| MotionMode { label, mode, restir, grid: None };
-    let grid = Some(GRID_CASE_CANDIDATES);
+    let mode = |label, mode, restir| MotionMode { label, mode, restir, candidates: None, grid_candidates: 0 };
+    let (candidates, grid_candidates) = GRID_CASE_CANDIDATES;
+    let grid = |m: MotionMode| MotionMode { candidates: Some(candidates), grid_candidates, ..m };
     vec![
         mode("uniform", Mode::Uniform, RestirSettings::default()),
         mode("ris", Mode::Ris, RestirSettings::default()),
         mode("restir", Mode::Restir, restir(Bias::Biased, true)),
         mode("restir-unbiased", Mode::Restir, restir(Bias::Unbiased, true)),
         mode("restir-no-temporal", Mode::Restir, restir(Bias::Unbiased, false)),
-        MotionMode { grid, ..mode("ris-grid", Mode::Ris, RestirSettings::default()) },
-        MotionMode { grid, ..mode("restir-unbiased-grid", Mode::Restir, restir(Bias::Unbiased, true)) },
+        grid(mode("ris-grid", Mode::Ris, RestirSettings::default())),
+        grid(mode("restir-unbiased-grid", Mode::Restir, restir(Bias::Unbiased, true))),
     ]
 }
 
@@ -158,11 +162,15 @@ fn as_override(c: &Camera) -> CameraOverride {
 /// Measures every mode of [`motion_modes`] along each scene's path; returns the points (one per
 /// scene × mode × frame).
 pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)) -> Result<Vec<MotionPoint>> {
+    run_modes(ctx, opts, &motion_modes(), log)
+}
+
+/// [`run`] with other modes (labels must differ): the same protocol for a study of settings.
+pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode], log: &mut dyn FnMut(String)) -> Result<Vec<MotionPoint>> {
     if opts.frames == 0 || opts.runs == 0 || opts.reference_frames == 0 {
         bail!("bench --motion needs at least one frame, one run and one reference frame");
     }
     let refs_dir = opts.out_dir.join("references");
-    let modes = motion_modes();
     let mut points = Vec::new();
     for spec in &opts.scenes {
         let label = spec.label();
@@ -189,7 +197,7 @@ pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)
         }
         log(format!("{label}: measuring {} modes over {} moving frames at {}x{}", modes.len(), opts.frames, spec.width, spec.height));
         let mut renderers = Vec::new();
-        for m in &modes {
+        for m in modes {
             let settings = m.settings(&base);
             renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
         }
@@ -384,7 +392,9 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
          (progressive accumulation off: the image is that frame alone) is compared with a {}-frame path-traced reference \
          of that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames after {WARMUP_FRAMES} still \
          warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error; ± the standard error over the runs of \
-         each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets. \
+         each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
+         with temporal reuse every displayed frame after the first has history and draws the sampling of a frame displayed alone \
+         (`--moving-candidates`, `--moving-neighbours`: 16 candidates and 4 neighbours by default, against 32 and 8 without temporal reuse). \
          The references' own noise adds the same amount to every mode's squared error (the images are independent of \
          the reference): it shifts the columns, never reorders the modes.\n",
         opts.reference_frames,
@@ -399,7 +409,8 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         let on = mean_rmse(points, scene, "restir-unbiased");
         let off = mean_rmse(points, scene, "restir-no-temporal");
         let uniform = mean_rmse(points, scene, "uniform");
-        if let (Some(on), Some(off), Some(u)) = (on, off, uniform) {
+        let ms = (mean_ms(points, scene, "restir-unbiased"), mean_ms(points, scene, "restir-no-temporal"));
+        if let (Some(on), Some(off), Some(u), (Some(ms_on), Some(ms_off))) = (on, off, uniform, ms) {
             // The share run by run (± its standard error over the runs, which share their seeds).
             let share = match paired_ratio(points, scene, "restir-unbiased", "restir-no-temporal") {
                 Some((r, Some(se))) => format!("{:.0} ± {:.0}%", 100.0 * r, 100.0 * se),
@@ -408,7 +419,9 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
             let _ = writeln!(
                 s,
                 "- **{scene}**: unbiased ReSTIR with temporal reuse following the reprojected pixels has {share} of the \
-                 per-frame RMSE of ReSTIR that drops its history on motion ({on:.4} vs {off:.4}); uniform sampling: {u:.4}."
+                 per-frame RMSE of ReSTIR that drops its history on motion ({on:.4} vs {off:.4}) at {:.2}× its GPU time; uniform \
+                 sampling: {u:.4}.",
+                ms_on / ms_off
             );
         }
         // The ReGIR grid against the same mode without it, run by run.

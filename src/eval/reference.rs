@@ -372,6 +372,12 @@ pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<S
     for k in ["scene", "frames", "seed", "exposure", "save_every", "out_dir", "validate", "device_index", "progress", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture", "workgroup", "fuse_passes", "tracing"] {
         obj.remove(k);
     }
+    // A reference accumulates on a still camera (`--progressive off` is refused), so the
+    // settings of frames displayed alone never apply to it.
+    if let Some(restir) = obj.get_mut("restir").and_then(|r| r.as_object_mut()) {
+        restir.remove("moving_candidates");
+        restir.remove("moving_neighbours");
+    }
     obj.insert("scene_hash".into(), serde_json::Value::String(scene_hash.into()));
     strip_unused(obj, settings.mode);
     // serde_json's map is ordered (BTreeMap), so the string is canonical.

@@ -324,6 +324,9 @@ pub struct VplFrame {
     pub compensate_params: GpuVplParams,
     /// `vpl_compensate`'s `COMPENSATE_*` bits for the view.
     pub compensate_first_hop: u32,
+    /// `params.candidates` and `restir.spatial_neighbours` are those of a frame displayed alone
+    /// (`RenderSettings::moving_sampling`), not the settings'.
+    pub moving: bool,
 }
 
 impl VplFrame {
@@ -399,6 +402,12 @@ impl FramePlan {
                 Step::Run => format!("  {name:<24} run"),
                 Step::Skip(why) => format!("  {name:<24} skip ({why})"),
             })
+            .chain(self.vpl.moving.then(|| {
+                format!(
+                    "  (displayed alone with temporal history: {} candidates, {} neighbours; --moving-candidates, --moving-neighbours)",
+                    self.vpl.params.candidates, self.vpl.restir.spatial_neighbours
+                )
+            }))
             .collect::<Vec<_>>()
             .join("\n")
     }
