@@ -477,6 +477,13 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
                 if ui.add(egui::Slider::new(&mut r.spatial_neighbours, 0..=max_n).text("neighbours")).changed() {
                     what = Some("spatial neighbours".into());
                 }
+                // A frame displayed alone with temporal history (flying; 0: as above).
+                if ui.add(egui::Slider::new(&mut r.moving_candidates, 0..=64).text("candidates while moving")).changed() {
+                    what = Some("candidates while moving".into());
+                }
+                if ui.add(egui::Slider::new(&mut r.moving_neighbours, 0..=max_n).text("neighbours while moving")).changed() {
+                    what = Some("neighbours while moving".into());
+                }
                 // Shows the automatic radius until moved; a moved slider fixes it.
                 let mut radius = r.spatial_radius_px(width);
                 if ui.add(egui::Slider::new(&mut radius, 1.0..=64.0).text("radius (px)")).changed() {
