@@ -230,9 +230,8 @@ struct FrameSlot {
     readback: Buffer,
     frame_constants: Buffer,
     /// The frame waiting for this slot's fence: its start time, whether the gbuffer ran and
-    /// whether it restarted the accumulation (and with it the GPU's non-finite count), and its
-    /// index (for a wait that takes long to name it).
-    /// (recording start, G-buffer traced, accumulation reset, frame index, moving sampling).
+    /// whether it restarted the accumulation (and with it the GPU's non-finite count), its index
+    /// (for a wait that takes long to name it), and whether it drew the moving sampling.
     pending: Option<(Instant, bool, bool, u32, bool)>,
 }
 

@@ -394,10 +394,10 @@ pub struct RenderSettings {
     /// (initial RIS + temporal merge) and `restir_spatial_shade` (last spatial merge + shading),
     /// each one dispatch with the same functions and random streams as the two passes it replaces
     /// (the same image, bit for bit). A frame whose pass outputs are captured (`--dump-passes`,
-    /// `--check-finite`) and the reservoir views run the passes apart. None (auto, the default):
-    /// fused (None), which saved 4–13 % of every ReSTIR frame measured on an NVIDIA H100 and, since
-    /// the reuse's kind became specialisation constants, 0–10 % on lavapipe on both hosts measured
-    /// (docs/performance.md, "Pass fusion"). The renderer resolves it
+    /// `--check-finite`) and the reservoir views run the passes apart. None (the default): fused,
+    /// which saved 4–13 % of every ReSTIR frame measured on an NVIDIA H100 and, since the reuse's
+    /// kind became specialisation constants, 0–10 % on lavapipe (AMD EPYC host; the Intel host
+    /// gained 0–7 % already before) (docs/performance.md, "Pass fusion"). The renderer resolves it
     /// ([`RenderSettings::fuses_passes`]), so its settings and the run's summary say which ran.
     #[serde(default)]
     pub fuse_passes: Option<bool>,

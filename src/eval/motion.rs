@@ -344,16 +344,20 @@ pub fn write_outputs(dir: &Path, points: &[MotionPoint]) -> Result<MotionFiles> 
     Ok(MotionFiles { csv, plots: plots(&plots_dir, points)? })
 }
 
+/// Mean of `of` over the moving frames of one scene and mode.
+fn mean_over_frames(points: &[MotionPoint], scene: &str, mode: &str, of: fn(&MotionPoint) -> f64) -> Option<f64> {
+    let sel: Vec<f64> = points.iter().filter(|p| p.scene == scene && p.mode == mode).map(of).collect();
+    (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
+}
+
 /// Mean RMSE over the moving frames of one scene and mode.
 fn mean_rmse(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
-    let sel: Vec<f64> = points.iter().filter(|p| p.scene == scene && p.mode == mode).map(|p| p.rmse).collect();
-    (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
+    mean_over_frames(points, scene, mode, |p| p.rmse)
 }
 
 /// Mean GPU ms per displayed frame of one scene and mode.
 fn mean_ms(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
-    let sel: Vec<f64> = points.iter().filter(|p| p.scene == scene && p.mode == mode).map(|p| p.gpu_ms).collect();
-    (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
+    mean_over_frames(points, scene, mode, |p| p.gpu_ms)
 }
 
 /// Each run's mean over the moving frames of `mode`'s RMSE on `scene`, in run order (empty when
@@ -386,6 +390,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
     use std::fmt::Write as _;
     let mut s = String::new();
     let sizes: Vec<String> = opts.scenes.iter().map(|s| format!("{} {}×{}", s.label(), s.width, s.height)).collect();
+    let defaults = RenderSettings { mode: Mode::Restir, ..Default::default() };
     let _ = writeln!(
         s,
         "A camera moves along the path committed beside each scene (`scenes/<name>.path.json`); every displayed frame \
@@ -394,7 +399,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
          warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error; ± the standard error over the runs of \
          each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
          with temporal reuse every displayed frame after the first has history and draws the sampling of a frame displayed alone \
-         (`--moving-candidates`, `--moving-neighbours`: 16 candidates and 4 neighbours by default, against 32 and 8 without temporal reuse). \
+         (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, against {} and {} without temporal reuse). \
          The references' own noise adds the same amount to every mode's squared error (the images are independent of \
          the reference): it shifts the columns, never reorders the modes.\n",
         opts.reference_frames,
@@ -403,6 +408,10 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         opts.vpls_indirect,
         opts.frames,
         opts.runs,
+        defaults.moving_sampling().0,
+        defaults.moving_sampling().1,
+        defaults.candidates,
+        defaults.restir.spatial_neighbours,
     );
     let scenes = crate::eval::report::ordered(points.iter().map(|p| p.scene.as_str()));
     for scene in &scenes {
