@@ -408,7 +408,13 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
             if info.frozen { " · FROZEN (F2 resumes, F3 steps)" } else { "" }
         ));
         if let Some(v) = renderer.vpl_summary() {
-            ui.label(format!("{} VPLs · {:.2} rays/px", v.vpl_count, stats.rays as f64 / pixels));
+            // While flying: the last frame drew the sampling of a frame displayed alone
+            // (candidates × neighbours; short, so that the line never wraps and moves the rows below).
+            let moving = match v.moving_sampling {
+                Some([c, n]) if stats.moving => format!(" · moving {c}×{n}"),
+                _ => String::new(),
+            };
+            ui.label(format!("{} VPLs · {:.2} rays/px{moving}", v.vpl_count, stats.rays as f64 / pixels));
         } else {
             ui.label(format!("{:.2} rays/px", stats.rays as f64 / pixels));
         }
