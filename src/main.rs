@@ -1023,10 +1023,8 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             v.unbiased_reuse,
             v.spatial_radius_px.map(|r| format!(", spatial radius {r:.1} px")).unwrap_or_default()
         );
-        if let (Some([c, n]), m) = (v.moving_sampling, v.moving_frames) {
-            if m > 0 {
-                println!("  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours (--moving-candidates, --moving-neighbours)");
-            }
+        if let (Some([c, n]), m @ 1..) = (v.moving_sampling, v.moving_frames) {
+            println!("  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours (--moving-candidates, --moving-neighbours)");
         }
     }
     println!("GPU ms per pass (median / min / max), rays per pixel per frame (mean):");

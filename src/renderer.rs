@@ -249,8 +249,6 @@ struct FrameState {
     current_reservoirs: usize,
     /// The other reservoir buffer holds a previous frame's final reservoirs.
     history_valid: bool,
-    /// The next frame is displayed alone: the camera moved, or `--progressive off`.
-    displayed_alone: bool,
     /// Non-finite samples replaced by zero in this accumulation (counted by the accumulate pass).
     nonfinite_samples: u64,
 }
@@ -836,8 +834,9 @@ impl Renderer {
     }
 
     /// What the next frame will run. `preview`: also run the tonemap pass; `capture`: the frame's
-    /// pass outputs are captured, so no fused pass hides one.
-    fn plan(&self, preview: bool, capture: bool) -> FramePlan {
+    /// pass outputs are captured, so no fused pass hides one; `displayed_alone`: the frame is shown
+    /// alone (the camera moved, or `--progressive off`).
+    fn plan(&self, preview: bool, capture: bool, displayed_alone: bool) -> FramePlan {
         let s = &self.settings;
         let st = &self.state;
         let mode = s.mode;
@@ -868,13 +867,14 @@ impl Renderer {
         // A frame displayed alone whose temporal reuse has history: its own error hardly depends
         // on the candidates and neighbours there, so it draws fewer (--moving-candidates,
         // --moving-neighbours; docs/performance.md, "Frames displayed alone").
-        let moving = mode == Mode::Restir && temporal_runs && st.displayed_alone && s.moving_sampling() != (s.candidates, r.spatial_neighbours);
+        let moving_sampling = s.moving_sampling();
+        let moving = mode == Mode::Restir && temporal_runs && displayed_alone && moving_sampling != (s.candidates, r.spatial_neighbours);
         let vpl = match &self.parts.vpl {
             Some(v) => {
                 let mut params = v.params;
                 let mut restir = *r;
                 if moving {
-                    (params.candidates, restir.spatial_neighbours) = s.moving_sampling();
+                    (params.candidates, restir.spatial_neighbours) = moving_sampling;
                 }
                 if gbuffer != Step::Run {
                     // The previous frame's surfaces are this frame's: reuse needs no reprojection
@@ -1075,7 +1075,6 @@ impl Renderer {
         let completed = if self.slots[i].pending.is_some() { Some(self.complete_frame(i)?) } else { None };
         let prev_camera = self.camera.unwrap_or(*camera);
         let moved = !prev_camera.same_view(camera);
-        self.state.displayed_alone = moved || !self.settings.progressive;
         if moved {
             // A new view: new primary hits and a new accumulation; the ReSTIR history is kept and
             // reprojected.
@@ -1088,7 +1087,7 @@ impl Renderer {
             self.state.accumulated = 0;
         }
         self.camera = Some(*camera);
-        let plan = self.plan(preview, capture);
+        let plan = self.plan(preview, capture, moved || !self.settings.progressive);
         // --verbose: the first frame's passes and the last one's (a still camera's later frames
         // skip the G-buffer and run the temporal pass).
         if self.state.frame_index == 0 || u64::from(self.state.frame_index) + 1 == u64::from(self.settings.frames) {

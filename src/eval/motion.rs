@@ -391,6 +391,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
     let mut s = String::new();
     let sizes: Vec<String> = opts.scenes.iter().map(|s| format!("{} {}×{}", s.label(), s.width, s.height)).collect();
     let defaults = RenderSettings { mode: Mode::Restir, ..Default::default() };
+    let (moving_candidates, moving_neighbours) = defaults.moving_sampling();
     let _ = writeln!(
         s,
         "A camera moves along the path committed beside each scene (`scenes/<name>.path.json`); every displayed frame \
@@ -408,8 +409,8 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         opts.vpls_indirect,
         opts.frames,
         opts.runs,
-        defaults.moving_sampling().0,
-        defaults.moving_sampling().1,
+        moving_candidates,
+        moving_neighbours,
         defaults.candidates,
         defaults.restir.spatial_neighbours,
     );
