@@ -3,7 +3,9 @@
 # (ignored by git; pass `carry: [".dev"]` to the device tool). The lent machines so far (H100, H200:
 # Ubuntu 24.04, NVIDIA's driver and ICD, no Vulkan loader, no validation layer, no debugger) got:
 #   .dev/debs/     Debian 12's Vulkan loader, validation layer, vulkaninfo (and their X11 libraries),
-#                  and elfutils' eu-stack, to take every thread's stack of a hung process
+#                  elfutils' eu-stack, to take every thread's stack of a hung process, and libglvnd
+#                  (the H100 image of stop 42 had none, and NVIDIA's ICD then failed to load:
+#                  libnvidia-glcore's symbol lookups fail, the loader finds no driver)
 #   .dev/bin/      restir-vpl, stripped
 #   .dev/tests/    the chosen test binaries, with their symbol tables (for eu-stack) but no debug
 #                  info, xz-compressed
@@ -18,7 +20,8 @@ cargo build --release --all-targets
 rm -rf .dev/debs .dev/bin .dev/tests
 mkdir -p .dev/debs .dev/bin .dev/tests
 (cd .dev/debs && apt-get download -q libvulkan1 vulkan-validationlayers vulkan-tools libx11-6 libxcb1 libxau6 \
-    libxdmcp6 libbsd0 libmd0 libwayland-client0 elfutils libdw1 libelf1 2>&1 | grep -v "^W: Download is performed unsandboxed" || true)
+    libxdmcp6 libbsd0 libmd0 libwayland-client0 elfutils libdw1 libelf1 \
+    libglvnd0 libglx0 libgl1 libegl1 libopengl0 libgles2 2>&1 | grep -v "^W: Download is performed unsandboxed" || true)
 strip -o .dev/bin/restir-vpl target/release/restir-vpl
 for t in "${tests[@]}"; do
     bin=$(ls -t target/release/deps/"$t"-* 2>/dev/null | grep -v '\.d$' | head -1 || true)
