@@ -433,7 +433,35 @@ fn load_entry() -> Result<ash::Entry> {
     })
 }
 
+/// The instance that keeps the Vulkan loader and the drivers it found loaded until the process
+/// exits (never destroyed; its own entry holds the loader).
+static DRIVERS_KEPT: std::sync::OnceLock<Option<(ash::Entry, ash::Instance)>> = std::sync::OnceLock::new();
+
+/// Makes, once per process, a bare instance (no layer, no extension) that is never destroyed, so
+/// that the drivers stay loaded between contexts. The loader loads every driver when an instance
+/// is made and unloads it when the last one is destroyed; NVIDIA's driver (580.159, H100, stop 42)
+/// could not be loaded again after about 25 such rounds in one process: from then on the loader
+/// got no vkCreateInstance from it and found no driver. A test binary, whose tests each make and
+/// drop contexts one after another, met it (tests/furnace.rs's 48 in a row, with or without the
+/// validation layer; docs/gpu.md); a command's one context never does. Where no instance can be
+/// made, nothing is kept and the caller's own vkCreateInstance reports why. Called under
+/// [`lifetime_exclusive`].
+fn keep_drivers_loaded(entry: &ash::Entry) {
+    DRIVERS_KEPT.get_or_init(|| {
+        let info = vk::InstanceCreateInfo::default();
+        // SAFETY: an empty create info; the instance is never destroyed (see above).
+        unsafe { entry.create_instance(&info, None) }.ok().map(|instance| (entry.clone(), instance))
+    });
+}
+
 fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHandles>) -> Result<(ash::Instance, bool, bool)> {
+    // The whole of it under the device-lifetime lock, the enumerations too: each one has the loader
+    // load and query every driver as vkCreateInstance does. With only vkCreateInstance under it, one
+    // of 16 test contexts made at once on an H100 (stop 42) and an H200 (stop 38) still failed here
+    // with VK_ERROR_INCOMPATIBLE_DRIVER: the loader could not get vkCreateInstance from NVIDIA's
+    // driver (its vk_icdGetInstanceProcAddr gave none) while other threads used it (docs/gpu.md).
+    let _lifetime = lifetime_exclusive();
+    keep_drivers_loaded(entry);
     // SAFETY: plain enumeration calls on a loaded entry.
     let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
     let has_validation =
@@ -479,15 +507,8 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
     if layer_has_features {
         info = info.push_next(&mut features);
     }
-    // Under the device-lifetime lock too: on an H200, one of 16 test contexts made at once failed
-    // here (most likely VK_ERROR_INCOMPATIBLE_DRIVER, below) while another thread was in
-    // vkDestroyDevice (docs/gpu.md; not confirmed, not yet re-run there).
-    let created = {
-        let _lifetime = lifetime_exclusive();
-        // SAFETY: the create info points at locals that outlive the call.
-        unsafe { entry.create_instance(&info, None) }
-    };
-    let instance = match created {
+    // SAFETY: the create info points at locals that outlive the call.
+    let instance = match unsafe { entry.create_instance(&info, None) } {
         Ok(instance) => instance,
         // The loader found no driver at all: no device, said as such (exit code 2).
         Err(vk::Result::ERROR_INCOMPATIBLE_DRIVER) => {
@@ -1150,6 +1171,8 @@ impl Drop for Context {
 /// Whether the Khronos validation layer is installed (tests turn it on when it is).
 pub fn validation_layer_available() -> bool {
     let Ok(entry) = load_entry() else { return false };
+    // Under the device-lifetime lock, as create_instance's enumerations.
+    let _lifetime = lifetime_exclusive();
     // SAFETY: plain enumeration on a loaded entry.
     let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
     layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER))
