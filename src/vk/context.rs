@@ -455,11 +455,10 @@ fn keep_drivers_loaded(entry: &ash::Entry) {
 }
 
 fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHandles>) -> Result<(ash::Instance, bool, bool)> {
-    // The whole of it under the device-lifetime lock, the enumerations too: each one has the loader
-    // load and query every driver as vkCreateInstance does. With only vkCreateInstance under it, one
-    // of 16 test contexts made at once on an H100 (stop 42) and an H200 (stop 38) still failed here
-    // with VK_ERROR_INCOMPATIBLE_DRIVER: the loader could not get vkCreateInstance from NVIDIA's
-    // driver (its vk_icdGetInstanceProcAddr gave none) while other threads used it (docs/gpu.md).
+    // The whole of it under the device-lifetime lock, the enumerations too, since each one has the
+    // loader load and query every driver as vkCreateInstance does. (The failure that led here, a
+    // test context on an H100 and an H200 finding no driver, was not a race between threads but
+    // the driver's reloads: see keep_drivers_loaded.)
     let _lifetime = lifetime_exclusive();
     keep_drivers_loaded(entry);
     // SAFETY: plain enumeration calls on a loaded entry.
