@@ -229,10 +229,22 @@ struct FrameSlot {
     timer: GpuTimer,
     readback: Buffer,
     frame_constants: Buffer,
-    /// The frame waiting for this slot's fence: its start time, whether the gbuffer ran and
-    /// whether it restarted the accumulation (and with it the GPU's non-finite count), its index
-    /// (for a wait that takes long to name it), and whether it drew the moving sampling.
-    pending: Option<(Instant, bool, bool, u32, bool)>,
+    /// The frame waiting for this slot's fence.
+    pending: Option<PendingFrame>,
+}
+
+/// What [`Renderer::complete_frame`] needs of a submitted frame once its fence signals.
+#[derive(Clone, Copy, Debug)]
+struct PendingFrame {
+    /// When the frame was begun (its wall time runs from here to the fence).
+    start: Instant,
+    gbuffer_ran: bool,
+    /// It restarted the accumulation, and with it the GPU's non-finite count.
+    reset: bool,
+    /// Its frame index (a wait that takes long names it).
+    frame: u32,
+    /// It drew the sampling of a frame displayed alone.
+    moving: bool,
 }
 
 /// Accumulation and reuse state carried from frame to frame.
@@ -1178,7 +1190,13 @@ impl Renderer {
             d.reset_fences(&[slot.fence])?;
             d.queue_submit(ctx.queue, &submit, slot.fence).context("vkQueueSubmit (frame)")?;
         }
-        slot.pending = Some((start, plan.gbuffer == Step::Run, plan.reset_accumulation, self.state.frame_index, plan.vpl.moving));
+        slot.pending = Some(PendingFrame {
+            start,
+            gbuffer_ran: plan.gbuffer == Step::Run,
+            reset: plan.reset_accumulation,
+            frame: self.state.frame_index,
+            moving: plan.vpl.moving,
+        });
         let st = &mut self.state;
         if plan.gbuffer == Step::Run {
             st.gbuffer_valid = true;
@@ -1204,7 +1222,7 @@ impl Renderer {
     /// Waits for the frame in slot `i` and logs its statistics.
     fn complete_frame(&mut self, i: usize) -> Result<FrameStats> {
         let slot = &mut self.slots[i];
-        let (start, gbuffer_ran, reset, frame, moving) = slot.pending.context("no frame is pending in this slot")?;
+        let PendingFrame { start, gbuffer_ran, reset, frame, moving } = slot.pending.context("no frame is pending in this slot")?;
         let timer = &slot.timer;
         self.ctx.wait_fence(slot.fence, &|| format!("frame {frame}"), &|| timer.progress())?;
         // Only now is the slot free (a wait that failed leaves it pending: the frame may run on).
