@@ -3,7 +3,8 @@
 # the carried Vulkan loader, validation layer and NVIDIA's ICD, then runs each packed test binary
 # with the default number of test threads. A binary still running after HANG_S seconds is taken to
 # hang: every thread's stack is written to $OUT/stacks_TEST.txt (eu-stack) and its Rust and Vulkan
-# frames printed, then it is killed. docs/gpu.md ("The test binaries hung") says what such stacks
+# frames printed, then it is killed. Images kept by failing checks come back in artifacts.tar.xz.
+# docs/gpu.md ("The test binaries hung") says what such stacks
 # showed before.
 # Usage: bash scripts/gpu-tests.sh [TEST ...]   (default: every packed one); HANG_S (default 35),
 #        THREADS (default: the test harness's), NO_LAYER=1 to run without the validation layer.
@@ -33,7 +34,7 @@ for t in "${tests[@]}"; do
     xz -dc ".dev/tests/$t.xz" > "/tmp/gpu-tb/$t" && chmod +x "/tmp/gpu-tb/$t" || { summary+=("$t: not packed"); continue; }
     el "$t"
     args=(); [ -n "${THREADS:-}" ] && args=(--test-threads="$THREADS")
-    ( cd /work/main && exec setsid env RESTIR_VPL_GPU_TIMEOUT_S=30 "/tmp/gpu-tb/$t" "${args[@]}" > "$OUT/t_$t.txt" 2>&1 ) & pid=$!
+    ( cd /work/main && exec setsid env RESTIR_VPL_GPU_TIMEOUT_S=30 RESTIR_VPL_TEST_ARTIFACTS="$OUT/artifacts" "/tmp/gpu-tb/$t" "${args[@]}" > "$OUT/t_$t.txt" 2>&1 ) & pid=$!
     i=0; while kill -0 $pid 2>/dev/null && [ $i -lt "$HANG_S" ]; do sleep 1; i=$((i+1)); done
     if kill -0 $pid 2>/dev/null; then
         timeout 60 $EU -p $pid > "$OUT/stacks_$t.txt" 2>&1
@@ -47,4 +48,7 @@ for t in "${tests[@]}"; do
     grep -E "^test .*FAILED$|did not finish" "$OUT/t_$t.txt" | head -10
     grep -A4 "panicked at" "$OUT/t_$t.txt" | head -30
 done
+# Images that failing checks kept (tests/common keep_images), in one file: the device tool brings
+# back at most 8 files, two folders down.
+[ -d "$OUT/artifacts" ] && tar -C "$OUT" -cJf "$OUT/artifacts.tar.xz" artifacts && rm -rf "$OUT/artifacts" && echo "kept images: $OUT/artifacts.tar.xz"
 el "summary"; printf '%s\n' "${summary[@]}"

@@ -145,3 +145,23 @@ pub fn world_triangles(scene: &Scene) -> Vec<[glam::Vec3; 3]> {
     }
     out
 }
+
+/// Keeps images a failing check compared, as EXR files in `RESTIR_VPL_TEST_ARTIFACTS/<what>/`
+/// (default `target/test-artifacts/<what>/`), so that a failure on a machine one cannot look at
+/// (a lent GPU, CI) can be looked at afterwards; the path goes to stderr. A file that cannot be
+/// written is said and skipped: the check's own failure is what the test reports.
+pub fn keep_images(what: &str, images: &[(&str, &restir_vpl::output::RgbImage)]) {
+    let root = std::env::var_os("RESTIR_VPL_TEST_ARTIFACTS").map(PathBuf::from).unwrap_or_else(|| repo_path("target/test-artifacts"));
+    let dir = root.join(what.replace(|c: char| !c.is_ascii_alphanumeric() && c != '-' && c != '.', "_"));
+    if let Err(e) = std::fs::create_dir_all(&dir) {
+        eprintln!("keep_images: cannot create {}: {e}", dir.display());
+        return;
+    }
+    for (name, img) in images {
+        let path = dir.join(format!("{name}.exr"));
+        match restir_vpl::output::write_exr(&path, img.width, img.height, &img.pixels) {
+            Ok(()) => eprintln!("kept {}", path.display()),
+            Err(e) => eprintln!("keep_images: cannot write {}: {e:#}", path.display()),
+        }
+    }
+}
