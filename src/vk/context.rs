@@ -440,7 +440,7 @@ static DRIVERS_KEPT: std::sync::OnceLock<Option<(ash::Entry, ash::Instance)>> = 
 /// Makes, once per process, a bare instance (no layer, no extension) that is never destroyed, so
 /// that the drivers stay loaded between contexts. The loader loads every driver when an instance
 /// is made and unloads it when the last one is destroyed; NVIDIA's driver (580.159, H100, stop 42)
-/// could not be loaded again after about 25 such rounds in one process: from then on the loader
+/// could not be loaded again after about 29 such rounds in one process: from then on the loader
 /// got no vkCreateInstance from it and found no driver. A test binary, whose tests each make and
 /// drop contexts one after another, met it (tests/furnace.rs's 48 in a row, with or without the
 /// validation layer; docs/gpu.md); a command's one context never does. Where no instance can be
