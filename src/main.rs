@@ -1024,7 +1024,10 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             v.spatial_radius_px.map(|r| format!(", spatial radius {r:.1} px")).unwrap_or_default()
         );
         if let (Some([c, n]), m @ 1..) = (v.moving_sampling, v.moving_frames) {
-            println!("  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours (--moving-candidates, --moving-neighbours)");
+            println!(
+                "  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours, {} for a pixel without history (--moving-candidates, --moving-neighbours)",
+                settings.restir.spatial_neighbours
+            );
         }
     }
     println!("GPU ms per pass (median / min / max), rays per pixel per frame (mean):");

@@ -897,6 +897,9 @@ impl Renderer {
                     params,
                     restir,
                     moving,
+                    // A pixel without history is a first frame's: the still count (docs/performance.md,
+                    // "Frames displayed alone").
+                    neighbours_without_history: r.spatial_neighbours,
                     view: s.view,
                     current: st.current_reservoirs,
                     compensate_params: v.compensate.0,

@@ -620,7 +620,7 @@ fn a_drifted_push_layout_is_detected() {
     let fields: Vec<(&'static str, usize)> =
         d.push.fields.iter().map(|&(n, o)| if n == "radius" { ("radius_px", o) } else { (n, o) }).collect();
     let renamed = PassDesc { push: PushLayout { fields: fields.leak(), ..d.push }, ..d };
-    assert_reported(&renamed, "push member 2 is 'radius' at 36 in the shader, 'radius_px' at 36 in Rust");
+    assert_reported(&renamed, "push member 3 is 'radius' at 40 in the shader, 'radius_px' at 40 in Rust");
     // Size.
     let bigger = PassDesc { push: PushLayout { size: d.push.size + 4, ..d.push }, ..d };
     assert_reported(&bigger, &format!("is {} bytes in the shader, {} in Rust", d.push.size, d.push.size + 4));

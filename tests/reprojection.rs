@@ -369,6 +369,44 @@ fn frames_displayed_alone_with_history_take_the_moving_sampling() {
     assert_no_validation_errors(&ctx);
 }
 
+/// In a frame displayed alone, a pixel whose reservoir has no temporal history (here every pixel:
+/// the frame before looked away from the box, so nothing there to reproject to) keeps the still
+/// count of spatial neighbours, as a first frame does; the pixels with history take
+/// `--moving-neighbours`. So a jump into a new view renders the frame that `--moving-neighbours`
+/// equal to `--spatial-neighbours` renders, bit for bit, and the next frame (history everywhere)
+/// does not.
+#[test]
+fn pixels_without_history_keep_the_still_neighbours() {
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let base = RenderSettings { mode: Mode::Restir, vpls_direct: 1000, vpls_indirect: 1000, progressive: false, ..small(32, 24, 1) };
+    let ctx = context();
+    let gpu = upload(&ctx, &scene, &base);
+    // (the jump frame, the frame after it, frames that drew the moving sampling)
+    let run = |restir: RestirSettings| {
+        let mut r = Renderer::new(ctx.clone(), gpu.clone(), RenderSettings { restir, ..base.clone() }).unwrap();
+        let into = r.initial_camera();
+        let away = Camera::look_at(into.position, into.position - into.forward, into.up, into.yfov, "away");
+        r.render_frame(&away, false).unwrap();
+        let sky = r.read_mean().unwrap();
+        assert!(sky.iter().all(|p| *p == [0.0; 3]), "the camera looking away sees nothing");
+        r.render_frame(&into, false).unwrap();
+        let jump = r.read_mean().unwrap();
+        r.render_frame(&into, false).unwrap();
+        let next = r.read_mean().unwrap();
+        assert_all_finite(&jump, "jump frame");
+        (jump, next, r.log().moving_frames)
+    };
+    let defaults = RestirSettings::default();
+    assert!(defaults.moving_neighbours < defaults.spatial_neighbours, "the test needs fewer neighbours while moving");
+    let (jump, next, moving) = run(defaults);
+    let (jump_still_n, next_still_n, moving_still_n) = run(RestirSettings { moving_neighbours: defaults.spatial_neighbours, ..defaults });
+    assert_eq!((moving, moving_still_n), (2, 2), "both runs draw the moving candidates after the first frame");
+    assert!(jump.iter().any(|p| *p != [0.0; 3]), "the jump frame sees the box");
+    assert!(jump == jump_still_n, "no pixel of the jump frame has history: each keeps the still neighbour count");
+    assert!(next != next_still_n, "the frame after it has history: its pixels take --moving-neighbours");
+    assert_no_validation_errors(&ctx);
+}
+
 /// `--fuse-passes`: restir_initial_temporal and restir_spatial_shade run the same functions with
 /// the same random streams as the passes they replace, so along a camera path (reprojection,
 /// disocclusions, two spatial passes, visibility rays, the boiling filter) the displayed frame is

@@ -29,6 +29,7 @@ layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 layout(push_constant) uniform Push {
     VplParams params;
     uint neighbours;
+    uint neighbours_without_history;
     float radius;
     float normal_threshold;
     float depth_threshold;
@@ -48,7 +49,7 @@ void main() {
         return;
     }
     uint rays = 0u;
-    SpatialReuse sr = SpatialReuse(pc.neighbours, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
+    SpatialReuse sr = SpatialReuse(pc.neighbours, pc.neighbours_without_history, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
     dst[index] = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, UNBIASED, VISIBLE_TARGETS, rays);
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_SPATIAL], rays);

@@ -24,6 +24,12 @@ const uint SALT_SPATIAL = 0x7370u;
 // restir_spatial's settings (its push constants, less the VPL parameters).
 struct SpatialReuse {
     uint neighbours;
+    // Neighbours of a pixel whose reservoir has no temporal history (confidence 1: disoccluded,
+    // off screen in the previous frame, or a whole frame after a camera jump). A frame displayed
+    // alone draws fewer neighbours where history is, but such a pixel, like a first frame, has only
+    // its own candidates and its neighbours: it keeps the still count. Depends on the confidence
+    // alone, never on the samples.
+    uint neighbours_without_history;
     float radius;
     float normal_threshold;
     float depth_threshold;
@@ -55,7 +61,7 @@ Reservoir spatial_merge(uvec2 pixel, Surface s, Reservoir rc, VplParams p, Spati
                         utextureBuffer vpls, utextureBuffer src, bool unbiased, bool visible_targets, inout uint rays) {
     Rng rng = rng_init(pixel.x, pixel.y, frame.frame_index, frame.seed ^ SALT_SPATIAL ^ (sr.pass_index << 16));
 
-    uint wanted = min(sr.neighbours, MAX_SPATIAL_NEIGHBOURS);
+    uint wanted = min(rc.confidence > 1.0 ? sr.neighbours : sr.neighbours_without_history, MAX_SPATIAL_NEIGHBOURS);
     bool canonical_valid = reservoir_valid(rc);
     float pc_yc = canonical_valid ? rc.target : 0.0;
 

@@ -35,6 +35,7 @@ layout(set = 1, binding = 5, std430) buffer RayCounter { uint ray_count[]; };
 layout(push_constant) uniform Push {
     VplParams params;
     uint neighbours;
+    uint neighbours_without_history;
     float radius;
     float normal_threshold;
     float depth_threshold;
@@ -55,7 +56,7 @@ void main() {
         return;
     }
     uint rays = 0u;
-    SpatialReuse sr = SpatialReuse(pc.neighbours, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
+    SpatialReuse sr = SpatialReuse(pc.neighbours, pc.neighbours_without_history, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
     Reservoir r = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, UNBIASED, VISIBLE_TARGETS, rays);
     dst[index] = r;
     samples[index] = vec4(shade_estimate(s, r, pc.params, vpls, rays), 1.0);

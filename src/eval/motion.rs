@@ -400,7 +400,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
          warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error; ± the standard error over the runs of \
          each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
          with temporal reuse every displayed frame after the first has history and draws the sampling of a frame displayed alone \
-         (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, against {} and {} without temporal reuse). \
+         (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, its pixels without history {} neighbours, against {} and {} without temporal reuse). \
          The references' own noise adds the same amount to every mode's squared error (the images are independent of \
          the reference): it shifts the columns, never reorders the modes.\n",
         opts.reference_frames,
@@ -411,6 +411,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         opts.runs,
         moving_candidates,
         moving_neighbours,
+        defaults.restir.spatial_neighbours,
         defaults.candidates,
         defaults.restir.spatial_neighbours,
     );

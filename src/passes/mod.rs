@@ -327,6 +327,9 @@ pub struct VplFrame {
     /// `params.candidates` and `restir.spatial_neighbours` are those of a frame displayed alone
     /// (`RenderSettings::moving_sampling`), not the settings'.
     pub moving: bool,
+    /// The spatial neighbours of a pixel whose reservoir has no temporal history: the settings'
+    /// `spatial_neighbours` (in a moving frame more than `restir.spatial_neighbours`).
+    pub neighbours_without_history: u32,
 }
 
 impl VplFrame {
@@ -404,8 +407,8 @@ impl FramePlan {
             })
             .chain(self.vpl.moving.then(|| {
                 format!(
-                    "  (displayed alone with temporal history: {} candidates, {} neighbours; --moving-candidates, --moving-neighbours)",
-                    self.vpl.params.candidates, self.vpl.restir.spatial_neighbours
+                    "  (displayed alone with temporal history: {} candidates, {} neighbours, {} for a pixel without history; --moving-candidates, --moving-neighbours)",
+                    self.vpl.params.candidates, self.vpl.restir.spatial_neighbours, self.vpl.neighbours_without_history
                 )
             }))
             .collect::<Vec<_>>()
@@ -545,14 +548,14 @@ impl Passes {
         if let Some(pass) = &self.vpl.spatial {
             for j in 0..plan.restir_spatial_dispatches() {
                 scoped(ctx, cmd, timer, after, j, &plan.restir_spatial, RestirSpatialPass::NAME, |cmd| {
-                    pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
+                    pass.record(cmd, scene_set, p, &v.restir, v.neighbours_without_history, j, v.current ^ (j as usize & 1), w, h)
                 });
             }
         }
         if let Some(pass) = &self.vpl.spatial_shade {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_spatial_shade, RestirSpatialShadePass::NAME, |cmd| {
                 let j = spatial - 1;
-                pass.record(cmd, scene_set, p, &v.restir, j, v.current ^ (j as usize & 1), w, h)
+                pass.record(cmd, scene_set, p, &v.restir, v.neighbours_without_history, j, v.current ^ (j as usize & 1), w, h)
             });
         }
         if let Some(pass) = &self.vpl.shade {

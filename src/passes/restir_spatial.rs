@@ -21,6 +21,7 @@ push_constants! {
     pub(super) struct Push {
         params: GpuVplParams,
         neighbours: u32,
+        neighbours_without_history: u32,
         radius: f32,
         normal_threshold: f32,
         depth_threshold: f32,
@@ -29,11 +30,13 @@ push_constants! {
 }
 
 impl Push {
-    /// Spatial pass `pass_index`'s constants at image width `w`.
-    pub(super) fn new(params: &GpuVplParams, restir: &RestirSettings, pass_index: u32, w: u32) -> Self {
+    /// Spatial pass `pass_index`'s constants at image width `w`; `without_history`: the neighbours
+    /// of a pixel whose reservoir has no temporal history ([`super::VplFrame::neighbours_without_history`]).
+    pub(super) fn new(params: &GpuVplParams, restir: &RestirSettings, without_history: u32, pass_index: u32, w: u32) -> Self {
         Self {
             params: *params,
             neighbours: restir.spatial_neighbours,
+            neighbours_without_history: without_history,
             radius: restir.spatial_radius_px(w),
             normal_threshold: restir.normal_threshold,
             depth_threshold: restir.depth_threshold,
@@ -96,13 +99,14 @@ impl RestirSpatialPass {
         scene_set: vk::DescriptorSet,
         params: &GpuVplParams,
         restir: &RestirSettings,
+        without_history: u32,
         pass_index: u32,
         src: usize,
         w: u32,
         h: u32,
     ) {
         debug_assert_eq!(reuse_kind(params.flags), reuse_kind(self.flags), "restir_spatial was built for other VPL flags");
-        let push = Push::new(params, restir, pass_index, w);
+        let push = Push::new(params, restir, without_history, pass_index, w);
         self.pipeline.dispatch_2d_variant(cmd, src, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }

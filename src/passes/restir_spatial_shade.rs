@@ -59,13 +59,14 @@ impl RestirSpatialShadePass {
         scene_set: vk::DescriptorSet,
         params: &GpuVplParams,
         restir: &RestirSettings,
+        without_history: u32,
         pass_index: u32,
         src: usize,
         w: u32,
         h: u32,
     ) {
         debug_assert_eq!(reuse_kind(params.flags), reuse_kind(self.flags), "restir_spatial_shade was built for other VPL flags");
-        let push = Push::new(params, restir, pass_index, w);
+        let push = Push::new(params, restir, without_history, pass_index, w);
         self.pipeline.dispatch_2d_variant(cmd, src, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }
