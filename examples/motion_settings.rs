@@ -13,7 +13,7 @@
 
 use std::sync::Arc;
 
-use restir_vpl::eval::motion::{motion_modes, paired_ratio, run_modes, table_markdown, MotionMode, MotionOptions};
+use restir_vpl::eval::motion::{mean_ms, motion_modes, paired_ratio, run_modes, table_markdown, MotionMode, MotionOptions};
 use restir_vpl::settings::{Bias, Mode, RestirSettings};
 use restir_vpl::vk::Context;
 
@@ -52,13 +52,11 @@ fn main() -> anyhow::Result<()> {
     let first = modes.iter().find(|m| m.mode == Mode::Restir).map(|m| m.label).expect("a ReSTIR variant");
     println!("| scene | variant | RMSE / {first}'s | GPU ms / {first}'s |\n|---|---|---:|---:|");
     for scene in restir_vpl::eval::report::ordered(points.iter().map(|p| p.scene.as_str())) {
-        let ms = |label: &str| {
-            let sel: Vec<f64> = points.iter().filter(|p| p.scene == scene && p.mode == label).map(|p| p.gpu_ms).collect();
-            sel.iter().sum::<f64>() / sel.len() as f64
-        };
         for m in modes.iter().filter(|m| m.mode == Mode::Restir && m.label != first) {
-            if let Some((r, se)) = paired_ratio(&points, scene, m.label, first) {
-                println!("| {scene} | {} | {r:.3} ± {:.3} | {:.3} |", m.label, se.unwrap_or(f64::NAN), ms(m.label) / ms(first));
+            if let (Some((r, se)), Some(ms), Some(ms_first)) =
+                (paired_ratio(&points, scene, m.label, first), mean_ms(&points, scene, m.label), mean_ms(&points, scene, first))
+            {
+                println!("| {scene} | {} | {r:.3} ± {:.3} | {:.3} |", m.label, se.unwrap_or(f64::NAN), ms / ms_first);
             }
         }
     }

@@ -356,7 +356,7 @@ fn mean_rmse(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
 }
 
 /// Mean GPU ms per displayed frame of one scene and mode.
-fn mean_ms(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
+pub fn mean_ms(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
     mean_over_frames(points, scene, mode, |p| p.gpu_ms)
 }
 

@@ -461,11 +461,8 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
     // the driver's reloads: see keep_drivers_loaded.)
     let _lifetime = lifetime_exclusive();
     keep_drivers_loaded(entry);
-    // SAFETY: plain enumeration calls on a loaded entry.
-    let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
-    let has_validation =
-        layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER));
-    // SAFETY: as above.
+    let has_validation = has_validation_layer(entry);
+    // SAFETY: plain enumeration call on a loaded entry.
     let exts = unsafe { entry.enumerate_instance_extension_properties(None) }.unwrap_or_default();
     let has_debug_utils =
         exts.iter().any(|e| e.extension_name_as_c_str().is_ok_and(|n| n == ash::ext::debug_utils::NAME));
@@ -1172,6 +1169,11 @@ pub fn validation_layer_available() -> bool {
     let Ok(entry) = load_entry() else { return false };
     // Under the device-lifetime lock, as create_instance's enumerations.
     let _lifetime = lifetime_exclusive();
+    has_validation_layer(&entry)
+}
+
+/// Whether the loader lists the Khronos validation layer. Called under [`lifetime_exclusive`].
+fn has_validation_layer(entry: &ash::Entry) -> bool {
     // SAFETY: plain enumeration on a loaded entry.
     let layers = unsafe { entry.enumerate_instance_layer_properties() }.unwrap_or_default();
     layers.iter().any(|l| l.layer_name_as_c_str().is_ok_and(|n| n == VALIDATION_LAYER))
