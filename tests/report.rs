@@ -365,6 +365,7 @@ fn motion_spread_over_runs() {
         relmse: 0.0,
         flip: None,
         rmse_runs: runs.to_vec(),
+        ref_noise_mse: 0.0,
     };
     // Mode a: frames 0 and 1, runs 1..3; mode b: twice a's, so the share is 1/2 in every run.
     let points = vec![
@@ -384,4 +385,50 @@ fn motion_spread_over_runs() {
     assert_eq!(mean_rmse_standard_error(&one, "s", "a"), None);
     assert_eq!(paired_ratio(&one, "s", "a", "b"), Some((0.5, None)));
     assert_eq!(paired_ratio(&points, "s", "a", "c"), None);
+}
+
+/// bench --motion takes the references' own noise out of each frame's RMSE: √max(rmse² − n, 0)
+/// in the run means, the shares and the table's first RMSE column; the second column keeps the
+/// RMSE against the references as they are.
+#[test]
+fn motion_rmse_less_the_references_noise() {
+    use restir_vpl::eval::motion::{less_noise, mean_rmse_less_noise, paired_ratio, run_means, table_markdown, MotionPoint};
+    let point = |mode: &str, frame: u32, runs: &[f64], noise: f64| MotionPoint {
+        scene: "s".into(),
+        mode: mode.into(),
+        frame,
+        gpu_ms: 1.0,
+        rmse: (runs.iter().map(|r| r * r).sum::<f64>() / runs.len() as f64).sqrt(),
+        relmse: 0.0,
+        flip: None,
+        rmse_runs: runs.to_vec(),
+        ref_noise_mse: noise,
+    };
+    assert_eq!(less_noise(0.5, 0.0), 0.5);
+    assert!((less_noise(1.0, 0.75) - 0.5).abs() < 1e-12);
+    // A frame below the reference's noise (possible with a noisy estimate) counts as 0, never NaN.
+    assert_eq!(less_noise(0.5, 1.0), 0.0);
+    // Frame 0's reference has noise 0.75, frame 1's none.
+    let points = vec![
+        point("a", 0, &[1.0, 2.0], 0.75),
+        point("a", 1, &[3.0, 4.0], 0.0),
+        point("b", 0, &[2.0, 4.0], 0.75),
+        point("b", 1, &[6.0, 8.0], 0.0),
+    ];
+    let runs = run_means(&points, "s", "a");
+    let want = [(0.5 + 3.0) / 2.0, ((4.0f64 - 0.75).sqrt() + 4.0) / 2.0];
+    assert!(runs.iter().zip(want).all(|(r, w)| (r - w).abs() < 1e-12), "{runs:?} {want:?}");
+    // The mean over frames of each frame's RMSE over the runs, less its noise.
+    let mean = mean_rmse_less_noise(&points, "s", "a").unwrap();
+    let want = ((2.5f64 - 0.75).sqrt() + 12.5f64.sqrt()) / 2.0;
+    assert!((mean - want).abs() < 1e-12, "{mean} {want}");
+    // Without the correction b would be exactly twice a; with it, a's share drops below 1/2 in
+    // frame 0, where the noise is a larger part of a's error.
+    let (share, _) = paired_ratio(&points, "s", "a", "b").unwrap();
+    assert!(share < 0.5 && share > 0.4, "{share}");
+    let md = table_markdown(&points);
+    assert!(md.contains("the references' own noise: RMSE 0.6124"), "{md}"); // √(0.75 / 2)
+    assert!(md.contains(&format!("| a | 1.0 | {want:.4} ± ")), "{md}");
+    let raw = (2.5f64.sqrt() + 12.5f64.sqrt()) / 2.0;
+    assert!(md.contains(&format!(" | {raw:.4} | ")), "{md}");
 }

@@ -95,6 +95,24 @@ pub struct MotionPoint {
     /// This frame's RMSE in each run, in run order (for the spread over runs).
     #[serde(skip)]
     pub rmse_runs: Vec<f64>,
+    /// The reference's own noise as a mean squared error (its per-pixel sample variance over its
+    /// frames / frames, [`crate::eval::reference::ReferenceMeta::noise_mse`]; 0 when unknown).
+    /// The images are independent of the reference, so it adds to every mode's expected squared
+    /// error alike; [`MotionPoint::rmse_less_noise`] takes it out.
+    pub ref_noise_mse: f64,
+}
+
+impl MotionPoint {
+    /// The frame's RMSE (root mean over the runs) less the reference's noise.
+    pub fn rmse_less_noise(&self) -> f64 {
+        less_noise(self.rmse, self.ref_noise_mse)
+    }
+}
+
+/// An RMSE against a noisy reference less that reference's own noise (an MSE): the estimate of the
+/// RMSE against the reference's expectation, √max(rmse² − noise, 0).
+pub fn less_noise(rmse: f64, noise_mse: f64) -> f64 {
+    (rmse * rmse - noise_mse).max(0.0).sqrt()
 }
 
 /// What `bench --motion` measures.
@@ -183,6 +201,7 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
         };
         // One path-traced reference per camera of the path.
         let mut references: Vec<RgbImage> = Vec::new();
+        let mut noise: Vec<f64> = Vec::new();
         for f in 0..opts.frames {
             let camera = path.at(f as f32);
             // Accumulated: `base` shows each frame alone, which made every "128-frame" reference
@@ -193,6 +212,7 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
             if let Some((n, _, wall)) = made.rendered {
                 log(format!("{}: {n} pt frames in {:.1} s", file.display(), wall * 1e-3));
             }
+            noise.push(made.meta.noise_mse.unwrap_or(0.0));
             references.push(made.image);
         }
         log(format!("{label}: measuring {} modes over {} moving frames at {}x{}", modes.len(), opts.frames, spec.width, spec.height));
@@ -244,6 +264,7 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
                     relmse: e[2].mean(),
                     flip: opts.flip.then(|| e[3].mean()),
                     rmse_runs: std::mem::take(&mut rmse_runs[i][f as usize]),
+                    ref_noise_mse: noise[f as usize],
                 });
             }
         }
@@ -270,13 +291,16 @@ pub fn write_csv(path: &Path, points: &[MotionPoint]) -> Result<()> {
 }
 
 /// The per-scene table: mean over the moving frames of each error and of the GPU time, and the
-/// inverse efficiency relMSE × ms (lower is better: the error a mode buys with its time).
+/// inverse efficiency relMSE × ms (lower is better: the error a mode buys with its time). RMSE
+/// less the references' noise first (± its standard error over the runs), then against the
+/// references as they are.
 pub fn table_markdown(points: &[MotionPoint]) -> String {
     let scenes = crate::eval::report::ordered(points.iter().map(|p| p.scene.as_str()));
     let mut s = String::new();
     for scene in scenes {
+        let noise = reference_noise_rmse(points, scene).unwrap_or(0.0);
         s += &format!(
-            "\n**{scene}** (mean over the moving frames)\n\n| mode | GPU ms / frame | RMSE | relMSE | FLIP | relMSE × ms |\n|---|---:|---:|---:|---:|---:|\n"
+            "\n**{scene}** (mean over the moving frames; the references' own noise: RMSE {noise:.4})\n\n| mode | GPU ms / frame | RMSE less the references' noise | RMSE | relMSE | FLIP | relMSE × ms |\n|---|---:|---:|---:|---:|---:|---:|\n"
         );
         let modes = crate::eval::report::ordered(points.iter().filter(|p| p.scene == scene).map(|p| p.mode.as_str()));
         for m in modes {
@@ -284,7 +308,8 @@ pub fn table_markdown(points: &[MotionPoint]) -> String {
             let n = sel.len() as f64;
             let mean = |f: &dyn Fn(&MotionPoint) -> f64| sel.iter().map(|p| f(p)).sum::<f64>() / n;
             let (ms, relmse) = (mean(&|p| p.gpu_ms), mean(&|p| p.relmse));
-            let rmse = mean_rmse(points, scene, m).expect("the mode has points on the scene");
+            let raw = mean_rmse(points, scene, m).expect("the mode has points on the scene");
+            let rmse = mean_rmse_less_noise(points, scene, m).expect("the mode has points on the scene");
             let flip = if sel.iter().all(|p| p.flip.is_some()) {
                 format!("{:.4}", mean(&|p| p.flip.unwrap_or(0.0)))
             } else {
@@ -294,7 +319,7 @@ pub fn table_markdown(points: &[MotionPoint]) -> String {
                 Some(se) => format!("{rmse:.4} ± {se:.4}"),
                 None => format!("{rmse:.4}"),
             };
-            s += &format!("| {m} | {ms:.1} | {rmse} | {relmse:.4} | {flip} | {:.2} |\n", relmse * ms);
+            s += &format!("| {m} | {ms:.1} | {rmse} | {raw:.4} | {relmse:.4} | {flip} | {:.2} |\n", relmse * ms);
         }
     }
     s
@@ -350,9 +375,22 @@ fn mean_over_frames(points: &[MotionPoint], scene: &str, mode: &str, of: fn(&Mot
     (!sel.is_empty()).then(|| sel.iter().sum::<f64>() / sel.len() as f64)
 }
 
-/// Mean RMSE over the moving frames of one scene and mode.
+/// Mean RMSE over the moving frames of one scene and mode, against the references as they are.
 fn mean_rmse(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
     mean_over_frames(points, scene, mode, |p| p.rmse)
+}
+
+/// Mean RMSE over the moving frames of one scene and mode, less the references' noise
+/// ([`MotionPoint::rmse_less_noise`]).
+pub fn mean_rmse_less_noise(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
+    mean_over_frames(points, scene, mode, MotionPoint::rmse_less_noise)
+}
+
+/// The references' noise on one scene as an RMSE: the root of their mean noise MSE over the
+/// frames (what [`MotionPoint::rmse_less_noise`] takes out, squared).
+pub fn reference_noise_rmse(points: &[MotionPoint], scene: &str) -> Option<f64> {
+    let mode = points.iter().find(|p| p.scene == scene)?.mode.clone();
+    mean_over_frames(points, scene, &mode, |p| p.ref_noise_mse).map(f64::sqrt)
 }
 
 /// Mean GPU ms per displayed frame of one scene and mode.
@@ -360,12 +398,12 @@ pub fn mean_ms(points: &[MotionPoint], scene: &str, mode: &str) -> Option<f64> {
     mean_over_frames(points, scene, mode, |p| p.gpu_ms)
 }
 
-/// Each run's mean over the moving frames of `mode`'s RMSE on `scene`, in run order (empty when
-/// the points carry no runs).
+/// Each run's mean over the moving frames of `mode`'s RMSE on `scene` less the references' noise,
+/// in run order (empty when the points carry no runs).
 pub fn run_means(points: &[MotionPoint], scene: &str, mode: &str) -> Vec<f64> {
     let sel: Vec<&MotionPoint> = points.iter().filter(|p| p.scene == scene && p.mode == mode).collect();
     let runs = sel.iter().map(|p| p.rmse_runs.len()).min().unwrap_or(0);
-    (0..runs).map(|r| sel.iter().map(|p| p.rmse_runs[r]).sum::<f64>() / sel.len() as f64).collect()
+    (0..runs).map(|r| sel.iter().map(|p| less_noise(p.rmse_runs[r], p.ref_noise_mse)).sum::<f64>() / sel.len() as f64).collect()
 }
 
 /// The standard error over runs of `mode`'s mean RMSE over the moving frames (None with one run).
@@ -401,8 +439,10 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
          each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
          with temporal reuse every displayed frame after the first has history and draws the sampling of a frame displayed alone \
          (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, its pixels without history {} neighbours, against {} and {} without temporal reuse). \
-         The references' own noise adds the same amount to every mode's squared error (the images are independent of \
-         the reference): it shifts the columns, never reorders the modes.\n",
+         The references' own noise adds the same amount to every mode's expected squared error (the images are independent of \
+         the reference), so it is taken out: each frame's RMSE is √max(RMSE² − n, 0), n the reference's mean per-pixel sample \
+         variance over its frames divided by their number (recorded with the reference). The shares below and the first RMSE \
+         column are so corrected; the second RMSE column, relMSE, FLIP and the plots are against the references as they are.\n",
         opts.reference_frames,
         sizes.join(", "),
         opts.vpls_direct,
@@ -417,9 +457,9 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
     );
     let scenes = crate::eval::report::ordered(points.iter().map(|p| p.scene.as_str()));
     for scene in &scenes {
-        let on = mean_rmse(points, scene, "restir-unbiased");
-        let off = mean_rmse(points, scene, "restir-no-temporal");
-        let uniform = mean_rmse(points, scene, "uniform");
+        let on = mean_rmse_less_noise(points, scene, "restir-unbiased");
+        let off = mean_rmse_less_noise(points, scene, "restir-no-temporal");
+        let uniform = mean_rmse_less_noise(points, scene, "uniform");
         let ms = (mean_ms(points, scene, "restir-unbiased"), mean_ms(points, scene, "restir-no-temporal"));
         if let (Some(on), Some(off), Some(u), (Some(ms_on), Some(ms_off))) = (on, off, uniform, ms) {
             // The share run by run (± its standard error over the runs, which share their seeds).
