@@ -900,6 +900,8 @@ impl Renderer {
                     // A pixel without history is a first frame's: the still count (docs/performance.md,
                     // "Frames displayed alone").
                     neighbours_without_history: r.spatial_neighbours,
+                    // Its candidates too, decided per pixel in the initial pass.
+                    candidates_without_history: v.params.candidates,
                     view: s.view,
                     current: st.current_reservoirs,
                     compensate_params: v.compensate.0,

@@ -371,19 +371,22 @@ fn frames_displayed_alone_with_history_take_the_moving_sampling() {
 
 /// In a frame displayed alone, a pixel whose reservoir has no temporal history (here every pixel:
 /// the frame before looked away from the box, so nothing there to reproject to) keeps the still
-/// count of spatial neighbours, as a first frame does; the pixels with history take
-/// `--moving-neighbours`. So a jump into a new view renders the frame that `--moving-neighbours`
-/// equal to `--spatial-neighbours` renders, bit for bit, and the next frame (history everywhere)
-/// does not.
+/// sampling, as a first frame does: the still count of RIS candidates (decided per pixel in the
+/// initial pass) and of spatial neighbours; the pixels with history take `--moving-candidates`
+/// and `--moving-neighbours`. So a jump into a new view renders, bit for bit, the frame that the
+/// still sampling renders (`--moving-candidates 0 --moving-neighbours 0`), with the passes fused
+/// or apart, and the next frame (history everywhere) does not. Taking out either half of the rule
+/// fails the first assertion.
 #[test]
-fn pixels_without_history_keep_the_still_neighbours() {
+fn pixels_without_history_keep_the_still_sampling() {
     let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
     let base = RenderSettings { mode: Mode::Restir, vpls_direct: 1000, vpls_indirect: 1000, progressive: false, ..small(32, 24, 1) };
     let ctx = context();
     let gpu = upload(&ctx, &scene, &base);
     // (the jump frame, the frame after it, frames that drew the moving sampling)
-    let run = |restir: RestirSettings| {
-        let mut r = Renderer::new(ctx.clone(), gpu.clone(), RenderSettings { restir, ..base.clone() }).unwrap();
+    let run = |restir: RestirSettings, fuse_passes: bool| {
+        let settings = RenderSettings { restir, fuse_passes: Some(fuse_passes), ..base.clone() };
+        let mut r = Renderer::new(ctx.clone(), gpu.clone(), settings).unwrap();
         let into = r.initial_camera();
         let away = Camera::look_at(into.position, into.position - into.forward, into.up, into.yfov, "away");
         r.render_frame(&away, false).unwrap();
@@ -398,12 +401,16 @@ fn pixels_without_history_keep_the_still_neighbours() {
     };
     let defaults = RestirSettings::default();
     assert!(defaults.moving_neighbours < defaults.spatial_neighbours, "the test needs fewer neighbours while moving");
-    let (jump, next, moving) = run(defaults);
-    let (jump_still_n, next_still_n, moving_still_n) = run(RestirSettings { moving_neighbours: defaults.spatial_neighbours, ..defaults });
-    assert_eq!((moving, moving_still_n), (2, 2), "both runs draw the moving candidates after the first frame");
-    assert!(jump.iter().any(|p| *p != [0.0; 3]), "the jump frame sees the box");
-    assert!(jump == jump_still_n, "no pixel of the jump frame has history: each keeps the still neighbour count");
-    assert!(next != next_still_n, "the frame after it has history: its pixels take --moving-neighbours");
+    assert!(defaults.moving_candidates < RenderSettings::default().candidates, "and fewer candidates");
+    let still = RestirSettings { moving_candidates: 0, moving_neighbours: 0, ..defaults };
+    for fuse_passes in [true, false] {
+        let (jump, next, moving) = run(defaults, fuse_passes);
+        let (jump_still, next_still, moving_still) = run(still, fuse_passes);
+        assert_eq!((moving, moving_still), (2, 0), "the moving sampling after the first frame, and never with 0 0");
+        assert!(jump.iter().any(|p| *p != [0.0; 3]), "the jump frame sees the box");
+        assert!(jump == jump_still, "fused {fuse_passes}: no pixel of the jump frame has history: each keeps the still sampling");
+        assert!(next != next_still, "fused {fuse_passes}: the frame after it has history: its pixels take the moving sampling");
+    }
     assert_no_validation_errors(&ctx);
 }
 

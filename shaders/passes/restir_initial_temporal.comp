@@ -35,6 +35,9 @@ layout(push_constant) uniform Push {
     float mcap;
     float normal_threshold;
     float depth_threshold;
+    // RIS candidates of a pixel without temporal history (params.candidates: those of a pixel
+    // with it; more in a frame displayed alone: docs/performance.md, "Pixels without history").
+    uint candidates_without_history;
 } pc;
 
 #include "regir_pixel.glsl"
@@ -47,12 +50,20 @@ void main() {
     uint index = pixel.y * frame.width + pixel.x;
     uint rays = 0u;
     Surface s = surface_texels(surfaces, surface_slot(index));
-    GridPick k = regir_pixel(s, pc.grid, pc.params);
-    Reservoir initial = initial_reservoir(pixel, s, pc.params, pc.tiles, vpls, vpl_alias, tiles, pc.grid, k, grid_entries, rays);
-    Reservoir r = initial;
-    if (s.offset_scale >= 0.0) {
-        TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
-        temporal_merge(pixel, index, s, initial, pc.params, t, surfaces, vpls, history, r, rays);
+    // The history first: a pixel without it draws candidates_without_history (as restir_initial
+    // does when the passes run apart).
+    TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
+    uint prev_index;
+    Reservoir rh;
+    bool has_history = s.offset_scale >= 0.0 && temporal_history(index, s, pc.params, t, surfaces, history, prev_index, rh);
+    VplParams params = pc.params;
+    if (!has_history) {
+        params.candidates = pc.candidates_without_history;
+    }
+    GridPick k = regir_pixel(s, pc.grid, params);
+    Reservoir r = initial_reservoir(pixel, s, params, pc.tiles, vpls, vpl_alias, tiles, pc.grid, k, grid_entries, rays);
+    if (has_history) {
+        r = temporal_merge_history(pixel, s, r, prev_index, rh, pc.params, t, surfaces, vpls, rays);
     }
     reservoirs_out[index] = r;
     if (rays > 0u) {

@@ -33,18 +33,15 @@ struct TemporalReuse {
     float depth_threshold;
 };
 
-// The temporal merge of pixel `index` (surface `s`, a hit): true (with `result`) when it changes
-// the canonical reservoir `rc`; false when there is no history to merge (result = rc).
-// `surfaces`: both halves of the G-buffer ping-pong; `history`: the previous frame's final
-// reservoirs.
-bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams p, TemporalReuse t, utextureBuffer surfaces,
-                    utextureBuffer vpls, utextureBuffer history, out Reservoir result, inout uint rays) {
-    result = rc;
-    bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
-
-    // The reprojected pixel and its previous surface.
-    uint prev_index = index;
-    if (!same_domain) {
+// Whether pixel `index` (surface `s`, a hit) has history that the temporal merge takes: the
+// reprojected pixel `prev_index` shows the same surface in the previous frame and its reservoir
+// `rh` has positive confidence. Depends on the surfaces and the history alone, never on this
+// frame's samples, so restir_initial may choose its candidate count by it without bias.
+bool temporal_history(uint index, Surface s, VplParams p, TemporalReuse t, utextureBuffer surfaces, utextureBuffer history,
+                      out uint prev_index, out Reservoir rh) {
+    prev_index = index;
+    rh = reservoir_empty(0.0);
+    if ((p.flags & VPL_FLAG_SAME_DOMAIN) == 0u) {
         vec3 q = project_to_previous_frame(s.position);
         ivec2 pq;
         if (!previous_pixel(q, pq)) {
@@ -57,11 +54,22 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams 
             return false;  // disoccluded: another surface (or none) was there
         }
     }
-    Reservoir rh = reservoir_texels(history, prev_index);
+    rh = reservoir_texels(history, prev_index);
+    // The canonical (initial) reservoir's confidence is 1, so the history's capped one is
+    // min(confidence, mcap).
+    return min(rh.confidence, t.mcap) > 0.0;
+}
+
+// The temporal merge of pixel `index` (surface `s`, a hit) with the history temporal_history
+// found (`prev_index`, `rh`): the merged reservoir, from the canonical reservoir `rc`.
+// `surfaces`: both halves of the G-buffer ping-pong.
+Reservoir temporal_merge_history(uvec2 pixel, Surface s, Reservoir rc, uint prev_index, Reservoir rh, VplParams p, TemporalReuse t,
+                                 utextureBuffer surfaces, utextureBuffer vpls, inout uint rays) {
+    bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
     float mc = rc.confidence;
     float mh = min(rh.confidence, t.mcap * mc);
     if (!(mh > 0.0)) {
-        return false;
+        return rc;
     }
     bool unbiased = (p.flags & VPL_FLAG_UNBIASED) != 0u;
     bool visible_targets = unbiased && (p.flags & VPL_FLAG_INITIAL_VISIBILITY) != 0u;
@@ -95,7 +103,20 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams 
         stream_update(st, rh.vpl, m_h * pc_yh * rh.ucw, pc_yh, rand(rng));
     }
     st.confidence = mc + mh;
-    result = stream_finish(st);
+    return stream_finish(st);
+}
+
+// temporal_history, then temporal_merge_history: true (with `result`) when there was history to
+// merge; false when there was none (result = rc). `history`: the previous frame's final reservoirs.
+bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams p, TemporalReuse t, utextureBuffer surfaces,
+                    utextureBuffer vpls, utextureBuffer history, out Reservoir result, inout uint rays) {
+    uint prev_index;
+    Reservoir rh;
+    if (!temporal_history(index, s, p, t, surfaces, history, prev_index, rh)) {
+        result = rc;
+        return false;
+    }
+    result = temporal_merge_history(pixel, s, rc, prev_index, rh, p, t, surfaces, vpls, rays);
     return true;
 }
 

@@ -330,6 +330,10 @@ pub struct VplFrame {
     /// The spatial neighbours of a pixel whose reservoir has no temporal history: the settings'
     /// `spatial_neighbours` (in a moving frame more than `restir.spatial_neighbours`).
     pub neighbours_without_history: u32,
+    /// The RIS candidates of a pixel without temporal history (the reprojection finds none, as
+    /// `restir_temporal` decides): the settings' `candidates` in a moving frame (more than
+    /// `params.candidates`), else `params.candidates`, so the initial pass makes no such test.
+    pub candidates_without_history: u32,
 }
 
 impl VplFrame {
@@ -407,8 +411,11 @@ impl FramePlan {
             })
             .chain(self.vpl.moving.then(|| {
                 format!(
-                    "  (displayed alone with temporal history: {} candidates, {} neighbours, {} for a pixel without history; --moving-candidates, --moving-neighbours)",
-                    self.vpl.params.candidates, self.vpl.restir.spatial_neighbours, self.vpl.neighbours_without_history
+                    "  (displayed alone with temporal history: {} candidates, {} neighbours, {} and {} for a pixel without history; --moving-candidates, --moving-neighbours)",
+                    self.vpl.params.candidates,
+                    self.vpl.restir.spatial_neighbours,
+                    self.vpl.candidates_without_history,
+                    self.vpl.neighbours_without_history
                 )
             }))
             .collect::<Vec<_>>()
@@ -524,7 +531,7 @@ impl Passes {
         };
         if let Some(pass) = &self.vpl.initial {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_initial, RestirInitialPass::NAME, |cmd| {
-                pass.record(cmd, scene_set, p, &grid, tiles, v.current, w, h)
+                pass.record(cmd, scene_set, p, &grid, tiles, &v.restir, v.candidates_without_history, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.temporal {
@@ -534,7 +541,7 @@ impl Passes {
         }
         if let Some(pass) = &self.vpl.initial_temporal {
             scoped(ctx, cmd, timer, after, 0, &plan.restir_initial_temporal, RestirInitialTemporalPass::NAME, |cmd| {
-                pass.record(cmd, scene_set, p, &grid, tiles, &v.restir, v.current, w, h)
+                pass.record(cmd, scene_set, p, &grid, tiles, &v.restir, v.candidates_without_history, v.current, w, h)
             });
         }
         if let Some(pass) = &self.vpl.boiling {

@@ -8,6 +8,7 @@ use anyhow::Result;
 use ash::vk;
 
 use crate::gpu_types::{GpuGridParams, GpuVplParams};
+use crate::settings::RestirSettings;
 use crate::shaders;
 use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
@@ -22,10 +23,18 @@ push_constants! {
         grid: GpuGridParams,
         /// Presampled tiles to read (`vpl_presample`); 0: draw from the VPL buffer.
         tiles: u32,
+        /// RIS candidates of a pixel without temporal history: `params.candidates` except in a
+        /// ReSTIR frame displayed alone ([`super::VplFrame::candidates_without_history`]).
+        candidates_without_history: u32,
+        /// `restir_temporal`'s settings, for which pixels have history (when the counts differ).
+        mcap: f32,
+        normal_threshold: f32,
+        depth_threshold: f32,
     }
 }
 
-/// Set-1 variant v writes the initial reservoirs to `reservoirs.buffer(v)`.
+/// Set-1 variant v writes the initial reservoirs to `reservoirs.buffer(v)` and reads the history
+/// (for which pixels have it) from the other one.
 pub struct RestirInitialPass { pipeline: ComputePipeline }
 
 impl RestirInitialPass {
@@ -38,7 +47,7 @@ impl RestirInitialPass {
         .with_bindings(&[
             texels(0, "surfaces"), texels(1, "vpls"), texels(2, "vpl_alias"),
             storage(3, "reservoirs_out"), storage(4, "ray_count"), texels(5, "tiles"),
-            texels(6, "grid_entries"), storage(7, "grid_cells"),
+            texels(6, "grid_entries"), storage(7, "grid_cells"), texels(8, "history"),
         ]);
 
     pub fn new(
@@ -56,16 +65,37 @@ impl RestirInitialPass {
             .grid(grid.built)
             .buffers(&[(0, &targets.surfaces), (1, vpls.vpls), (2, vpls.alias), (4, &targets.ray_counter), (5, tiles)])
             .buffers(&[(6, grid.entries), (7, grid.cells)])
-            .ping_pong(reservoirs, 3, None)
+            .ping_pong(reservoirs, 3, Some(8))
             .build()?;
         Ok(Self { pipeline })
     }
 
     /// `tiles`: the presampled tiles to read (0: none, draw from the VPL buffer); `grid`: the
-    /// ReGIR grid's parameters (`cells == 0`: none).
+    /// ReGIR grid's parameters (`cells == 0`: none); `without_history`: the candidates of a pixel
+    /// without temporal history (`restir`'s thresholds say which), `params.candidates` for none.
     #[allow(clippy::too_many_arguments)]
-    pub fn record(&self, cmd: vk::CommandBuffer, scene_set: vk::DescriptorSet, params: &GpuVplParams, grid: &GpuGridParams, tiles: u32, out: usize, w: u32, h: u32) {
-        let push = Push { params: *params, grid: *grid, tiles };
+    pub fn record(
+        &self,
+        cmd: vk::CommandBuffer,
+        scene_set: vk::DescriptorSet,
+        params: &GpuVplParams,
+        grid: &GpuGridParams,
+        tiles: u32,
+        restir: &RestirSettings,
+        without_history: u32,
+        out: usize,
+        w: u32,
+        h: u32,
+    ) {
+        let push = Push {
+            params: *params,
+            grid: *grid,
+            tiles,
+            candidates_without_history: without_history,
+            mcap: restir.mcap,
+            normal_threshold: restir.normal_threshold,
+            depth_threshold: restir.depth_threshold,
+        };
         self.pipeline.dispatch_2d_variant(cmd, out, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }

@@ -28,6 +28,9 @@ push_constants! {
         mcap: f32,
         normal_threshold: f32,
         depth_threshold: f32,
+        /// RIS candidates of a pixel without temporal history
+        /// ([`super::VplFrame::candidates_without_history`]).
+        candidates_without_history: u32,
     }
 }
 
@@ -68,7 +71,8 @@ impl RestirInitialTemporalPass {
     }
 
     /// `tiles`: the presampled tiles to read (0: none); `grid`: the ReGIR grid (`cells == 0`:
-    /// none); `current`: the reservoir buffer written.
+    /// none); `without_history`: the candidates of a pixel without temporal history; `current`:
+    /// the reservoir buffer written.
     #[allow(clippy::too_many_arguments)]
     pub fn record(
         &self,
@@ -78,6 +82,7 @@ impl RestirInitialTemporalPass {
         grid: &GpuGridParams,
         tiles: u32,
         restir: &RestirSettings,
+        without_history: u32,
         current: usize,
         w: u32,
         h: u32,
@@ -89,6 +94,7 @@ impl RestirInitialTemporalPass {
             mcap: restir.mcap,
             normal_threshold: restir.normal_threshold,
             depth_threshold: restir.depth_threshold,
+            candidates_without_history: without_history,
         };
         self.pipeline.dispatch_2d_variant(cmd, current, scene_set, bytemuck::bytes_of(&push), w, h);
     }
