@@ -438,7 +438,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
          warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error; ± the standard error over the runs of \
          each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
          with temporal reuse every displayed frame after the first has history and draws the sampling of a frame displayed alone \
-         (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, its pixels without history {} neighbours, against {} and {} without temporal reuse). \
+         (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, its pixels without history {} and {}, against {} and {} without temporal reuse). \
          The references' own noise adds the same amount to every mode's expected squared error (the images are independent of \
          the reference), so it is taken out: each frame's RMSE is √max(RMSE² − n, 0), n the reference's mean per-pixel sample \
          variance over its frames divided by their number (recorded with the reference). The shares below and the first RMSE \
@@ -451,6 +451,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         opts.runs,
         moving_candidates,
         moving_neighbours,
+        defaults.candidates,
         defaults.restir.spatial_neighbours,
         defaults.candidates,
         defaults.restir.spatial_neighbours,
