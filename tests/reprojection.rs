@@ -352,7 +352,7 @@ fn frames_displayed_alone_with_history_take_the_moving_sampling() {
     };
     let alone = |restir: RestirSettings| RenderSettings { progressive: false, restir, ..base.clone() };
     let defaults = RestirSettings::default();
-    assert_eq!((defaults.moving_candidates, defaults.moving_neighbours), (16, 4), "README's defaults");
+    assert_eq!((defaults.moving_candidates, defaults.moving_neighbours), (8, 4), "README's defaults");
     let (still, ..) = run(base.clone());
     assert_eq!(still, 0, "a still camera's accumulation keeps the full sampling");
     let (moving, first_moving, last_moving) = run(alone(defaults));
