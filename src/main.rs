@@ -1025,8 +1025,8 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         );
         if let (Some([c, n]), m @ 1..) = (v.moving_sampling, v.moving_frames) {
             println!(
-                "  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours, {} for a pixel without history (--moving-candidates, --moving-neighbours)",
-                settings.restir.spatial_neighbours
+                "  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours, {} and {} for a pixel without history (--moving-candidates, --moving-neighbours)",
+                settings.candidates, settings.restir.spatial_neighbours
             );
         }
     }
