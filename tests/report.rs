@@ -351,12 +351,9 @@ fn goals_bias_over_vpl_sets_combines_both_ratios() {
     assert!(md.contains("+0.80 % ✓"), "{md}");
 }
 
-/// bench --motion's spread over runs: each run's mean over the frames, its standard error, and the
-/// run-by-run share of two modes.
-#[test]
-fn motion_spread_over_runs() {
-    use restir_vpl::eval::motion::{mean_rmse_standard_error, paired_ratio, run_means, MotionPoint};
-    let point = |mode: &str, frame: u32, runs: &[f64]| MotionPoint {
+/// A bench --motion point of scene "s": `runs` its RMSE in each run, `noise` its reference's noise MSE.
+fn motion_point(mode: &str, frame: u32, runs: &[f64], noise: f64) -> restir_vpl::eval::motion::MotionPoint {
+    restir_vpl::eval::motion::MotionPoint {
         scene: "s".into(),
         mode: mode.into(),
         frame,
@@ -365,8 +362,16 @@ fn motion_spread_over_runs() {
         relmse: 0.0,
         flip: None,
         rmse_runs: runs.to_vec(),
-        ref_noise_mse: 0.0,
-    };
+        ref_noise_mse: noise,
+    }
+}
+
+/// bench --motion's spread over runs: each run's mean over the frames, its standard error, and the
+/// run-by-run share of two modes.
+#[test]
+fn motion_spread_over_runs() {
+    use restir_vpl::eval::motion::{mean_rmse_standard_error, paired_ratio, run_means};
+    let point = |mode: &str, frame: u32, runs: &[f64]| motion_point(mode, frame, runs, 0.0);
     // Mode a: frames 0 and 1, runs 1..3; mode b: twice a's, so the share is 1/2 in every run.
     let points = vec![
         point("a", 0, &[1.0, 2.0, 3.0]),
@@ -392,18 +397,8 @@ fn motion_spread_over_runs() {
 /// RMSE against the references as they are.
 #[test]
 fn motion_rmse_less_the_references_noise() {
-    use restir_vpl::eval::motion::{less_noise, mean_rmse_less_noise, paired_ratio, run_means, table_markdown, MotionPoint};
-    let point = |mode: &str, frame: u32, runs: &[f64], noise: f64| MotionPoint {
-        scene: "s".into(),
-        mode: mode.into(),
-        frame,
-        gpu_ms: 1.0,
-        rmse: (runs.iter().map(|r| r * r).sum::<f64>() / runs.len() as f64).sqrt(),
-        relmse: 0.0,
-        flip: None,
-        rmse_runs: runs.to_vec(),
-        ref_noise_mse: noise,
-    };
+    use restir_vpl::eval::motion::{less_noise, mean_rmse_less_noise, paired_ratio, run_means, table_markdown};
+    let point = motion_point;
     assert_eq!(less_noise(0.5, 0.0), 0.5);
     assert!((less_noise(1.0, 0.75) - 0.5).abs() < 1e-12);
     // A frame below the reference's noise (possible with a noisy estimate) counts as 0, never NaN.

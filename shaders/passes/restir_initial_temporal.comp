@@ -32,12 +32,13 @@ layout(push_constant) uniform Push {
     VplParams params;
     GridParams grid;  // cells == 0: no grid
     uint tiles;  // presampled tiles to read (0: draw from the VPL buffer)
+    // RIS candidates of a pixel without temporal history (params.candidates: those of a pixel
+    // with it; more in a frame displayed alone: docs/performance.md, "Pixels without history").
+    // The layout of restir_initial.comp's push constants (one Rust struct for both).
+    uint candidates_without_history;
     float mcap;
     float normal_threshold;
     float depth_threshold;
-    // RIS candidates of a pixel without temporal history (params.candidates: those of a pixel
-    // with it; more in a frame displayed alone: docs/performance.md, "Pixels without history").
-    uint candidates_without_history;
 } pc;
 
 #include "regir_pixel.glsl"

@@ -17,7 +17,9 @@ use super::desc::{push_constants, PassDesc};
 use super::{FrameTargets, GridBuffers, Reservoirs, VplInputs};
 
 push_constants! {
-    struct Push {
+    /// Also `restir_initial_temporal`'s (the same estimator fused with the temporal merge, which
+    /// reads the same thresholds).
+    pub struct Push {
         params: GpuVplParams,
         /// The ReGIR grid (`regir_build`); `cells == 0`: none.
         grid: GpuGridParams,
@@ -87,7 +89,14 @@ impl RestirInitialPass {
         w: u32,
         h: u32,
     ) {
-        let push = Push {
+        let push = Push::new(params, grid, tiles, restir, without_history);
+        self.pipeline.dispatch_2d_variant(cmd, out, scene_set, bytemuck::bytes_of(&push), w, h);
+    }
+}
+
+impl Push {
+    pub fn new(params: &GpuVplParams, grid: &GpuGridParams, tiles: u32, restir: &RestirSettings, without_history: u32) -> Self {
+        Self {
             params: *params,
             grid: *grid,
             tiles,
@@ -95,7 +104,6 @@ impl RestirInitialPass {
             mcap: restir.mcap,
             normal_threshold: restir.normal_threshold,
             depth_threshold: restir.depth_threshold,
-        };
-        self.pipeline.dispatch_2d_variant(cmd, out, scene_set, bytemuck::bytes_of(&push), w, h);
+        }
     }
 }

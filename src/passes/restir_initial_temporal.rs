@@ -15,24 +15,10 @@ use crate::shaders;
 use crate::vk::pipeline::{storage, texels};
 use crate::vk::{Buffer, ComputePipeline, Context};
 
-use super::desc::{push_constants, PassDesc};
+use super::desc::PassDesc;
+// restir_initial's push constants: the same estimator, so the same parameters.
+use super::restir_initial::Push;
 use super::{FrameTargets, GridBuffers, Reservoirs, VplInputs};
-
-push_constants! {
-    struct Push {
-        params: GpuVplParams,
-        /// The ReGIR grid (`regir_build`); `cells == 0`: none.
-        grid: GpuGridParams,
-        /// Presampled tiles to read (`vpl_presample`); 0: draw from the VPL buffer.
-        tiles: u32,
-        mcap: f32,
-        normal_threshold: f32,
-        depth_threshold: f32,
-        /// RIS candidates of a pixel without temporal history
-        /// ([`super::VplFrame::candidates_without_history`]).
-        candidates_without_history: u32,
-    }
-}
 
 /// Set-1 variant v writes this frame's reservoirs to `reservoirs.buffer(v)` and reads the history
 /// from the other one.
@@ -87,15 +73,7 @@ impl RestirInitialTemporalPass {
         w: u32,
         h: u32,
     ) {
-        let push = Push {
-            params: *params,
-            grid: *grid,
-            tiles,
-            mcap: restir.mcap,
-            normal_threshold: restir.normal_threshold,
-            depth_threshold: restir.depth_threshold,
-            candidates_without_history: without_history,
-        };
+        let push = Push::new(params, grid, tiles, restir, without_history);
         self.pipeline.dispatch_2d_variant(cmd, current, scene_set, bytemuck::bytes_of(&push), w, h);
     }
 }
