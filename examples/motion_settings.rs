@@ -9,11 +9,11 @@
 //! `32/8,32/8>16/4,32/8>32/4,32/8>8/4`); uniform and RIS (32 candidates) run beside them as
 //! yardsticks. The first variant is the one the others are paired against.
 //! RUNS: independent runs (default 4). OUT: where the references are cached (default bench-out,
-//! `bench --motion`'s).
+//! `bench --motion`'s). Last, each run's mean RMSE per variant, to pair two builds run by run.
 
 use std::sync::Arc;
 
-use restir_vpl::eval::motion::{mean_ms, motion_modes, paired_ratio, run_modes, table_markdown, MotionMode, MotionOptions};
+use restir_vpl::eval::motion::{mean_ms, motion_modes, paired_ratio, run_means, run_modes, table_markdown, MotionMode, MotionOptions};
 use restir_vpl::settings::{Bias, Mode, RestirSettings};
 use restir_vpl::vk::Context;
 
@@ -58,6 +58,15 @@ fn main() -> anyhow::Result<()> {
             {
                 println!("| {scene} | {} | {r:.3} ± {:.3} | {:.3} |", m.label, se.unwrap_or(f64::NAN), ms / ms_first);
             }
+        }
+    }
+    // Each run's mean RMSE (less the references' noise) of every ReSTIR variant, so that another
+    // build's output, whose runs share these seeds, can be paired with it run by run.
+    println!("\n| scene | variant | RMSE of each run |\n|---|---|---|");
+    for scene in restir_vpl::eval::report::ordered(points.iter().map(|p| p.scene.as_str())) {
+        for m in modes.iter().filter(|m| m.mode == Mode::Restir) {
+            let runs: Vec<String> = run_means(&points, scene, m.label).iter().map(|r| format!("{r:.5}")).collect();
+            println!("| {scene} | {} | {} |", m.label, runs.join(" "));
         }
     }
     Ok(())
