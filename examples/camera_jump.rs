@@ -20,7 +20,7 @@ use restir_vpl::eval::reference::{make_reference, ReferenceTarget};
 use restir_vpl::eval::report::OverRuns;
 use restir_vpl::output::RgbImage;
 use restir_vpl::renderer::Renderer;
-use restir_vpl::settings::{Bias, CameraOverride, Mode, RenderSettings, RestirSettings};
+use restir_vpl::settings::{Bias, Mode, RenderSettings, RestirSettings};
 use restir_vpl::vk::Context;
 
 /// Frames at the first camera before the jump.
@@ -55,13 +55,7 @@ fn main() -> anyhow::Result<()> {
     println!("| jump | {} / {}'s RMSE (± s.e. over {runs} paired seeds) | RMSE | GPU ms of the jump frame |", variants[0].0, variants[1].0);
     println!("|---|---:|---:|---:|");
     for (name, tag, camera) in jumps {
-        let over = CameraOverride {
-            eye: camera.position,
-            target: camera.position + camera.forward,
-            up: camera.up,
-            yfov_degrees: camera.yfov.to_degrees(),
-        };
-        let settings = RenderSettings { mode: Mode::Pt, camera: Some(over), progressive: true, ..base.clone() };
+        let settings = RenderSettings { mode: Mode::Pt, camera: Some(camera.as_override()), progressive: true, ..base.clone() };
         let file = out.join("references").join(format!("cornell_box_{}x{}_jump_{tag}_pt.exr", spec.width, spec.height));
         let reference = make_reference(&ctx, &scene, &settings, &file, ReferenceTarget::AtLeast { frames: REFERENCE_FRAMES }, &mut |_, _| {})?.image;
         let mut renderers = variants

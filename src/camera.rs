@@ -70,6 +70,12 @@ impl Camera {
         Self::look_at(eye, centre.as_vec3(), Vec3::Y, yfov, "automatic (no camera in the scene)")
     }
 
+    /// This camera as a command-line camera (`--eye`, `--target`, `--up`, `--fov`: what reference
+    /// settings record), from which [`Camera::initial`] makes it again.
+    pub fn as_override(&self) -> CameraOverride {
+        CameraOverride { eye: self.position, target: self.position + self.forward, up: self.up, yfov_degrees: self.yfov.to_degrees() }
+    }
+
     /// Whether two cameras see the same image (position, orientation and field of view; the
     /// source does not count).
     pub fn same_view(&self, other: &Camera) -> bool {

@@ -19,7 +19,7 @@ use std::sync::Arc;
 
 use anyhow::{bail, Context as _, Result};
 
-use crate::camera::{Camera, CameraPath};
+use crate::camera::CameraPath;
 use crate::eval::compare::{compare, CompareOptions};
 use crate::eval::reference::{make_reference, ReferenceTarget};
 use crate::eval::report::OverRuns;
@@ -27,7 +27,7 @@ use crate::eval::results::SceneSpec;
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
 use crate::eval::bench::GRID_CASE_CANDIDATES;
-use crate::settings::{Bias, CameraOverride, GridSettings, Mode, RenderSettings, RestirSettings};
+use crate::settings::{Bias, GridSettings, Mode, RenderSettings, RestirSettings};
 use crate::vk::Context;
 
 /// Frames every mode renders at the path's first camera before the path starts.
@@ -172,11 +172,6 @@ pub fn path_file(scene: &Path) -> PathBuf {
     scene.with_extension("path.json")
 }
 
-/// A camera as a command-line camera (what reference settings record).
-fn as_override(c: &Camera) -> CameraOverride {
-    CameraOverride { eye: c.position, target: c.position + c.forward, up: c.up, yfov_degrees: c.yfov.to_degrees() }
-}
-
 /// Measures every mode of [`motion_modes`] along each scene's path; returns the points (one per
 /// scene × mode × frame).
 pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)) -> Result<Vec<MotionPoint>> {
@@ -206,7 +201,7 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
             let camera = path.at(f as f32);
             // Accumulated: `base` shows each frame alone, which made every "128-frame" reference
             // one frame (until 2026-11-25: the references' noise then hid the modes' differences).
-            let settings = RenderSettings { mode: Mode::Pt, camera: Some(as_override(&camera)), progressive: true, ..base.clone() };
+            let settings = RenderSettings { mode: Mode::Pt, camera: Some(camera.as_override()), progressive: true, ..base.clone() };
             let file = refs_dir.join(format!("{label}_{}x{}_motion_f{f:03}_pt.exr", spec.width, spec.height));
             let made = make_reference(ctx, &scene, &settings, &file, ReferenceTarget::AtLeast { frames: opts.reference_frames }, &mut |_, _| {})?;
             if let Some((n, _, wall)) = made.rendered {
