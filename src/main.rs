@@ -1193,11 +1193,14 @@ fn given_render_flags(matches: &clap::ArgMatches) -> Vec<String> {
 
 fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
     let given: Vec<&str> = given.iter().map(String::as_str).collect();
-    for w in settings.unused_flags(&given) {
+    for w in settings.unused_flags(&given).into_iter().chain(settings.bounded_flags(&given)) {
         log::warn!("{w}");
     }
     if settings.view == restir_vpl::settings::View::Indirect && !settings.gi {
         log::warn!("--view indirect with --no-gi: the image is black (--no-gi traces no indirect VPLs)");
+    }
+    if (settings.mode.uses_vpls() || settings.view == restir_vpl::settings::View::Vpls) && !settings.gi && settings.vpls_direct == 0 {
+        log::warn!("--vpls-direct 0 with --no-gi: the VPL set is empty, so the image is black");
     }
 }
 

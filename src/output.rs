@@ -199,6 +199,9 @@ pub struct RgbImage {
     pub pixels: Vec<[f32; 3]>,
 }
 
+/// The first four bytes of every OpenEXR file (20000630 as a little-endian u32).
+const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
 /// Reads the first RGB(A) layer of an EXR file as float32, row 0 at the top.
 pub fn read_exr(path: &Path) -> Result<RgbImage> {
     Ok(read_exr_with_attribute(path, "")?.0)
@@ -209,6 +212,13 @@ pub fn read_exr(path: &Path) -> Result<RgbImage> {
 pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage, Option<exr::meta::attribute::AttributeValue>)> {
     use exr::meta::attribute::Text;
     use exr::prelude::*;
+    // Another kind of file (a PNG, a scene) gets a plain answer, not the parser's "file identifier
+    // missing".
+    let mut magic = [0u8; 4];
+    let read_magic = std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic));
+    if read_magic.is_ok() && magic != EXR_MAGIC {
+        anyhow::bail!("reading {}: not an OpenEXR file (it does not start with EXR's magic number)", path.display());
+    }
     // The header first: a file that claims a huge image (a corrupt or hostile header) must be an
     // error here, not an allocation of its claimed size before any pixel is read.
     let meta = exr::meta::MetaData::read_from_file(path, false).map_err(exr_error).with_context(|| format!("reading {}", path.display()))?;
@@ -374,6 +384,21 @@ mod tests {
         std::fs::write(&path, bytes).unwrap();
         let err = format!("{:#}", read_exr(&path).unwrap_err());
         assert!(err.contains("100000×100000") && err.contains("huge.exr"), "{err}");
+    }
+
+    /// A file of another kind, or too short to hold a header, is "not an OpenEXR file"; an EXR
+    /// cut short after its magic number is the parser's error, naming the file.
+    #[test]
+    fn another_kind_of_file_is_not_an_exr() {
+        let dir = tempfile::tempdir().unwrap();
+        let png = dir.path().join("final.png");
+        write_png(&png, 2, 2, &[7; 16]).unwrap();
+        let err = format!("{:#}", read_exr(&png).unwrap_err());
+        assert!(err.contains("final.png") && err.contains("not an OpenEXR file"), "{err}");
+        let cut = dir.path().join("cut.exr");
+        std::fs::write(&cut, EXR_MAGIC).unwrap();
+        let err = format!("{:#}", read_exr(&cut).unwrap_err());
+        assert!(err.contains("cut.exr") && !err.contains("not an OpenEXR"), "{err}");
     }
 
     /// An EXR without R, G and B channels is an error that says so and lists what it has (the exr

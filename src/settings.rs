@@ -318,10 +318,23 @@ pub fn radius_rule_text(multiple: f32, knn: Option<u32>) -> String {
     match knn {
         None => format!("{multiple} x the mean VPL spacing sqrt(scene area / (pi * VPL count))"),
         Some(k) => format!(
-            "per VPL: {multiple} x its local spacing d_{k} / sqrt({k}), d_{k} the distance to its {k}th nearest VPL \
-             (yuksel_radius: the median)"
+            "per VPL: {multiple} x its local spacing d_{k} / sqrt({k}), d_{k} the distance to its {} nearest VPL \
+             (yuksel_radius: the median)",
+            ordinal(k)
         ),
     }
+}
+
+/// 1st, 2nd, 3rd, 4th, …, 11th, 12th, 13th, 21st.
+fn ordinal(n: u32) -> String {
+    let suffix = match (n % 10, n % 100) {
+        (_, 11..=13) => "th",
+        (1, _) => "st",
+        (2, _) => "nd",
+        (3, _) => "rd",
+        _ => "th",
+    };
+    format!("{n}{suffix}")
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -671,6 +684,33 @@ impl RenderSettings {
         (candidates, neighbours)
     }
 
+    /// Warnings for the flags in `given` (clap ids, as [`Self::unused_flags`] takes them) whose
+    /// value is used only in part: `--moving-candidates` and `--moving-neighbours` above the still
+    /// camera's counts (or candidates below the grid's), which [`Self::moving_sampling`] bounds.
+    /// The summary keeps the values given; the warning says what a frame draws.
+    pub fn bounded_flags(&self, given: &[&str]) -> Vec<String> {
+        let mut out = Vec::new();
+        if self.mode != Mode::Restir || !self.restir.temporal || self.view == View::Vpls {
+            return out; // unused_flags names them
+        }
+        let (candidates, neighbours) = self.moving_sampling();
+        let r = &self.restir;
+        if given.contains(&"moving_candidates") && r.moving_candidates > 0 && candidates != r.moving_candidates {
+            out.push(format!(
+                "--moving-candidates {}: a frame displayed alone draws {candidates} (at most --candidates {}, at least \
+                 --grid-candidates {})",
+                r.moving_candidates, self.candidates, self.grid.candidates
+            ));
+        }
+        if given.contains(&"moving_neighbours") && self.reuses_spatially() && r.moving_neighbours > 0 && neighbours != r.moving_neighbours {
+            out.push(format!(
+                "--moving-neighbours {}: a frame displayed alone reuses {neighbours} (at most --spatial-neighbours {})",
+                r.moving_neighbours, r.spatial_neighbours
+            ));
+        }
+        out
+    }
+
     /// Whether ReSTIR's settings ask for spatial reuse (passes and neighbours both above 0).
     pub fn reuses_spatially(&self) -> bool {
         self.restir.spatial_passes > 0 && self.restir.spatial_neighbours > 0
@@ -739,6 +779,10 @@ impl RenderSettings {
             }
         }
         if let Some(ply) = &self.dump_vpls {
+            // Refused before the photon pass runs, not after it.
+            if ply.is_dir() {
+                bail!("--dump-vpls {}: is a directory; name a file to write the VPLs to (e.g. vpls.ply)", ply.display());
+            }
             // The run's inputs, and the files it writes to --out after the PLY.
             let mut taken = vec![("the scene", self.scene.clone())];
             taken.extend(self.camera_path.clone().map(|p| ("the --camera-path", p)));
@@ -917,7 +961,9 @@ impl RenderSettings {
                 Some(ViewProblem::Distance(_)) => {
                     bail!("--eye {} --target {}: their distance must be between 1e-18 and 1e18 (32-bit floats)", c.eye, c.target)
                 }
-                Some(ViewProblem::UpParallel) => bail!("--up must not be parallel to the view direction (--target minus --eye)"),
+                Some(ViewProblem::UpParallel) => {
+                    bail!("--up {}: must be non-zero and not parallel to the view direction (--target minus --eye)", c.up)
+                }
                 None => {}
             }
         }
@@ -1023,6 +1069,12 @@ mod tests {
         assert_eq!(given.spatial_radius_px(1920), 7.0);
     }
 
+    #[test]
+    fn ordinals_read_as_english() {
+        let got: Vec<String> = [1, 2, 3, 4, 11, 12, 13, 21, 22, 101, 111, 256].into_iter().map(ordinal).collect();
+        assert_eq!(got, ["1st", "2nd", "3rd", "4th", "11th", "12th", "13th", "21st", "22nd", "101st", "111th", "256th"]);
+    }
+
     /// A frame displayed alone never samples more than the still camera's settings, never fewer
     /// candidates than the grid's, and 0 means the still settings; out-of-range values are refused
     /// naming the flag, and the flags are named where they cannot apply.
@@ -1052,5 +1104,16 @@ mod tests {
         let no_temporal = RenderSettings { restir: RestirSettings { temporal: false, ..no_temporal.restir }, ..no_temporal };
         assert_eq!(named(&no_temporal), ["--moving-candidates", "--moving-neighbours"]);
         assert_eq!(named(&with(32, 0, 0, 16, 4)), ["--moving-neighbours"]);
+        // Values above the still counts are bounded, and a warning says to what, only for a flag
+        // given (the default 8 under --candidates 4 is not the user's word).
+        let both = ["moving_candidates", "moving_neighbours"];
+        let w = with(32, 0, 8, 64, 20).bounded_flags(&both);
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(w[0].starts_with("--moving-candidates 64: a frame displayed alone draws 32"), "{w:?}");
+        assert!(w[1].starts_with("--moving-neighbours 20: a frame displayed alone reuses 8"), "{w:?}");
+        assert!(with(32, 24, 8, 16, 4).bounded_flags(&both)[0].contains("draws 24"));
+        assert!(with(4, 0, 8, 8, 4).bounded_flags(&[]).is_empty());
+        assert!(with(32, 0, 8, 16, 4).bounded_flags(&both).is_empty());
+        assert!(with(32, 0, 8, 0, 0).bounded_flags(&both).is_empty());
     }
 }

@@ -170,6 +170,8 @@ fn bad_flags() {
     let final_exr = dump_out.join("final.exr").display().to_string();
     let dump_dir = dump_out.display().to_string();
     assert_fails(&["--headless", "--dump-vpls", "scenes/cornell_box.gltf"], &["--dump-vpls", "is also the scene"]);
+    // A directory is refused before the photon pass (it was "Is a directory (os error 21)" after it).
+    assert_fails(&["--headless", "--dump-vpls", "scenes"], &["--dump-vpls scenes: is a directory"]);
     // A window-only flag in a headless run is refused (it was ignored).
     assert_fails(&["--headless", "--present-mode", "mailbox"], &["--present-mode", "no window"]);
     assert_fails(&["--headless", "--out", &dump_dir, "--dump-vpls", &final_exr], &["--dump-vpls", "is also an output of --out"]);

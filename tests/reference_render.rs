@@ -93,10 +93,15 @@ fn cli_reference_resumes_and_refuses_mismatches() {
     let o = run(&["--frames", "2", "--out", p]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--resume"), "{}", String::from_utf8_lossy(&o.stderr));
-    // Resuming with other settings is refused, naming the file.
+    // Resuming with other settings is refused, naming the file and what differs.
     let o = run(&["--frames", "1", "--max-bounces", "2", "--resume", "--out", p]);
     assert!(!o.status.success());
-    assert!(String::from_utf8_lossy(&o.stderr).contains("part.exr"));
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("part.exr") && e.contains("max_bounces") && !e.contains("seed"), "{e}");
+    let o = run(&["--frames", "1", "--seed", "7", "--resume", "--out", p]);
+    assert!(!o.status.success());
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(e.contains("seed") && e.contains("vs 7") && !e.contains("max_bounces"), "{e}");
     // Resume: 2 + 3 frames equal one 5-frame reference.
     let o = run(&["--frames", "3", "--resume", "--out", p]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));

@@ -587,11 +587,19 @@ pub fn make_reference(
     let config = reference_config(settings, &file_hash(&settings.scene)?)?;
     let read_matching = || -> Result<(RgbImage, ReferenceMeta)> {
         let (image, meta) = read_reference(path)?;
-        if !same_config(&meta.config, &config) || meta.seed != settings.seed as u64 {
+        let mut differ = Vec::new();
+        if !same_config(&meta.config, &config) {
+            differ.push(config_differences(&meta.config, &config));
+        }
+        if meta.seed != settings.seed as u64 {
+            differ.push(format!("seed {} vs {}", meta.seed, settings.seed));
+        }
+        if !differ.is_empty() {
             bail!(
-                "{} was rendered with other settings than this run's (scene, mode, size, seed or sampling flags \
-                 differ); pass the flags it was made with, or choose another file",
-                path.display()
+                "{} was rendered with other settings than this run's (the file's vs this run's {}); pass the flags it \
+                 was made with, or choose another file",
+                path.display(),
+                differ.join("; ")
             );
         }
         Ok((image, meta))

@@ -421,6 +421,17 @@ impl PhotonEmitPass {
         let start = std::time::Instant::now();
         let mut vpls = self.read_vpls(stats)?;
         let positions: Vec<[f32; 3]> = vpls.iter().map(|v| v.position).collect();
+        if k as usize >= positions.len() {
+            // local_spacings uses all the others then, and none for a set of one.
+            match positions.len() {
+                0 | 1 => log::warn!(
+                    "--yuksel-knn {k}: the VPL set has {} VPL{}, so no VPL has a neighbour; every VPL takes the global rule's radius",
+                    positions.len(),
+                    if positions.len() == 1 { "" } else { "s" }
+                ),
+                n => log::warn!("--yuksel-knn {k}: the VPL set has only {n} VPLs, so each VPL's radius comes from its {} others", n - 1),
+            }
+        }
         let (r2, median) = crate::vpl_radius::knn_r2(&positions, k as usize, multiple, fallback);
         for (v, r2) in vpls.iter_mut().zip(r2) {
             v.yuksel_r2 = r2;

@@ -178,9 +178,12 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         }
     }
 
-    // Warnings are printed away from the load (in the run's summary): name the file in each.
+    // Warnings are printed away from the load (in the run's summary): name the file in each. A
+    // check below that refuses the scene carries them in its error instead, since they are often
+    // its cause (a node scaled to nothing, non-finite positions) and no summary follows.
+    let unlabelled = warnings.clone();
     let warnings = warnings.into_iter().map(|w| format!("{label}: {w}")).collect();
-    let mut scene = Scene {
+    let scene = Scene {
         path: label.into(),
         meshes,
         instances,
@@ -190,6 +193,19 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         textures,
         warnings,
     };
+    check_scene(scene).map_err(|e| {
+        if unlabelled.is_empty() {
+            e
+        } else {
+            anyhow!("{e:#} (the loader also noted: {})", unlabelled.join("; "))
+        }
+    })
+}
+
+/// The checks of a whole loaded scene: triangles to draw, emitters whose area and power a 32-bit
+/// float holds. Adds a warning for emitters too small to keep.
+fn check_scene(mut scene: Scene) -> Result<Scene> {
+    let label = scene.path.display().to_string();
     if scene.triangle_count() == 0 {
         bail!("no triangles in scene");
     }
@@ -484,6 +500,16 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
                     serde_json::Value::Number(v) => check_version(&v.to_string(), None)?,
                     _ => {}
                 }
+            }
+            // Another kind of file entirely (a PLY, an OBJ): say what is read rather than where
+            // the JSON parser stopped.
+            let first = bytes.iter().find(|b| !b.is_ascii_whitespace());
+            if first.is_none() {
+                bail!("the file is empty (or only white space): not a glTF scene");
+            }
+            if !bytes.starts_with(b"glTF") && first != Some(&b'{') {
+                let kind = if bytes.starts_with(b"ply") { " (it looks like a PLY file)" } else { "" };
+                bail!("not a glTF file{kind}: scenes are glTF 2.0, as .gltf (JSON) or .glb (binary)");
             }
             bail!("malformed glTF: {e}");
         }

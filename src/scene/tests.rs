@@ -296,7 +296,12 @@ fn error_malformed_json() {
         "{:#}",
         Scene::from_gltf_slice(b"", None, "empty.gltf").unwrap_err()
     );
-    assert_contains(&err, &["empty.gltf"]);
+    assert_contains(&err, &["empty.gltf", "the file is empty"]);
+    // Another kind of file is named as such, not parsed as broken JSON.
+    let err = format!("{:#}", Scene::from_gltf_slice(b"ply\nformat ascii 1.0\n", None, "bunny.ply").unwrap_err());
+    assert_contains(&err, &["bunny.ply", "not a glTF file", "PLY", ".gltf", ".glb"]);
+    let err = format!("{:#}", Scene::from_gltf_slice(b"v 0 0 0\nf 1 2 3\n", None, "tri.obj").unwrap_err());
+    assert_contains(&err, &["tri.obj", "not a glTF file"]);
     // Valid JSON, invalid glTF (dangling mesh index).
     let mut doc = triangle_doc();
     doc["nodes"][0]["mesh"] = json!(7);
@@ -384,6 +389,13 @@ fn error_no_triangles() {
     let mut doc = triangle_doc();
     doc["scenes"][0]["nodes"] = json!([]);
     assert_contains(&load_err(&doc), &["no triangles in scene"]);
+    // When the loader's own warnings are why nothing is left, the error says them (no summary
+    // follows an error to print them in).
+    let mut doc = triangle_doc();
+    doc["nodes"][0]["scale"] = json!([0.0, 0.0, 0.0]);
+    let e = load_err(&doc);
+    assert_contains(&e, &["test.gltf: no triangles in scene", "the loader also noted", "scaled to nothing (zero scale), skipped"]);
+    assert_eq!(e.matches("test.gltf").count(), 1, "the file is named once: {e}");
 }
 
 #[test]

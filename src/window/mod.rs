@@ -48,6 +48,17 @@ pub struct WindowOptions {
 #[error("cannot open a window: {0}. No X11 or Wayland display is reachable (is DISPLAY or WAYLAND_DISPLAY set?); pass --headless to render to files instead")]
 pub struct NoDisplay(pub String);
 
+/// winit's text for an event loop that could not start, without the source location it puts in
+/// front of an OS error ("os error at /root/.cargo/registry/…/mod.rs:765: neither WAYLAND_DISPLAY
+/// …"): a user needs the reason, not where in winit it was found.
+fn display_error_text(text: &str) -> String {
+    let text = text.trim_end_matches('.');
+    match text.strip_prefix("os error at ").and_then(|rest| rest.split_once(".rs:")) {
+        Some((_, after)) => after.split_once(": ").map_or(after, |(_, reason)| reason).to_string(),
+        None => text.to_string(),
+    }
+}
+
 /// Opens a window and renders until it is closed (or `--frames N` frames). Returns the summary
 /// written when the run ended with outputs (`--frames`), if any.
 pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summary>> {
@@ -56,7 +67,7 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     let scene = Scene::load(&settings.scene)?;
     let reference = opts.reference.as_deref().map(overlay::Reference::load).transpose()?;
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
-    let event_loop = EventLoop::new().map_err(|e| NoDisplay(e.to_string().trim_end_matches('.').to_string()))?;
+    let event_loop = EventLoop::new().map_err(|e| NoDisplay(display_error_text(&e.to_string())))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { settings, opts, scene: Some(scene), reference, path, running: None, error: None, summary: None, start };
     event_loop.run_app(&mut app).context("the window's event loop failed")?;
@@ -998,3 +1009,17 @@ const MESSAGE_SECONDS: f64 = 10.0;
 
 /// What the movement keys and I answer while `--camera-path` drives the camera.
 const FOLLOWS_PATH: &str = "the camera follows --camera-path: movement keys and I are off (Home plays the path again)";
+
+#[cfg(test)]
+mod tests {
+    use super::display_error_text;
+
+    /// winit's source location goes; its reason and any other text stay as they are.
+    #[test]
+    fn the_display_error_keeps_the_reason_only() {
+        let winit = "os error at /root/.cargo/registry/src/index.crates.io-1949cf8c6b5b557f/winit-0.30.13/src/platform_impl/linux/mod.rs:765: \
+                     neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set.";
+        assert_eq!(display_error_text(winit), "neither WAYLAND_DISPLAY nor WAYLAND_SOCKET nor DISPLAY is set");
+        assert_eq!(display_error_text("the event loop can't be recreated."), "the event loop can't be recreated");
+    }
+}
