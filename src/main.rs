@@ -95,7 +95,7 @@ struct RenderArgs {
     /// Accumulate frames while the camera and settings stay (off: each image is one frame).
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.progressive))]
     progressive: Toggle,
-    /// Direct VPLs (they replace the area lights).
+    /// Direct VPLs (they replace the area and point lights).
     #[arg(long, default_value_t = DEFAULTS.vpls_direct)]
     vpls_direct: u32,
     /// Target number of indirect VPLs from photon paths (the paths traced are counted exactly).
@@ -279,6 +279,7 @@ enum Command {
         /// Timed frames (after one warm-up frame).
         #[arg(long, default_value_t = 10)]
         frames: u32,
+        /// Vulkan device index (see --list-devices).
         #[arg(long)]
         device: Option<usize>,
         /// Also write the figures as JSON to this file.
@@ -463,6 +464,7 @@ enum Command {
         /// slowest part; `bench --motion` measures it on its own).
         #[arg(long)]
         no_motion: bool,
+        /// Vulkan device index (see --list-devices).
         #[arg(long)]
         device: Option<usize>,
     },

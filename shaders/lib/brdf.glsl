@@ -4,7 +4,7 @@
 
 #include "sampling.glsl"
 
-// Rec. 709 luminance, as in ../shared/notes/method.md.
+// Rec. 709 luminance, as in docs/method.md.
 float luminance(vec3 c) {
     return dot(c, vec3(0.2126, 0.7152, 0.0722));
 }

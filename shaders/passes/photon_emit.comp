@@ -1,4 +1,4 @@
-// photon_emit: virtual point lights from the area lights (../shared/notes/method.md). Lights are
+// photon_emit: virtual point lights from the area lights (docs/method.md). Lights are
 // chosen by inverting their CDF (push constant `light_count` entries), never from the frame constants.
 //   PHOTON_EMIT_DIRECT, direct VPLs: sample i of N_d picks light t by inverting the light CDF at
 //     the stratified u = (i + xi) / N_d, a uniform point on it, and gets flux Phi_t / (N_d P(t)).

@@ -7,7 +7,7 @@
 // the VPL estimate at y being RIS over the VPL set with one shadow ray (unbiased for the sum at y),
 // and the recursion ended by Russian roulette on the weight: continue with
 // q = min(0.95, w_r(d) max(rho)). No distance cut-off. In expectation over VPL sets, VPL sum + R
-// equals the path tracer's answer whatever r (../shared/notes/method.md).
+// equals the path tracer's answer whatever r (docs/method.md).
 // `first_hop` says what the pixel's image holds (--view direct: emission only; indirect: no
 // emission at the first hop; final: both); later hops always carry everything.
 #version 460

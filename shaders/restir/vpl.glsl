@@ -1,4 +1,4 @@
-// The contribution of one VPL to a surface point, as in ../shared/notes/method.md:
+// The contribution of one VPL to a surface point, as in docs/method.md:
 //   c_i(x) = (rho_x/pi) * I_i(w) * max(0, -n_x.w) * G(d) * V(x, y_i),  w = (x - y_i)/d,
 // with I_i(w) = Phi_i max(0, n_i.w)/pi for a cosine VPL and Phi_i/(4 pi) for a point-light VPL.
 // G is 1/d^2 or Yuksel's non-singular 2/(d^2 + r^2 + d sqrt(d^2 + r^2)), with one r for every VPL
