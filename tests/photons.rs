@@ -1,4 +1,4 @@
-//! The photon pass: VPL flux normalisation (../shared/notes/method.md), geometry, determinism, PLY.
+//! The photon pass: VPL flux normalisation (docs/method.md), geometry, determinism, PLY.
 
 mod common;
 
