@@ -78,8 +78,11 @@ pub struct SceneSummary {
     pub blases: usize,
     pub meshes: usize,
     pub materials: usize,
-    /// Lights drawn: area-light triangles and point lights, the added ones included.
+    /// Lights drawn: area-light triangles and point lights, the added ones included (the name is
+    /// kept for the summaries' readers; `point_lights` says how many of them are points).
     pub area_lights: usize,
+    /// Of `area_lights`, the point lights (the scene's and the added ones).
+    pub point_lights: usize,
     /// Point lights added in the window (L).
     pub added_point_lights: usize,
     /// Σ Φ of the area lights, per channel (W).
@@ -283,6 +286,7 @@ pub fn finish_run(
             meshes: info.meshes,
             materials: info.materials,
             area_lights: renderer.lights().lights.len(),
+            point_lights: renderer.lights().lights.iter().filter(|l| l.flags & crate::gpu_types::LIGHT_POINT != 0).count(),
             light_power: renderer.lights().total_power,
             added_point_lights: renderer.extra_lights().len(),
             upload_and_build_ms: scene.build_ms,

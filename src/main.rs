@@ -984,10 +984,13 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     let s = &summary;
     let settings = &s.settings;
     println!("device: {}", s.device);
-    println!(
-        "scene: {} ({} triangles, {} area lights)",
-        s.scene.path, s.scene.triangles, s.scene.area_lights
-    );
+    let plural = |n: usize, one: &str| if n == 1 { format!("1 {one}") } else { format!("{n} {one}s") };
+    let triangles = s.scene.area_lights - s.scene.point_lights;
+    let lights = match s.scene.point_lights {
+        0 => plural(triangles, "emissive triangle"),
+        points => format!("{} and {}", plural(triangles, "emissive triangle"), plural(points, "point light")),
+    };
+    println!("scene: {} ({} triangles; lights: {lights})", s.scene.path, s.scene.triangles);
     println!(
         "{} frames of {}x{} ({}), {:.2} rays/pixel/frame",
         s.frames, settings.width, settings.height, settings.mode.name(), s.rays_per_pixel.mean

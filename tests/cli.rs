@@ -67,6 +67,8 @@ fn headless_cornell_box_run() {
     assert!(o.status.success(), "stderr: {}", stderr(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("final.exr") && stdout.contains("pathtrace"), "{stdout}");
+    // The Cornell box's one light is a quad: two emissive triangles, named as such.
+    assert!(stdout.contains("(32 triangles; lights: 2 emissive triangles)"), "{stdout}");
     for f in ["final.exr", "final.png", "accum_0001.exr", "accum_0003.exr", "summary.json"] {
         assert!(dir.path().join(f).is_file(), "{f} missing");
     }
