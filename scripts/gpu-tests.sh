@@ -48,6 +48,8 @@ for t in "${tests[@]}"; do
         wait $pid; rc=$?
         summary+=("$t: rc=$rc, $(grep -E '^test result' "$OUT/t_$t.txt" | tail -1)")
     fi
+    # Checks a test skipped (tests/common skip: straight to stderr, past the harness's capture).
+    grep -h "SKIPPED" "$OUT/t_$t.txt" | sort -u | head -10
     grep -E "^test .*FAILED$|did not finish" "$OUT/t_$t.txt" | head -10
     grep -A4 "panicked at" "$OUT/t_$t.txt" | head -30
 done

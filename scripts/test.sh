@@ -13,9 +13,20 @@ ulimit -c unlimited 2>/dev/null || true
 rm -f core core.[0-9]*
 # lavapipe runs its own worker threads; two test threads keep the 2-core machine from thrashing.
 rc=0
+# Tests that skip a check (no validation layer, no Xvfb, a device the check does not apply to)
+# append a line here (tests/common/mod.rs, `skip`); it is printed at the end, since the harness
+# shows a passing test's own output to no one.
+skips="${CARGO_TARGET_DIR:-target}/tmp/test-skips.txt"
+rm -f "$skips"
 cargo test --release -- --test-threads="${RESTIR_VPL_TEST_THREADS:-2}" "$@" || rc=$?
 # Diagnostics only from here: none of it may change the exit status.
 set +e +o pipefail
+if [ -s "$skips" ]; then
+  echo "test.sh: $(sort -u "$skips" | wc -l) check(s) skipped (CI=true turns a missing prerequisite into a failure):"
+  sort -u "$skips" | sed 's/^/  /'
+else
+  echo "test.sh: no check skipped"
+fi
 if [ "$rc" -ne 0 ]; then
   for c in core core.[0-9]*; do
     [ -f "$c" ] || continue

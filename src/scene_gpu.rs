@@ -252,22 +252,7 @@ impl SceneGpu {
             // All texels are one storage-buffer binding, which a shader can only read as far as
             // maxStorageBufferRange (128 MiB on lavapipe, ~4 GiB on desktop GPUs): past it, reads
             // are undefined (VUID-VkWriteDescriptorSet-descriptorType-00333).
-            let range = u64::from(ctx.properties.limits.max_storage_buffer_range);
-            if texels.len() as u64 > range {
-                let mut largest: Vec<&crate::scene::Texture> = scene.textures.iter().collect();
-                largest.sort_by_key(|t| std::cmp::Reverse(u64::from(t.width) * u64::from(t.height)));
-                let names: Vec<String> = largest.iter().take(3).map(|t| format!("'{}' {}x{}", t.name, t.width, t.height)).collect();
-                anyhow::bail!(
-                    "{}: its {} textures hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
-                     one buffer (maxStorageBufferRange: {:.1} MiB); render with --textures off, or scale down the largest \
-                     ({})",
-                    scene.path.display(),
-                    scene.textures.len(),
-                    texels.len() as f64 / 1048576.0,
-                    range as f64 / 1048576.0,
-                    names.join(", ")
-                );
-            }
+            check_texel_range(scene, texels.len() as u64, u64::from(ctx.properties.limits.max_storage_buffer_range))?;
             let tb = Buffer::with_data(ctx, "scene.textures", bytemuck::cast_slice(&table), storage_usage())?;
             let xb = Buffer::with_data(ctx, "scene.texels", &texels, storage_usage())?;
             texture_count = table.len();
@@ -342,6 +327,30 @@ impl LightBuffers {
         set.write_buffer(6, &self.lights)?;
         set.write_buffer(7, &self.alias)
     }
+}
+
+/// Refuses textures whose texels (`texel_bytes` of RGBA8 in one buffer) exceed a device's
+/// maxStorageBufferRange (`range`): all texels are one storage-buffer binding, which a shader can
+/// only read as far as that range (128 MiB on lavapipe, ~4 GiB on desktop GPUs); past it, reads are
+/// undefined (VUID-VkWriteDescriptorSet-descriptorType-00333). The error names the scene, the sizes,
+/// the largest textures and the way out.
+pub fn check_texel_range(scene: &Scene, texel_bytes: u64, range: u64) -> Result<()> {
+    if texel_bytes <= range {
+        return Ok(());
+    }
+    let mut largest: Vec<&crate::scene::Texture> = scene.textures.iter().collect();
+    largest.sort_by_key(|t| std::cmp::Reverse(u64::from(t.width) * u64::from(t.height)));
+    let names: Vec<String> = largest.iter().take(3).map(|t| format!("'{}' {}x{}", t.name, t.width, t.height)).collect();
+    anyhow::bail!(
+        "{}: its {} textures hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
+         one buffer (maxStorageBufferRange: {:.1} MiB); render with --textures off, or scale down the largest \
+         ({})",
+        scene.path.display(),
+        scene.textures.len(),
+        texel_bytes as f64 / 1048576.0,
+        range as f64 / 1048576.0,
+        names.join(", ")
+    )
 }
 
 #[cfg(test)]

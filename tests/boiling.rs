@@ -86,8 +86,10 @@ fn boiling_filter_cuts_fireflies_at_a_bounded_bias() {
     assert!(share > 3.0 * share_se, "the filter should cut the fireflies' share: by {share:.3} ± {share_se:.3}");
     // The squared error falls too on average (measured: by 1.7e-4 ± 0.7e-4, 2.2 standard errors
     // over 16 seeds: one firefly more or less moves a seed's error a lot), which is not enough to
-    // assert a cut at 3 standard errors; asserted: it does not grow.
-    assert!(mse > -2.0 * mse_se, "the squared error should not grow: cut by {mse:.2e} ± {mse_se:.2e}");
+    // assert a cut at 3 standard errors; asserted: it does not grow by more than 3 standard errors,
+    // which a filter leaving the squared error unchanged does with probability < 0.5 % (the same t
+    // with 15 degrees of freedom, one-sided).
+    assert!(mse > -3.0 * mse_se, "the squared error should not grow: cut by {mse:.2e} ± {mse_se:.2e}");
     // Biased, but boundedly: it darkens (every seed), by less than 3 % (measured: about 0.6 %).
     let (dark, _) = paired(2);
     assert!(off.iter().zip(&on).all(|(a, b)| b[2] < a[2]) && dark < 0.03, "mean ratio lower by {dark:.4} with the filter");

@@ -145,9 +145,12 @@ fn srgb_mapping_matches_the_png_tonemap() {
     assert_eq!(&q[3..6], &[0, 0, 0], "a non-finite pixel is black");
     assert_eq!(q[6], 0);
     assert_eq!(q[7], (12.92f32 * 0.002 * 255.0).round() as u8);
-    assert_eq!(q[8], 127, "sRGB(0.214) = 0.5");
-    // +1 EV doubles the input: 0.25 -> 0.5 -> 188.
-    assert_eq!(to_srgb8(&img, 1.0)[9], 188);
+    // The expected bytes from the sRGB curve in f64, written out independently of the code under
+    // test (0.214 lands near 0.5, a rounding boundary: 127.49).
+    let srgb8 = |x: f64| ((1.055 * x.powf(1.0 / 2.4) - 0.055) * 255.0).round() as u8;
+    assert_eq!(q[8], srgb8(0.214));
+    // +1 EV doubles the input: 0.25 -> 0.5.
+    assert_eq!(to_srgb8(&img, 1.0)[9], srgb8(0.5));
 }
 
 #[test]
@@ -159,6 +162,11 @@ fn error_image_is_written() {
     error_image(&a, &b, &CompareOptions::default(), &p).unwrap();
     let bytes = std::fs::read(&p).unwrap();
     assert_eq!(&bytes[1..4], b"PNG");
+    // A 16×8 image that shows where the two differ: not one colour.
+    let png = image::load_from_memory(&bytes).unwrap().to_rgb8();
+    assert_eq!(png.dimensions(), (16, 8));
+    let first = *png.get_pixel(0, 0);
+    assert!(png.pixels().any(|p| *p != first), "the error image is one colour");
 }
 
 // ---- the command line ----

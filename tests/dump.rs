@@ -305,7 +305,7 @@ fn the_inspector_page_renders_in_headless_chromium() {
         if std::env::var("CI").is_ok_and(|v| v == "true") {
             panic!("{msg}");
         }
-        eprintln!("\n**********************************************************\n*** SKIPPED: {msg}\n**********************************************************\n");
+        common::skip(msg);
         return;
     };
     let dir = tempfile::tempdir().unwrap();

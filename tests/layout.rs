@@ -190,11 +190,29 @@ fn std430_struct(r: &Spirv, glsl: &str) -> (Vec<(String, u32)>, u32) {
 }
 
 fn check<T: GpuStruct>() {
+    let problems = struct_mismatches(T::GLSL_NAME, T::FIELDS, std::mem::size_of::<T>());
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+}
+
+/// How the shader's std430 struct `glsl_name` differs from a Rust twin with `fields` (name, byte
+/// offset) and `size` bytes: one line per member that differs in name or offset, or is on one side
+/// only, and one for the array stride against the size.
+fn struct_mismatches(glsl_name: &str, fields: &[(&str, usize)], size: usize) -> Vec<String> {
     let r = layout_module();
-    let (glsl, stride) = std430_struct(&r, T::GLSL_NAME);
-    let rust: Vec<(String, u32)> = T::FIELDS.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
-    assert_eq!(glsl, rust, "{}: GLSL (left) and Rust (right) members/offsets differ", T::GLSL_NAME);
-    assert_eq!(stride as usize, std::mem::size_of::<T>(), "{}: std430 array stride vs Rust size", T::GLSL_NAME);
+    let (glsl, stride) = std430_struct(&r, glsl_name);
+    let mut out = Vec::new();
+    for i in 0..glsl.len().max(fields.len()) {
+        let shader = glsl.get(i).map(|(n, o)| (n.as_str(), *o as usize));
+        let rust = fields.get(i).copied();
+        if shader != rust {
+            let side = |m: Option<(&str, usize)>| m.map_or("absent".to_string(), |(n, o)| format!("'{n}' at {o}"));
+            out.push(format!("{glsl_name}: member {i} is {} in the shader, {} in Rust", side(shader), side(rust)));
+        }
+    }
+    if stride as usize != size {
+        out.push(format!("{glsl_name}: std430 array stride {stride} in the shader, size {size} in Rust"));
+    }
+    out
 }
 
 #[test]
@@ -249,14 +267,23 @@ fn frame_layout_matches_std430_and_std140() {
     assert_eq!(glsl, rust, "Frame under std140 differs from the Rust layout");
 }
 
-/// The check itself can fail: a deliberately different field list is rejected.
+/// The check itself can fail: a Rust twin with one member moved, one renamed, one missing or
+/// another size is reported, naming the member.
 #[test]
 fn a_drifted_layout_is_detected() {
-    let r = layout_module();
-    let (glsl, _) = std430_struct(&r, "Light");
-    let mut drifted: Vec<(String, u32)> = GpuLight::FIELDS.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
-    drifted.swap(0, 1);
-    assert_ne!(glsl, drifted);
+    let fields = GpuLight::FIELDS;
+    let size = std::mem::size_of::<GpuLight>();
+    assert!(struct_mismatches("Light", fields, size).is_empty());
+    let moved: Vec<(&str, usize)> = fields.iter().map(|&(n, o)| if n == "area" { (n, o + 4) } else { (n, o) }).collect();
+    assert_eq!(struct_mismatches("Light", &moved, size), ["Light: member 1 is 'area' at 12 in the shader, 'area' at 16 in Rust"]);
+    let renamed: Vec<(&str, usize)> = fields.iter().map(|&(n, o)| if n == "pdf" { ("probability", o) } else { (n, o) }).collect();
+    assert_eq!(struct_mismatches("Light", &renamed, size), ["Light: member 3 is 'pdf' at 28 in the shader, 'probability' at 28 in Rust"]);
+    let last = fields.len() - 1;
+    assert_eq!(
+        struct_mismatches("Light", &fields[..last], size),
+        [format!("Light: member {last} is '{}' at {} in the shader, absent in Rust", fields[last].0, fields[last].1)]
+    );
+    assert_eq!(struct_mismatches("Light", fields, size + 16), [format!("Light: std430 array stride {size} in the shader, size {} in Rust", size + 16)]);
 }
 
 #[test]

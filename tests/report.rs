@@ -301,8 +301,40 @@ fn plots_extreme_ranges() {
             }
             let svg = std::fs::read_to_string(&path).unwrap();
             assert!(svg.contains("</svg>"));
+            assert_series_drawn(&svg, pts.iter().filter(|p| p.mode == pts[0].mode).count(), &format!("{name}_{kind}"));
             std::fs::copy(&path, std::env::temp_dir().join(format!("report_test_{name}_{kind}.svg"))).unwrap();
         }
+    }
+}
+
+/// The plot's curves are drawn, inside the canvas: a data line (plotters draws series 2 px wide,
+/// axes and ticks 1 px) with a point per checkpoint, every coordinate finite and within the SVG's
+/// width and height (over many decades a log axis that overflowed gave NaN or far-off points).
+fn assert_series_drawn(svg: &str, points: usize, what: &str) {
+    let attr = |tag: &str, name: &str| -> Option<String> {
+        let start = tag.find(&format!("{name}=\""))? + name.len() + 2;
+        Some(tag[start..].split('"').next()?.to_string())
+    };
+    let root = &svg[svg.find("<svg").expect("an svg element")..];
+    let (w, h): (f64, f64) = (attr(root, "width").unwrap().parse().unwrap(), attr(root, "height").unwrap().parse().unwrap());
+    let lines: Vec<Vec<(f64, f64)>> = svg
+        .split("<polyline")
+        .skip(1)
+        .filter(|tag| attr(tag, "stroke-width").as_deref() == Some("2"))
+        .map(|tag| {
+            attr(tag, "points")
+                .unwrap()
+                .split_whitespace()
+                .map(|xy| {
+                    let (x, y) = xy.split_once(',').unwrap();
+                    (x.parse().unwrap(), y.parse().unwrap())
+                })
+                .collect()
+        })
+        .collect();
+    assert!(lines.iter().any(|l| l.len() == points), "{what}: no data line of {points} points among {lines:?}");
+    for (x, y) in lines.iter().flatten() {
+        assert!(x.is_finite() && y.is_finite() && (0.0..=w).contains(x) && (0.0..=h).contains(y), "{what}: point ({x}, {y}) outside {w}×{h}");
     }
 }
 

@@ -13,7 +13,7 @@ use restir_vpl::vk::Buffer;
 /// requires it: `common::validate`).
 fn validated_context() -> Option<std::sync::Arc<restir_vpl::vk::Context>> {
     if !validate() {
-        eprintln!("SKIPPED: no validation layer installed (CI requires one)");
+        common::skip("no validation layer installed (CI requires one)");
         return None;
     }
     Some(context())

@@ -49,7 +49,7 @@ fn xvfb() -> Option<Xvfb> {
         if std::env::var("CI").is_ok_and(|v| v == "true") {
             panic!("{msg}");
         }
-        eprintln!("\n**********************************************************\n*** SKIPPED: {msg}\n**********************************************************\n");
+        common::skip(&msg);
         return None;
     }
     // `-displayfd 1`: Xvfb picks a free display number itself (no race between the tests of this
@@ -266,7 +266,7 @@ fn start_window(display: &str, args: &[&str], env: &[(&str, &str)], title: &str)
 #[test]
 fn a_validation_error_fails_a_window_closed_by_its_user() {
     if !common::validate() {
-        eprintln!("SKIPPED: no validation layer installed (CI requires one)");
+        common::skip("no validation layer installed (CI requires one)");
         return;
     }
     let Some(x) = xvfb() else { return };
@@ -429,7 +429,7 @@ fn overlay_with_a_reference_split_screen_along_a_camera_path() {
 fn brute_force_too_large_for_the_window_is_refused_at_start_and_on_resize() {
     let Some(x) = xvfb() else { return };
     if common::context().report.kind != "CPU" {
-        eprintln!("not a CPU device: the sizes of this test are below a GPU's limit");
+        common::skip("not a CPU device: the sizes of this test are below a GPU's limit (WINDOW_BRUTEFORCE_PAIRS_GPU)");
         return;
     }
     let d = x.display.as_str();

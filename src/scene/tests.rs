@@ -91,24 +91,24 @@ fn triangle_frames(scene: &Scene, inst: &Instance) -> Vec<(Vec3, Vec3)> {
 
 // ---------------------------------------------------------------- Cornell box
 
+/// The committed file at `path` is `generated`. With `UPDATE_SCENES` set a stale file is rewritten
+/// and the test fails all the same, so that a run that changed a scene is never reported as a pass:
+/// review the diff, then run the tests again without it.
+fn assert_committed(path: &Path, generated: &str) {
+    let committed = std::fs::read_to_string(path);
+    if std::env::var_os("UPDATE_SCENES").is_some() && committed.as_deref().ok() != Some(generated) {
+        std::fs::write(path, generated).unwrap();
+        panic!("{} rewritten from its generator (UPDATE_SCENES): review the diff, then run the tests without it", path.display());
+    }
+    let committed = committed.unwrap_or_else(|e| panic!("cannot read {}: {e} (run with UPDATE_SCENES=1)", path.display()));
+    assert!(committed == generated, "{} is stale; regenerate with UPDATE_SCENES=1", path.display());
+}
+
 #[test]
 fn cornell_file_matches_generator() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.gltf");
     let generated = cornell_box_gltf();
-    if std::env::var_os("UPDATE_SCENES").is_some() {
-        std::fs::write(&path, &generated).unwrap();
-    }
-    let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!(
-            "cannot read {}: {e} (run with UPDATE_SCENES=1)",
-            path.display()
-        )
-    });
-    assert!(
-        committed == generated,
-        "{} is stale; regenerate with UPDATE_SCENES=1",
-        path.display()
-    );
+    assert_committed(&path, &generated);
     assert_eq!(
         generated,
         cornell_box_gltf(),
@@ -1135,20 +1135,7 @@ fn committed_scene(file: &str, generate: fn() -> String) -> Scene {
         .join("scenes")
         .join(file);
     let generated = generate();
-    if std::env::var_os("UPDATE_SCENES").is_some() {
-        std::fs::write(&path, &generated).unwrap();
-    }
-    let committed = std::fs::read_to_string(&path).unwrap_or_else(|e| {
-        panic!(
-            "cannot read {}: {e} (run with UPDATE_SCENES=1)",
-            path.display()
-        )
-    });
-    assert!(
-        committed == generated,
-        "{} is stale; regenerate with UPDATE_SCENES=1",
-        path.display()
-    );
+    assert_committed(&path, &generated);
     assert!(
         generated == generate(),
         "{file}: generator is not deterministic"

@@ -30,10 +30,27 @@ pub fn validate() -> bool {
     if !available {
         static SAID: std::sync::Once = std::sync::Once::new();
         SAID.call_once(|| {
-            eprintln!("\n*** SKIPPED: the Khronos validation layer is not installed; these tests check no validation errors (scripts/setup.sh --test installs it) ***\n");
+            skip("the Khronos validation layer is not installed: this binary's tests check no validation errors (scripts/setup.sh --test installs it)");
         });
     }
     available
+}
+
+/// Says that a test (or a part of it) was skipped, where it cannot be missed: straight to the
+/// process's stderr (the test harness captures `eprintln!` and shows it only for failing tests,
+/// so a skipped test looked like a pass) and into `test-skips.txt` under cargo's target tmp
+/// directory, which `scripts/test.sh` empties before the run and prints after it. Under CI a
+/// missing prerequisite is a failure instead (each caller asserts that first).
+pub fn skip(msg: &str) {
+    use std::io::Write;
+    let test = std::thread::current().name().unwrap_or("?").to_string();
+    let line = format!("SKIPPED {test}: {msg}");
+    let _ = writeln!(std::io::stderr().lock(), "\n*** {line} ***\n");
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    let _ = std::fs::create_dir_all(dir);
+    if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open(dir.join("test-skips.txt")) {
+        let _ = writeln!(f, "{line}");
+    }
 }
 
 pub fn context() -> Arc<Context> {
