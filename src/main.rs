@@ -348,7 +348,9 @@ enum Command {
         /// With --curves, --motion, --radius or --scaling: a smoke test (tiny images, few frames and VPLs).
         #[arg(long)]
         quick: bool,
-        /// With --curves, --motion, --radius or --scaling: output directory.
+        /// With --curves, --motion, --radius or --scaling: output directory. With --modes: write
+        /// OUT/modes.md, the still and moving cameras of the three bundled scenes (or --scene) at
+        /// 1280×720 (or the size given) in one run, with how it was made (docs/modes.md is one).
         #[arg(value_parser = Utf8Path, long, default_value = "bench-out")]
         out: PathBuf,
         /// With --curves: checkpoints (accumulated frames), comma separated [default: 1,2,5,10,20].
@@ -763,7 +765,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             _ if *curves => ("--curves", &["scene", "width", "height", "quick", "out", "checkpoints", "runs", "device"]),
             _ if *rays => ("--rays", &["width", "height", "frames", "json", "device"]),
             _ if *workgroups => ("--workgroups", &["scene", "width", "height", "frames", "json", "device"]),
-            _ if *modes => ("--modes", &["scene", "width", "height", "frames", "json", "device", "moving", "fusion", "grid"]),
+            _ if *modes => ("--modes", &["scene", "width", "height", "frames", "json", "device", "moving", "fusion", "grid", "out"]),
             _ if *photons => ("--photons", &["scene", "frames", "device"]),
             _ => ("(the primary-ray and path-tracing benchmark)", &["scene", "width", "height", "frames", "json", "device"]),
         };
@@ -902,6 +904,41 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
                     .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
             }
+            return Ok(());
+        }
+        if *modes && given.iter().any(|g| g == "out") {
+            // The report docs/modes.md is: both cameras of the usual cases, on the three bundled
+            // scenes (or --scene), at 1280×720 (or the size given), in one run.
+            if *moving || *fusion || *grid {
+                bail!("bench --modes --out writes the usual cases on both cameras; --moving, --fusion and --grid print one table (drop --out)");
+            }
+            restir_vpl::output::prepare_output_dir("--out", out)?;
+            let scenes = if given.iter().any(|g| g == "scene") {
+                vec![scene.clone()]
+            } else {
+                restir_vpl::eval::results::thesis_scenes(std::path::Path::new(""), 1.0).into_iter().map(|s| s.path).collect()
+            };
+            let size = (width.unwrap_or(1280), height.unwrap_or(720));
+            let mut sections = Vec::new();
+            for path in &scenes {
+                let triangles = restir_vpl::scene::Scene::load(path)?.triangle_count();
+                let mut rows = Vec::new();
+                for moving in [false, true] {
+                    eprintln!("bench --modes: {} {}", path.display(), if moving { "moving" } else { "still" });
+                    rows.extend(restir_vpl::eval::bench::modes(path, &[size], 100_000, 100_000, *frames, *device, moving, false, false)?);
+                }
+                sections.push(restir_vpl::eval::bench::ModesSection { scene: path.clone(), triangles, rows });
+            }
+            let device_name = bench_context(*device)?.report.name.clone();
+            let args: Vec<String> = std::env::args().skip(1).collect();
+            let command = format!("restir-vpl {}", args.join(" "));
+            let body = restir_vpl::eval::bench::modes_report(&sections, *frames, &device_name, &command);
+            let md = write_report(out, "modes.md", "VPL modes: frame cost (`restir-vpl bench --modes`)", &body)?;
+            if let Some(path) = json {
+                let rows: Vec<_> = sections.iter().flat_map(|s| s.rows.iter()).collect();
+                std::fs::write(path, serde_json::to_string_pretty(&rows)?).map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
+            }
+            println!("{}", md.display());
             return Ok(());
         }
         if *modes {

@@ -938,6 +938,28 @@ pub fn host_description() -> String {
     format!("{cpu}, {threads} hardware threads{}, {}", mem.unwrap_or_default(), std::env::consts::OS)
 }
 
+/// Today's date in UTC as YYYY-MM-DD, from the system clock (for a generated report's header).
+pub fn utc_date() -> String {
+    let secs = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
+    let (y, m, d) = civil_from_days((secs / 86_400) as i64);
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+/// The proleptic Gregorian (year, month, day) of `days` since 1970-01-01 (H. Hinnant's
+/// `civil_from_days`).
+fn civil_from_days(days: i64) -> (i64, u32, u32) {
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = (doy - (153 * mp + 2) / 5 + 1) as u32;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 } as u32;
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    (y, m, d)
+}
+
 /// mean ratio per scene × mode at each scene's last checkpoint, against both references.
 pub fn bias_table_markdown(points: &[CurvePoint], scene_labels: &[String]) -> String {
     let modes = ordered(points.iter().map(|p| p.mode.as_str()));
@@ -1144,4 +1166,19 @@ pub fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::civil_from_days;
+
+    /// Against dates computed elsewhere (Python's datetime): the epoch, the day before it, a leap
+    /// day, the day after it, a century that is not a leap year, and a day of this project.
+    #[test]
+    fn days_since_the_epoch_become_dates() {
+        let cases = [(0, (1970, 1, 1)), (-1, (1969, 12, 31)), (11_016, (2000, 2, 29)), (11_017, (2000, 3, 1)), (47_541, (2100, 3, 1)), (20_783, (2026, 11, 26))];
+        for (days, date) in cases {
+            assert_eq!(civil_from_days(days), date, "day {days}");
+        }
+    }
 }
