@@ -290,7 +290,8 @@ enum Command {
         #[arg(long)]
         photons: bool,
         /// Instead: frame cost of uniform, RIS and ReSTIR (per pass, rays per pixel, ratio to
-        /// uniform) at 1280×720 and 1280×1280 (or --width × --height if given) with 100k + 100k VPLs.
+        /// uniform) at 1280×720 and 1280×1280 (or --width × --height if given) with 100k + 100k VPLs;
+        /// with --out, the report of both cameras on the three scenes (see --out).
         #[arg(long, conflicts_with = "photons")]
         modes: bool,
         /// With --modes: the camera follows the path committed beside the scene
