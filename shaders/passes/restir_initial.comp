@@ -53,7 +53,8 @@ void main() {
         TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
         uint prev_index;
         Reservoir rh;
-        if (!temporal_history(index, s, params, t, surfaces, history, prev_index, rh)) {
+        Surface sp;
+        if (!temporal_history(index, s, params, t, surfaces, history, prev_index, rh, sp)) {
             params.candidates = pc.candidates_without_history;
         }
     }

@@ -56,7 +56,8 @@ void main() {
     TemporalReuse t = TemporalReuse(pc.mcap, pc.normal_threshold, pc.depth_threshold);
     uint prev_index;
     Reservoir rh;
-    bool has_history = s.offset_scale >= 0.0 && temporal_history(index, s, pc.params, t, surfaces, history, prev_index, rh);
+    Surface sp;
+    bool has_history = s.offset_scale >= 0.0 && temporal_history(index, s, pc.params, t, surfaces, history, prev_index, rh, sp);
     VplParams params = pc.params;
     if (!has_history) {
         params.candidates = pc.candidates_without_history;
@@ -64,7 +65,7 @@ void main() {
     GridPick k = regir_pixel(s, pc.grid, params);
     Reservoir r = initial_reservoir(pixel, s, params, pc.tiles, vpls, vpl_alias, tiles, pc.grid, k, grid_entries, rays);
     if (has_history) {
-        r = temporal_merge_history(pixel, s, r, prev_index, rh, pc.params, t, surfaces, vpls, rays);
+        r = temporal_merge_history(pixel, s, r, rh, sp, pc.params, t, vpls, rays);
     }
     reservoirs_out[index] = r;
     if (rays > 0u) {

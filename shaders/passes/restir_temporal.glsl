@@ -34,13 +34,15 @@ struct TemporalReuse {
 };
 
 // Whether pixel `index` (surface `s`, a hit) has history that the temporal merge takes: the
-// reprojected pixel `prev_index` shows the same surface in the previous frame and its reservoir
-// `rh` has positive confidence. Depends on the surfaces and the history alone, never on this
-// frame's samples, so restir_initial may choose its candidate count by it without bias.
+// reprojected pixel `prev_index` shows the same surface `sp` in the previous frame (`s` itself
+// when the G-buffer was not traced again) and its reservoir `rh` has positive confidence. Depends
+// on the surfaces and the history alone, never on this frame's samples, so restir_initial may
+// choose its candidate count by it without bias.
 bool temporal_history(uint index, Surface s, VplParams p, TemporalReuse t, utextureBuffer surfaces, utextureBuffer history,
-                      out uint prev_index, out Reservoir rh) {
+                      out uint prev_index, out Reservoir rh, out Surface sp) {
     prev_index = index;
     rh = reservoir_empty(0.0);
+    sp = s;
     if ((p.flags & VPL_FLAG_SAME_DOMAIN) == 0u) {
         vec3 q = project_to_previous_frame(s.position);
         ivec2 pq;
@@ -48,7 +50,7 @@ bool temporal_history(uint index, Surface s, VplParams p, TemporalReuse t, utext
             return false;  // off screen or behind the previous camera: no history
         }
         prev_index = uint(pq.y) * frame.width + uint(pq.x);
-        Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
+        sp = surface_texels(surfaces, prev_surface_slot(prev_index));
         if (sp.offset_scale < 0.0
             || !same_surface(s.shading_normal, q.z, sp.shading_normal, sp.view_depth, t.normal_threshold, t.depth_threshold)) {
             return false;  // disoccluded: another surface (or none) was there
@@ -60,11 +62,11 @@ bool temporal_history(uint index, Surface s, VplParams p, TemporalReuse t, utext
     return min(rh.confidence, t.mcap) > 0.0;
 }
 
-// The temporal merge of pixel `index` (surface `s`, a hit) with the history temporal_history
-// found (`prev_index`, `rh`): the merged reservoir, from the canonical reservoir `rc`.
-// `surfaces`: both halves of the G-buffer ping-pong.
-Reservoir temporal_merge_history(uvec2 pixel, Surface s, Reservoir rc, uint prev_index, Reservoir rh, VplParams p, TemporalReuse t,
-                                 utextureBuffer surfaces, utextureBuffer vpls, inout uint rays) {
+// The temporal merge of pixel `pixel` (surface `s`, a hit) with the history temporal_history
+// found (`rh`, on the previous frame's surface `sp`, which it read): the merged reservoir, from
+// the canonical reservoir `rc`.
+Reservoir temporal_merge_history(uvec2 pixel, Surface s, Reservoir rc, Reservoir rh, Surface sp, VplParams p, TemporalReuse t,
+                                 utextureBuffer vpls, inout uint rays) {
     bool same_domain = (p.flags & VPL_FLAG_SAME_DOMAIN) != 0u;
     float mc = rc.confidence;
     float mh = min(rh.confidence, t.mcap * mc);
@@ -85,7 +87,6 @@ Reservoir temporal_merge_history(uvec2 pixel, Surface s, Reservoir rc, uint prev
     float m_c = mc / (mc + mh);
     float m_h = mh / (mc + mh);
     if (unbiased && !same_domain) {
-        Surface sp = surface_texels(surfaces, prev_surface_slot(prev_index));
         float ph_yc = reservoir_valid(rc) ? surface_vpl_target(sp, vpl_texels(vpls, rc.vpl), p, visible_targets, rays) : 0.0;
         float ph_yh = reservoir_valid(rh) ? rh.target : 0.0;
         float dc = mc * pc_yc + mh * ph_yc;
@@ -112,11 +113,12 @@ bool temporal_merge(uvec2 pixel, uint index, Surface s, Reservoir rc, VplParams 
                     utextureBuffer vpls, utextureBuffer history, out Reservoir result, inout uint rays) {
     uint prev_index;
     Reservoir rh;
-    if (!temporal_history(index, s, p, t, surfaces, history, prev_index, rh)) {
+    Surface sp;
+    if (!temporal_history(index, s, p, t, surfaces, history, prev_index, rh, sp)) {
         result = rc;
         return false;
     }
-    result = temporal_merge_history(pixel, s, rc, prev_index, rh, p, t, surfaces, vpls, rays);
+    result = temporal_merge_history(pixel, s, rc, rh, sp, p, t, vpls, rays);
     return true;
 }
 
