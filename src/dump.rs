@@ -54,8 +54,10 @@ impl FrameSelection {
 pub struct Decoded {
     /// e.g. `position`, `w`, `rgb`.
     pub what: &'static str,
-    /// How the page should show it: `hdr` (exposure + sRGB), `signed` (×0.5 + 0.5), `grey`
-    /// (normalised by the max), `ids` (false colour, not to be read as numbers).
+    /// How the page should show it: `hdr` (exposure + sRGB), `signed` (×0.5 + 0.5, normalised by
+    /// the largest magnitude), `grey` (white at [`grey_white`]: the 99th percentile, so that a few
+    /// huge values, which reservoir weights have, do not leave the rest black), `ids` (false colour,
+    /// not to be read as numbers).
     pub look: &'static str,
     pub image: RgbImage,
 }
@@ -170,6 +172,8 @@ pub struct OutputStats {
     pub max: f64,
     pub mean: f64,
     pub nonfinite: u64,
+    /// The value the thumbnail shows white (`grey` images; their brighter pixels clip), else 0.
+    pub white: f64,
 }
 
 fn stats(file: String, buffer: &'static str, d: &Decoded) -> OutputStats {
@@ -187,7 +191,8 @@ fn stats(file: String, buffer: &'static str, d: &Decoded) -> OutputStats {
         }
     }
     let finite_or_zero = |v: f64| if v.is_finite() { v } else { 0.0 };
-    OutputStats { file, buffer, what: d.what, look: d.look, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad }
+    let white = if d.look == "grey" { f64::from(grey_white(d)) } else { 0.0 };
+    OutputStats { file, buffer, what: d.what, look: d.look, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad, white }
 }
 
 /// A dumped frame: its manifest and every output image's values by file name (for the page's
@@ -384,16 +389,30 @@ fn dump_name(c: &Captured) -> String {
     }
 }
 
+/// The magnitude a `grey` image's thumbnail shows white: the 99th percentile of its finite
+/// magnitudes, or the largest where that is 0 (a mostly empty image), at least 1e-30.
+pub fn grey_white(d: &Decoded) -> f32 {
+    let mut v: Vec<f32> = d.image.pixels.iter().flatten().filter(|c| c.is_finite()).map(|c| c.abs()).collect();
+    if v.is_empty() {
+        return 1e-30;
+    }
+    let k = ((v.len() - 1) as f64 * 0.99).round() as usize;
+    let p99 = *v.select_nth_unstable_by(k, f32::total_cmp).1;
+    let max = v.iter().fold(0f32, |m, &c| m.max(c));
+    (if p99 > 0.0 { p99 } else { max }).max(1e-30)
+}
+
 /// The RGBA8 preview of a decoded image as the inspector shows it.
 pub fn thumbnail(d: &Decoded) -> Vec<u8> {
     let max = d.image.pixels.iter().flatten().filter(|c| c.is_finite()).fold(0f32, |m, &c| m.max(c.abs())).max(1e-30);
+    let white = if d.look == "grey" { grey_white(d) } else { max };
     let map = |c: f32| -> f32 {
         if !c.is_finite() {
             return 0.0;
         }
         match d.look {
             "signed" => 0.5 + 0.5 * (c / max),
-            "grey" => c / max,
+            "grey" => c / white,
             "ids" => c,
             _ => {
                 let c = c.clamp(0.0, 1.0);
@@ -460,7 +479,7 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                 let png = format!("frame_{:04}/{}", m.frame, o.file.replace(".exr", ".png"));
                 let _ = write!(
                     html,
-                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" width=128 onclick=\"big(this)\"><figcaption>{} <b>{}</b><br>min {:.3e} max {:.3e}<br>mean {:.3e}{}</figcaption></figure>",
+                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" width=128 onclick=\"big(this)\"><figcaption>{} <b>{}</b><br>min {:.3e} max {:.3e}<br>mean {:.3e}{}{}</figcaption></figure>",
                     m.frame,
                     o.file,
                     o.buffer,
@@ -468,6 +487,7 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                     o.min,
                     o.max,
                     o.mean,
+                    if o.look == "grey" { format!("<br>white at {:.3e} (99th pct.)", o.white) } else { String::new() },
                     if o.nonfinite > 0 { format!("<br><span class=bad>{} non-finite</span>", o.nonfinite) } else { String::new() }
                 );
             }
@@ -525,3 +545,30 @@ document.getElementById('zimg').addEventListener('mousemove',e=>{
   document.getElementById('readout').textContent=t;
 });
 "#;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grey(values: Vec<f32>) -> Decoded {
+        let n = values.len() as u32;
+        Decoded { what: "w", look: "grey", image: RgbImage { width: n, height: 1, pixels: values.into_iter().map(|v| [v; 3]).collect() } }
+    }
+
+    /// A few huge values (a reservoir weight's tail) no longer leave the rest black: the 99th
+    /// percentile is white, brighter pixels clip, and a mostly empty image falls back to its max.
+    #[test]
+    fn grey_thumbnails_are_white_at_the_99th_percentile() {
+        let mut v: Vec<f32> = (1..=1000).map(|i| i as f32).collect();
+        v.extend([1e7; 5]);
+        let d = grey(v);
+        // 1005 values (each in three channels): the 99th percentile is the 995th smallest.
+        assert_eq!(grey_white(&d), 995.0);
+        let t = thumbnail(&d);
+        assert_eq!(t[4 * 499], (500.0f32 / 995.0 * 255.0).round() as u8, "a middle value is grey, not black");
+        assert_eq!(t[4 * 1002], 255, "a tail value clips to white");
+        let sparse = grey([vec![0.0; 999], vec![5.0]].concat());
+        assert_eq!(grey_white(&sparse), 5.0);
+        assert_eq!(grey_white(&grey(vec![0.0, f32::NAN])), 1e-30);
+    }
+}
