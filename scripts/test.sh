@@ -16,7 +16,7 @@ rc=0
 # Tests that skip a check (no validation layer, no Xvfb, a device the check does not apply to)
 # append a line here (tests/common/mod.rs, `skip`); it is printed at the end, since the harness
 # shows a passing test's own output to no one.
-skips="${CARGO_TARGET_DIR:-target}/tmp/test-skips.txt"
+skips="${CARGO_TARGET_DIR:-${CARGO_BUILD_TARGET_DIR:-target}}/tmp/test-skips.txt"
 rm -f "$skips"
 cargo test --release -- --test-threads="${RESTIR_VPL_TEST_THREADS:-2}" "$@" || rc=$?
 # Diagnostics only from here: none of it may change the exit status.
@@ -24,7 +24,7 @@ set +e +o pipefail
 if [ -s "$skips" ]; then
   echo "test.sh: $(sort -u "$skips" | wc -l) check(s) skipped (CI=true turns a missing prerequisite into a failure):"
   sort -u "$skips" | sed 's/^/  /'
-else
+elif [ "$rc" -eq 0 ]; then
   echo "test.sh: no check skipped"
 fi
 if [ "$rc" -ne 0 ]; then

@@ -919,6 +919,13 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             } else {
                 restir_vpl::eval::results::thesis_scenes(std::path::Path::new(""), 1.0).into_iter().map(|s| s.path).collect()
             };
+            // Every scene's camera path before any timing (the moving half would fail after the still one).
+            for path in &scenes {
+                let file = restir_vpl::eval::motion::path_file(path);
+                if !file.is_file() {
+                    bail!("bench --modes --out: {} has no camera path beside it ({}), which the moving camera follows", path.display(), file.display());
+                }
+            }
             let size = (width.unwrap_or(1280), height.unwrap_or(720));
             let mut sections = Vec::new();
             for path in &scenes {
@@ -1242,8 +1249,8 @@ fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
     if settings.view == restir_vpl::settings::View::Indirect && !settings.gi {
         log::warn!("--view indirect with --no-gi: the image is black (--no-gi traces no indirect VPLs)");
     }
-    if (settings.mode.uses_vpls() || settings.view == restir_vpl::settings::View::Vpls) && !settings.gi && settings.vpls_direct == 0 {
-        log::warn!("--vpls-direct 0 with --no-gi: the VPL set is empty, so the image is black");
+    if settings.mode.uses_vpls() && settings.view != restir_vpl::settings::View::Vpls && !settings.gi && settings.vpls_direct == 0 {
+        log::warn!("--vpls-direct 0 with --no-gi: the VPL set is empty, so nothing is lit; only emitters seen directly show");
     }
 }
 

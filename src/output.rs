@@ -215,9 +215,16 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
     // Another kind of file (a PNG, a scene) gets a plain answer, not the parser's "file identifier
     // missing".
     let mut magic = [0u8; 4];
-    let read_magic = std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic));
-    if read_magic.is_ok() && magic != EXR_MAGIC {
-        anyhow::bail!("reading {}: not an OpenEXR file (it does not start with EXR's magic number)", path.display());
+    match std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic)) {
+        Ok(()) if magic != EXR_MAGIC => {
+            anyhow::bail!("reading {}: not an OpenEXR file (it does not start with EXR's magic number)", path.display())
+        }
+        Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+            let len = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+            anyhow::bail!("reading {}: not an OpenEXR file ({len} bytes, shorter than EXR's magic number)", path.display())
+        }
+        // Unreadable: the parser below names the I/O error.
+        _ => {}
     }
     // The header first: a file that claims a huge image (a corrupt or hostile header) must be an
     // error here, not an allocation of its claimed size before any pixel is read.
@@ -386,8 +393,8 @@ mod tests {
         assert!(err.contains("100000×100000") && err.contains("huge.exr"), "{err}");
     }
 
-    /// A file of another kind, or too short to hold a header, is "not an OpenEXR file"; an EXR
-    /// cut short after its magic number is the parser's error, naming the file.
+    /// A file of another kind, or too short to hold EXR's magic number (empty included), is "not an
+    /// OpenEXR file"; an EXR cut short after its magic number is the parser's error, naming the file.
     #[test]
     fn another_kind_of_file_is_not_an_exr() {
         let dir = tempfile::tempdir().unwrap();
@@ -395,6 +402,12 @@ mod tests {
         write_png(&png, 2, 2, &[7; 16]).unwrap();
         let err = format!("{:#}", read_exr(&png).unwrap_err());
         assert!(err.contains("final.png") && err.contains("not an OpenEXR file"), "{err}");
+        for len in [0, 3] {
+            let short = dir.path().join(format!("short{len}.exr"));
+            std::fs::write(&short, &EXR_MAGIC[..len]).unwrap();
+            let err = format!("{:#}", read_exr(&short).unwrap_err());
+            assert!(err.contains(&format!("short{len}.exr")) && err.contains("not an OpenEXR file") && err.contains(&format!("{len} bytes")), "{err}");
+        }
         let cut = dir.path().join("cut.exr");
         std::fs::write(&cut, EXR_MAGIC).unwrap();
         let err = format!("{:#}", read_exr(&cut).unwrap_err());

@@ -366,7 +366,7 @@ pub struct RenderSettings {
     pub tracing: Option<crate::vk::context::Tracing>,
     /// Show a progress bar (only on a terminal, and only for runs over a second).
     pub progress: bool,
-    /// Direct VPLs (they replace the area lights).
+    /// Direct VPLs (they replace the area and point lights).
     pub vpls_direct: u32,
     /// Target number of indirect VPLs from photon paths.
     pub vpls_indirect: u32,
@@ -837,7 +837,7 @@ impl RenderSettings {
             bail!("--exposure must be a finite number");
         }
         if self.vpls_direct == 0 && self.gi {
-            bail!("--vpls-direct 0: direct VPLs replace the area lights, so the image would lack direct light; \
+            bail!("--vpls-direct 0: direct VPLs replace the area and point lights, so the image would lack direct light; \
                    use at least 1 (or --no-gi for an empty VPL set)");
         }
         if self.gi && self.vpls_indirect == 0 {

@@ -30,6 +30,8 @@ pub(super) fn load_path(path: &Path) -> Result<Scene> {
 
 /// Loads glTF JSON or GLB bytes; every error is prefixed with `label`.
 pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scene> {
+    // glTF 2.0 lets a loader ignore a UTF-8 byte-order mark before the JSON; serde_json does not.
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     load_inner(bytes, base_dir, label).map_err(|e| anyhow!("{label}: {e:#}"))
 }
 

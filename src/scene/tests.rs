@@ -297,6 +297,9 @@ fn error_malformed_json() {
         Scene::from_gltf_slice(b"", None, "empty.gltf").unwrap_err()
     );
     assert_contains(&err, &["empty.gltf", "the file is empty"]);
+    // A UTF-8 byte-order mark before the JSON is ignored, as glTF allows.
+    let with_bom = [&b"\xEF\xBB\xBF"[..], serde_json::to_string(&triangle_doc()).unwrap().as_bytes()].concat();
+    assert_eq!(Scene::from_gltf_slice(&with_bom, None, "bom.gltf").unwrap().triangle_count(), 1);
     // Another kind of file is named as such, not parsed as broken JSON.
     let err = format!("{:#}", Scene::from_gltf_slice(b"ply\nformat ascii 1.0\n", None, "bunny.ply").unwrap_err());
     assert_contains(&err, &["bunny.ply", "not a glTF file", "PLY", ".gltf", ".glb"]);

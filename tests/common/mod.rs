@@ -49,7 +49,8 @@ pub fn skip(msg: &str) {
     let dir = Path::new(env!("CARGO_TARGET_TMPDIR"));
     let _ = std::fs::create_dir_all(dir);
     if let Ok(mut f) = std::fs::OpenOptions::new().create(true).append(true).open(dir.join("test-skips.txt")) {
-        let _ = writeln!(f, "{line}");
+        // One write per line: tests skip from parallel threads, and O_APPEND keeps each write whole.
+        let _ = f.write_all(format!("{line}\n").as_bytes());
     }
 }
 
