@@ -176,7 +176,8 @@ pub struct OutputStats {
     pub white: f64,
 }
 
-fn stats(file: String, buffer: &'static str, d: &Decoded) -> OutputStats {
+/// `white`: the value `d`'s thumbnail shows white, as [`thumbnail`] returned it.
+fn stats(file: String, buffer: &'static str, d: &Decoded, white: Option<f32>) -> OutputStats {
     let (mut min, mut max, mut sum, mut n, mut bad) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0u64, 0u64);
     for p in &d.image.pixels {
         for &c in p {
@@ -191,7 +192,7 @@ fn stats(file: String, buffer: &'static str, d: &Decoded) -> OutputStats {
         }
     }
     let finite_or_zero = |v: f64| if v.is_finite() { v } else { 0.0 };
-    let white = if d.look == "grey" { f64::from(grey_white(d)) } else { 0.0 };
+    let white = white.map_or(0.0, f64::from);
     OutputStats { file, buffer, what: d.what, look: d.look, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad, white }
 }
 
@@ -358,8 +359,9 @@ pub fn write_frame(
                     for d in &decoded {
                         let file = format!("{position:02}_{}__{}.exr", dump_name(c), d.what);
                         write_exr(&fdir.join(&file), width, height, &d.image.pixels)?;
-                        write_png(&fdir.join(file.replace(".exr", ".png")), width, height, &thumbnail(d))?;
-                        e.outputs.push(stats(file.clone(), c.buffer, d));
+                        let (png, white) = thumbnail(d);
+                        write_png(&fdir.join(file.replace(".exr", ".png")), width, height, &png)?;
+                        e.outputs.push(stats(file.clone(), c.buffer, d, white));
                         values.push((file, d.image.pixels.clone()));
                     }
                     passes.push(e);
@@ -402,10 +404,12 @@ pub fn grey_white(d: &Decoded) -> f32 {
     (if p99 > 0.0 { p99 } else { max }).max(1e-30)
 }
 
-/// The RGBA8 preview of a decoded image as the inspector shows it.
-pub fn thumbnail(d: &Decoded) -> Vec<u8> {
+/// The RGBA8 preview of a decoded image as the inspector shows it, and for a `grey` image the
+/// value it shows white ([`grey_white`]).
+pub fn thumbnail(d: &Decoded) -> (Vec<u8>, Option<f32>) {
     let max = d.image.pixels.iter().flatten().filter(|c| c.is_finite()).fold(0f32, |m, &c| m.max(c.abs())).max(1e-30);
-    let white = if d.look == "grey" { grey_white(d) } else { max };
+    let grey = (d.look == "grey").then(|| grey_white(d));
+    let white = grey.unwrap_or(max);
     let map = |c: f32| -> f32 {
         if !c.is_finite() {
             return 0.0;
@@ -428,7 +432,7 @@ pub fn thumbnail(d: &Decoded) -> Vec<u8> {
         out.extend(rgb.iter().map(|&c| (c.clamp(0.0, 1.0) * 255.0).round() as u8));
         out.push(255);
     }
-    out
+    (out, grey)
 }
 
 /// Most pixels whose values the page embeds for its per-pixel readout.
@@ -564,7 +568,8 @@ mod tests {
         let d = grey(v);
         // 1005 values (each in three channels): the 99th percentile is the 995th smallest.
         assert_eq!(grey_white(&d), 995.0);
-        let t = thumbnail(&d);
+        let (t, white) = thumbnail(&d);
+        assert_eq!(white, Some(995.0));
         assert_eq!(t[4 * 499], (500.0f32 / 995.0 * 255.0).round() as u8, "a middle value is grey, not black");
         assert_eq!(t[4 * 1002], 255, "a tail value clips to white");
         let sparse = grey([vec![0.0; 999], vec![5.0]].concat());

@@ -249,9 +249,6 @@ impl SceneGpu {
                 scene.path.display(),
                 texels.len() / 4
             );
-            // All texels are one storage-buffer binding, which a shader can only read as far as
-            // maxStorageBufferRange (128 MiB on lavapipe, ~4 GiB on desktop GPUs): past it, reads
-            // are undefined (VUID-VkWriteDescriptorSet-descriptorType-00333).
             check_texel_range(scene, texels.len() as u64, u64::from(ctx.properties.limits.max_storage_buffer_range))?;
             let tb = Buffer::with_data(ctx, "scene.textures", bytemuck::cast_slice(&table), storage_usage())?;
             let xb = Buffer::with_data(ctx, "scene.texels", &texels, storage_usage())?;
