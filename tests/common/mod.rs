@@ -60,7 +60,46 @@ pub fn context() -> Arc<Context> {
 
 /// A context that traces rays `tracing`'s way (None: as `RESTIR_VPL_TRACE` says, else the device's best).
 pub fn context_tracing(tracing: Option<restir_vpl::vk::context::Tracing>) -> Arc<Context> {
+    report_crashes();
     Arc::new(Context::new(&ContextOptions { validate: validate(), tracing, ..Default::default() }).expect("a device that traces rays"))
+}
+
+/// A test binary killed by SIGSEGV, SIGBUS, SIGILL or SIGFPE first prints the faulting thread's
+/// name and stack (with the symbol tables `scripts/gpu-pack.sh` keeps): on an H100 a test binary
+/// once died of a segmentation fault with nothing else printed, its tests still running. The
+/// handler runs once (then the default action kills the process as before) and allocates, which
+/// a handler should not; it is a last word, not a recovery.
+fn report_crashes() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    extern "C" fn on_fault(sig: libc::c_int) {
+        let name = match sig {
+            libc::SIGSEGV => "SIGSEGV",
+            libc::SIGBUS => "SIGBUS",
+            libc::SIGILL => "SIGILL",
+            _ => "SIGFPE",
+        };
+        let thread = std::thread::current().name().unwrap_or("(unnamed)").to_string();
+        let trace = std::backtrace::Backtrace::force_capture();
+        eprintln!("\n*** {name} in thread {thread}; its stack:\n{trace}");
+        // SA_RESETHAND restored the default action, which this kills with (as a fault repeated
+        // on return would).
+        // SAFETY: raising a signal is async-signal-safe.
+        unsafe { libc::raise(sig) };
+    }
+    ONCE.call_once(|| {
+        for sig in [libc::SIGSEGV, libc::SIGBUS, libc::SIGILL, libc::SIGFPE] {
+            // SAFETY: a zeroed sigaction with a handler, an empty mask and these flags is valid.
+            // Not SA_ONSTACK: symbolising the stack overflows the small alternate stack the Rust
+            // runtime gives each thread (and a stack overflow's own fault then kills as before).
+            unsafe {
+                let mut action: libc::sigaction = std::mem::zeroed();
+                action.sa_sigaction = on_fault as extern "C" fn(libc::c_int) as libc::sighandler_t;
+                action.sa_flags = libc::SA_RESETHAND;
+                libc::sigemptyset(&mut action.sa_mask);
+                libc::sigaction(sig, &action, std::ptr::null_mut());
+            }
+        }
+    });
 }
 
 /// Uploads `scene` to `ctx` (textures as `settings` says).
