@@ -430,6 +430,7 @@ fn fused_passes_render_the_same_frames_as_passes_apart() {
         RestirSettings { bias: Bias::Unbiased, initial_visibility: Some(true), ..Default::default() },
         RestirSettings { bias: Bias::Unbiased, boiling_filter: 0.2, spatial_passes: 3, ..Default::default() },
     ];
+    let mut failures = Vec::new();
     for restir in cases {
         let frames = |fuse_passes: bool| {
             let settings = RenderSettings { restir, fuse_passes: Some(fuse_passes), ..base.clone() };
@@ -453,8 +454,44 @@ fn fused_passes_render_the_same_frames_as_passes_apart() {
         for (f, (a, b)) in apart.iter().zip(&fused).enumerate() {
             assert_all_finite(b, "fused frame");
             assert!(a.iter().any(|p| p[0] > 0.0), "frame {f} is lit");
-            assert!(a == b, "{restir:?}: frame {f} differs between passes apart and fused");
+            // Bit-identical on lavapipe. On an H100 (stop 45), with visibility in the targets,
+            // a tenth to a fifth of the pixels differ by 3e-7 to 5e-7 relative (2-4 ulps): the
+            // two pipelines' compiled arithmetic rounds differently (a contraction to an FMA, an
+            // approximate division), which SPIR-V allows, and ReSTIR carries it from frame to
+            // frame. A difference in logic (a reservoir that keeps another VPL, a missed
+            // neighbour) changes pixels by percents: 1e-5 relative (80 ulps) parts the two.
+            let (n, worst) = pixel_differences(a, b);
+            if n > 0 {
+                eprintln!("{restir:?}: frame {f}: {n} of {} pixels differ, by at most {worst:.2e} relative", a.len());
+            }
+            if worst > 1e-5 {
+                // The frames are kept.
+                let name = format!("fused-{:?}-vis{}-frame{f}", restir.bias, restir.initial_visibility.unwrap_or(false));
+                let img = |pixels: &Vec<[f32; 3]>| restir_vpl::output::RgbImage { width: base.width, height: base.height, pixels: pixels.clone() };
+                keep_images(&name, &[("apart", &img(a)), ("fused", &img(b))]);
+                failures.push(format!("{restir:?}: frame {f} differs between passes apart and fused in {n} of {} pixels (largest relative difference {worst:.2e})", a.len()));
+            }
         }
     }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
     assert_no_validation_errors(&ctx);
+}
+
+/// Pixels of `a` and `b` that differ, and the largest difference relative to the brighter of the
+/// two (per channel).
+fn pixel_differences(a: &[[f32; 3]], b: &[[f32; 3]]) -> (usize, f32) {
+    let mut n = 0;
+    let mut worst = 0.0f32;
+    for (p, q) in a.iter().zip(b) {
+        if p != q {
+            n += 1;
+            for c in 0..3 {
+                let m = p[c].abs().max(q[c].abs());
+                if m > 0.0 {
+                    worst = worst.max((p[c] - q[c]).abs() / m);
+                }
+            }
+        }
+    }
+    (n, worst)
 }
