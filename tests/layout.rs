@@ -845,3 +845,50 @@ fn only_the_grid_variants_hold_the_grid_code() {
         }
     }
 }
+
+/// triangle_normal's cross product is `precise` (shaders/lib/sampling.glsl) in every module that
+/// holds the function: its 6 multiplications and 3 subtractions carry NoContraction, so no
+/// driver contracts them into FMAs, whose rounding residue where the exact component is 0 (a wall
+/// parallel to an axis) flipped onb()'s frame with the scene's scale on an H100. Guards against
+/// the `cross()` builtin (one extended instruction: no decoration reaches inside it) coming back.
+#[test]
+fn triangle_normal_forbids_contraction_everywhere() {
+    let mut checked = 0;
+    let mut problems = Vec::new();
+    for d in passes::all_pass_descs() {
+        for (variant, spirv) in d.spirv_variants() {
+            let module = rspirv::dr::load_bytes(spirv).expect("build.rs's SPIR-V parses");
+            let id = module.debug_names.iter().find_map(|i| match i.operands.as_slice() {
+                [Operand::IdRef(id), Operand::LiteralString(name)] if name.starts_with("triangle_normal(") => Some(*id),
+                _ => None,
+            });
+            let Some(function) = id.and_then(|id| module.functions.iter().find(|f| f.def.as_ref().and_then(|d| d.result_id) == Some(id))) else {
+                continue;
+            };
+            let precise: Vec<u32> = module
+                .annotations
+                .iter()
+                .filter_map(|i| match i.operands.as_slice() {
+                    [Operand::IdRef(t), Operand::Decoration(Decoration::NoContraction)] => Some(*t),
+                    _ => None,
+                })
+                .collect();
+            let count = |op: Op| {
+                function
+                    .blocks
+                    .iter()
+                    .flat_map(|b| b.instructions.iter())
+                    .filter(|i| i.class.opcode == op && i.result_id.is_some_and(|r| precise.contains(&r)))
+                    .count()
+            };
+            let (mul, sub) = (count(Op::FMul), count(Op::FSub));
+            if mul < 6 || sub < 3 {
+                problems.push(format!("{} ({variant}): {mul} multiplications and {sub} subtractions with NoContraction", d.name));
+            }
+            checked += 1;
+        }
+    }
+    assert!(problems.is_empty(), "{}", problems.join("\n"));
+    // photon_emit, pathtrace, gbuffer and every pass that shades a hit hold it.
+    assert!(checked >= 4, "only {checked} modules hold triangle_normal");
+}

@@ -101,6 +101,15 @@ float triangle_offset_scale(vec3 p0, vec3 p1, vec3 p2) {
 // their largest |component| before the cross product, whose squared length would otherwise
 // underflow f32 for triangles under ~1e-10 across (and overflow above ~1e19). Zero for a
 // degenerate triangle.
+//
+// The cross product is written out and `precise` (SPIR-V NoContraction): a component whose two
+// products are equal, as for a wall parallel to an axis (the Cornell box's right wall's second
+// triangle: its normal's z), is then exactly 0 on every device. A compiler free to contract
+// a*b - c*d into fma(a, b, -c*d) (NVIDIA's does; lavapipe's did not) leaves the product's rounding
+// error instead, +-1e-8, whose sign follows the scene's scale; onb() turns its frame by 180
+// degrees with the sign of n.z, so the same random numbers then sent a bounce elsewhere: on an
+// H100 a tenth of the photon paths and some path-tracer paths differed between the Cornell box at
+// scale 1 and at 1e-2 or 1e5 (tests/scale.rs; both images right, with other noise).
 vec3 triangle_normal(vec3 p0, vec3 p1, vec3 p2) {
     vec3 e1 = p1 - p0;
     vec3 e2 = p2 - p0;
@@ -109,7 +118,9 @@ vec3 triangle_normal(vec3 p0, vec3 p1, vec3 p2) {
     if (!(s > 0.0)) {
         return vec3(0.0);
     }
-    vec3 n = cross(e1 / s, e2 / s);
+    vec3 a = e1 / s;
+    vec3 b = e2 / s;
+    precise vec3 n = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
     float len = length(n);
     return len > 0.0 ? n / len : vec3(0.0);
 }
