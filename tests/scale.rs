@@ -7,6 +7,7 @@ mod common;
 
 use common::*;
 use restir_vpl::eval::compare::{compare, CompareOptions};
+use restir_vpl::gpu_types::GpuVpl;
 use restir_vpl::output::RgbImage;
 use restir_vpl::renderer::Renderer;
 use restir_vpl::scene::Scene;
@@ -34,9 +35,30 @@ fn render_scaled(k: f32, base: &RenderSettings) -> RgbImage {
     render_mean(&scaled_cornell(k), &camera, base, &format!("scale {k}"))
 }
 
+/// What a VPL mode rendered at one scale: the mean image, the photon paths traced (the
+/// normalisation count P) and the VPL set.
+struct VplRender {
+    img: RgbImage,
+    paths: u64,
+    vpls: Vec<GpuVpl>,
+}
+
+/// [`render_scaled`] for a VPL mode, with its photon paths and VPL set.
+fn render_scaled_vpls(k: f32, base: &RenderSettings) -> VplRender {
+    let c = render_camera(base);
+    let camera = restir_vpl::camera::Camera::look_at(c.position * k, (c.position + c.forward) * k, c.up, c.yfov, "test");
+    let (img, r) = render_mean_with(&scaled_cornell(k), &camera, base, &format!("scale {k}"));
+    VplRender { img, paths: r.photon_stats().expect("a VPL mode traces photons").paths, vpls: r.read_vpls().unwrap().unwrap_or_default() }
+}
+
 /// Renders `frames` frames of `scene` from `camera`: the mean image, checked finite, with no
 /// non-finite sample and no validation error on the way.
 fn render_mean(scene: &Scene, camera: &restir_vpl::camera::Camera, base: &RenderSettings, what: &str) -> RgbImage {
+    render_mean_with(scene, camera, base, what).0
+}
+
+/// [`render_mean`] and the renderer that made it.
+fn render_mean_with(scene: &Scene, camera: &restir_vpl::camera::Camera, base: &RenderSettings, what: &str) -> (RgbImage, Renderer) {
     let ctx = context();
     let gpu = upload(&ctx, scene, base);
     let mut r = Renderer::new(ctx.clone(), gpu, base.clone()).unwrap();
@@ -47,7 +69,7 @@ fn render_mean(scene: &Scene, camera: &restir_vpl::camera::Camera, base: &Render
     common::assert_no_nonfinite_samples(&r, what);
     let img = RgbImage { width: base.width, height: base.height, pixels: r.read_mean().unwrap() };
     assert_all_finite(&img.pixels, what);
-    img
+    (img, r)
 }
 
 // 1e-12: a triangle's cross product squared underflows f32 below ~1e-10, and distances squared
@@ -72,7 +94,12 @@ fn the_path_tracer_renders_the_same_image_at_any_scale() {
         // relMSE ~1e-5 at this image's brightness, and 1e-4 in the mean.
         if c.relmse >= 1e-5 || (c.mean_ratio - 1.0).abs() >= 1e-4 {
             keep_images(&format!("scale-pt-{k:e}"), &[("scaled", &img), ("scale1", &one)]);
-            failures.push(format!("scale {k}: relMSE {:.3e} (at most 1e-5) and mean ratio {:.6} (within 1e-4 of 1) against scale 1", c.relmse, c.mean_ratio));
+            failures.push(format!(
+                "scale {k}: relMSE {:.3e} (at most 1e-5) and mean ratio {:.6} (within 1e-4 of 1) against scale 1 ({})",
+                c.relmse,
+                c.mean_ratio,
+                first_differing_bounce(k, &base)
+            ));
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("; "));
@@ -88,24 +115,33 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
         (Mode::Restir, RestirSettings { bias: Bias::Unbiased, initial_visibility: Some(false), ..Default::default() }),
     ] {
         let base = RenderSettings { mode, restir, vpls_direct: 2000, vpls_indirect: 2000, ..small(48, 48, 4) };
-        let one = render_scaled(1.0, &base);
+        let one = render_scaled_vpls(1.0, &base);
         let mut extremes = Vec::new();
         for k in [1e-12f32, 1e-4, 1e5] {
-            let img = render_scaled(k, &base);
-            extremes.push(img.clone());
-            let c = compare(
-                &img,
-                &one,
-                &CompareOptions {
-                    flip: false,
-                    ..Default::default()
-                },
-            )
-            .unwrap();
-            eprintln!(
-                "{mode:?} ×{k}: relMSE {:.2e}, mean ratio {:.6}",
-                c.relmse, c.mean_ratio
-            );
+            let scaled = render_scaled_vpls(k, &base);
+            // The photon paths, path by path (whatever the images do below).
+            match photon_path_differences(k, &scaled, &one) {
+                Ok(said) => eprintln!("{mode:?} ×{k}: {said}"),
+                Err(failure) => failures.push(format!("{mode:?} at scale {k}: {failure}")),
+            }
+            if scaled.paths != one.paths {
+                // Rounding changed a few paths' lengths, so the VPL count after the first batch of
+                // paths, and with it the batch plan (photon_emit.rs, BatchPlan), traced another
+                // number of paths: another, equally valid VPL set (its 1/P differs, its slots
+                // differ), whose image differs as an independent sample does. Seen on an H100 at
+                // 1e5 (stop 45: every indirect VPL 1.06 % brighter after the normalisation, the
+                // ratio of the path counts, relMSE 0.29 against scale 1 as between two
+                // independent images); lavapipe traces the same count at every scale.
+                skip(&format!(
+                    "{mode:?} at scale {k}: {} photon paths against {} at scale 1, so its image is not compared (its photon paths were, path by path)",
+                    scaled.paths, one.paths
+                ));
+                continue;
+            }
+            let img = scaled.img;
+            extremes.push((k, img.clone()));
+            let c = compare(&img, &one.img, &CompareOptions { flip: false, ..Default::default() }).unwrap();
+            eprintln!("{mode:?} ×{k}: relMSE {:.2e}, mean ratio {:.6}", c.relmse, c.mean_ratio);
             // The VPL set is traced with the same random numbers, so uniform sampling's images agree
             // as closely as the path tracer's (relMSE); a shadow ray or VPL choice flipped by
             // rounding still moves a pixel or two (measured with the VPL set of the batch plan of
@@ -115,13 +151,9 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
             // (measured: 72 of 2304 differ by > 0.1 %, relMSE 2e-4, mean 0.06 % apart). An absolute
             // epsilon shifts every pixel instead (the Cornell box at 1e-4 was 2.6–3.4 % bright before
             // scale-aware offsets, README's Tests): the mean must agree to 0.1 % and relMSE stay below 1e-3.
-            let (relmse_max, mean_tol) = if mode == Mode::Uniform {
-                (1e-4, 1e-3)
-            } else {
-                (1e-3, 1e-3)
-            };
+            let (relmse_max, mean_tol) = if mode == Mode::Uniform { (1e-4, 1e-3) } else { (1e-3, 1e-3) };
             if c.relmse >= relmse_max || (c.mean_ratio - 1.0).abs() >= mean_tol {
-                keep_images(&format!("scale-{mode:?}-{k:e}"), &[("scaled", &img), ("scale1", &one)]);
+                keep_images(&format!("scale-{mode:?}-{k:e}"), &[("scaled", &img), ("scale1", &one.img)]);
                 failures.push(format!(
                     "{mode:?} at scale {k}: relMSE {:.3e} (at most {relmse_max:e}), mean ratio {:.5} (within {mean_tol:e} of 1)",
                     c.relmse, c.mean_ratio
@@ -131,21 +163,12 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
         // Nine orders of magnitude apart, 1e-4 and 1e5 agree with each other as closely as
         // uniform sampling does with scale 1: whatever ReSTIR's flipped choices were, they do not
         // depend on the scale.
-        let c = compare(
-            &extremes[1],
-            &extremes[2],
-            &CompareOptions {
-                flip: false,
-                ..Default::default()
-            },
-        )
-        .unwrap();
-        eprintln!(
-            "{mode:?} ×1e-4 against ×1e5: relMSE {:.2e}, mean ratio {:.6}",
-            c.relmse, c.mean_ratio
-        );
-        if c.relmse >= 1e-4 {
-            failures.push(format!("{mode:?}: scales 1e-4 and 1e5 differ: relMSE {:.3e} (mean ratio {:.5})", c.relmse, c.mean_ratio));
+        if let [.., (1e-4, a), (1e5, b)] = extremes.as_slice() {
+            let c = compare(a, b, &CompareOptions { flip: false, ..Default::default() }).unwrap();
+            eprintln!("{mode:?} ×1e-4 against ×1e5: relMSE {:.2e}, mean ratio {:.6}", c.relmse, c.mean_ratio);
+            if c.relmse >= 1e-4 {
+                failures.push(format!("{mode:?}: scales 1e-4 and 1e5 differ: relMSE {:.3e} (mean ratio {:.5})", c.relmse, c.mean_ratio));
+            }
         }
     }
     assert!(failures.is_empty(), "{}", failures.join("; "));
@@ -173,6 +196,106 @@ fn a_far_away_triangle_leaves_the_image_as_it_is() {
     // The same paths (a path reaching the far copy is rare: it subtends ~1e-10 sr); tolerances
     // as for a rescaled scene above.
     assert!(c.relmse < 1e-5 && (c.mean_ratio - 1.0).abs() < 1e-4, "relMSE {:.3e}, mean ratio {:.6} against the box alone", c.relmse, c.mean_ratio);
+}
+
+/// For a failure's message: the path tracer's image at scale k against scale 1 with paths cut at
+/// 1, 2, 3 bounces, so a device's failure says whether camera rays and their next-event rays
+/// already differ (1) or only later bounces do.
+fn first_differing_bounce(k: f32, base: &RenderSettings) -> String {
+    for bounces in 1..=3 {
+        let cut = RenderSettings { max_bounces: bounces, ..base.clone() };
+        let c = compare(&render_scaled(k, &cut), &render_scaled(1.0, &cut), &CompareOptions { flip: false, ..Default::default() }).unwrap();
+        if c.relmse >= 1e-5 {
+            return format!("paths cut at {bounces} bounce(s) already differ: relMSE {:.3e}, mean ratio {:.6}", c.relmse, c.mean_ratio);
+        }
+    }
+    "paths cut at 3 bounces agree: only longer paths differ".into()
+}
+
+/// The photon paths traced at scale k against scale 1's, path by path: the same seed traces the
+/// same paths, so each path's VPLs (in slot order, which for one path is bounce order: one
+/// invocation traces it) must be where scale 1's are, times k (within 1e-4 of the box), with the
+/// same flux per path (flux × P / k², within 1e-4 relative: the set is normalised by 1/P and an
+/// emitter's power grows with its area, k²). Paths are compared by index since indirect VPLs take
+/// their slots from an atomic counter, in whatever order a GPU's invocations reach it; only the
+/// paths both traced are compared. Rounding moves a few (lavapipe: 12 of 3114 samples and paths
+/// at 1e-4, one VPL 2.6e-4 off, a path that grazed an edge); an absolute epsilon moves every path's VPLs
+/// (an offset of 1e-4 units is the whole box at 1e-4). At most 5 % may differ. Ok: what was
+/// compared; Err: the failure.
+fn photon_path_differences(k: f32, scaled: &VplRender, one: &VplRender) -> Result<String, String> {
+    use std::collections::BTreeMap;
+    let by_path = |v: &[GpuVpl]| {
+        let mut m: BTreeMap<(u32, u32), Vec<GpuVpl>> = BTreeMap::new();
+        for x in v {
+            m.entry((x.kind, x.path)).or_default().push(*x);
+        }
+        m
+    };
+    // Indirect VPLs are normalised by 1/P, direct ones by 1/N_d (the same at every scale).
+    let indirect = |v: &GpuVpl| v.kind == restir_vpl::gpu_types::VPL_INDIRECT;
+    let per_path = |v: &GpuVpl, paths: u64| if indirect(v) { paths as f32 } else { 1.0 };
+    let differs = |a: &GpuVpl, b: &GpuVpl| {
+        let moved = (0..3).any(|i| (a.position[i] / k - b.position[i]).abs() > 1e-4 * 0.56);
+        let (fa, fb) = (per_path(a, scaled.paths) / (k * k), per_path(b, one.paths));
+        let flux = (0..3).any(|i| (a.flux[i] * fa - b.flux[i] * fb).abs() > 1e-4 * (b.flux[i] * fb).abs());
+        moved || flux
+    };
+    // A path's VPL within 1e-3 of the box of the one before it: a ray that hit the surface it
+    // left (self-intersection) leaves such a pair.
+    let repeats = |m: &BTreeMap<(u32, u32), Vec<GpuVpl>>, k: f32| {
+        m.values()
+            .flat_map(|v| v.windows(2))
+            .filter(|w| (0..3).map(|i| ((w[1].position[i] - w[0].position[i]) / k).powi(2)).sum::<f32>().sqrt() < 1e-3 * 0.56)
+            .count()
+    };
+    // A path's VPLs, for a failure's message: position / k, 4 digits.
+    let path_text = |v: &[GpuVpl], k: f32| v.iter().map(|x| format!("({:.4} {:.4} {:.4})", x.position[0] / k, x.position[1] / k, x.position[2] / k)).collect::<Vec<_>>().join(" ");
+    let (paths_one, paths_scaled) = (by_path(&one.vpls), by_path(&scaled.vpls));
+    let last = one.paths.min(scaled.paths);
+    let (mut compared, mut differing, mut first, mut shown) = (0usize, 0usize, None, Vec::new());
+    for (key, b) in &paths_one {
+        // Direct VPLs (kinds 0, 1) are numbered by sample; indirect ones by path, up to P.
+        if key.0 == restir_vpl::gpu_types::VPL_INDIRECT && key.1 as u64 >= last {
+            continue;
+        }
+        compared += 1;
+        let empty = Vec::new();
+        let a = paths_scaled.get(key).unwrap_or(&empty);
+        let at = (0..a.len().max(b.len())).find(|&i| i >= a.len() || i >= b.len() || differs(&a[i], &b[i]));
+        if let Some(i) = at {
+            differing += 1;
+            if key.0 == restir_vpl::gpu_types::VPL_INDIRECT && shown.len() < 3 {
+                shown.push(format!("path {}: {} | scale 1: {}", key.1, path_text(a, k), path_text(b, 1.0)));
+            }
+            if first.is_none() {
+                let how = match (a.get(i), b.get(i)) {
+                    (Some(x), Some(y)) => format!(
+                        "VPL {i}: position / k {:?} against {:?}, flux × P / k² {:?} against {:?}",
+                        x.position.map(|c| c / k),
+                        y.position,
+                        x.flux.map(|c| c * per_path(x, scaled.paths) / (k * k)),
+                        y.flux.map(|c| c * per_path(y, one.paths))
+                    ),
+                    _ => format!("{} VPLs against {}", a.len(), b.len()),
+                };
+                first = Some(format!("first: kind {} path {}, {how}", key.0, key.1));
+            }
+        }
+    }
+    let said = format!(
+        "photon paths: {} at scale {k}, {} at scale 1; {differing} of the {compared} samples and paths both traced differ{}; VPLs within 1e-3 of the box of the one before: {} at scale {k}, {} at scale 1{}",
+        scaled.paths,
+        one.paths,
+        first.map(|f| format!(" ({f})")).unwrap_or_default(),
+        repeats(&paths_scaled, k),
+        repeats(&paths_one, 1.0),
+        shown.iter().map(|p| format!("\n    {p}")).collect::<String>()
+    );
+    if compared == 0 || differing * 20 > compared {
+        Err(format!("{said}: more than 5 %"))
+    } else {
+        Ok(said)
+    }
 }
 
 /// The scale-1 Cornell camera.
