@@ -539,20 +539,31 @@ pub fn modes_report(sections: &[ModesSection], frames: u32, device: &str, comman
     s
 }
 
+/// Milliseconds to about three significant digits: lavapipe's frames take 100 ms, a GPU's 0.2 ms,
+/// which one decimal showed as "0.2" and "0.0" (an H100's table at stop 45).
+fn ms_text(ms: f64) -> String {
+    match ms.abs() {
+        m if m >= 100.0 => format!("{ms:.0}"),
+        m if m >= 10.0 => format!("{ms:.1}"),
+        m if m >= 1.0 => format!("{ms:.2}"),
+        _ => format!("{ms:.3}"),
+    }
+}
+
 /// Markdown table of [`modes`]: one row per mode and size.
 pub fn modes_markdown(rows: &[ModeBench]) -> String {
     let mut s = String::from(
         "| size | camera | mode | GPU ms / frame | × uniform | rays / pixel | per pass (GPU ms) |\n|---|---|---|---:|---:|---:|---|\n",
     );
     for r in rows {
-        let passes: Vec<String> = r.pass_ms.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect();
+        let passes: Vec<String> = r.pass_ms.iter().map(|(n, ms)| format!("{n} {}", ms_text(*ms))).collect();
         s += &format!(
-            "| {}×{} | {} | {} | {:.1} | {:.2} | {:.2} | {} |\n",
+            "| {}×{} | {} | {} | {} | {:.2} | {:.2} | {} |\n",
             r.width,
             r.height,
             if r.moving { "moving" } else { "still" },
             r.label,
-            r.gpu_ms_per_frame,
+            ms_text(r.gpu_ms_per_frame),
             r.ratio_to_uniform,
             r.rays_per_pixel_total,
             passes.join(", ")
@@ -564,6 +575,12 @@ pub fn modes_markdown(rows: &[ModeBench]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn milliseconds_keep_three_significant_digits() {
+        let texts: Vec<String> = [158.4, 56.04, 3.456, 0.2414, 0.0042, 0.0].into_iter().map(ms_text).collect();
+        assert_eq!(texts, ["158", "56.0", "3.46", "0.241", "0.004", "0.000"]);
+    }
 
     /// Every timed frame moves: it differs from the one before (the first from the warm-up at the
     /// path's start), also past the path's last keyframe, and stays on the path.
