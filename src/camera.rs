@@ -81,6 +81,32 @@ impl Camera {
     pub fn same_view(&self, other: &Camera) -> bool {
         self.position == other.position && self.forward == other.forward && self.up == other.up && self.yfov == other.yfov
     }
+
+    /// Whether any of the box `lo`..`hi` may be in view at width / height `aspect`: false only
+    /// when all its corners lie behind the camera or beyond one side of the view (the window's
+    /// hint that the scene has left the screen). Conservative: a box near a corner of the view
+    /// but outside it can count as seen, never the reverse.
+    pub fn sees_box(&self, lo: Vec3, hi: Vec3, aspect: f32) -> bool {
+        let tan_y = (0.5 * self.yfov).tan();
+        let tan_x = tan_y * aspect.max(0.0);
+        let corners = (0..8).map(|i| {
+            let c = Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            let d = c - self.position;
+            (d.dot(self.right), d.dot(self.up), d.dot(self.forward))
+        });
+        let outside: [fn((f32, f32, f32), f32, f32) -> bool; 5] = [
+            |(_, _, z), _, _| z <= 0.0,
+            |(x, _, z), tx, _| x > z * tx,
+            |(x, _, z), tx, _| -x > z * tx,
+            |(_, y, z), _, ty| y > z * ty,
+            |(_, y, z), _, ty| -y > z * ty,
+        ];
+        !outside.iter().any(|out| corners.clone().all(|c| out(c, tan_x, tan_y)))
+    }
 }
 
 /// `v` scaled to unit length, also where its squared length overflows or underflows f32; `None`
@@ -452,6 +478,30 @@ mod tests {
 
     fn cam() -> Camera {
         Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 0.7, "test")
+    }
+
+    #[test]
+    fn a_box_is_seen_unless_wholly_behind_or_beside_the_view() {
+        // cam(): at (0, 1, 5) looking down -Z, 0.7 rad vertical.
+        let c = cam();
+        let unit = |at: Vec3| (at - Vec3::splat(0.5), at + Vec3::splat(0.5));
+        let seen = |at: Vec3| {
+            let (lo, hi) = unit(at);
+            c.sees_box(lo, hi, 1.0)
+        };
+        assert!(seen(Vec3::new(0.0, 1.0, 0.0)), "straight ahead");
+        assert!(seen(Vec3::new(0.0, 1.0, 5.0)), "around the camera");
+        assert!(!seen(Vec3::new(0.0, 1.0, 10.0)), "behind");
+        assert!(!seen(Vec3::new(20.0, 1.0, 0.0)), "far right");
+        assert!(!seen(Vec3::new(-20.0, 1.0, 0.0)), "far left");
+        assert!(!seen(Vec3::new(0.0, 20.0, 0.0)), "far above");
+        assert!(!seen(Vec3::new(0.0, -20.0, 0.0)), "far below");
+        // 5 units ahead the view is 2 tan(0.35) 5 = 3.65 wide: a box 2 units right shows at 1:1
+        // and shows more at 3:1.
+        assert!(seen(Vec3::new(2.0, 1.0, 0.0)));
+        assert!(!seen(Vec3::new(3.0, 1.0, 0.0)));
+        let (lo, hi) = unit(Vec3::new(3.0, 1.0, 0.0));
+        assert!(c.sees_box(lo, hi, 3.0));
     }
 
     #[test]

@@ -292,20 +292,26 @@ fn a_validation_error_fails_a_window_closed_by_its_user() {
 /// Presses an idempotent key until the title shows `want`: under load (the suite runs its tests
 /// side by side on two cores) the first key event can reach the window before it has focus.
 fn press_until_title(display: &str, wid: &str, key: &str, want: &str, timeout: Duration) -> String {
+    press_until(display, wid, key, &format!("show '{want}'"), timeout, |title| title.contains(want))
+}
+
+/// [`press_until_title`] for any condition `done` on the title (`what` names it in the failure).
+fn press_until(display: &str, wid: &str, key: &str, what: &str, timeout: Duration, done: impl Fn(&str) -> bool) -> String {
     let start = Instant::now();
     loop {
         xdotool(display, &["windowfocus", "--sync", wid]);
         xdotool(display, &["key", key]);
         let poll = Instant::now();
+        let mut title = String::new();
         while poll.elapsed() < Duration::from_secs(5) {
             let o = xdotool(display, &["search", "--name", "restir-vpl", "getwindowname"]);
-            let title = String::from_utf8_lossy(&o.stdout).trim().to_string();
-            if title.contains(want) {
+            title = String::from_utf8_lossy(&o.stdout).trim().to_string();
+            if done(&title) {
                 return title;
             }
             std::thread::sleep(Duration::from_millis(100));
         }
-        assert!(start.elapsed() < timeout, "key {key} never made the title show '{want}' within {timeout:?}");
+        assert!(start.elapsed() < timeout, "key {key} never made the title {what} within {timeout:?}; last: '{title}'");
     }
 }
 
@@ -349,6 +355,13 @@ fn keys_change_mode_move_camera_resize_and_quit() {
     let s = write_until(d, &wid, &out, Duration::from_secs(30), "the resize never reached the renderer", |s| s["settings"]["width"] == 160);
     assert_eq!(s["settings"]["height"], 120);
     assert!(read_exr(&out.join("final.exr")).unwrap().pixels.len() == 160 * 120);
+    // A camera that looks away from the box (I loads it): the title says the scene is out of view
+    // and how to come back (a black view looked like a fault); Home brings the scene back and the
+    // hint goes.
+    let away = r#"{"keyframes": [{"frame": 0, "eye": [0.278, 0.273, -0.8], "target": [0.278, 0.273, -2.0], "fov": 40}]}"#;
+    std::fs::write(out.join("camera.json"), away).unwrap();
+    press_until_title(d, &wid, "i", "the scene is out of view (Home: back to its camera)", Duration::from_secs(60));
+    press_until(d, &wid, "Home", "drop the out-of-view hint", Duration::from_secs(60), |t| t.contains("restir ·") && !t.contains("out of view"));
     // Esc: exit 0, with nothing from the validation layer on stderr.
     let start = Instant::now();
     let mut pressed: Option<Instant> = None;

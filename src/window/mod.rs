@@ -132,6 +132,9 @@ struct Running {
     /// The message as last seen by the title and since when: a message is cleared after
     /// `MESSAGE_SECONDS` (a "camera loaded" or "wrote …" stayed for hundreds of frames).
     message_since: (String, Instant),
+    /// The fly camera sees none of the scene's bounds (the title then says how to come back: a
+    /// view that flew out of the scene is black and looked like a fault).
+    out_of_view: bool,
     window: Arc<Window>,
 }
 
@@ -251,6 +254,7 @@ impl App {
             smoothed_ms: 0.0,
             message,
             message_since: (String::new(), Instant::now()),
+            out_of_view: false,
             window,
         })
     }
@@ -590,12 +594,16 @@ impl App {
             Some(p) => Some(p.at(r.path_frame(r.frames))),
             None => {
                 r.controller.update(r.clock.elapsed().as_secs_f64());
-                Some(r.controller.camera())
+                let camera = r.controller.camera();
+                let (lo, hi) = r.scene.info.bounds;
+                let s = r.renderer.settings();
+                r.out_of_view = !camera.sees_box(lo, hi, s.width as f32 / s.height.max(1) as f32);
+                Some(camera)
             }
         };
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
-            let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen() };
+            let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen(), out_of_view: r.out_of_view };
             let edit = r.ui.prepare(&r.window, &r.renderer, &info, r.overlay)?;
             if r.ui.has_texture_deltas() {
                 // Every earlier overlay that may sample those textures has finished: waits with the
@@ -703,7 +711,10 @@ impl Running {
         } else {
             String::new()
         };
-        let message = if self.message.is_empty() || self.message.starts_with("frozen") { String::new() } else { format!(" · {}", self.message) };
+        let mut message = if self.message.is_empty() || self.message.starts_with("frozen") { String::new() } else { format!(" · {}", self.message) };
+        if self.out_of_view {
+            message += &format!(" · {}", overlay::OUT_OF_VIEW);
+        }
         self.window.set_title(&format!(
             "restir-vpl — {} · {timing} · {accumulated} frame{} accumulated{view}{message}",
             s.mode.name(),

@@ -87,7 +87,12 @@ pub struct WindowInfo<'a> {
     pub ms_per_frame: f64,
     pub message: &'a str,
     pub frozen: bool,
+    /// The fly camera sees none of the scene: the message line says so when it has nothing else.
+    pub out_of_view: bool,
 }
+
+/// What the title and the overlay say while the fly camera sees none of the scene.
+pub const OUT_OF_VIEW: &str = "the scene is out of view (Home: back to its camera)";
 
 /// A settings edit made with the overlay's widgets: applied by the window like a key's.
 pub struct Edit {
@@ -385,7 +390,10 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
     let (was_roomy, generation) = ui.ctx().data_mut(|d| d.get_temp::<(bool, u32)>(key)).unwrap_or((roomy, 0));
     let generation = if was_roomy == roomy { generation } else { generation + 1 };
     ui.ctx().data_mut(|d| d.insert_temp(key, (roomy, generation)));
-    egui::Window::new("restir-vpl")
+    // Folded, the panel is its title bar alone: the out-of-view hint shows there too (the id keeps
+    // the panel's state across the title's change).
+    let title = if info.out_of_view { "out of view: Home" } else { "restir-vpl" };
+    egui::Window::new(title)
         .id(key.with(generation))
         .default_pos([8.0, 8.0])
         .default_open(roomy)
@@ -421,7 +429,8 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
         // Always one line, empty or not, and truncated (the title has it whole): a message that
         // came and went moved every row below it, so a click meant for one setting landed on
         // the one above (spatial passes → boiling filter).
-        ui.add(egui::Label::new(egui::RichText::new(info.message).color(egui::Color32::LIGHT_YELLOW)).truncate());
+        let message = if info.message.is_empty() && info.out_of_view { OUT_OF_VIEW } else { info.message };
+        ui.add(egui::Label::new(egui::RichText::new(message).color(egui::Color32::LIGHT_YELLOW)).truncate());
         if let Some(r) = reference {
             ui.separator();
             if (s.width, s.height) != (r.image.width, r.image.height) {
