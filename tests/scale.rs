@@ -127,8 +127,9 @@ fn vpl_modes_render_the_same_image_at_any_scale() {
             if scaled.paths != one.paths {
                 // Rounding changed a few paths' lengths, so the VPL count after the first batch of
                 // paths, and with it the batch plan (photon_emit.rs, BatchPlan), traced another
-                // number of paths: another, equally valid VPL set (its 1/P differs, its slots
-                // differ), whose image differs as an independent sample does. Seen on an H100 at
+                // number of paths: another, equally valid VPL set (its 1/P differs, and the paths
+                // whose lengths changed moved every later slot), whose image differs as an
+                // independent sample does. Seen on an H100 at
                 // 1e5 (stop 45: every indirect VPL 1.06 % brighter after the normalisation, the
                 // ratio of the path counts, relMSE 0.29 against scale 1 as between two
                 // independent images); lavapipe traces the same count at every scale.
@@ -216,9 +217,9 @@ fn first_differing_bounce(k: f32, base: &RenderSettings) -> String {
 /// same paths, so each path's VPLs (in slot order, which for one path is bounce order: one
 /// invocation traces it) must be where scale 1's are, times k (within 1e-4 of the box), with the
 /// same flux per path (flux × P / k², within 1e-4 relative: the set is normalised by 1/P and an
-/// emitter's power grows with its area, k²). Paths are compared by index since indirect VPLs take
-/// their slots from an atomic counter, in whatever order a GPU's invocations reach it; only the
-/// paths both traced are compared. Rounding moves a few (lavapipe: 12 of 3114 samples and paths
+/// emitter's power grows with its area, k²). Paths are compared by index, not slot: the indirect
+/// VPLs are sorted by path (photon_emit.rs, sort_indirect), so one path with another number of
+/// VPLs moves every later path's slots; only the paths both traced are compared. Rounding moves a few (lavapipe: 12 of 3114 samples and paths
 /// at 1e-4, one VPL 2.6e-4 off, a path that grazed an edge); an absolute epsilon moves every path's VPLs
 /// (an offset of 1e-4 units is the whole box at 1e-4). At most 5 % may differ. Ok: what was
 /// compared; Err: the failure.
