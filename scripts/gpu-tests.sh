@@ -52,6 +52,8 @@ for t in "${tests[@]}"; do
     grep -h "SKIPPED" "$OUT/t_$t.txt" | sort -u | head -10
     grep -E "^test .*FAILED$|did not finish" "$OUT/t_$t.txt" | head -10
     grep -A4 "panicked at" "$OUT/t_$t.txt" | head -30
+    # A test binary killed by a signal prints the faulting thread's stack first (tests/common).
+    grep -A40 "^\*\*\* SIG" "$OUT/t_$t.txt" | grep -E "^\*\*\*|^ +[0-9]+: " | head -40
 done
 # Images that failing checks kept (tests/common keep_images), in one file: the device tool brings
 # back at most 8 files, two folders down.
