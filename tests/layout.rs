@@ -848,8 +848,8 @@ fn only_the_grid_variants_hold_the_grid_code() {
 
 /// triangle_normal's cross product is `precise` (shaders/lib/sampling.glsl) in every module that
 /// holds the function: its 6 multiplications and 3 subtractions carry NoContraction, so no
-/// driver contracts them into FMAs, whose rounding residue where the exact component is 0 (a wall
-/// parallel to an axis) flipped onb()'s frame with the scene's scale on an H100. Guards against
+/// driver contracts them into FMAs, whose rounding residue where the exact component is 0 (a
+/// triangle with an edge along an axis) flipped onb()'s frame with the scene's scale on an H100. Guards against
 /// the `cross()` builtin (one extended instruction: no decoration reaches inside it) coming back.
 #[test]
 fn triangle_normal_forbids_contraction_everywhere() {

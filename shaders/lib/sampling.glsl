@@ -103,8 +103,8 @@ float triangle_offset_scale(vec3 p0, vec3 p1, vec3 p2) {
 // degenerate triangle.
 //
 // The cross product is written out and `precise` (SPIR-V NoContraction): a component whose two
-// products are equal, as for a wall parallel to an axis (the Cornell box's right wall's second
-// triangle: its normal's z), is then exactly 0 on every device. A compiler free to contract
+// products are equal, as for a triangle with an edge along an axis (the Cornell box's red wall's
+// second triangle has one along z: its normal's z), is then exactly 0 on every device. A compiler free to contract
 // a*b - c*d into fma(a, b, -c*d) (NVIDIA's does; lavapipe's did not) leaves the product's rounding
 // error instead, +-1e-8, whose sign follows the scene's scale; onb() turns its frame by 180
 // degrees with the sign of n.z, so the same random numbers then sent a bounce elsewhere: on an
