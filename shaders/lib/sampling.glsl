@@ -105,8 +105,8 @@ float triangle_offset_scale(vec3 p0, vec3 p1, vec3 p2) {
 // The cross product is written out and `precise` (SPIR-V NoContraction): a component whose two
 // products are equal, as for a triangle with an edge along an axis (the Cornell box's red wall's
 // second triangle has one along z: its normal's z), is then exactly 0 on every device. A compiler free to contract
-// a*b - c*d into fma(a, b, -c*d) (NVIDIA's does; lavapipe's did not) leaves the product's rounding
-// error instead, +-1e-8, whose sign follows the scene's scale; onb() turns its frame by 180
+// a*b - c*d into fma(a, b, -c*d) (NVIDIA's, by what it did; lavapipe's does not) leaves the product's rounding
+// error instead, up to +-2e-10 there, whose sign follows the scene's scale; onb() turns its frame by 180
 // degrees with the sign of n.z, so the same random numbers then sent a bounce elsewhere: on an
 // H100 a tenth of the photon paths and some path-tracer paths differed between the Cornell box at
 // scale 1 and at 1e-2 or 1e5 (tests/scale.rs; both images right, with other noise).
