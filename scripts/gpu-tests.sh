@@ -34,7 +34,7 @@ for t in "${tests[@]}"; do
     xz -dc ".dev/tests/$t.xz" > "/tmp/gpu-tb/$t" && chmod +x "/tmp/gpu-tb/$t" || { summary+=("$t: not packed"); continue; }
     el "$t"
     args=(); [ -n "${THREADS:-}" ] && args=(--test-threads="$THREADS")
-    ( cd /work/main && exec setsid env RESTIR_VPL_GPU_TIMEOUT_S=30 RESTIR_VPL_TEST_ARTIFACTS="$OUT/artifacts" "/tmp/gpu-tb/$t" "${args[@]}" > "$OUT/t_$t.txt" 2>&1 ) & pid=$!
+    ( cd /work/main && exec setsid env RESTIR_VPL_GPU_TIMEOUT_S=30 RESTIR_VPL_CRASH_STACKS=1 RESTIR_VPL_TEST_ARTIFACTS="$OUT/artifacts" "/tmp/gpu-tb/$t" "${args[@]}" > "$OUT/t_$t.txt" 2>&1 ) & pid=$!
     # stress renders generated scenes in every mode under the layer: 89 s on lavapipe, still
     # running at 40 s on an H100 (stop 42), so it gets at least 150 s.
     limit=$HANG_S; [ "$t" = stress ] && [ "$limit" -lt 150 ] && limit=150

@@ -417,7 +417,8 @@ fn pixels_without_history_keep_the_still_sampling() {
 /// `--fuse-passes`: restir_initial_temporal and restir_spatial_shade run the same functions with
 /// the same random streams as the passes they replace, so along a camera path (reprojection,
 /// disocclusions, two spatial passes, visibility rays, the boiling filter) the displayed frame is
-/// bit-identical with the passes apart. The last frame's plan shows which ran.
+/// the same as with the passes apart: bit-identical on a CPU device (lavapipe), within rounding on
+/// a GPU (below). The last frame's plan shows which ran.
 #[test]
 fn fused_passes_render_the_same_frames_as_passes_apart() {
     let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
@@ -430,6 +431,7 @@ fn fused_passes_render_the_same_frames_as_passes_apart() {
         RestirSettings { bias: Bias::Unbiased, initial_visibility: Some(true), ..Default::default() },
         RestirSettings { bias: Bias::Unbiased, boiling_filter: 0.2, spatial_passes: 3, ..Default::default() },
     ];
+    let cpu_device = ctx.properties.device_type == ash::vk::PhysicalDeviceType::CPU;
     let mut failures = Vec::new();
     for restir in cases {
         let frames = |fuse_passes: bool| {
@@ -452,19 +454,22 @@ fn fused_passes_render_the_same_frames_as_passes_apart() {
         assert_eq!((&plan_fused.restir_initial, &plan_fused.vpl_shade), (&Step::Skip("fused into restir_initial_temporal"), &Step::Skip("fused into restir_spatial_shade")));
         assert_eq!(plan_fused.restir_spatial == Step::Run, restir.spatial_passes > 1, "{restir:?}");
         for (f, (a, b)) in apart.iter().zip(&fused).enumerate() {
+            assert_all_finite(a, "frame with the passes apart");
             assert_all_finite(b, "fused frame");
             assert!(a.iter().any(|p| p[0] > 0.0), "frame {f} is lit");
-            // Bit-identical on lavapipe. On an H100 (stop 45), with visibility in the targets,
-            // a tenth to a fifth of the pixels differ by 3e-7 to 5e-7 relative (2-4 ulps): the
-            // two pipelines' compiled arithmetic rounds differently (a contraction to an FMA, an
-            // approximate division), which SPIR-V allows, and ReSTIR carries it from frame to
-            // frame. A difference in logic (a reservoir that keeps another VPL, a missed
-            // neighbour) changes pixels by percents: 1e-5 relative (80 ulps) parts the two.
+            // Bit-identical on lavapipe, and required there. On an H100 (stop 45), with visibility
+            // in the targets, a tenth to a fifth of the pixels differed by 3e-7 to 5e-7 relative
+            // (4-8 ulps): the two pipelines' compiled arithmetic rounds differently (a
+            // contraction to an FMA, an approximate division), which SPIR-V allows, and ReSTIR
+            // carries it from frame to frame. A difference in logic (a reservoir that keeps
+            // another VPL, a missed neighbour) changes pixels by percents: on a GPU 1e-5 relative
+            // (84-168 ulps) parts the two, differences below 1e-6 of the frame's brightest value
+            // not counted (a black pixel against a nearly black one is a relative difference of 1).
             let (n, worst) = pixel_differences(a, b);
             if n > 0 {
                 eprintln!("{restir:?}: frame {f}: {n} of {} pixels differ, by at most {worst:.2e} relative", a.len());
             }
-            if worst > 1e-5 {
+            if if cpu_device { n > 0 } else { worst > 1e-5 } {
                 // The frames are kept.
                 let name = format!("fused-{:?}-vis{}-frame{f}", restir.bias, restir.initial_visibility.unwrap_or(false));
                 let img = |pixels: &Vec<[f32; 3]>| restir_vpl::output::RgbImage { width: base.width, height: base.height, pixels: pixels.clone() };
@@ -478,17 +483,19 @@ fn fused_passes_render_the_same_frames_as_passes_apart() {
 }
 
 /// Pixels of `a` and `b` that differ, and the largest difference relative to the brighter of the
-/// two (per channel).
+/// two (per channel), differences below 1e-6 of the brightest value in either frame left out of
+/// the largest.
 fn pixel_differences(a: &[[f32; 3]], b: &[[f32; 3]]) -> (usize, f32) {
+    let brightest = a.iter().chain(b).flat_map(|p| p.iter()).fold(0.0f32, |m, v| m.max(v.abs()));
     let mut n = 0;
     let mut worst = 0.0f32;
     for (p, q) in a.iter().zip(b) {
         if p != q {
             n += 1;
             for c in 0..3 {
-                let m = p[c].abs().max(q[c].abs());
-                if m > 0.0 {
-                    worst = worst.max((p[c] - q[c]).abs() / m);
+                let (d, m) = ((p[c] - q[c]).abs(), p[c].abs().max(q[c].abs()));
+                if m > 0.0 && d > 1e-6 * brightest {
+                    worst = worst.max(d / m);
                 }
             }
         }

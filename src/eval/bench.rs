@@ -539,14 +539,15 @@ pub fn modes_report(sections: &[ModesSection], frames: u32, device: &str, comman
     s
 }
 
-/// Milliseconds to about three significant digits: lavapipe's frames take 100 ms, a GPU's 0.2 ms,
+/// Milliseconds to three significant digits (two below 0.01 ms): lavapipe's frames take 100 ms, a GPU's 0.2 ms,
 /// which one decimal showed as "0.2" and "0.0" (an H100's table at stop 45).
 fn ms_text(ms: f64) -> String {
     match ms.abs() {
         m if m >= 100.0 => format!("{ms:.0}"),
         m if m >= 10.0 => format!("{ms:.1}"),
         m if m >= 1.0 => format!("{ms:.2}"),
-        _ => format!("{ms:.3}"),
+        m if m >= 0.1 => format!("{ms:.3}"),
+        _ => format!("{ms:.4}"),
     }
 }
 
@@ -579,7 +580,7 @@ mod tests {
     #[test]
     fn milliseconds_keep_three_significant_digits() {
         let texts: Vec<String> = [158.4, 56.04, 3.456, 0.2414, 0.0042, 0.0].into_iter().map(ms_text).collect();
-        assert_eq!(texts, ["158", "56.0", "3.46", "0.241", "0.004", "0.000"]);
+        assert_eq!(texts, ["158", "56.0", "3.46", "0.241", "0.0042", "0.0000"]);
     }
 
     /// Every timed frame moves: it differs from the one before (the first from the warm-up at the

@@ -64,33 +64,47 @@ pub fn context_tracing(tracing: Option<restir_vpl::vk::context::Tracing>) -> Arc
     Arc::new(Context::new(&ContextOptions { validate: validate(), tracing, ..Default::default() }).expect("a device that traces rays"))
 }
 
-/// A test binary killed by SIGSEGV, SIGBUS, SIGILL or SIGFPE first prints the faulting thread's
-/// name and stack (with the symbol tables `scripts/gpu-pack.sh` keeps): on an H100 a test binary
-/// once died of a segmentation fault with nothing else printed, its tests still running. The
-/// handler runs once (then the default action kills the process as before) and allocates, which
-/// a handler should not; it is a last word, not a recovery.
+/// With `RESTIR_VPL_CRASH_STACKS=1` (what `scripts/gpu-tests.sh` sets), a test binary killed by
+/// SIGSEGV, SIGBUS, SIGILL or SIGFPE first prints the faulting thread's name and stack to the
+/// process's stderr (past the harness's capture, which a dying process never prints; with the
+/// symbol tables `scripts/gpu-pack.sh` keeps): on an H100 a test binary once died of a
+/// segmentation fault with nothing else printed. Off by default: the handler replaces the one
+/// the Rust runtime uses to name a stack overflow (which this one, on the overflowed stack,
+/// cannot report), and it allocates and takes locks, which a handler should not (an alarm kills
+/// the process if that hangs). It runs once, then the default action kills as before.
 fn report_crashes() {
     static ONCE: std::sync::Once = std::sync::Once::new();
+    fn write_stderr(text: &str) {
+        // SAFETY: write(2) on fd 2 with a valid buffer is async-signal-safe.
+        unsafe { libc::write(2, text.as_ptr().cast(), text.len()) };
+    }
     extern "C" fn on_fault(sig: libc::c_int) {
+        // SAFETY: alarm is async-signal-safe; SIGALRM's default action ends the process if the
+        // stack below never comes (a fault inside malloc leaves its lock held).
+        unsafe { libc::alarm(10) };
         let name = match sig {
             libc::SIGSEGV => "SIGSEGV",
             libc::SIGBUS => "SIGBUS",
             libc::SIGILL => "SIGILL",
             _ => "SIGFPE",
         };
+        write_stderr(&format!("\n*** {name}"));
         let thread = std::thread::current().name().unwrap_or("(unnamed)").to_string();
         let trace = std::backtrace::Backtrace::force_capture();
-        eprintln!("\n*** {name} in thread {thread}; its stack:\n{trace}");
+        write_stderr(&format!(" in thread {thread}; its stack:\n{trace}\n"));
         // SA_RESETHAND restored the default action, which this kills with (as a fault repeated
         // on return would).
         // SAFETY: raising a signal is async-signal-safe.
         unsafe { libc::raise(sig) };
     }
+    if std::env::var("RESTIR_VPL_CRASH_STACKS").as_deref() != Ok("1") {
+        return;
+    }
     ONCE.call_once(|| {
         for sig in [libc::SIGSEGV, libc::SIGBUS, libc::SIGILL, libc::SIGFPE] {
             // SAFETY: a zeroed sigaction with a handler, an empty mask and these flags is valid.
             // Not SA_ONSTACK: symbolising the stack overflows the small alternate stack the Rust
-            // runtime gives each thread (and a stack overflow's own fault then kills as before).
+            // runtime gives each thread.
             unsafe {
                 let mut action: libc::sigaction = std::mem::zeroed();
                 action.sa_sigaction = on_fault as extern "C" fn(libc::c_int) as libc::sighandler_t;
