@@ -390,9 +390,11 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
     let (was_roomy, generation) = ui.ctx().data_mut(|d| d.get_temp::<(bool, u32)>(key)).unwrap_or((roomy, 0));
     let generation = if was_roomy == roomy { generation } else { generation + 1 };
     ui.ctx().data_mut(|d| d.insert_temp(key, (roomy, generation)));
-    // Folded, the panel is its title bar alone: the out-of-view hint shows there too (the id keeps
-    // the panel's state across the title's change).
-    let title = if info.out_of_view { "out of view: Home" } else { "restir-vpl" };
+    // Folded, the panel is its title bar alone: the out-of-view hint shows there too, short enough
+    // for the narrowest panel ("out of view: Home" was cut to "out of view: H…" at 320 px; the
+    // window's title and the open panel say what Home does). The id keeps the panel's state
+    // across the title's change.
+    let title = if info.out_of_view { "out of view" } else { "restir-vpl" };
     egui::Window::new(title)
         .id(key.with(generation))
         .default_pos([8.0, 8.0])
