@@ -928,16 +928,12 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             }
             let size = (width.unwrap_or(1280), height.unwrap_or(720));
             let mut sections = Vec::new();
+            let mut device_name = String::new();
             for path in &scenes {
-                let triangles = restir_vpl::scene::Scene::load(path)?.triangle_count();
-                let mut rows = Vec::new();
-                for moving in [false, true] {
-                    eprintln!("bench --modes: {} {}", path.display(), if moving { "moving" } else { "still" });
-                    rows.extend(restir_vpl::eval::bench::modes(path, &[size], 100_000, 100_000, *frames, *device, moving, false, false)?);
-                }
-                sections.push(restir_vpl::eval::bench::ModesSection { scene: path.clone(), triangles, rows });
+                let (section, name) = restir_vpl::eval::bench::modes_section(path, size, *frames, *device)?;
+                sections.push(section);
+                device_name = name;
             }
-            let device_name = bench_context(*device)?.report.name.clone();
             let args: Vec<String> = std::env::args().skip(1).collect();
             let command = format!("restir-vpl {}", args.join(" "));
             let body = restir_vpl::eval::bench::modes_report(&sections, *frames, &device_name, &command);

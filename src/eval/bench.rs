@@ -251,13 +251,30 @@ pub fn modes(
     fusion: bool,
     grid: bool,
 ) -> Result<Vec<ModeBench>> {
+    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
+    modes_on(&ctx, &scene, scene_path, sizes, direct, indirect, frames, moving, fusion, grid)
+}
+
+/// [`modes`] on a context with the scene already uploaded.
+#[allow(clippy::too_many_arguments)]
+fn modes_on(
+    ctx: &Arc<Context>,
+    scene: &Arc<SceneGpu>,
+    scene_path: &std::path::Path,
+    sizes: &[(u32, u32)],
+    direct: u32,
+    indirect: u32,
+    frames: u32,
+    moving: bool,
+    fusion: bool,
+    grid: bool,
+) -> Result<Vec<ModeBench>> {
     let path = if moving {
         let file = crate::eval::motion::path_file(scene_path);
         Some(CameraPath::load(&file).context("bench --modes --moving follows the camera path committed beside the scene")?)
     } else {
         None
     };
-    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
     let mut out = Vec::new();
     for &(width, height) in sizes {
         let base = RenderSettings {
@@ -270,11 +287,11 @@ pub fn modes(
             ..Default::default()
         };
         if fusion {
-            out.extend(time_settings(&ctx, &scene, &fusion_cases(&base), frames, path.as_ref())?);
+            out.extend(time_settings(ctx, scene, &fusion_cases(&base), frames, path.as_ref())?);
         } else if grid {
-            out.extend(time_settings(&ctx, &scene, &grid_cases(&base), frames, path.as_ref())?);
+            out.extend(time_settings(ctx, scene, &grid_cases(&base), frames, path.as_ref())?);
         } else {
-            out.extend(time_modes(&ctx, &scene, &base, &mode_cases(), frames, path.as_ref())?);
+            out.extend(time_modes(ctx, scene, &base, &mode_cases(), frames, path.as_ref())?);
         }
     }
     Ok(out)
@@ -486,6 +503,20 @@ pub struct ModesSection {
     pub scene: std::path::PathBuf,
     pub triangles: usize,
     pub rows: Vec<ModeBench>,
+}
+
+/// One scene's section of `bench --modes --out` at `size`, the still camera's rows then the moving
+/// one's, from one load and upload of the scene; and the device's name.
+pub fn modes_section(scene_path: &std::path::Path, size: (u32, u32), frames: u32, device: Option<usize>) -> Result<(ModesSection, String)> {
+    let loaded = Scene::load(scene_path)?;
+    let (ctx, scene) = upload(&loaded, device)?;
+    let mut rows = Vec::new();
+    for moving in [false, true] {
+        eprintln!("bench --modes: {} {}", scene_path.display(), if moving { "moving" } else { "still" });
+        rows.extend(modes_on(&ctx, &scene, scene_path, &[size], 100_000, 100_000, frames, moving, false, false)?);
+    }
+    let section = ModesSection { scene: scene_path.to_path_buf(), triangles: loaded.triangle_count(), rows };
+    Ok((section, ctx.report.name.clone()))
 }
 
 /// The body of `bench --modes --out`'s `modes.md`: how it was made (command, sampling, device,
