@@ -407,15 +407,15 @@ pub fn grey_white(d: &Decoded) -> f32 {
 /// The RGBA8 preview of a decoded image as the inspector shows it, and for a `grey` image the
 /// value it shows white ([`grey_white`]).
 pub fn thumbnail(d: &Decoded) -> (Vec<u8>, Option<f32>) {
-    let max = d.image.pixels.iter().flatten().filter(|c| c.is_finite()).fold(0f32, |m, &c| m.max(c.abs())).max(1e-30);
     let grey = (d.look == "grey").then(|| grey_white(d));
-    let white = grey.unwrap_or(max);
+    // Other looks scale by the largest finite magnitude (grey_white already read every value).
+    let white = grey.unwrap_or_else(|| d.image.pixels.iter().flatten().filter(|c| c.is_finite()).fold(0f32, |m, &c| m.max(c.abs())).max(1e-30));
     let map = |c: f32| -> f32 {
         if !c.is_finite() {
             return 0.0;
         }
         match d.look {
-            "signed" => 0.5 + 0.5 * (c / max),
+            "signed" => 0.5 + 0.5 * (c / white),
             "grey" => c / white,
             "ids" => c,
             _ => {
