@@ -28,11 +28,16 @@ fn scaled_cornell(k: f32) -> Scene {
 
 /// Renders `frames` frames of the scene scaled by `k`, seen from the scale-1 camera scaled by `k`.
 fn render_scaled(k: f32, base: &RenderSettings) -> RgbImage {
+    render_scaled_with(k, base).0
+}
+
+/// [`render_scaled`] and the renderer that made it.
+fn render_scaled_with(k: f32, base: &RenderSettings) -> (RgbImage, Renderer) {
     // The scale-1 scene's camera, scaled (the scaled scene's own camera node is scaled too, but
     // this does not depend on how the loader reads a scaled camera transform).
     let c = render_camera(base);
     let camera = restir_vpl::camera::Camera::look_at(c.position * k, (c.position + c.forward) * k, c.up, c.yfov, "test");
-    render_mean(&scaled_cornell(k), &camera, base, &format!("scale {k}"))
+    render_mean_with(&scaled_cornell(k), &camera, base, &format!("scale {k}"))
 }
 
 /// What a VPL mode rendered at one scale: the mean image, the photon paths traced (the
@@ -45,9 +50,7 @@ struct VplRender {
 
 /// [`render_scaled`] for a VPL mode, with its photon paths and VPL set.
 fn render_scaled_vpls(k: f32, base: &RenderSettings) -> VplRender {
-    let c = render_camera(base);
-    let camera = restir_vpl::camera::Camera::look_at(c.position * k, (c.position + c.forward) * k, c.up, c.yfov, "test");
-    let (img, r) = render_mean_with(&scaled_cornell(k), &camera, base, &format!("scale {k}"));
+    let (img, r) = render_scaled_with(k, base);
     VplRender { img, paths: r.photon_stats().expect("a VPL mode traces photons").paths, vpls: r.read_vpls().unwrap().unwrap_or_default() }
 }
 
