@@ -1504,18 +1504,8 @@ impl Renderer {
     pub fn read_variance(&self) -> Result<Vec<[f32; 3]>> {
         let n = self.state.accumulated as f64;
         let pixels = self.parts.targets.pixels() as usize;
-        let s: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_sum, pixels)?;
-        let c: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_compensation, pixels)?;
-        let q: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_squares, pixels)?;
-        Ok((0..pixels)
-            .map(|i| {
-                let mut out = [0f32; 3];
-                for ch in 0..3 {
-                    out[ch] = sample_variance(s[i][ch], c[i][ch], q[i][ch], n);
-                }
-                out
-            })
-            .collect())
+        let d: Vec<[f32; 4]> = read_back_records(&self.ctx, &self.parts.targets.accum_deviations, pixels)?;
+        Ok(d.iter().map(|p| [0, 1, 2].map(|ch| sample_variance(p[ch], n))).collect())
     }
 
     /// The buffer the tonemap pass writes the preview to (RGBA8, sRGB-encoded, row 0 at the top,
@@ -1562,19 +1552,18 @@ impl Drop for FrameSlot {
     }
 }
 
-/// The unbiased sample variance of n accumulated samples from the accumulation's running sum
-/// (`sum` + Neumaier `compensation`) and sum of squares, as the accumulate pass keeps them in
-/// floats. Samples beyond ~1.8e19 (a scene with absurdly bright lights) overflow the sum of squares
-/// to +Inf on the GPU; the variance is then at least `f32::MAX` and reported as that, so no Inf or
-/// NaN reaches a variance image or a reference's noise estimate.
-pub fn sample_variance(sum: f32, compensation: f32, squares: f32, n: f64) -> f32 {
+/// The unbiased sample variance of n accumulated samples from the accumulation's mean squared
+/// deviation (Welford's M2 / n), as the accumulate pass keeps it in floats. Deviations beyond
+/// ~1.8e19 (a scene with absurdly bright lights) overflow it to +Inf on the GPU; the variance is
+/// then at least `f32::MAX` and reported as that, so no Inf or NaN reaches a variance image or a
+/// reference's noise estimate.
+pub fn sample_variance(mean_squared_deviation: f32, n: f64) -> f32 {
     if !(n > 1.0) {
         return 0.0;
     }
-    let mean = (sum as f64 + compensation as f64) / n;
-    let var = (squares as f64 - n * mean * mean) / (n - 1.0);
+    let var = mean_squared_deviation as f64 * n / (n - 1.0);
     if var.is_nan() || var >= f32::MAX as f64 {
-        f32::MAX // Inf - Inf when the sum overflowed too
+        f32::MAX
     } else {
         var.max(0.0) as f32
     }
@@ -1585,16 +1574,15 @@ mod tests {
     use super::sample_variance;
 
     #[test]
-    fn sample_variance_is_exact_on_small_sums_and_saturates_instead_of_overflowing() {
-        // Samples 1, 2, 3, 4: mean 2.5, unbiased variance 5/3.
-        let v = sample_variance(10.0, 0.0, 30.0, 4.0);
+    fn sample_variance_is_exact_and_saturates_instead_of_overflowing() {
+        // Samples 1, 2, 3, 4: mean 2.5, M2 / n = 5/4, unbiased variance 5/3.
+        let v = sample_variance(1.25, 4.0);
         assert!((v - 5.0 / 3.0).abs() < 1e-6, "{v}");
-        assert_eq!(sample_variance(7.0, 0.0, 49.0, 1.0), 0.0, "one sample has no variance estimate");
-        // Samples of 1e20 overflow the float sum of squares on the GPU (1e40 > f32::MAX).
-        assert_eq!(sample_variance(2e20, 0.0, f32::INFINITY, 2.0), f32::MAX);
-        // ... and when the sum overflowed as well, Inf - Inf must not become NaN.
-        assert_eq!(sample_variance(f32::INFINITY, 0.0, f32::INFINITY, 2.0), f32::MAX);
+        assert_eq!(sample_variance(7.0, 1.0), 0.0, "one sample has no variance estimate");
+        // Deviations of 1e20 overflow the float M2 on the GPU (1e40 > f32::MAX).
+        assert_eq!(sample_variance(f32::INFINITY, 2.0), f32::MAX);
+        assert_eq!(sample_variance(f32::NAN, 2.0), f32::MAX);
         // Rounding never makes it negative.
-        assert_eq!(sample_variance(3.0, 0.0, 4.5 - 1e-7, 2.0), 0.0);
+        assert_eq!(sample_variance(-1e-9, 2.0), 0.0);
     }
 }

@@ -46,7 +46,7 @@ fn merged_partial_references_equal_one_long_run() {
         assert_eq!(meta.frames, 5);
         assert_eq!(meta.ranges, vec![(0, 5)]);
         // Frame k draws the same random numbers in every run, so the merge is the long run's mean
-        // up to float rounding of the running sums (f32, compensated) and of the weighted mean.
+        // up to float rounding of the running means (f32, compensated) and of the weighted mean.
         let d = max_rel_diff(&merged.pixels, &whole.image.pixels);
         assert!(d < 1e-4, "{mode:?}: merged 2 + 3 frames differ from 5 frames by {d}");
         // Two estimates of the same noise from the same 5 frames: the parts' sample variances

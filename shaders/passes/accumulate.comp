@@ -1,6 +1,8 @@
-// accumulate: running mean of the per-frame samples. The sum is kept with Neumaier (compensated)
-// summation, so the mean stays accurate to float precision over 100k+ frames; a sum of squares
-// gives per-pixel variance. Non-finite samples are counted and replaced by zero.
+// accumulate: running mean of the per-frame samples, kept as a mean (never a sum: a sum of n
+// frames overflows floats when the mean times n passes 3.4e38, where a mean is finite whenever its
+// samples are), with Neumaier compensation so that it stays accurate to float precision over 100k+
+// frames; and Welford's mean squared deviation for the per-pixel variance. Non-finite samples are
+// counted and replaced by zero.
 #version 460
 #extension GL_GOOGLE_include_directive : require
 
@@ -12,11 +14,13 @@ layout(local_size_x = 64) in;
 #include "../lib/dispatch.glsl"
 
 layout(set = 1, binding = 0, std430) readonly buffer SampleBuffer { vec4 samples[]; };
-layout(set = 1, binding = 1, std430) buffer SumBuffer { vec4 sums[]; };
+layout(set = 1, binding = 1, std430) buffer RunningMeanBuffer { vec4 running_means[]; };
 layout(set = 1, binding = 2, std430) buffer CompensationBuffer { vec4 compensation[]; };
-layout(set = 1, binding = 3, std430) buffer SquareBuffer { vec4 squares[]; };
+layout(set = 1, binding = 3, std430) buffer DeviationBuffer { vec4 deviations[]; };
 layout(set = 1, binding = 4, std430) writeonly buffer MeanBuffer { vec4 means[]; };
 layout(set = 1, binding = 5, std430) buffer StatsBuffer { uint nonfinite_samples; };
+
+const float FLOAT_MAX = 3.4028235e38;
 
 layout(push_constant) uniform Push {
     uint reset;
@@ -32,26 +36,37 @@ void main() {
         atomicAdd(nonfinite_samples, 1u);
         x = vec3(0.0);
     }
-    precise vec3 s;
+    // The mean is m + c (running mean and its compensation); d2 is the mean squared deviation
+    // M2 / n of the n samples so far.
+    precise vec3 m;
     precise vec3 c;
-    vec3 q;
+    vec3 d2;
     if (reset != 0u) {
-        s = x;
+        m = x;
         c = vec3(0.0);
-        q = x * x;
+        d2 = vec3(0.0);
     } else {
-        s = sums[i].rgb;
+        float n = float(max(frame.accumulated_frames, 2u));
+        m = running_means[i].rgb;
         c = compensation[i].rgb;
-        q = squares[i].rgb + x * x;
-        precise vec3 t = s + x;
-        precise vec3 big_s = (s - t) + x;
-        precise vec3 big_x = (x - t) + s;
-        c += mix(big_x, big_s, greaterThanEqual(abs(s), abs(x)));
-        s = t;
+        vec3 old_mean = clamp(m + c, vec3(-FLOAT_MAX), vec3(FLOAT_MAX));
+        // The step (x - mean) / n, as x/n - mean/n: each term is finite, so is their difference.
+        precise vec3 step = x / n - old_mean / n;
+        precise vec3 t = m + step;
+        precise vec3 big_m = (m - t) + step;
+        precise vec3 big_step = (step - t) + m;
+        c += mix(big_step, big_m, greaterThanEqual(abs(m), abs(step)));
+        m = t;
+        // Welford: M2 += (x - old mean)(x - new mean), kept divided by n. A product past 3.4e38
+        // (deviations beyond ~1.8e19) is +Inf, which the host reports as the largest float; it is
+        // never Inf - Inf here.
+        vec3 p = (x - old_mean) * (x - clamp(m + c, vec3(-FLOAT_MAX), vec3(FLOAT_MAX)));
+        d2 = deviations[i].rgb * ((n - 1.0) / n) + p / n;
     }
-    sums[i] = vec4(s, 0.0);
+    running_means[i] = vec4(m, 0.0);
     compensation[i] = vec4(c, 0.0);
-    squares[i] = vec4(q, 0.0);
-    precise vec3 total = s + c;
-    means[i] = vec4(total / float(max(frame.accumulated_frames, 1u)), 1.0);
+    deviations[i] = vec4(d2, 0.0);
+    // Rounding could in principle carry a mean of samples at the largest float past it (here and
+    // in old_mean above).
+    means[i] = vec4(clamp(m + c, vec3(-FLOAT_MAX), vec3(FLOAT_MAX)), 1.0);
 }

@@ -1,5 +1,5 @@
-//! `accumulate`: compensated running mean (and sum of squares) of the per-frame samples; counts
-//! non-finite samples (shaders/passes/accumulate.comp).
+//! `accumulate`: compensated running mean (and mean squared deviation) of the per-frame samples;
+//! counts non-finite samples (shaders/passes/accumulate.comp).
 
 use std::sync::Arc;
 
@@ -27,14 +27,14 @@ impl AccumulatePass {
     pub const DESC: PassDesc = PassDesc::new(Self::NAME, shaders::PASSES_ACCUMULATE, [64, 1, 1])
         .with_push(Push::LAYOUT)
         .with_bindings(&[
-            storage(0, "samples"), storage(1, "sums"), storage(2, "compensation"),
-            storage(3, "squares"), storage(4, "means"), storage(5, "nonfinite_samples"),
+            storage(0, "samples"), storage(1, "running_means"), storage(2, "compensation"),
+            storage(3, "deviations"), storage(4, "means"), storage(5, "nonfinite_samples"),
         ]);
 
     pub fn new(ctx: &Arc<Context>, scene_layout: vk::DescriptorSetLayout, targets: &FrameTargets) -> Result<Self> {
         let t = targets;
         let buffers =
-            [(0, &t.samples), (1, &t.accum_sum), (2, &t.accum_compensation), (3, &t.accum_squares), (4, &t.mean), (5, &t.stats)];
+            [(0, &t.samples), (1, &t.accum_running_mean), (2, &t.accum_compensation), (3, &t.accum_deviations), (4, &t.mean), (5, &t.stats)];
         Ok(Self { pipeline: Self::DESC.pipeline(ctx, scene_layout).buffers(&buffers).build()? })
     }
 

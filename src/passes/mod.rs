@@ -147,10 +147,12 @@ pub struct FrameTargets {
     pub surface_half_records: u32,
     /// This frame's radiance estimate per pixel (vec4).
     pub samples: Buffer,
-    pub accum_sum: Buffer,
+    /// The accumulation's state (vec4 each): its running mean, that mean's Neumaier compensation,
+    /// and Welford's mean squared deviation (M2 / n).
+    pub accum_running_mean: Buffer,
     pub accum_compensation: Buffer,
-    pub accum_squares: Buffer,
-    /// Running mean (vec4).
+    pub accum_deviations: Buffer,
+    /// Running mean (vec4): the accumulated image.
     pub mean: Buffer,
     /// RGBA8 sRGB preview.
     pub preview: Buffer,
@@ -209,9 +211,9 @@ impl FrameTargets {
                 .with_texel_view(RECORD_TEXELS)?,
             surface_half_records: u32::try_from(half_records).expect("bounded by max_pixels"),
             samples: make("frame.samples", n * 16)?,
-            accum_sum: make("accumulate.sum", n * 16)?,
+            accum_running_mean: make("accumulate.running_mean", n * 16)?,
             accum_compensation: make("accumulate.compensation", n * 16)?,
-            accum_squares: make("accumulate.squares", n * 16)?,
+            accum_deviations: make("accumulate.deviations", n * 16)?,
             mean: make("accumulate.mean", n * 16)?,
             preview: make("tonemap.preview", n * 4)?,
             ray_counter: make("frame.ray_counter", 4 * RAY_SLOTS.len() as u64)?,
