@@ -289,6 +289,28 @@ fn a_validation_error_fails_a_window_closed_by_its_user() {
     assert!(stdout.contains("4 frames of 32x32") && stdout.contains("summary.json"), "the summary is printed before the error: {stdout}");
 }
 
+/// A window destroyed by another program (xdotool's windowclose is XDestroyWindow, as `xkill -id`
+/// does) ends the run as a close does: exit 0 with a warning saying so. It panicked inside winit
+/// (exit 101): the next frame asked the gone window its size.
+#[test]
+fn a_window_destroyed_by_another_program_closes_cleanly() {
+    let Some(x) = xvfb() else { return };
+    let d = x.display.as_str();
+    let args = [&SCENE_ARGS[..], &["--mode", "restir", "--width", "64", "--height", "48"]].concat();
+    let (mut child, wid, _) = start_window(d, &args, &[], "restir ·");
+    xdotool(d, &["windowclose", &wid]);
+    let start = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        assert!(start.elapsed() < Duration::from_secs(60), "the program did not exit after its window was destroyed");
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "exit status {}: {err}", o.status);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(err.contains("the window was destroyed by another program"), "it says why it closed: {err}");
+}
+
 /// Presses an idempotent key until the title shows `want`: under load (the suite runs its tests
 /// side by side on two cores) the first key event can reach the window before it has focus.
 fn press_until_title(display: &str, wid: &str, key: &str, want: &str, timeout: Duration) -> String {

@@ -116,6 +116,13 @@ struct Running {
     /// Frozen: show the last frame again with the overlay redrawn (an input changed what it shows).
     refresh: bool,
     overlay: bool,
+    /// The window's inner size as its last `Resized` event gave it: asking the window instead is
+    /// a round trip to the X server that winit unwraps, so it panicked once another program had
+    /// destroyed the window.
+    size: winit::dpi::PhysicalSize<u32>,
+    /// Another program destroyed the window: no event is handled after that (a redraw already
+    /// queued would ask the gone window its size through egui).
+    destroyed: bool,
     resize_pending: bool,
     looking: bool,
     cursor: Option<(f64, f64)>,
@@ -160,9 +167,8 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        if let Some(r) = &self.running {
-            let size = r.window.inner_size();
-            let drawing = (!r.frozen() || r.step || r.refresh) && size.width > 0 && size.height > 0;
+        if let Some(r) = self.running.as_ref().filter(|r| !r.destroyed) {
+            let drawing = (!r.frozen() || r.step || r.refresh) && r.size.width > 0 && r.size.height > 0;
             if drawing {
                 event_loop.set_control_flow(ControlFlow::Poll);
                 r.window.request_redraw();
@@ -244,6 +250,8 @@ impl App {
             step: false,
             refresh: false,
             overlay: true,
+            size,
+            destroyed: false,
             resize_pending: false,
             looking: false,
             cursor: None,
@@ -261,6 +269,17 @@ impl App {
 
     fn handle(&mut self, event_loop: &ActiveEventLoop, event: WindowEvent) -> Result<()> {
         let Some(r) = self.running.as_mut() else { return Ok(()) };
+        if r.destroyed {
+            return Ok(());
+        }
+        // Another program destroyed the window (xdotool windowclose, xkill -id): the run ends as
+        // if it had been closed.
+        if matches!(event, WindowEvent::Destroyed) {
+            log::warn!("the window was destroyed by another program; closing");
+            r.destroyed = true;
+            event_loop.exit();
+            return Ok(());
+        }
         if r.frozen() && !matches!(event, WindowEvent::RedrawRequested) {
             // No frame redraws the overlay and the title while frozen: an input (a key, the
             // pointer over the panel, a resize) shows the last frame again with them redrawn.
@@ -288,7 +307,10 @@ impl App {
                 r.controller.release_all(r.clock.elapsed().as_secs_f64());
                 r.looking = false;
             }
-            WindowEvent::Resized(_) => r.resize_pending = true,
+            WindowEvent::Resized(size) => {
+                r.size = size;
+                r.resize_pending = true;
+            }
             WindowEvent::KeyboardInput { event, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
                 let down = event.state == ElementState::Pressed;
@@ -541,7 +563,7 @@ impl App {
         let dt = (now - r.last_frame).as_secs_f32();
         r.last_frame = now;
         if r.resize_pending {
-            let size = r.window.inner_size();
+            let size = r.size;
             if size.width == 0 || size.height == 0 {
                 return Ok(()); // minimised: nothing to show until restored
             }
