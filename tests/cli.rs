@@ -840,3 +840,23 @@ fn a_frame_that_never_finishes_ends_in_an_error_naming_the_passes() {
     assert!(!o.status.success() && err.contains("hang_after:no_such_pass") && !err.contains("panicked"), "{err}");
     assert!(!err.contains("VUID"), "objects left alive: {err}");
 }
+
+/// The window's `--reference` must be of the window's scene: a reference written by `reference`
+/// names its scene, and one of another scene is refused before any window opens, naming the flag
+/// and both scenes (it was shown beside the render with RMSE and FLIP as if comparable). A
+/// reference of the same scene is accepted as far as that check goes (no display here: the run then
+/// fails on the window, not on the reference).
+#[test]
+fn the_window_refuses_a_reference_of_another_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let exr = dir.path().join("cornell.exr");
+    let o = run(&["reference", "--mode", "pt", "--width", "16", "--height", "12", "--frames", "2", "--out", exr.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = bin().args(["--scene", "scenes/living_room.gltf", "--reference", exr.to_str().unwrap()]).env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY").output().unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success() && !err.contains("panicked"), "{err}");
+    assert!(err.contains("--reference") && err.contains("another scene") && err.contains("cornell_box.gltf") && err.contains("living_room.gltf"), "{err}");
+    let o = bin().args(["--reference", exr.to_str().unwrap()]).env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY").output().unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success() && !err.contains("another scene") && !err.contains("panicked"), "{err}");
+}

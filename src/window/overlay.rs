@@ -36,8 +36,39 @@ pub struct Reference {
 }
 
 impl Reference {
-    pub fn load(path: &std::path::Path) -> Result<Self> {
-        let image = crate::output::read_exr(path).with_context(|| format!("--reference {}", path.display()))?;
+    /// Reads `path` for a window rendering `settings`. A reference written by `restir-vpl
+    /// reference` names its scene (a hash of the file): one of another scene is refused, since its
+    /// RMSE and FLIP would read as a comparison; one of another camera is shown with a warning
+    /// (the fly camera may go there). A plain EXR carries neither and is taken as given.
+    pub fn load(path: &std::path::Path, settings: &RenderSettings) -> Result<Self> {
+        use crate::eval::reference::{file_hash, ReferenceMeta, META_ATTRIBUTE};
+        use exr::meta::attribute::AttributeValue;
+        let (image, meta) =
+            crate::output::read_exr_with_attribute(path, META_ATTRIBUTE).with_context(|| format!("--reference {}", path.display()))?;
+        if let Some(AttributeValue::Text(text)) = meta {
+            let meta: ReferenceMeta = serde_json::from_str(&text.to_string())
+                .with_context(|| format!("--reference {}: bad '{META_ATTRIBUTE}' header attribute", path.display()))?;
+            let config: serde_json::Value = serde_json::from_str(&meta.config)
+                .with_context(|| format!("--reference {}: bad settings in its '{META_ATTRIBUTE}' header attribute", path.display()))?;
+            let ours = file_hash(&settings.scene)?;
+            let theirs = config.get("scene_hash").and_then(|h| h.as_str()).unwrap_or("none");
+            anyhow::ensure!(
+                theirs == ours,
+                "--reference {}: rendered from another scene ({}, scene hash {theirs}) than --scene {} (hash {ours}); \
+                 its RMSE and FLIP would compare two scenes",
+                path.display(),
+                meta.scene,
+                settings.scene.display()
+            );
+            let camera = serde_json::to_value(settings.camera)?;
+            if config.get("camera").unwrap_or(&serde_json::Value::Null) != &camera {
+                log::warn!(
+                    "--reference {}: rendered from another camera than this window's first view; its RMSE and FLIP \
+                     compare two views until the fly camera stands where the reference's did",
+                    path.display()
+                );
+            }
+        }
         Ok(Self { image, split: 0.5, texture: None, rmse: None, flip: None, measured_at: None, last_rmse: None, last_flip: None })
     }
 
