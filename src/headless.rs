@@ -109,6 +109,36 @@ pub fn snapshot_file(frame: u32) -> String {
     format!("accum_{frame:04}.exr")
 }
 
+/// Refuses a run whose outputs would overwrite one of its inputs: the scene, the files it reads
+/// (`scene_files`: external buffers and images) or the camera path, under `--out`'s fixed names
+/// (and `--save-every`'s snapshots) or as `--dump-vpls`. Checked once the scene is loaded, before
+/// any frame (`RenderSettings::validate` checks `--dump-vpls` against the scene and the camera path
+/// before anything is read).
+pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std::path::PathBuf]) -> Result<()> {
+    let mut inputs: Vec<(&str, &std::path::Path)> = vec![("the scene", settings.scene.as_path())];
+    inputs.extend(scene_files.iter().map(|p| ("a file the scene reads", p.as_path())));
+    inputs.extend(settings.camera_path.as_deref().map(|p| ("the --camera-path", p)));
+    for (what, input) in inputs {
+        if let Some(dir) = &settings.out_dir {
+            let name = input.file_name().and_then(|n| n.to_str()).unwrap_or_default();
+            let written = RUN_OUTPUT_FILES.contains(&name) || (settings.save_every > 0 && name.starts_with("accum_") && name.ends_with(".exr"));
+            if written && crate::output::same_file(&dir.join(name), input) {
+                anyhow::bail!(
+                    "--out {}: the run writes {name} there, which is {what} ({}); choose another --out",
+                    dir.display(),
+                    input.display()
+                );
+            }
+        }
+        if let Some(ply) = &settings.dump_vpls {
+            if crate::output::same_file(ply, input) {
+                anyhow::bail!("--dump-vpls {}: is also {what}; write the VPLs to another file", ply.display());
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Loads and uploads the scene, renders `settings.frames` frames and writes the outputs to
 /// `settings.out_dir` (when set).
 pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
@@ -127,6 +157,7 @@ pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
 
 /// As [`run`], with a context and an uploaded scene the caller already has.
 pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettings, start: Instant) -> Result<RunOutput> {
+    check_outputs_spare_inputs(settings, &scene.info.files)?;
     let mut warnings = scene.info.warnings.clone();
     if !scene.has_emitters() {
         let w = format!("{}: the scene has no emitters; the image will be black", scene.info.path.display());

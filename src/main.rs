@@ -782,6 +782,9 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         }
         // Outputs checked before the run, not when it ends.
         if let Some(path) = json {
+            if restir_vpl::output::same_file(path, scene) {
+                bail!("--json {}: is also the --scene; write the report to another file", path.display());
+            }
             restir_vpl::output::prepare_output_file(path).map_err(|e| anyhow::anyhow!("--json {}: {e:#}", path.display()))?;
         }
         if *curves || *motion || *radius || *scaling {

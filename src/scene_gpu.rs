@@ -61,6 +61,8 @@ pub struct SceneInfo {
     pub camera: Option<(Mat4, f32)>,
     /// Loader warnings.
     pub warnings: Vec<String>,
+    /// The files besides `path` the scene was read from ([`crate::scene::Scene::files`]).
+    pub files: Vec<std::path::PathBuf>,
 }
 
 pub struct SceneGpu {
@@ -266,6 +268,7 @@ impl SceneGpu {
             surface_area: scene.surface_area(),
             camera: scene.camera.as_ref().map(|c| (c.transform, c.yfov)),
             warnings: scene.warnings.clone(),
+            files: scene.files.clone(),
         };
         Ok(Self {
             info,

@@ -860,3 +860,59 @@ fn the_window_refuses_a_reference_of_another_scene() {
     let err = stderr(&o);
     assert!(!o.status.success() && !err.contains("another scene") && !err.contains("panicked"), "{err}");
 }
+
+/// A run whose outputs would overwrite one of its own inputs is refused before any frame, naming
+/// the flag and the input (found by a review helper; each of these wrote over its input with exit
+/// 0): `--out` over the camera path (a path file named summary.json) and over a texture the scene
+/// reads (named final.png), `--dump-vpls` over the scene's external buffer, and `bench --json`
+/// over `--scene`. The input is left as it was.
+#[test]
+fn outputs_that_would_overwrite_an_input_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // One textured triangle: positions, UVs and indices in tri.bin, the texture in final.png.
+    let mut bin = Vec::new();
+    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        bin.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    for uv in [[0f32, 0.0], [1.0, 0.0], [0.0, 1.0]] {
+        bin.extend(uv.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    bin.extend([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()));
+    std::fs::write(d.join("tri.bin"), &bin).unwrap();
+    let png = restir_vpl::output::encode_png(1, 1, &[200, 200, 200, 255]).unwrap();
+    std::fs::write(d.join("final.png"), &png).unwrap();
+    let scene = write(
+        d,
+        "scene.gltf",
+        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"tri.bin","byteLength":68}],
+        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":24},{"buffer":0,"byteOffset":60,"byteLength":6}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                     {"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"},
+                     {"bufferView":2,"componentType":5123,"count":3,"type":"SCALAR"}],
+        "images":[{"uri":"final.png"}],"textures":[{"source":0}],
+        "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"emissiveFactor":[1,1,1]}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
+        "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
+    );
+    let path_json = d.join("paths").join("summary.json");
+    std::fs::create_dir_all(path_json.parent().unwrap()).unwrap();
+    std::fs::write(&path_json, r#"{"keyframes":[{"frame":0,"eye":[0.3,0.3,1],"target":[0.3,0.3,0],"up":[0,1,0],"fov":50}]}"#).unwrap();
+    let path = path_json.to_str().unwrap();
+    let small = ["--headless", "--mode", "ris", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "20", "--vpls-indirect", "20"];
+    let cam = ["--eye", "0.3,0.3,1", "--target", "0.3,0.3,0"];
+    let (paths_dir, buffer) = (d.join("paths").display().to_string(), d.join("tri.bin").display().to_string());
+    let out_over_path = [&small[..], &["--scene", &scene, "--camera-path", path, "--out", &paths_dir]].concat();
+    assert_fails(&out_over_path, &["--out", "summary.json", "the --camera-path"]);
+    let out_over_texture = [&small[..], &cam[..], &["--scene", &scene, "--out", d.to_str().unwrap()]].concat();
+    assert_fails(&out_over_texture, &["--out", "final.png", "a file the scene reads"]);
+    let ply_over_buffer = [&small[..], &cam[..], &["--scene", &scene, "--dump-vpls", &buffer]].concat();
+    assert_fails(&ply_over_buffer, &["--dump-vpls", "tri.bin", "a file the scene reads"]);
+    assert_fails(&["bench", "--scene", &scene, "--json", &scene, "--width", "8", "--height", "8", "--frames", "1"], &["--json", "--scene"]);
+    // The inputs are untouched, and the scene renders with another --out.
+    assert_eq!(std::fs::read(d.join("tri.bin")).unwrap(), bin);
+    assert_eq!(std::fs::read(d.join("final.png")).unwrap(), png);
+    assert!(std::fs::read_to_string(&path_json).unwrap().contains("keyframes"));
+    let ok = run(&[&small[..], &cam[..], &["--scene", &scene, "--out", d.join("out").to_str().unwrap()]].concat());
+    assert!(ok.status.success(), "{}", stderr(&ok));
+}

@@ -194,6 +194,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         point_lights,
         textures,
         warnings,
+        files: external_files(&doc, base_dir),
     };
     check_scene(scene).map_err(|e| {
         if unlabelled.is_empty() {
@@ -694,6 +695,24 @@ fn load_buffers(
             }
             Ok(data)
         })
+        .collect()
+}
+
+/// The files the document's buffers and images name (neither GLB chunks nor data URIs), as
+/// [`read_uri`] resolves them.
+fn external_files(doc: &Document, base_dir: Option<&Path>) -> Vec<std::path::PathBuf> {
+    let buffers = doc.buffers().filter_map(|b| match b.source() {
+        gltf::buffer::Source::Uri(uri) => Some(uri),
+        gltf::buffer::Source::Bin => None,
+    });
+    let images = doc.images().filter_map(|i| match i.source() {
+        gltf::image::Source::Uri { uri, .. } => Some(uri),
+        gltf::image::Source::View { .. } => None,
+    });
+    buffers
+        .chain(images)
+        .filter(|uri| !uri.starts_with("data:") && !has_scheme(uri))
+        .filter_map(|uri| Some(base_dir?.join(percent_decode(uri).ok()?)))
         .collect()
 }
 

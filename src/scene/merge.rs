@@ -82,6 +82,7 @@ mod tests {
             point_lights: vec![],
             textures: vec![],
             warnings: vec![],
+            files: vec![],
         }
     }
 

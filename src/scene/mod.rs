@@ -35,6 +35,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Non-fatal problems (unsupported features that were ignored).
     pub warnings: Vec<String>,
+    /// The files besides `path` the scene was read from (external buffers and images), so that a
+    /// run can refuse outputs that would overwrite them.
+    pub files: Vec<PathBuf>,
 }
 
 /// Triangle mesh in object space; all glTF primitives of one mesh concatenated.

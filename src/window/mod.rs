@@ -65,6 +65,7 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     settings.validate()?;
     let start = Instant::now();
     let scene = Scene::load(&settings.scene)?;
+    crate::headless::check_outputs_spare_inputs(&settings, &scene.files)?;
     let reference = opts.reference.as_deref().map(|p| overlay::Reference::load(p, &settings)).transpose()?;
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
     let event_loop = EventLoop::new().map_err(|e| NoDisplay(display_error_text(&e.to_string())))?;
