@@ -573,6 +573,7 @@ mod tests {
                 surface_area: 0.0,
                 camera: None,
                 warnings: Vec::new(),
+                files: Vec::new(),
             };
             let c = Camera::initial(&info, None);
             assert!(c.is_finite() && (c.forward.length() - 1.0).abs() < 1e-5, "{lo} {hi}: {c:?}");
