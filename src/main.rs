@@ -608,7 +608,7 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
         }
         _ => bail!("--eye and --target go together"),
     };
-    let validate = cli.validate || env_validate();
+    let validate = cli.validate || env_validate()?;
     Ok(RenderSettings {
         scene: cli.scene.clone(),
         mode: cli.mode,
@@ -1162,8 +1162,18 @@ fn check_counts(counts: &[(&str, Option<u32>)], checkpoints: Option<&[u32]>) -> 
 
 /// `RESTIR_VPL_VALIDATE=1`: the Khronos validation layer, as `--validate` asks for it (the only
 /// way for `bench` and `results`, which take no render flags).
-fn env_validate() -> bool {
-    std::env::var("RESTIR_VPL_VALIDATE").is_ok_and(|v| v == "1")
+/// Unset or empty, 0, false, no or off: off; 1, true, yes or on: on; anything else is refused by
+/// name (`true` was taken for off without a word).
+fn env_validate() -> Result<bool> {
+    match std::env::var("RESTIR_VPL_VALIDATE") {
+        Err(std::env::VarError::NotPresent) => Ok(false),
+        Err(std::env::VarError::NotUnicode(v)) => bail!("RESTIR_VPL_VALIDATE={v:?}: expected 1 or 0 (true/false, yes/no, on/off)"),
+        Ok(v) => match v.to_ascii_lowercase().as_str() {
+            "" | "0" | "false" | "no" | "off" => Ok(false),
+            "1" | "true" | "yes" | "on" => Ok(true),
+            _ => bail!("RESTIR_VPL_VALIDATE={v:?}: expected 1 or 0 (true/false, yes/no, on/off)"),
+        },
+    }
 }
 
 /// The context of the benchmarks that take one (under the validation layer with
@@ -1171,7 +1181,7 @@ fn env_validate() -> bool {
 /// primary-ray one make their own without it).
 fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk::Context>> {
     Ok(std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-        validate: env_validate(),
+        validate: env_validate()?,
         device_index: device,
         ..Default::default()
     })?))
@@ -1200,7 +1210,7 @@ fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::C
 
 fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> {
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
-        validate: opts.validate || env_validate(),
+        validate: opts.validate || env_validate()?,
         device_index: opts.device_index,
         ..Default::default()
     })?);

@@ -916,3 +916,25 @@ fn outputs_that_would_overwrite_an_input_are_refused() {
     let ok = run(&[&small[..], &cam[..], &["--scene", &scene, "--out", d.join("out").to_str().unwrap()]].concat());
     assert!(ok.status.success(), "{}", stderr(&ok));
 }
+
+/// `RESTIR_VPL_VALIDATE` takes 1/0, true/false, yes/no, on/off, and refuses anything else by name
+/// (`true` was silently off, and for `bench` and `results` the variable is the only switch).
+#[test]
+fn restir_vpl_validate_takes_the_usual_spellings_and_refuses_others() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let args = ["--headless", "--mode", "uniform", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "20", "--vpls-indirect", "20", "--out", out.to_str().unwrap()];
+    let o = bin().args(args).env("RESTIR_VPL_VALIDATE", "maybe").output().unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("RESTIR_VPL_VALIDATE=\"maybe\"") && !err.contains("panicked"), "{err}");
+    let spellings: &[(&str, bool)] = if validate() { &[("true", true), ("ON", true), ("off", false), ("", false)] } else { &[("off", false), ("", false)] };
+    for (value, on) in spellings {
+        let o = bin().args(args).env("RESTIR_VPL_VALIDATE", value).output().unwrap();
+        assert!(o.status.success(), "RESTIR_VPL_VALIDATE={value:?}: {}", stderr(&o));
+        let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        assert_eq!(s["validation_layer"], *on, "RESTIR_VPL_VALIDATE={value:?}");
+    }
+    if !validate() {
+        skip("no validation layer installed: RESTIR_VPL_VALIDATE=true not run (CI requires one)");
+    }
+}
