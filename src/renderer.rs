@@ -721,10 +721,13 @@ impl Renderer {
                     let spacing =
                         (area / (std::f64::consts::PI * vpl_count.max(1) as f64)).sqrt() as f32;
                     let r = multiple * spacing;
+                    let given = if settings.yuksel_spacings.is_some() { "" } else { " (the default)" };
                     anyhow::ensure!(
                         r <= crate::settings::MAX_YUKSEL_RADIUS,
-                        "--yuksel-spacings {multiple}: gives a Yuksel radius of {r:e} ({multiple} × the mean VPL spacing {spacing:e}), \
-                         over {:e} scene units",
+                        "--yuksel-spacings {multiple}{given}: gives a Yuksel radius of {r:e} ({multiple} × the mean VPL spacing {spacing:e}, \
+                         from {}'s surface area {area:e} over {vpl_count} VPLs), over {:e} scene units; check the scene's size, \
+                         or give --yuksel-radius",
+                        scene_gpu.info.path.display(),
                         crate::settings::MAX_YUKSEL_RADIUS
                     );
                     let r = if r > 0.0 && r.is_finite() { r } else { 1e-3 };
