@@ -692,6 +692,13 @@ impl App {
             self.change(&e.what, |s| *s = e.settings)?;
         }
         let r = self.running.as_mut().expect("called while running");
+        if r.frozen() && r.ui.repaint_soon() {
+            // A frame rendered while frozen (F3, or a resize's new targets) whose overlay egui
+            // wants drawn once more: a panel shown for the first time (a resize across 480×360
+            // makes a new one) is invisible on its first pass, so the frozen window showed no
+            // overlay at all until the pointer moved.
+            r.refresh = true;
+        }
         if self.opts.frames == Some(r.frames) {
             let displayed = r.displayed(self.opts.present_mode);
             let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, Vec::new(), Vec::new(), self.start, displayed)?;
