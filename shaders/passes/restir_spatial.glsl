@@ -28,7 +28,9 @@ struct SpatialReuse {
     // off screen in the previous frame, or a whole frame after a camera jump). A frame displayed
     // alone draws fewer neighbours where history is, but such a pixel, like a first frame, has only
     // its own candidates and its neighbours: it keeps the still count. Depends on the confidence
-    // alone, never on the samples.
+    // alone, never on the samples. The first spatial pass only: in a later one (--spatial-passes 2
+    // or more) a pixel's confidence already counts the neighbours it merged, so every pixel with a
+    // neighbour found takes `neighbours`.
     uint neighbours_without_history;
     float radius;
     float normal_threshold;

@@ -330,7 +330,9 @@ pub struct VplFrame {
     /// (`RenderSettings::moving_sampling`), not the settings'.
     pub moving: bool,
     /// The spatial neighbours of a pixel whose reservoir has no temporal history: the settings'
-    /// `spatial_neighbours` (in a moving frame more than `restir.spatial_neighbours`).
+    /// `spatial_neighbours` (in a moving frame more than `restir.spatial_neighbours`). Told apart
+    /// by the reservoir's confidence (1), so in the first spatial pass only: later passes read
+    /// merged confidences.
     pub neighbours_without_history: u32,
     /// The RIS candidates of a pixel without temporal history (the reprojection finds none, as
     /// `restir_temporal` decides): the settings' `candidates` in a moving frame (more than
