@@ -311,6 +311,22 @@ fn a_window_destroyed_by_another_program_closes_cleanly() {
     assert!(err.contains("the window was destroyed by another program"), "it says why it closed: {err}");
 }
 
+/// Closed (Esc) before `--frames N` ended the run: it says so and that nothing was written (it
+/// exited 0 without a word, and the user looked for the outputs).
+#[test]
+fn a_frames_run_closed_early_says_nothing_was_written() {
+    let Some(x) = xvfb() else { return };
+    let d = x.display.as_str();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let args = [&SCENE_ARGS[..], &["--mode", "restir", "--width", "64", "--height", "48", "--frames", "1000000", "--out", out.to_str().unwrap()]].concat();
+    let (child, wid, _) = start_window(d, &args, &[], "restir ·");
+    let o = quit(d, child, &wid);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("of --frames 1000000 frames: no outputs were written"), "{err}");
+    assert!(!out.join("final.exr").exists());
+}
+
 /// Presses an idempotent key until the title shows `want`: under load (the suite runs its tests
 /// side by side on two cores) the first key event can reach the window before it has focus.
 fn press_until_title(display: &str, wid: &str, key: &str, want: &str, timeout: Duration) -> String {

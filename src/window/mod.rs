@@ -186,6 +186,13 @@ impl ApplicationHandler for App {
             // checks it, after printing it): the frames in flight complete so that their
             // non-finite samples count, and it fails under validation as a headless run does.
             if self.error.is_none() && self.summary.is_none() {
+                if let Some(n) = self.opts.frames {
+                    // Closed before --frames ended the run: say so, since nothing is written.
+                    log::warn!(
+                        "closed after {} of --frames {n} frames: no outputs were written (Enter writes them at any frame)",
+                        r.frames
+                    );
+                }
                 if let Err(e) = r.renderer.complete_all().and_then(|_| r.ctx.ensure_clean_for(self.settings.validate)) {
                     self.error = Some(e.context("the window's run"));
                 }
