@@ -144,7 +144,7 @@ pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std:
 pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
     settings.validate()?;
     let start = Instant::now();
-    let scene = Scene::load(&settings.scene)?;
+    let scene = Scene::load_for(&settings.scene, settings.textures)?;
     let ctx = Arc::new(Context::new(&ContextOptions {
         validate: settings.validate,
         device_index: settings.device_index,

@@ -1197,7 +1197,7 @@ fn write_report(out: &std::path::Path, name: &str, title: &str, body: &str) -> R
 
 /// A context for `settings` (validation, device) with the scene loaded and uploaded to it.
 fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::Context>, std::sync::Arc<restir_vpl::scene_gpu::SceneGpu>)> {
-    let scene = restir_vpl::scene::Scene::load(&settings.scene)?;
+    let scene = restir_vpl::scene::Scene::load_for(&settings.scene, settings.textures)?;
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
         validate: settings.validate,
         device_index: settings.device_index,

@@ -938,3 +938,41 @@ fn restir_vpl_validate_takes_the_usual_spellings_and_refuses_others() {
         skip("no validation layer installed: RESTIR_VPL_VALIDATE=true not run (CI requires one)");
     }
 }
+
+/// `--textures off` neither reads nor decodes the scene's images: a scene whose texture is not an
+/// image fails with textures on, naming the image, and renders with them off (the loader decoded
+/// it either way, so the way out its other texture errors point to did not work for this one).
+#[test]
+fn textures_off_does_not_decode_the_images() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let mut bin = Vec::new();
+    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        bin.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    for uv in [[0f32, 0.0], [1.0, 0.0], [0.0, 1.0]] {
+        bin.extend(uv.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    bin.extend([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()));
+    std::fs::write(d.join("tri.bin"), &bin).unwrap();
+    std::fs::write(d.join("albedo.png"), "not an image").unwrap();
+    let scene = write(
+        d,
+        "scene.gltf",
+        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"tri.bin","byteLength":68}],
+        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":24},{"buffer":0,"byteOffset":60,"byteLength":6}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                     {"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"},
+                     {"bufferView":2,"componentType":5123,"count":3,"type":"SCALAR"}],
+        "images":[{"uri":"albedo.png"}],"textures":[{"source":0}],
+        "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"emissiveFactor":[1,1,1]}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
+        "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
+    );
+    let out = d.join("out");
+    let args = ["--headless", "--mode", "pt", "--width", "8", "--height", "8", "--frames", "1", "--eye", "0.3,0.3,1", "--target", "0.3,0.3,0", "--scene", &scene, "--out", out.to_str().unwrap()];
+    assert_fails(&args, &["scene.gltf", "image 0", "cannot decode"]);
+    let o = run(&[&args[..], &["--textures", "off"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.join("final.exr").exists());
+}

@@ -17,28 +17,28 @@ use std::path::Path;
 const MAX_VIEWLESS_ACCESSOR_BYTES: usize = 1 << 30;
 
 /// Reads and loads a `.gltf`/`.glb` file; external URIs resolve relative to its directory.
-pub(super) fn load_path(path: &Path) -> Result<Scene> {
+pub(super) fn load_path(path: &Path, decode_textures: bool) -> Result<Scene> {
     let bytes = crate::output::read_input(path).map_err(|e| anyhow!("scene file: {e:#}"))?;
     let base = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir,
         _ => Path::new("."),
     };
-    let mut scene = load_slice(&bytes, Some(base), &path.display().to_string())?;
+    let mut scene = load_slice(&bytes, Some(base), &path.display().to_string(), decode_textures)?;
     scene.path = path.to_path_buf();
     Ok(scene)
 }
 
 /// Loads glTF JSON or GLB bytes; every error is prefixed with `label`.
-pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scene> {
+pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_textures: bool) -> Result<Scene> {
     // glTF 2.0 lets a loader ignore a UTF-8 byte-order mark before the JSON; serde_json does not.
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    load_inner(bytes, base_dir, label).map_err(|e| anyhow!("{label}: {e:#}"))
+    load_inner(bytes, base_dir, label, decode_textures).map_err(|e| anyhow!("{label}: {e:#}"))
 }
 
 /// The glTF extensions the renderer reads.
 const SUPPORTED_EXTENSIONS: [&str; 2] = ["KHR_materials_emissive_strength", "KHR_lights_punctual"];
 
-fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scene> {
+fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_textures: bool) -> Result<Scene> {
     let (doc, blob) = parse(bytes)?;
     let buffers = load_buffers(&doc, base_dir, blob)?;
     let mut warnings = Vec::new();
@@ -60,7 +60,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str) -> Result<Scen
         .materials()
         .map(|m| convert_material(&m, &mut warnings))
         .collect::<Result<_>>()?;
-    let textures = load_textures(&doc, &buffers, base_dir, &mut materials, &mut warnings)?;
+    let textures = load_textures(&doc, &buffers, base_dir, decode_textures, &mut materials, &mut warnings)?;
     let default_material = materials.len() as u32;
     let mut uses_default = false;
 
@@ -875,6 +875,7 @@ fn load_textures(
     doc: &Document,
     buffers: &[Vec<u8>],
     base_dir: Option<&Path>,
+    decode: bool,
     materials: &mut [Material],
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Texture>> {
@@ -906,6 +907,12 @@ fn load_textures(
         let image = texture.source();
         let index = match by_image.get(&image.index()) {
             Some(&i) => i,
+            // --textures off: the image is not read; one white texel stands in (never uploaded).
+            None if !decode => {
+                textures.push(Texture { name: format!("image{} (not decoded)", image.index()), width: 1, height: 1, rgba8: vec![255; 4] });
+                by_image.insert(image.index(), textures.len() - 1);
+                textures.len() - 1
+            }
             None => {
                 let decoded = decode_image(&image, buffers, base_dir).with_context(|| {
                     format!("material '{name}': base colour texture image {}", image.index())

@@ -186,7 +186,15 @@ impl Instance {
 impl Scene {
     /// Loads a `.gltf` (embedded `data:` URIs or external files relative to it) or `.glb` file.
     pub fn load(path: &std::path::Path) -> anyhow::Result<Scene> {
-        load::load_path(path)
+        load::load_path(path, true)
+    }
+
+    /// [`Scene::load`] for a run with `--textures` as given: with `textures` false the images are
+    /// neither read nor decoded (a textured material keeps its base colour factor; its texture is a
+    /// 1×1 white stand-in that nothing uploads), so a scene whose texture is missing or broken
+    /// renders untextured, and a large one loads without the decoding's time.
+    pub fn load_for(path: &std::path::Path, textures: bool) -> anyhow::Result<Scene> {
+        load::load_path(path, textures)
     }
 
     /// Loads glTF JSON or GLB bytes. External buffer URIs are resolved against `base_dir`
@@ -196,7 +204,7 @@ impl Scene {
         base_dir: Option<&std::path::Path>,
         label: &str,
     ) -> anyhow::Result<Scene> {
-        load::load_slice(bytes, base_dir, label)
+        load::load_slice(bytes, base_dir, label, true)
     }
 
     /// Total number of instanced triangles.

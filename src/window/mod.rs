@@ -64,7 +64,7 @@ fn display_error_text(text: &str) -> String {
 pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summary>> {
     settings.validate()?;
     let start = Instant::now();
-    let scene = Scene::load(&settings.scene)?;
+    let scene = Scene::load_for(&settings.scene, settings.textures)?;
     crate::headless::check_outputs_spare_inputs(&settings, &scene.files)?;
     let reference = opts.reference.as_deref().map(|p| overlay::Reference::load(p, &settings)).transpose()?;
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
