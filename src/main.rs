@@ -426,8 +426,9 @@ enum Command {
         /// without --resume.
         #[arg(value_parser = Utf8Path, long, value_name = "REF.exr")]
         out: PathBuf,
-        /// Index of the first frame: give each machine its own range.
-        #[arg(long, default_value_t = 0)]
+        /// Index of the first frame: give each machine its own range. Not with --resume, which
+        /// continues after the last frame in --out (refused even as 0).
+        #[arg(long, default_value_t = 0, conflicts_with = "resume")]
         first_frame: u64,
         /// Extend --out: render --frames more frames after its last frame and merge them in.
         #[arg(long)]
@@ -1116,9 +1117,7 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
     use restir_vpl::eval::reference::{make_reference, reference_mode_ok, ReferenceTarget};
     reference_mode_ok(settings)?;
     let target = if resume {
-        if first_frame != 0 {
-            bail!("--resume continues after the last frame in --out; --first-frame cannot be given with it");
-        }
+        // (--first-frame is refused with it by the parser, 0 included.)
         ReferenceTarget::Extend { frames: settings.frames }
     } else {
         ReferenceTarget::New { first_frame, frames: settings.frames }

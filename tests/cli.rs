@@ -976,3 +976,12 @@ fn textures_off_does_not_decode_the_images() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("final.exr").exists());
 }
+
+/// `reference --resume` continues after the last frame in --out: `--first-frame` is refused with
+/// it, 0 included (0 was taken silently, as if not given).
+#[test]
+fn reference_resume_refuses_any_first_frame() {
+    for first in ["0", "5"] {
+        assert_fails(&["reference", "--resume", "--first-frame", first, "--out", "/tmp/restir-vpl-never-written.exr"], &["--resume", "--first-frame"]);
+    }
+}
