@@ -110,7 +110,8 @@ pub struct RadiusRow {
     /// Each run's bias, in run order.
     #[serde(skip)]
     pub bias_runs: Vec<f64>,
-    /// Mean over pixels of the per-pixel variance of single frames (channel mean).
+    /// Mean over pixels of the per-pixel variance across a run's frames (channel mean; the frames
+    /// are correlated through temporal reuse, so this is below one frame's own variance).
     pub frame_variance: f64,
     pub rmse_1: f64,
     pub rmse_n: f64,
@@ -265,7 +266,8 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
          mean of {} accumulated frames. Bias: mean ratio − 1 after {} frames, ± its standard error over the runs (VPL sets and pixel noise together; \
          with few runs a rough one). Bias − default's: a row's bias minus the default rule's ({}), run by run, which share \
          their VPL set and seed, averaged ± its standard error: the rule's own effect, free of a set's offset and of most of the noise. Frame variance: mean per-pixel variance \
-         of one frame. Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. Per-VPL \
+         across a run's frames (correlated through temporal reuse, so below one frame's own variance; comparable \
+         between rows). Worst 0.1 %: share of the squared error in the worst 0.1 % of pixels after {} frames. Per-VPL \
          rules (`--yuksel-knn {KNN_K} --yuksel-spacings M`): each VPL's r is M × its local spacing d_K/√K from its K \
          nearest VPLs; their r column is the median over VPLs. Setup: wall seconds to build the renderer (photons, \
          pipelines, and the host's nearest-neighbour search of a per-VPL rule). The reference's own noise adds to \

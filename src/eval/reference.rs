@@ -45,7 +45,8 @@ pub struct ReferenceMeta {
     pub config: String,
     /// Estimated mean squared error of the mean image against its expectation (mean per-pixel
     /// sample variance / frames), when known. Merging combines it as Σ (frames_i / frames)² ·
-    /// noise_mse_i (None if any part lacks it).
+    /// noise_mse_i; a part without one (a single frame has no variance) takes the per-frame
+    /// variance of the parts that have one (None if no part has).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_mse: Option<f64>,
 }
@@ -293,9 +294,19 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
         }
     }
     let inv = 1.0 / frames as f64;
+    // A part without a noise estimate (one frame has no variance: a top-up by a single frame, or
+    // `--resume --frames 1`) takes the per-frame variance of the parts that have one: the settings
+    // agree (checked above), so one frame's noise is the same in every part. Its MSE is that
+    // variance over its frames.
+    let (known_var, known_frames) = order.iter().filter_map(|&i| parts[i].1.noise_mse.map(|v| (v * parts[i].1.frames as f64, parts[i].1.frames))).fold(
+        (0f64, 0u64),
+        |(v, f), (vi, fi)| (v + vi * fi as f64, f + fi),
+    );
+    let per_frame_variance = (known_frames > 0).then(|| known_var / known_frames as f64);
     let noise_mse = order.iter().try_fold(0f64, |acc, &i| {
         let m = &parts[i].1;
-        m.noise_mse.map(|v| acc + (m.frames as f64 * inv).powi(2) * v)
+        let part = m.noise_mse.or_else(|| per_frame_variance.map(|v| v / m.frames as f64));
+        part.map(|v| acc + (m.frames as f64 * inv).powi(2) * v)
     });
     let pixels = acc.iter().map(|a| [(a[0] * inv) as f32, (a[1] * inv) as f32, (a[2] * inv) as f32]).collect();
     let meta = ReferenceMeta {
