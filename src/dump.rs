@@ -250,6 +250,27 @@ fn remove_dumped_frame(fdir: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Checks, before any frame, that `dir` (`--out/passes`) can take a dump: absent or a directory,
+/// with no file where a frame's folder goes and no folder where the page or the VPL file goes (each
+/// was found only when its frame came up, after the frames before it had rendered).
+pub fn check_dump_dir(dir: &Path) -> Result<()> {
+    if !dir.exists() {
+        return Ok(());
+    }
+    anyhow::ensure!(dir.is_dir(), "--dump-passes: {} exists and is not a directory", dir.display());
+    for entry in std::fs::read_dir(dir).with_context(|| format!("--dump-passes: reading {}", dir.display()))? {
+        let entry = entry.with_context(|| format!("--dump-passes: reading {}", dir.display()))?;
+        let (name, path) = (entry.file_name().to_string_lossy().into_owned(), entry.path());
+        if name.starts_with("frame_") && !path.is_dir() {
+            anyhow::bail!("--dump-passes: {} is not a directory, and a frame's dump goes there; move it away", path.display());
+        }
+        if (name == "index.html" || name == "vpls.ply") && path.is_dir() {
+            anyhow::bail!("--dump-passes: {} is a directory, and the dump writes that file; move it away", path.display());
+        }
+    }
+    Ok(())
+}
+
 /// Removes an earlier run's frame dumps (`frame_NNNN/` with a manifest), inspector page and VPL
 /// file from `dir` (`--out/passes`), before a run that dumps: its page then shows this run alone.
 pub fn remove_earlier_dumps(dir: &Path) -> Result<()> {
@@ -483,7 +504,7 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                 let png = format!("frame_{:04}/{}", m.frame, o.file.replace(".exr", ".png"));
                 let _ = write!(
                     html,
-                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" width=128 onclick=\"big(this)\"><figcaption>{} <b>{}</b><br>min {:.3e} max {:.3e}<br>mean {:.3e}{}{}</figcaption></figure>",
+                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" onclick=\"big(this)\"><figcaption>{} <b>{}</b><br>min {:.3e} max {:.3e}<br>mean {:.3e}{}{}</figcaption></figure>",
                     m.frame,
                     o.file,
                     o.buffer,
@@ -518,8 +539,8 @@ const INSPECTOR_HEAD: &str = r#"<!doctype html><html><head><meta charset="utf-8"
 body{font:13px system-ui,sans-serif;background:#1e1e1e;color:#ddd;margin:16px}
 h1{font-size:18px}h2{font-size:15px;margin-top:24px}
 table{border-collapse:collapse}td,th{border-bottom:1px solid #333;padding:4px 8px;vertical-align:top;text-align:left}
-tr.skip td{color:#777}.outs figure{display:inline-block;margin:0 8px 8px 0}
-figure img{image-rendering:pixelated;border:1px solid #444;cursor:zoom-in}figcaption{font-size:11px;color:#aaa}
+tr.skip td{color:#777}.outs figure{display:inline-block;vertical-align:top;margin:0 8px 8px 0}
+figure img{display:block;width:128px;height:128px;object-fit:contain;background:#111;image-rendering:pixelated;border:1px solid #444;cursor:zoom-in}figcaption{font-size:11px;color:#aaa}
 .bad{color:#f5a}.note{color:#aa8}
 #zoom{display:none;position:fixed;inset:0;background:rgba(0,0,0,.85);padding:24px}
 #zimg{image-rendering:pixelated;max-width:70vw;max-height:85vh;cursor:crosshair}

@@ -139,6 +139,19 @@ pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std:
     Ok(())
 }
 
+/// Ends a pass dump in `dir` (`--out/passes`): the VPLs and the inspector page over `dumped`,
+/// their paths added to `outputs`. Returns the page's path.
+fn finish_dump(renderer: &Renderer, dir: &std::path::Path, dumped: &[crate::dump::DumpedFrame], outputs: &mut Vec<String>) -> Result<std::path::PathBuf> {
+    if let Some(vpls) = renderer.read_vpls()? {
+        let ply = dir.join("vpls.ply");
+        crate::ply::write_vpls(&ply, &vpls)?;
+        outputs.push(ply.display().to_string());
+    }
+    let page = crate::dump::write_inspector(dir, dumped)?;
+    outputs.push(page.display().to_string());
+    Ok(page)
+}
+
 /// Loads and uploads the scene, renders `settings.frames` frames and writes the outputs to
 /// `settings.out_dir` (when set).
 pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
@@ -170,6 +183,9 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         for name in RUN_OUTPUT_FILES {
             crate::output::check_writable(&dir.join(name)).with_context(|| format!("--out {}", dir.display()))?;
         }
+        if settings.dump_passes.is_some() {
+            crate::dump::check_dump_dir(&dir.join("passes"))?;
+        }
     }
     // Read before the renderer's set-up (photons, pipelines), so that a bad file fails at once.
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
@@ -190,16 +206,16 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         scene.build_ms
     );
     let mut outputs = Vec::new();
+    let dump = settings.dump_passes_selection()?;
+    if let (Some(_), Some(dir)) = (&dump, &settings.out_dir) {
+        crate::dump::remove_earlier_dumps(&dir.join("passes"))?;
+    }
     if let Some(path) = &settings.dump_vpls {
         let vpls = renderer.read_vpls()?.unwrap_or_default();
         crate::ply::write_vpls(path, &vpls)?;
         outputs.push(path.display().to_string());
     }
     let progress = Progress::new(settings.progress, settings.frames as u64);
-    let dump = settings.dump_passes_selection()?;
-    if let (Some(_), Some(dir)) = (&dump, &settings.out_dir) {
-        crate::dump::remove_earlier_dumps(&dir.join("passes"))?;
-    }
     let mut dumped = Vec::new();
     let mut renderdoc = settings.renderdoc_capture.map(|_| crate::vk::renderdoc::Capturer::attach(&ctx));
     if let Some(rd) = &renderdoc {
@@ -222,14 +238,23 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         let dump_this = dump.as_ref().is_some_and(|d| d.contains(f, settings.frames));
         if dump_this || settings.check_finite {
             let (stats, captured) = renderer.render_frame_captured(&camera_at(f), preview)?;
-            if settings.check_finite {
-                crate::dump::check_finite(f, settings.width, settings.height, &captured)?;
-            }
-            if let (true, Some(dir)) = (dump_this, &settings.out_dir) {
+            let finite = if settings.check_finite { crate::dump::check_finite(f, settings.width, settings.height, &captured) } else { Ok(()) };
+            // With --dump-passes the frame --check-finite stops at is dumped whatever the
+            // selection: it is the one to look at (the run stopped with the earlier dumps removed
+            // and nothing in their place).
+            let dump_failed = finite.is_err() && dump.is_some();
+            if let (true, Some(dir)) = (dump_this || dump_failed, &settings.out_dir) {
                 let plan = renderer.last_plan().context("a frame was just recorded")?.clone();
                 let variance = Some(renderer.read_variance()?);
                 let dir = dir.join("passes");
                 dumped.push(crate::dump::write_frame(&dir, f, settings.width, settings.height, settings, &plan, &stats, &captured, variance)?);
+            }
+            if let Err(e) = finite {
+                if let (true, Some(dir)) = (dump_failed, &settings.out_dir) {
+                    let page = finish_dump(&renderer, &dir.join("passes"), &dumped, &mut Vec::new())?;
+                    return Err(e.context(format!("frame {f} is dumped in {}", page.display())));
+                }
+                return Err(e);
             }
         } else {
             renderer.render_frame(&camera_at(f), preview)?;
@@ -252,13 +277,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     }
     progress.finish();
     if let (false, Some(dir)) = (dumped.is_empty(), &settings.out_dir) {
-        let dir = dir.join("passes");
-        if let Some(vpls) = renderer.read_vpls()? {
-            let ply = dir.join("vpls.ply");
-            crate::ply::write_vpls(&ply, &vpls)?;
-            outputs.push(ply.display().to_string());
-        }
-        outputs.push(crate::dump::write_inspector(&dir, &dumped)?.display().to_string());
+        finish_dump(&renderer, &dir.join("passes"), &dumped, &mut outputs)?;
     }
     let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, outputs, warnings, start, None)?;
     let mean = renderer.read_mean()?;

@@ -98,12 +98,37 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
 }
 
+/// Whether `path` lies inside the directory `dir` (at any depth), by [`same_file`] on its
+/// ancestors, so also when neither exists yet.
+pub fn is_within(path: &Path, dir: &Path) -> bool {
+    path.ancestors().skip(1).filter(|a| !a.as_os_str().is_empty()).any(|a| same_file(a, dir))
+}
+
 /// Whether `a` and `b` name the same file, also when either does not exist yet (its deepest
 /// existing directory is then resolved): how an output is kept from overwriting an input.
 pub fn same_file(a: &Path, b: &Path) -> bool {
     // The deepest existing ancestor resolved, the rest joined as written (`OUT/passes/vpls.ply`
     // before `passes` exists).
     fn resolve(p: &Path) -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        // Not there (yet): `..` and `.` taken out as written first (`passes/../passes/x` named a
+        // `passes` that did not exist), then the deepest existing ancestor of what is left resolved.
+        let mut lexical = PathBuf::new();
+        for c in p.components() {
+            match c {
+                std::path::Component::CurDir => {}
+                std::path::Component::ParentDir if matches!(lexical.components().next_back(), Some(std::path::Component::Normal(_))) => {
+                    lexical.pop();
+                }
+                other => lexical.push(other),
+            }
+        }
+        if lexical.as_os_str().is_empty() {
+            lexical.push(".");
+        }
+        let p = lexical.as_path();
         let mut rest = Vec::new();
         let mut at = p;
         loop {

@@ -798,8 +798,14 @@ impl RenderSettings {
                 if let Some(f) = snapshot {
                     taken.push(("a --save-every output", dir.join(crate::headless::snapshot_file(f))));
                 }
-                if self.dump_passes.is_some() {
-                    taken.push(("the --dump-passes copy of the VPLs", dir.join("passes").join("vpls.ply")));
+                if self.dump_passes.is_some() && crate::output::is_within(ply, &dir.join("passes")) {
+                    // The dump removes an earlier run's frames there and writes its own files.
+                    bail!(
+                        "--dump-vpls {}: is inside --dump-passes' folder {}, whose files the dump removes and writes; \
+                         write the VPLs elsewhere (the dump keeps its own copy, passes/vpls.ply)",
+                        ply.display(),
+                        dir.join("passes").display()
+                    );
                 }
             }
             if let Some((what, p)) = taken.iter().find(|(_, p)| crate::output::same_file(ply, p)) {

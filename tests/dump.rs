@@ -375,3 +375,47 @@ fn the_captured_g_buffer_holds_each_pixels_own_primary_hit() {
     assert!(checked > w * h, "most pixels see the box: {checked} hits checked over two frames");
     common::assert_no_validation_errors(&ctx);
 }
+
+/// What the dump folder must take is checked before frame 0 (each case was found only when its
+/// frame came up, after the frames before it had rendered and written their snapshots): OUT/passes
+/// as a file, a file where a frame's folder goes. `--dump-vpls` inside OUT/passes is refused under
+/// any spelling of the path (the dump's clean-up deleted it after it was reported written, or the
+/// page overwrote it). With `--check-finite`, the frame it stops at is dumped with the page, though
+/// the selection names another frame (the run stopped with the earlier dumps removed and nothing
+/// in their place).
+#[test]
+fn the_dump_folder_is_checked_first_and_a_failing_frame_is_dumped() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |out: &std::path::Path, extra: &[&str]| bin().args(SMALL).args(["5", "--mode", "uniform", "--frames", "3", "--save-every", "1", "--out", out.to_str().unwrap()]).args(extra).output().unwrap();
+    let refused = |o: &std::process::Output, needles: &[&str], out: &std::path::Path| {
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && !err.contains("panicked"), "{err}");
+        for n in needles {
+            assert!(err.contains(n), "should name {n}: {err}");
+        }
+        assert!(!out.join("accum_0001.exr").exists(), "refused before the first frame: {err}");
+    };
+    let a = dir.path().join("a");
+    std::fs::create_dir_all(&a).unwrap();
+    std::fs::write(a.join("passes"), "a file").unwrap();
+    refused(&run(&a, &["--dump-passes", "last"]), &["--dump-passes", "not a directory"], &a);
+    let b = dir.path().join("b");
+    std::fs::create_dir_all(b.join("passes")).unwrap();
+    std::fs::write(b.join("passes").join("frame_0002"), "a file").unwrap();
+    refused(&run(&b, &["--dump-passes", "last"]), &["--dump-passes", "frame_0002"], &b);
+    let c = dir.path().join("c");
+    for ply in [c.join("passes").join("v.ply"), c.join("passes").join("..").join("passes").join("index.html")] {
+        refused(&run(&c, &["--dump-passes", "0", "--dump-vpls", ply.to_str().unwrap()]), &["--dump-vpls", "--dump-passes"], &c);
+    }
+    // --check-finite stopping at frame 0 of a run that dumps frame 2.
+    let d = dir.path().join("d");
+    let o = bin()
+        .args(SMALL)
+        .args(["5", "--mode", "uniform", "--frames", "3", "--check-finite", "--dump-passes", "2", "--out", d.to_str().unwrap()])
+        .env("RESTIR_VPL_DEBUG_POISON", "vpl_shade")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("frame 0 is dumped in") && err.contains("'vpl_shade'"), "{err}");
+    assert!(d.join("passes").join("frame_0000").join("manifest.json").is_file() && d.join("passes").join("index.html").is_file(), "{err}");
+}
