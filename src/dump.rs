@@ -512,7 +512,13 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                     o.min,
                     o.max,
                     o.mean,
-                    if o.look == "grey" { format!("<br>white at {:.3e} (99th pct.)", o.white) } else { String::new() },
+                    if o.look != "grey" {
+                        String::new()
+                    } else if o.min == 0.0 && o.max == 0.0 && o.nonfinite == 0 {
+                        "<br>all zero".to_string()
+                    } else {
+                        format!("<br>white at {:.3e} (99th pct.)", o.white)
+                    },
                     if o.nonfinite > 0 { format!("<br><span class=bad>{} non-finite</span>", o.nonfinite) } else { String::new() }
                 );
             }
