@@ -171,6 +171,7 @@ pub struct OutputStats {
     pub min: f64,
     pub max: f64,
     pub mean: f64,
+    /// Pixels with a non-finite value in any channel.
     pub nonfinite: u64,
     /// The value the thumbnail shows white (`grey` images; their brighter pixels clip), else 0.
     pub white: f64,
@@ -180,15 +181,13 @@ pub struct OutputStats {
 fn stats(file: String, buffer: &'static str, d: &Decoded, white: Option<f32>) -> OutputStats {
     let (mut min, mut max, mut sum, mut n, mut bad) = (f64::INFINITY, f64::NEG_INFINITY, 0.0, 0u64, 0u64);
     for p in &d.image.pixels {
-        for &c in p {
-            if c.is_finite() {
-                min = min.min(c as f64);
-                max = max.max(c as f64);
-                sum += c as f64;
-                n += 1;
-            } else {
-                bad += 1;
-            }
+        // Counted in pixels, as --check-finite counts them.
+        bad += u64::from(p.iter().any(|c| !c.is_finite()));
+        for &c in p.iter().filter(|c| c.is_finite()) {
+            min = min.min(c as f64);
+            max = max.max(c as f64);
+            sum += c as f64;
+            n += 1;
         }
     }
     let finite_or_zero = |v: f64| if v.is_finite() { v } else { 0.0 };
@@ -519,7 +518,7 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                     } else {
                         format!("<br>white at {:.3e} (99th pct.)", o.white)
                     },
-                    if o.nonfinite > 0 { format!("<br><span class=bad>{} non-finite</span>", o.nonfinite) } else { String::new() }
+                    if o.nonfinite > 0 { format!("<br><span class=bad>{} non-finite pixel(s)</span>", o.nonfinite) } else { String::new() }
                 );
             }
             html.push_str("</td></tr>");
