@@ -134,6 +134,35 @@ impl Spirv {
             .collect()
     }
 
+    /// The GLSL name of type `id`, as `PushMember::GLSL` writes it: uint, int, float, vecN /
+    /// uvecN / ivecN, or a struct's own name.
+    fn glsl_type(&self, id: u32) -> String {
+        let Ok(t) = self.global(id) else { return format!("%{id}") };
+        let ops = &t.operands;
+        match t.class.opcode {
+            Op::TypeInt if lit_u32(&ops[1]) == 0 => "uint".into(),
+            Op::TypeInt => "int".into(),
+            Op::TypeFloat => "float".into(),
+            Op::TypeVector => {
+                let prefix = match self.glsl_type(lit_u32(&ops[0])).as_str() {
+                    "float" => "",
+                    "uint" => "u",
+                    "int" => "i",
+                    other => return format!("vector of {other}"),
+                };
+                format!("{prefix}vec{}", lit_u32(&ops[1]))
+            }
+            Op::TypeStruct => self.names.get(&id).cloned().unwrap_or_else(|| format!("struct %{id}")),
+            other => format!("{other:?}"),
+        }
+    }
+
+    /// The GLSL type of each member of a struct type id.
+    fn member_types(&self, id: u32) -> Vec<String> {
+        let Ok(s) = self.global(id) else { return Vec::new() };
+        s.operands.iter().map(|o| self.glsl_type(lit_u32(o))).collect()
+    }
+
     /// Bytes a value of type `id` spans in an explicitly laid-out block (scalars, vectors, arrays
     /// and structs: what push-constant blocks hold).
     fn size_of(&self, id: u32) -> Result<u32, String> {
@@ -402,9 +431,10 @@ fn pass_mismatches_against(desc: &PassDesc, variant: &str, spirv: &[u8], scene: 
         ([], _) => out.push(format!("{at}: the desc has {} bytes of push constants, the shader none", desc.push.size)),
         ([_, _, ..], _) => out.push(format!("{at}: the shader has more than one push-constant block")),
         ([block], size) => {
-            let glsl = m.layout_of(*block);
-            let rust: Vec<(String, u32)> = desc.push.fields.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
-            let show = |f: Option<&(String, u32)>| f.map_or("absent".to_string(), |(n, o)| format!("'{n}' at {o}"));
+            let glsl: Vec<(String, u32, String)> =
+                m.layout_of(*block).into_iter().zip(m.member_types(*block)).map(|((n, o), t)| (n, o, t)).collect();
+            let rust: Vec<(String, u32, String)> = desc.push.fields.iter().map(|(n, o, t)| (n.to_string(), *o as u32, t.to_string())).collect();
+            let show = |f: Option<&(String, u32, String)>| f.map_or("absent".to_string(), |(n, o, t)| format!("{t} '{n}' at {o}"));
             for i in 0..glsl.len().max(rust.len()) {
                 let (g, r) = (glsl.get(i), rust.get(i));
                 if g != r {
@@ -639,21 +669,29 @@ fn a_drifted_scene_table_is_detected() {
 fn a_drifted_push_layout_is_detected() {
     let d = RestirSpatialPass::DESC;
     // Offset: `neighbours` follows the 32-byte VplParams.
-    let fields: Vec<(&'static str, usize)> =
-        d.push.fields.iter().map(|&(n, o)| if n == "neighbours" { (n, o + 4) } else { (n, o) }).collect();
+    let fields: Vec<(&'static str, usize, &'static str)> =
+        d.push.fields.iter().map(|&(n, o, t)| if n == "neighbours" { (n, o + 4, t) } else { (n, o, t) }).collect();
     let shifted = PassDesc { push: PushLayout { fields: fields.leak(), ..d.push }, ..d };
-    assert_reported(&shifted, "push member 1 is 'neighbours' at 32 in the shader, 'neighbours' at 36 in Rust");
+    assert_reported(&shifted, "push member 1 is uint 'neighbours' at 32 in the shader, uint 'neighbours' at 36 in Rust");
     // Name.
-    let fields: Vec<(&'static str, usize)> =
-        d.push.fields.iter().map(|&(n, o)| if n == "radius" { ("radius_px", o) } else { (n, o) }).collect();
+    let fields: Vec<(&'static str, usize, &'static str)> =
+        d.push.fields.iter().map(|&(n, o, t)| if n == "radius" { ("radius_px", o, t) } else { (n, o, t) }).collect();
     let renamed = PassDesc { push: PushLayout { fields: fields.leak(), ..d.push }, ..d };
-    assert_reported(&renamed, "push member 3 is 'radius' at 40 in the shader, 'radius_px' at 40 in Rust");
+    assert_reported(&renamed, "push member 3 is float 'radius' at 40 in the shader, float 'radius_px' at 40 in Rust");
+    // Type: a uint where the shader has a float, at the same offset (names and offsets alone
+    // passed it).
+    let fields: Vec<(&'static str, usize, &'static str)> =
+        d.push.fields.iter().map(|&(n, o, t)| if n == "radius" { (n, o, "uint") } else { (n, o, t) }).collect();
+    let retyped = PassDesc { push: PushLayout { fields: fields.leak(), ..d.push }, ..d };
+    assert_reported(&retyped, "push member 3 is float 'radius' at 40 in the shader, uint 'radius' at 40 in Rust");
+    // A nested struct by its name.
+    assert!(d.push.fields[0].2 == "VplParams", "{:?}", d.push.fields[0]);
     // Size.
     let bigger = PassDesc { push: PushLayout { size: d.push.size + 4, ..d.push }, ..d };
     assert_reported(&bigger, &format!("is {} bytes in the shader, {} in Rust", d.push.size, d.push.size + 4));
     // Push constants on one side only.
     let none = PassDesc { push: PushLayout::NONE, ..VplShadePass::DESC };
-    assert_reported(&none, "push member 0 is 'params' at 0 in the shader, absent in Rust");
+    assert_reported(&none, "push member 0 is VplParams 'params' at 0 in the shader, absent in Rust");
     let phantom = PassDesc { push: VplShadePass::DESC.push, ..TonemapPass::DESC };
     assert_reported(&phantom, "push constants, the shader none");
 }

@@ -19,7 +19,35 @@ use super::Reservoirs;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PushLayout {
     pub size: usize,
-    pub fields: &'static [(&'static str, usize)],
+    /// (name, byte offset, the member's GLSL type: [`PushMember::GLSL`]) per field.
+    pub fields: &'static [(&'static str, usize, &'static str)],
+}
+
+/// A push-constant member's type as the shader declares it, so that `tests/layout.rs` compares
+/// types too (a `u32` and an `f32` swapped at the same offset passed a check of names and offsets).
+pub trait PushMember {
+    const GLSL: &'static str;
+}
+impl PushMember for u32 {
+    const GLSL: &'static str = "uint";
+}
+impl PushMember for i32 {
+    const GLSL: &'static str = "int";
+}
+impl PushMember for f32 {
+    const GLSL: &'static str = "float";
+}
+impl PushMember for [f32; 2] {
+    const GLSL: &'static str = "vec2";
+}
+impl PushMember for [f32; 3] {
+    const GLSL: &'static str = "vec3";
+}
+impl PushMember for [f32; 4] {
+    const GLSL: &'static str = "vec4";
+}
+impl<T: crate::gpu_types::GpuStruct> PushMember for T {
+    const GLSL: &'static str = T::GLSL_NAME;
 }
 
 impl PushLayout {
@@ -39,7 +67,7 @@ macro_rules! push_constants {
         impl $name {
             $vis const LAYOUT: $crate::passes::desc::PushLayout = $crate::passes::desc::PushLayout {
                 size: std::mem::size_of::<$name>(),
-                fields: &[ $( (stringify!($f), std::mem::offset_of!($name, $f)) ),* ],
+                fields: &[ $( (stringify!($f), std::mem::offset_of!($name, $f), <$t as $crate::passes::desc::PushMember>::GLSL) ),* ],
             };
         }
     };
