@@ -522,6 +522,7 @@ impl Renderer {
             last_plan: None,
             debug_poison: match poison.as_deref() {
                 Some("vpl_shade") => crate::gpu_types::POISON_VPL_SHADE,
+                Some("ray_carry") => crate::gpu_types::POISON_RAY_CARRY,
                 _ => 0,
             },
             debug_hang: debug_hang(&ctx, poison.as_deref())?,
@@ -1247,9 +1248,13 @@ impl Renderer {
         self.state.nonfinite_samples = count;
         let primary = if gbuffer_ran { self.parts.targets.pixels() as u64 } else { 0 };
         let mut rays_by_pass = vec![("gbuffer", primary)];
-        for (slot, name) in RAY_SLOTS.iter().enumerate() {
-            if counters[slot] > 0 {
-                rays_by_pass.push((name, counters[slot] as u64));
+        for (slot, (name, constant)) in crate::passes::RAY_SLOT_NAMES.iter().enumerate() {
+            let count = if constant.ends_with("_HIGH") { (counters[slot] as u64) << 32 } else { counters[slot] as u64 };
+            if count > 0 {
+                match rays_by_pass.iter_mut().find(|(n, _)| n == name) {
+                    Some(entry) => entry.1 += count,
+                    None => rays_by_pass.push((name, count)),
+                }
             }
         }
         let rays = rays_by_pass.iter().map(|r| r.1).sum();

@@ -985,3 +985,27 @@ fn reference_resume_refuses_any_first_frame() {
         assert_fails(&["reference", "--resume", "--first-frame", first, "--out", "/tmp/restir-vpl-never-written.exr"], &["--resume", "--first-frame"]);
     }
 }
+
+/// Brute force counts its rays in 64 bits (up to 2e10 pixel × VPL pairs per frame are allowed; a
+/// 32-bit count wrapped past 4.3e9 rays): with a test-only switch pixel (0, 0) counts 2^32 − 256
+/// rays more, and the summary reports exactly that many more than the same run without it, where
+/// a 32-bit count would report 256 fewer.
+#[test]
+fn brute_force_counts_its_rays_past_two_to_the_32() {
+    let dir = tempfile::tempdir().unwrap();
+    let rays = |poison: Option<&str>| {
+        let out = dir.path().join(poison.unwrap_or("plain"));
+        let mut c = bin();
+        c.args(["--headless", "--mode", "bruteforce", "--width", "8", "--height", "8", "--vpls-direct", "300", "--vpls-indirect", "300", "--frames", "1", "--out", out.to_str().unwrap()]);
+        if let Some(p) = poison {
+            c.env("RESTIR_VPL_DEBUG_POISON", p);
+        }
+        let o = c.output().unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        s["rays_per_pixel_by_pass"]["vpl_bruteforce"]["mean"].as_f64().expect("brute force traced rays") * 64.0
+    };
+    let (plain, carried) = (rays(None), rays(Some("ray_carry")));
+    assert!(plain > 0.0 && plain < 64.0 * 600.0, "{plain}");
+    assert_eq!(carried - plain, (u32::MAX - 255) as f64, "{carried} vs {plain}");
+}

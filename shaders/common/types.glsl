@@ -132,6 +132,9 @@ const uint RAYS_BRUTEFORCE = 5u;
 const uint RAYS_COMPENSATE = 6u;
 const uint RAYS_INITIAL_TEMPORAL = 7u;
 const uint RAYS_SPATIAL_SHADE = 8u;
+// The carries of RAYS_BRUTEFORCE: a brute-force frame may trace more than 2^32 rays (up to 2e10
+// pixel × VPL pairs are allowed), so its count is 64-bit, this slot its high word.
+const uint RAYS_BRUTEFORCE_HIGH = 9u;
 
 const uint RESERVOIR_EMPTY = 0xFFFFFFFFu;
 
@@ -162,6 +165,7 @@ const uint SHADE_VIEW_MOTION = 4u;
 const uint COMPENSATE_EMISSION = 1u;
 const uint COMPENSATE_VPLS = 2u;
 const uint POISON_VPL_SHADE = 1u;
+const uint POISON_RAY_CARRY = 2u;
 // vpl_view `mode`: the step of the dispatch.
 const uint VPL_VIEW_CLEAR = 0u;
 const uint VPL_VIEW_DEPTH = 1u;

@@ -26,6 +26,17 @@ layout(push_constant) uniform Push {
     uint count;
 } pc;
 
+// Adds n to the 64-bit ray count (RAYS_BRUTEFORCE and its high word): the add that wraps the low
+// word carries one into the high word.
+void count_rays(uint n) {
+    if (n > 0u) {
+        uint before = atomicAdd(ray_count[RAYS_BRUTEFORCE], n);
+        if (before > 0xFFFFFFFFu - n) {
+            atomicAdd(ray_count[RAYS_BRUTEFORCE_HIGH], 1u);
+        }
+    }
+}
+
 void main() {
     uvec2 pixel = dispatch_pixel();
     if (pixel.x >= frame.width || pixel.y >= frame.height) {
@@ -53,7 +64,8 @@ void main() {
         }
     }
     samples[index] = vec4(radiance, 1.0);
-    if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_BRUTEFORCE], rays);
+    count_rays(rays);
+    if (frame.debug_poison == POISON_RAY_CARRY && index == 0u && pc.first == 0u) {
+        count_rays(0xFFFFFF00u);  // tests of the carry only
     }
 }

@@ -80,8 +80,9 @@ pub fn all_pass_descs() -> Vec<&'static PassDesc> {
 }
 
 /// Slots of `FrameTargets::ray_counter`: (the pass that traced them, the slot's `RAYS_*` constant
-/// in shaders/common/types.glsl, whose value is the index here).
-pub const RAY_SLOT_NAMES: [(&str, &str); 9] = [
+/// in shaders/common/types.glsl, whose value is the index here). A `_HIGH` slot holds the high word
+/// of its pass's 64-bit count.
+pub const RAY_SLOT_NAMES: [(&str, &str); 10] = [
     (PathtracePass::NAME, "RAYS_PATHTRACE"),
     (RestirInitialPass::NAME, "RAYS_INITIAL"),
     (RestirTemporalPass::NAME, "RAYS_TEMPORAL"),
@@ -91,6 +92,7 @@ pub const RAY_SLOT_NAMES: [(&str, &str); 9] = [
     (VplCompensatePass::NAME, "RAYS_COMPENSATE"),
     (RestirInitialTemporalPass::NAME, "RAYS_INITIAL_TEMPORAL"),
     (RestirSpatialShadePass::NAME, "RAYS_SPATIAL_SHADE"),
+    (VplBruteforcePass::NAME, "RAYS_BRUTEFORCE_HIGH"),
 ];
 
 /// The pass of each slot of `FrameTargets::ray_counter` (from [`RAY_SLOT_NAMES`]).
