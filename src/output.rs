@@ -98,47 +98,43 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
 }
 
-/// Whether `path` lies inside the directory `dir` (at any depth), by [`same_file`] on its
-/// ancestors, so also when neither exists yet.
+/// Whether `path` is the directory `dir` or lies inside it (at any depth), both resolved as
+/// [`same_file`] resolves them, so also when neither exists yet.
 pub fn is_within(path: &Path, dir: &Path) -> bool {
-    path.ancestors().skip(1).filter(|a| !a.as_os_str().is_empty()).any(|a| same_file(a, dir))
+    matches!((resolve_path(path), resolve_path(dir)), (Some(p), Some(d)) if p.starts_with(&d))
+}
+
+/// `p` with its deepest existing ancestor canonicalized and the rest applied as written, `..`
+/// going up from what is resolved so far (the part that does not exist yet holds no symlinks, so
+/// that is where `..` leads). None for an empty path.
+fn resolve_path(p: &Path) -> Option<PathBuf> {
+    if p.as_os_str().is_empty() {
+        return None;
+    }
+    let components: Vec<std::path::Component> = p.components().collect();
+    // The longest prefix that exists (a relative path's empty prefix is the working directory).
+    for k in (0..=components.len()).rev() {
+        let prefix: PathBuf = if k == 0 { PathBuf::from(".") } else { components[..k].iter().collect() };
+        if let Ok(mut at) = prefix.canonicalize() {
+            for c in &components[k..] {
+                match c {
+                    std::path::Component::CurDir => {}
+                    std::path::Component::ParentDir => {
+                        at.pop();
+                    }
+                    other => at.push(other),
+                }
+            }
+            return Some(at);
+        }
+    }
+    None
 }
 
 /// Whether `a` and `b` name the same file, also when either does not exist yet (its deepest
-/// existing directory is then resolved): how an output is kept from overwriting an input.
+/// existing directory is then resolved, [`resolve_path`]): how an output is kept from overwriting
+/// an input.
 pub fn same_file(a: &Path, b: &Path) -> bool {
-    // The deepest existing ancestor resolved, the rest joined as written (`OUT/passes/vpls.ply`
-    // before `passes` exists).
-    fn resolve(p: &Path) -> Option<PathBuf> {
-        if let Ok(c) = p.canonicalize() {
-            return Some(c);
-        }
-        // Not there (yet): `..` and `.` taken out as written first (`passes/../passes/x` named a
-        // `passes` that did not exist), then the deepest existing ancestor of what is left resolved.
-        let mut lexical = PathBuf::new();
-        for c in p.components() {
-            match c {
-                std::path::Component::CurDir => {}
-                std::path::Component::ParentDir if matches!(lexical.components().next_back(), Some(std::path::Component::Normal(_))) => {
-                    lexical.pop();
-                }
-                other => lexical.push(other),
-            }
-        }
-        if lexical.as_os_str().is_empty() {
-            lexical.push(".");
-        }
-        let p = lexical.as_path();
-        let mut rest = Vec::new();
-        let mut at = p;
-        loop {
-            if let Ok(c) = at.canonicalize() {
-                return Some(rest.iter().rev().fold(c, |acc, part| acc.join(part)));
-            }
-            rest.push(at.file_name()?.to_owned());
-            at = at.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-        }
-    }
     // Two names of one file that resolve differently: hard links, bind mounts.
     #[cfg(unix)]
     {
@@ -149,7 +145,7 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
             }
         }
     }
-    matches!((resolve(a), resolve(b)), (Some(x), Some(y)) if x == y)
+    matches!((resolve_path(a), resolve_path(b)), (Some(x), Some(y)) if x == y)
 }
 
 /// Creates the output directory `dir` of `flag` before a long run writes into it (a file there,
@@ -395,6 +391,28 @@ mod tests {
         std::fs::write(&c, b"{}").unwrap();
         assert!(same_file(&a, &b) && same_file(&b, &a));
         assert!(!same_file(&a, &c));
+    }
+
+    /// Paths not there yet resolve from their deepest existing ancestor, `..` going up from what
+    /// is resolved: through a symlink it leads where the link points, and a `..` in the missing part
+    /// is taken as written.
+    #[cfg(unix)]
+    #[test]
+    fn paths_not_there_yet_resolve_through_symlinks_and_dot_dot() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::create_dir_all(d.join("out/passes/sub")).unwrap();
+        std::fs::create_dir_all(d.join("x")).unwrap();
+        std::os::unix::fs::symlink(d.join("out/passes/sub"), d.join("x/lnk")).unwrap();
+        // x/lnk/.. is out/passes, not x.
+        assert!(same_file(&d.join("x/lnk/../v.ply"), &d.join("out/passes/v.ply")));
+        assert!(!same_file(&d.join("x/lnk/../v.ply"), &d.join("x/v.ply")));
+        // `..` in a part that does not exist.
+        assert!(same_file(&d.join("out/none/../passes/v.ply"), &d.join("out/passes/v.ply")));
+        assert!(is_within(&d.join("out/none/../passes/v.ply"), &d.join("out/passes")));
+        assert!(is_within(&d.join("out/passes"), &d.join("out/passes")), "the folder itself");
+        assert!(!is_within(&d.join("out/passes/../v.ply"), &d.join("out/passes")), "out/v.ply is not inside");
+        assert!(is_within(&d.join("x/lnk/new/v.ply"), &d.join("out/passes")), "inside through the link");
     }
 
     /// An EXR whose header claims a huge image is refused from its header, before an allocation of

@@ -788,7 +788,7 @@ impl RenderSettings {
             taken.extend(self.camera_path.clone().map(|p| ("the --camera-path", p)));
             if let Some(dir) = &self.out_dir {
                 taken.extend(crate::headless::RUN_OUTPUT_FILES.map(|f| ("an output of --out", dir.join(f))));
-                // --save-every's snapshots and --dump-passes' copy of the VPLs.
+                // --save-every's snapshots (--dump-passes' folder is checked below).
                 // (By name: one path per snapshot would be a million for --frames 1000000.)
                 let snapshot = ply
                     .file_name()

@@ -182,7 +182,7 @@ fn bad_flags() {
     let snapshot = dump_out.join("accum_0002.exr").display().to_string();
     assert_fails(&["--headless", "--out", &dump_dir, "--frames", "4", "--save-every", "2", "--dump-vpls", &snapshot], &["--dump-vpls", "a --save-every output"]);
     let passes_ply = dump_out.join("passes").join("vpls.ply").display().to_string();
-    assert_fails(&["--headless", "--out", &dump_dir, "--dump-passes", "last", "--dump-vpls", &passes_ply], &["--dump-vpls", "--dump-passes copy"]);
+    assert_fails(&["--headless", "--out", &dump_dir, "--dump-passes", "last", "--dump-vpls", &passes_ply], &["--dump-vpls", "inside --dump-passes' folder"]);
     // A failed write names the flag and the file (a full disk said only "No space left on device").
     if Path::new("/dev/full").exists() {
         let small = ["--headless", "--mode", "ris", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "500", "--vpls-indirect", "500"];
@@ -861,6 +861,30 @@ fn the_window_refuses_a_reference_of_another_scene() {
     assert!(!o.status.success() && !err.contains("another scene") && !err.contains("panicked"), "{err}");
 }
 
+/// One textured, emitting triangle in `dir/scene.gltf`: positions, UVs and indices in the external
+/// buffer `dir/tri.bin` (returned with the scene's path), its texture the image file `image`.
+fn textured_triangle(dir: &Path, image: &str) -> (String, Vec<u8>) {
+    let mut bin = Vec::new();
+    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+        bin.extend(v.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    for uv in [[0f32, 0.0], [1.0, 0.0], [0.0, 1.0]] {
+        bin.extend(uv.iter().flat_map(|c| c.to_le_bytes()));
+    }
+    bin.extend([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()));
+    std::fs::write(dir.join("tri.bin"), &bin).unwrap();
+    let json = r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"tri.bin","byteLength":68}],
+        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":24},{"buffer":0,"byteOffset":60,"byteLength":6}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
+                     {"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"},
+                     {"bufferView":2,"componentType":5123,"count":3,"type":"SCALAR"}],
+        "images":[{"uri":"IMAGE"}],"textures":[{"source":0}],
+        "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"emissiveFactor":[1,1,1]}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
+        "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#;
+    (write(dir, "scene.gltf", &json.replace("IMAGE", image)), bin)
+}
+
 /// A run whose outputs would overwrite one of its own inputs is refused before any frame, naming
 /// the flag and the input (found by a review helper; each of these wrote over its input with exit
 /// 0): `--out` over the camera path (a path file named summary.json) and over a texture the scene
@@ -870,31 +894,9 @@ fn the_window_refuses_a_reference_of_another_scene() {
 fn outputs_that_would_overwrite_an_input_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // One textured triangle: positions, UVs and indices in tri.bin, the texture in final.png.
-    let mut bin = Vec::new();
-    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
-        bin.extend(v.iter().flat_map(|c| c.to_le_bytes()));
-    }
-    for uv in [[0f32, 0.0], [1.0, 0.0], [0.0, 1.0]] {
-        bin.extend(uv.iter().flat_map(|c| c.to_le_bytes()));
-    }
-    bin.extend([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()));
-    std::fs::write(d.join("tri.bin"), &bin).unwrap();
     let png = restir_vpl::output::encode_png(1, 1, &[200, 200, 200, 255]).unwrap();
     std::fs::write(d.join("final.png"), &png).unwrap();
-    let scene = write(
-        d,
-        "scene.gltf",
-        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"tri.bin","byteLength":68}],
-        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":24},{"buffer":0,"byteOffset":60,"byteLength":6}],
-        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
-                     {"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"},
-                     {"bufferView":2,"componentType":5123,"count":3,"type":"SCALAR"}],
-        "images":[{"uri":"final.png"}],"textures":[{"source":0}],
-        "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"emissiveFactor":[1,1,1]}],
-        "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
-        "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
-    );
+    let (scene, bin) = textured_triangle(d, "final.png");
     let path_json = d.join("paths").join("summary.json");
     std::fs::create_dir_all(path_json.parent().unwrap()).unwrap();
     std::fs::write(&path_json, r#"{"keyframes":[{"frame":0,"eye":[0.3,0.3,1],"target":[0.3,0.3,0],"up":[0,1,0],"fov":50}]}"#).unwrap();
@@ -946,29 +948,8 @@ fn restir_vpl_validate_takes_the_usual_spellings_and_refuses_others() {
 fn textures_off_does_not_decode_the_images() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let mut bin = Vec::new();
-    for v in [[0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
-        bin.extend(v.iter().flat_map(|c| c.to_le_bytes()));
-    }
-    for uv in [[0f32, 0.0], [1.0, 0.0], [0.0, 1.0]] {
-        bin.extend(uv.iter().flat_map(|c| c.to_le_bytes()));
-    }
-    bin.extend([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()));
-    std::fs::write(d.join("tri.bin"), &bin).unwrap();
     std::fs::write(d.join("albedo.png"), "not an image").unwrap();
-    let scene = write(
-        d,
-        "scene.gltf",
-        r#"{"asset":{"version":"2.0"},"buffers":[{"uri":"tri.bin","byteLength":68}],
-        "bufferViews":[{"buffer":0,"byteOffset":0,"byteLength":36},{"buffer":0,"byteOffset":36,"byteLength":24},{"buffer":0,"byteOffset":60,"byteLength":6}],
-        "accessors":[{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]},
-                     {"bufferView":1,"componentType":5126,"count":3,"type":"VEC2"},
-                     {"bufferView":2,"componentType":5123,"count":3,"type":"SCALAR"}],
-        "images":[{"uri":"albedo.png"}],"textures":[{"source":0}],
-        "materials":[{"pbrMetallicRoughness":{"baseColorTexture":{"index":0}},"emissiveFactor":[1,1,1]}],
-        "meshes":[{"primitives":[{"attributes":{"POSITION":0,"TEXCOORD_0":1},"indices":2,"material":0}]}],
-        "nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}],"scene":0}"#,
-    );
+    let (scene, _) = textured_triangle(d, "albedo.png");
     let out = d.join("out");
     let args = ["--headless", "--mode", "pt", "--width", "8", "--height", "8", "--frames", "1", "--eye", "0.3,0.3,1", "--target", "0.3,0.3,0", "--scene", &scene, "--out", out.to_str().unwrap()];
     assert_fails(&args, &["scene.gltf", "image 0", "cannot decode"]);

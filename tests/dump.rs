@@ -404,7 +404,13 @@ fn the_dump_folder_is_checked_first_and_a_failing_frame_is_dumped() {
     std::fs::write(b.join("passes").join("frame_0002"), "a file").unwrap();
     refused(&run(&b, &["--dump-passes", "last"]), &["--dump-passes", "frame_0002"], &b);
     let c = dir.path().join("c");
-    for ply in [c.join("passes").join("v.ply"), c.join("passes").join("..").join("passes").join("index.html")] {
+    let spellings = [
+        c.join("passes").join("v.ply"),
+        c.join("passes").join("..").join("passes").join("index.html"),
+        c.join("other").join("..").join("passes").join("v.ply"),
+        c.join("passes"),
+    ];
+    for ply in spellings {
         refused(&run(&c, &["--dump-passes", "0", "--dump-vpls", ply.to_str().unwrap()]), &["--dump-vpls", "--dump-passes"], &c);
     }
     // --check-finite stopping at frame 0 of a run that dumps frame 2.
@@ -417,5 +423,10 @@ fn the_dump_folder_is_checked_first_and_a_failing_frame_is_dumped() {
         .unwrap();
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("frame 0 is dumped in") && err.contains("'vpl_shade'"), "{err}");
-    assert!(d.join("passes").join("frame_0000").join("manifest.json").is_file() && d.join("passes").join("index.html").is_file(), "{err}");
+    let manifest = d.join("passes").join("frame_0000").join("manifest.json");
+    assert!(manifest.is_file() && d.join("passes").join("index.html").is_file(), "{err}");
+    // The planted NaN is one pixel, counted as one (as --check-finite counts), not per channel.
+    let m: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&manifest).unwrap()).unwrap();
+    let text = m.to_string();
+    assert!(text.contains("\"nonfinite\":1") && !text.contains("\"nonfinite\":3"), "{text}");
 }

@@ -92,8 +92,13 @@ fn noise_estimate_round_trips_and_merges() {
     let (_, m) = merge(&[(image(12, 10, 0), ma.clone()), (image(12, 10, 1), mb)]).unwrap();
     let want = (3.0f64 / 8.0).powi(2) * 0.125 + (5.0f64 / 8.0).powi(2) * 0.0625;
     assert!((m.noise_mse.unwrap() - want).abs() < 1e-15);
-    // Unknown in one part: unknown.
+    // Unknown in one part (one frame has no variance: a top-up by a single frame): that part takes
+    // the others' per-frame variance, 3 × 0.125 here, so the merge keeps an estimate (it was None,
+    // and the results page then said "unknown"). Unknown in every part: unknown.
     let (_, m) = merge(&[(image(12, 10, 0), ma.clone()), (image(12, 10, 1), meta(5, 3))]).unwrap();
+    let want = (3.0f64 / 8.0).powi(2) * 0.125 + (5.0f64 / 8.0).powi(2) * (3.0 * 0.125 / 5.0);
+    assert!((m.noise_mse.unwrap() - want).abs() < 1e-15, "{:?}", m.noise_mse);
+    let (_, m) = merge(&[(image(12, 10, 0), meta(3, 0)), (image(12, 10, 1), meta(5, 3))]).unwrap();
     assert_eq!(m.noise_mse, None);
     // A negative or non-finite estimate (a hand-edited header) is refused, not merged.
     for bad in [-1.0, f64::INFINITY, f64::NAN] {

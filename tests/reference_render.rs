@@ -142,24 +142,3 @@ fn cli_reference_resumes_and_refuses_mismatches() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success() && err.contains("--exposure") && err.contains("changes nothing"), "{err}");
 }
-
-/// A part without a noise estimate (one frame has no variance: a top-up by a single frame) takes
-/// the per-frame variance of the parts that have one, so the merge keeps an estimate: 8 frames
-/// with MSE 1e-4 (per-frame variance 8e-4) and one frame without give 8e-4 / 9, what 9 frames of
-/// that variance have. It was None for the whole merge, and the results page then said "unknown".
-#[test]
-fn a_merged_part_without_a_noise_estimate_takes_the_others_per_frame_variance() {
-    use restir_vpl::eval::reference::ReferenceMeta;
-    use restir_vpl::output::RgbImage;
-    let image = RgbImage { width: 2, height: 1, pixels: vec![[0.5; 3]; 2] };
-    let mut eight = ReferenceMeta::new(8, 0, 1, "pt", "scene.gltf", 2, 1, "{}");
-    eight.noise_mse = Some(1e-4);
-    let one = ReferenceMeta::new(1, 8, 1, "pt", "scene.gltf", 2, 1, "{}");
-    let (_, merged) = merge(&[(image.clone(), eight.clone()), (image.clone(), one.clone())]).unwrap();
-    let got = merged.noise_mse.expect("an estimate");
-    assert!((got - 8e-4 / 9.0).abs() < 1e-12, "{got}");
-    // With no part estimated there is nothing to take.
-    let mut none = eight;
-    none.noise_mse = None;
-    assert_eq!(merge(&[(image.clone(), none), (image, one)]).unwrap().1.noise_mse, None);
-}

@@ -52,7 +52,9 @@ void main() {
         vec3 old_mean = clamp(m + c, vec3(-FLOAT_MAX), vec3(FLOAT_MAX));
         // The step (x - mean) / n, as x/n - mean/n: each term is finite, so is their difference.
         precise vec3 step = x / n - old_mean / n;
-        precise vec3 t = m + step;
+        // Clamped: at the largest float a tie could round the sum to Inf, and the compensation
+        // terms below would then be Inf - Inf.
+        precise vec3 t = clamp(m + step, vec3(-FLOAT_MAX), vec3(FLOAT_MAX));
         precise vec3 big_m = (m - t) + step;
         precise vec3 big_step = (step - t) + m;
         c += mix(big_step, big_m, greaterThanEqual(abs(m), abs(step)));

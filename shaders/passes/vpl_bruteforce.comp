@@ -43,6 +43,9 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
+    if (frame.debug_poison == POISON_RAY_CARRY && index == 0u && pc.first == 0u) {
+        count_rays(0xFFFFFF00u);  // tests of the carry only (before any early return)
+    }
     Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
     if (s.offset_scale < 0.0) {
@@ -65,7 +68,4 @@ void main() {
     }
     samples[index] = vec4(radiance, 1.0);
     count_rays(rays);
-    if (frame.debug_poison == POISON_RAY_CARRY && index == 0u && pc.first == 0u) {
-        count_rays(0xFFFFFF00u);  // tests of the carry only
-    }
 }

@@ -124,6 +124,8 @@ struct Running {
     /// Another program destroyed the window: no event is handled after that (a redraw already
     /// queued would ask the gone window its size through egui).
     destroyed: bool,
+    /// Enter wrote the outputs at least once (what the warning of a run closed early says).
+    saved: bool,
     resize_pending: bool,
     looking: bool,
     cursor: Option<(f64, f64)>,
@@ -187,11 +189,13 @@ impl ApplicationHandler for App {
             // non-finite samples count, and it fails under validation as a headless run does.
             if self.error.is_none() && self.summary.is_none() {
                 if let Some(n) = self.opts.frames {
-                    // Closed before --frames ended the run: say so, since nothing is written.
-                    log::warn!(
-                        "closed after {} of --frames {n} frames: no outputs were written (Enter writes them at any frame)",
-                        r.frames
-                    );
+                    // Closed before --frames ended the run: say what is on disk.
+                    let what = match (r.saved, &self.settings.out_dir) {
+                        (true, _) => "the outputs are those Enter wrote last".to_string(),
+                        (false, Some(_)) => "no outputs were written (Enter writes them at any frame)".to_string(),
+                        (false, None) => "no outputs were written (none without --out)".to_string(),
+                    };
+                    log::warn!("closed after {} of --frames {n} frames: {what}", r.frames);
                 }
                 if let Err(e) = r.renderer.complete_all().and_then(|_| r.ctx.ensure_clean_for(self.settings.validate)) {
                     self.error = Some(e.context("the window's run"));
@@ -260,6 +264,7 @@ impl App {
             overlay: true,
             size,
             destroyed: false,
+            saved: false,
             resize_pending: false,
             looking: false,
             cursor: None,
@@ -459,12 +464,17 @@ impl App {
                 let displayed = r.displayed(self.opts.present_mode);
                 r.message = match finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start, displayed) {
                     Ok(summary) => {
+                        r.saved |= self.settings.out_dir.is_some();
                         let json = self.settings.out_dir.as_ref().map(|d| format!(", {}", d.join("summary.json").display())).unwrap_or_default();
                         format!("wrote {}{json}", summary.outputs.join(", "))
                     }
                     Err(e) => format!("saving failed: {e:#}"),
                 };
                 log::info!("{}", r.message);
+            }
+            Action::SaveCamera if self.settings.camera_path.as_deref().is_some_and(|p| crate::output::same_file(p, &camera_file(&self.settings))) => {
+                // The saved camera would replace the path the window follows.
+                r.message = format!("not saved: {} is the --camera-path", camera_file(&self.settings).display());
             }
             Action::SaveCamera => {
                 let file = camera_file(&self.settings);
@@ -699,7 +709,7 @@ impl App {
             self.change(&e.what, |s| *s = e.settings)?;
         }
         let r = self.running.as_mut().expect("called while running");
-        if r.frozen() && r.ui.repaint_soon() {
+        if r.frozen() && (r.overlay || r.ui.has_reference()) && r.ui.repaint_soon() {
             // A frame rendered while frozen (F3, or a resize's new targets) whose overlay egui
             // wants drawn once more: a panel shown for the first time (a resize across 480×360
             // makes a new one) is invisible on its first pass, so the frozen window showed no
