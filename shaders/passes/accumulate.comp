@@ -22,6 +22,12 @@ layout(set = 1, binding = 5, std430) buffer StatsBuffer { uint nonfinite_samples
 
 const float FLOAT_MAX = 3.4028235e38;
 
+// `v` held within the float range: at the largest float rounding could carry a mean of finite
+// samples past it (a tie rounds to Inf), and Inf would then meet -Inf in the compensation.
+vec3 within_floats(vec3 v) {
+    return clamp(v, vec3(-FLOAT_MAX), vec3(FLOAT_MAX));
+}
+
 layout(push_constant) uniform Push {
     uint reset;
 };
@@ -41,34 +47,33 @@ void main() {
     precise vec3 m;
     precise vec3 c;
     vec3 d2;
+    vec3 mean;  // m + c within the float range
     if (reset != 0u) {
         m = x;
         c = vec3(0.0);
         d2 = vec3(0.0);
+        mean = x;
     } else {
         float n = float(max(frame.accumulated_frames, 2u));
         m = running_means[i].rgb;
         c = compensation[i].rgb;
-        vec3 old_mean = clamp(m + c, vec3(-FLOAT_MAX), vec3(FLOAT_MAX));
+        vec3 old_mean = within_floats(m + c);
         // The step (x - mean) / n, as x/n - mean/n: each term is finite, so is their difference.
         precise vec3 step = x / n - old_mean / n;
-        // Clamped: at the largest float a tie could round the sum to Inf, and the compensation
-        // terms below would then be Inf - Inf.
-        precise vec3 t = clamp(m + step, vec3(-FLOAT_MAX), vec3(FLOAT_MAX));
+        precise vec3 t = within_floats(m + step);
         precise vec3 big_m = (m - t) + step;
         precise vec3 big_step = (step - t) + m;
         c += mix(big_step, big_m, greaterThanEqual(abs(m), abs(step)));
         m = t;
+        mean = within_floats(m + c);
         // Welford: M2 += (x - old mean)(x - new mean), kept divided by n. A product past 3.4e38
         // (deviations beyond ~1.8e19) is +Inf, which the host reports as the largest float; it is
         // never Inf - Inf here.
-        vec3 p = (x - old_mean) * (x - clamp(m + c, vec3(-FLOAT_MAX), vec3(FLOAT_MAX)));
+        vec3 p = (x - old_mean) * (x - mean);
         d2 = deviations[i].rgb * ((n - 1.0) / n) + p / n;
     }
     running_means[i] = vec4(m, 0.0);
     compensation[i] = vec4(c, 0.0);
     deviations[i] = vec4(d2, 0.0);
-    // Rounding could in principle carry a mean of samples at the largest float past it (here and
-    // in old_mean above).
-    means[i] = vec4(clamp(m + c, vec3(-FLOAT_MAX), vec3(FLOAT_MAX)), 1.0);
+    means[i] = vec4(mean, 1.0);
 }
