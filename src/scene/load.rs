@@ -699,7 +699,7 @@ fn load_buffers(
 }
 
 /// The files the document's buffers and images name (neither GLB chunks nor data URIs), as
-/// [`read_uri`] resolves them.
+/// [`read_uri`] resolves them ([`uri_file`]; a URI it would refuse names none).
 fn external_files(doc: &Document, base_dir: Option<&Path>) -> Vec<std::path::PathBuf> {
     let buffers = doc.buffers().filter_map(|b| match b.source() {
         gltf::buffer::Source::Uri(uri) => Some(uri),
@@ -709,11 +709,7 @@ fn external_files(doc: &Document, base_dir: Option<&Path>) -> Vec<std::path::Pat
         gltf::image::Source::Uri { uri, .. } => Some(uri),
         gltf::image::Source::View { .. } => None,
     });
-    buffers
-        .chain(images)
-        .filter(|uri| !uri.starts_with("data:") && !has_scheme(uri))
-        .filter_map(|uri| Some(base_dir?.join(percent_decode(uri).ok()?)))
-        .collect()
+    buffers.chain(images).filter_map(|uri| uri_file(uri, base_dir).ok().flatten()).collect()
 }
 
 fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
@@ -722,6 +718,16 @@ fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
             .split_once(";base64,")
             .ok_or_else(|| anyhow!("only base64 data URIs are supported"))?;
         return base64::decode(payload).map_err(|e| anyhow!("bad data URI: {e}"));
+    }
+    let path = uri_file(uri, base_dir)?.expect("not a data: URI (returned above)");
+    crate::output::read_input(&path)
+}
+
+/// The file a URI names: relative to `base_dir`, percent-decoded; None for a `data:` URI, an
+/// error for any other scheme, a control character or no base directory.
+fn uri_file(uri: &str, base_dir: Option<&Path>) -> Result<Option<std::path::PathBuf>> {
+    if uri.starts_with("data:") {
+        return Ok(None);
     }
     if has_scheme(uri) {
         bail!("unsupported URI '{uri}' (only data: URIs and relative paths are supported)");
@@ -734,8 +740,7 @@ fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
     let base = base_dir.ok_or_else(|| {
         anyhow!("external file '{relative}' cannot be resolved without a base directory")
     })?;
-    let path = base.join(&relative);
-    crate::output::read_input(&path)
+    Ok(Some(base.join(&relative)))
 }
 
 /// True if `uri` starts with an RFC 3986 scheme (`scheme:`).
