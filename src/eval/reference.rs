@@ -190,6 +190,22 @@ pub fn write_reference(path: &Path, image: &RgbImage, meta: &ReferenceMeta) -> R
 
 /// Reads a reference written by [`write_reference`]. A plain EXR (no metadata) is an error.
 pub fn read_reference(path: &Path) -> Result<(RgbImage, ReferenceMeta)> {
+    let (img, meta) = read_exr_and_reference_meta(path)?;
+    let Some(meta) = meta else {
+        bail!(
+            "{} is not a restir-vpl reference: its EXR header has no '{META_ATTRIBUTE}' attribute (frame count, \
+             seed, settings). A plain render (final.exr) cannot be merged; render references with \
+             `restir-vpl reference`, then merge them with `restir-vpl merge-references`",
+            path.display()
+        );
+    };
+    meta.validate(Some(&img)).with_context(|| format!("{}: inconsistent reference metadata", path.display()))?;
+    Ok((img, meta))
+}
+
+/// An EXR and, when its header has one, the reference metadata [`write_reference`] put there
+/// (parsed, not validated); None for a plain EXR.
+pub fn read_exr_and_reference_meta(path: &Path) -> Result<(RgbImage, Option<ReferenceMeta>)> {
     use exr::meta::attribute::AttributeValue;
     let (img, value) = crate::output::read_exr_with_attribute(path, META_ATTRIBUTE)?;
     let json = match value {
@@ -198,20 +214,14 @@ pub fn read_reference(path: &Path) -> Result<(RgbImage, ReferenceMeta)> {
             "{}: header attribute '{META_ATTRIBUTE}' is not text ({other:?}); the file is not a restir-vpl reference",
             path.display()
         ),
-        None => bail!(
-            "{} is not a restir-vpl reference: its EXR header has no '{META_ATTRIBUTE}' attribute (frame count, \
-             seed, settings). A plain render (final.exr) cannot be merged; render references with \
-             `restir-vpl reference`, then merge them with `restir-vpl merge-references`",
-            path.display()
-        ),
+        None => return Ok((img, None)),
     };
     let mut meta: ReferenceMeta = serde_json::from_str(&json)
         .with_context(|| format!("{}: bad '{META_ATTRIBUTE}' header attribute", path.display()))?;
     if meta.ranges.is_empty() {
         meta.ranges = vec![(meta.first_frame, meta.first_frame + meta.frames)];
     }
-    meta.validate(Some(&img)).with_context(|| format!("{}: inconsistent reference metadata", path.display()))?;
-    Ok((img, meta))
+    Ok((img, Some(meta)))
 }
 
 /// Merges partial references into their frame-count-weighted mean (accumulated in f64). See
@@ -298,11 +308,10 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
     // `--resume --frames 1`) takes the per-frame variance of the parts that have one: the settings
     // agree (checked above), so one frame's noise is the same in every part. Its MSE is that
     // variance over its frames.
-    let (known_var, known_frames) = order.iter().filter_map(|&i| parts[i].1.noise_mse.map(|v| (v * parts[i].1.frames as f64, parts[i].1.frames))).fold(
-        (0f64, 0u64),
-        |(v, f), (vi, fi)| (v + vi * fi as f64, f + fi),
-    );
-    let per_frame_variance = (known_frames > 0).then(|| known_var / known_frames as f64);
+    // (A part's per-frame variance is its noise × its frames; their mean weighted by frames.)
+    let known: Vec<(f64, f64)> = order.iter().map(|&i| &parts[i].1).filter_map(|m| m.noise_mse.map(|v| (v * m.frames as f64, m.frames as f64))).collect();
+    let known_frames: f64 = known.iter().map(|(_, f)| f).sum();
+    let per_frame_variance = (known_frames > 0.0).then(|| known.iter().map(|(var, f)| var * f).sum::<f64>() / known_frames);
     let noise_mse = order.iter().try_fold(0f64, |acc, &i| {
         let m = &parts[i].1;
         let part = m.noise_mse.or_else(|| per_frame_variance.map(|v| v / m.frames as f64));

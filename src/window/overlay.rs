@@ -41,13 +41,9 @@ impl Reference {
     /// RMSE and FLIP would read as a comparison; one of another camera is shown with a warning
     /// (the fly camera may go there). A plain EXR carries neither and is taken as given.
     pub fn load(path: &std::path::Path, settings: &RenderSettings) -> Result<Self> {
-        use crate::eval::reference::{file_hash, ReferenceMeta, META_ATTRIBUTE};
-        use exr::meta::attribute::AttributeValue;
-        let (image, meta) =
-            crate::output::read_exr_with_attribute(path, META_ATTRIBUTE).with_context(|| format!("--reference {}", path.display()))?;
-        if let Some(AttributeValue::Text(text)) = meta {
-            let meta: ReferenceMeta = serde_json::from_str(&text.to_string())
-                .with_context(|| format!("--reference {}: bad '{META_ATTRIBUTE}' header attribute", path.display()))?;
+        use crate::eval::reference::{file_hash, read_exr_and_reference_meta, META_ATTRIBUTE};
+        let (image, meta) = read_exr_and_reference_meta(path).with_context(|| format!("--reference {}", path.display()))?;
+        if let Some(meta) = meta {
             let config: serde_json::Value = serde_json::from_str(&meta.config)
                 .with_context(|| format!("--reference {}: bad settings in its '{META_ATTRIBUTE}' header attribute", path.display()))?;
             let ours = file_hash(&settings.scene)?;
