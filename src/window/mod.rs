@@ -644,7 +644,7 @@ impl App {
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
             let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen(), out_of_view: r.out_of_view };
-            let edit = r.ui.prepare(&r.window, &r.renderer, &info, r.overlay)?;
+            let edit = r.ui.prepare(&r.window, r.size, &r.renderer, &info, r.overlay)?;
             if r.ui.has_texture_deltas() {
                 // Every earlier overlay that may sample those textures has finished: waits with the
                 // hang diagnosis and RESTIR_VPL_GPU_TIMEOUT_S (the renderer's frames too, since the
@@ -661,6 +661,13 @@ impl App {
         match r.presenter.show(&r.ctx, &r.swapchain, &mut r.renderer, camera.as_ref(), ui)? {
             Shown::Yes => {}
             Shown::YesRecreate => r.resize_pending = true,
+            Shown::SurfaceLost => {
+                // As a Destroyed event: the run ends as if the window had been closed.
+                log::warn!("the window was destroyed by another program; closing");
+                r.destroyed = true;
+                event_loop.exit();
+                return Ok(());
+            }
             shown @ (Shown::OutOfDate | Shown::NotReady) => {
                 if matches!(shown, Shown::OutOfDate) {
                     r.resize_pending = true;
@@ -844,6 +851,9 @@ enum Shown {
     /// Not shown: no swapchain image came within ACQUIRE_TIMEOUT (a hidden or minimised window
     /// on some presentation engines); the event loop goes on, so the window still answers input.
     NotReady,
+    /// The surface is gone: another program destroyed the window while the frame was on its way
+    /// (its `Destroyed` event not yet handled).
+    SurfaceLost,
 }
 
 /// How long `show` waits for a swapchain image before skipping the frame (instead of blocking the
@@ -930,6 +940,7 @@ impl Presenter {
         let image_index = match acquired {
             Ok((i, _suboptimal)) => i,
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => return Ok(Shown::OutOfDate),
+            Err(vk::Result::ERROR_SURFACE_LOST_KHR) => return Ok(Shown::SurfaceLost),
             // Nothing was acquired and the semaphore stays unsignalled: the slot is reusable.
             Err(vk::Result::TIMEOUT | vk::Result::NOT_READY) => return Ok(Shown::NotReady),
             Err(e) => return Err(e).context("vkAcquireNextImageKHR"),
@@ -998,6 +1009,7 @@ impl Presenter {
             match p.swapchain_loader.queue_present(ctx.queue, &present) {
                 Ok(false) => Ok(Shown::Yes),
                 Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => Ok(Shown::YesRecreate),
+                Err(vk::Result::ERROR_SURFACE_LOST_KHR) => Ok(Shown::SurfaceLost),
                 Err(e) => Err(e).context("vkQueuePresentKHR"),
             }
         }

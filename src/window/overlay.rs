@@ -131,6 +131,8 @@ pub struct Overlay {
     ctx: Arc<Context>,
     egui: egui::Context,
     state: egui_winit::State,
+    /// egui's clock (its input's `time`).
+    start: Instant,
     renderer: egui_ash_renderer::Renderer<GpuAllocator>,
     render_pass: vk::RenderPass,
     format: vk::Format,
@@ -196,6 +198,7 @@ impl Overlay {
             primitives: Vec::new(),
             pixels_per_point: 1.0,
             repaint_soon: false,
+            start: Instant::now(),
         };
         overlay.set_swapchain(swapchain)?;
         Ok(overlay)
@@ -282,6 +285,21 @@ impl Overlay {
         self.repaint_soon
     }
 
+    /// egui_winit's `take_egui_input` with the window's size given instead of asked: that function
+    /// asks the X server every frame, and winit panics on the answer when another program has
+    /// destroyed the window since the last event (the window then panicked mid-frame under load
+    /// before its `Destroyed` event arrived). The scale factor winit answers from its cache.
+    fn take_input(&mut self, window: &Window, size: winit::dpi::PhysicalSize<u32>) -> egui::RawInput {
+        let pixels_per_point = egui_winit::pixels_per_point(&self.egui, window);
+        let input = self.state.egui_input_mut();
+        input.time = Some(self.start.elapsed().as_secs_f64());
+        let points = egui::vec2(size.width as f32, size.height as f32) / pixels_per_point;
+        input.screen_rect = (points.x > 0.0 && points.y > 0.0).then(|| egui::Rect::from_min_size(egui::Pos2::ZERO, points));
+        input.viewport_id = egui::ViewportId::ROOT;
+        input.viewports.entry(egui::ViewportId::ROOT).or_default().native_pixels_per_point = Some(window.scale_factor() as f32);
+        input.take()
+    }
+
     /// Whether anything is drawn when the panel is hidden (the reference's split screen stays).
     pub fn has_reference(&self) -> bool {
         self.reference.is_some()
@@ -290,11 +308,19 @@ impl Overlay {
     /// Builds this frame's shapes (the panel when `panel`, the reference's split screen) and keeps
     /// the texture changes for [`Overlay::apply_texture_deltas`] (call before recording the
     /// frame). Returns a settings edit made with the widgets.
-    pub fn prepare(&mut self, window: &Window, renderer: &Renderer, info: &WindowInfo, panel_shown: bool) -> Result<Option<Edit>> {
+    /// `size`: the window's inner size as its last `Resized` event gave it.
+    pub fn prepare(
+        &mut self,
+        window: &Window,
+        size: winit::dpi::PhysicalSize<u32>,
+        renderer: &Renderer,
+        info: &WindowInfo,
+        panel_shown: bool,
+    ) -> Result<Option<Edit>> {
         if let Some(r) = &mut self.reference {
             r.measure(renderer)?;
         }
-        let raw = self.state.take_egui_input(window);
+        let raw = self.take_input(window, size);
         let mut edit = None;
         let egui = self.egui.clone();
         let reference = &mut self.reference;
