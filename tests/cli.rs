@@ -990,3 +990,58 @@ fn brute_force_counts_its_rays_past_two_to_the_32() {
     assert!(plain > 0.0 && plain < 64.0 * 600.0, "{plain}");
     assert_eq!(carried - plain, (u32::MAX - 255) as f64, "{carried} vs {plain}");
 }
+
+/// README's "Command line" block names only flags its command has (`--help` of that command), and
+/// README mentions every flag the program has: the usage text is prose, so nothing else keeps the
+/// two in step. (Which flags go together is the parser's business and tested with it; this checks
+/// names only.)
+#[test]
+fn readme_command_lines_name_only_flags_the_program_has() {
+    fn flags(text: &str) -> std::collections::BTreeSet<String> {
+        let mut out = std::collections::BTreeSet::new();
+        let b = text.as_bytes();
+        let mut i = 0;
+        while let Some(at) = text[i..].find("--") {
+            let start = i + at;
+            let mut end = start + 2;
+            while end < b.len() && (b[end].is_ascii_lowercase() || b[end].is_ascii_digit() || b[end] == b'-') {
+                end += 1;
+            }
+            let before_ok = start == 0 || !(b[start - 1].is_ascii_alphanumeric() || b[start - 1] == b'-');
+            if before_ok && end > start + 2 && b[start + 2].is_ascii_lowercase() {
+                out.insert(text[start..end].trim_end_matches('-').to_string());
+            }
+            i = end;
+        }
+        out
+    }
+    let help = |cmd: Option<&str>| {
+        let o = run(&cmd.into_iter().chain(["--help"]).collect::<Vec<_>>());
+        assert!(o.status.success(), "{cmd:?} --help: {}", stderr(&o));
+        let mut f = flags(&String::from_utf8_lossy(&o.stdout));
+        f.insert("--help".into());
+        f
+    };
+    let readme = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("README.md")).unwrap();
+    let block = readme.split("## Command line").nth(1).and_then(|s| s.split("```sh").nth(1)).and_then(|s| s.split("```").next()).expect("README has a Command line section with a sh block");
+    let commands = ["bench", "reference", "merge-references", "compare", "results"];
+    let mut known: std::collections::BTreeMap<Option<&str>, std::collections::BTreeSet<String>> = Default::default();
+    let mut command: Option<&str> = None;
+    let mut checked = 0;
+    for line in block.lines() {
+        if let Some(rest) = line.trim_start().strip_prefix("restir-vpl ") {
+            command = commands.iter().copied().find(|c| rest.split_whitespace().next() == Some(*c));
+        }
+        let have = known.entry(command).or_insert_with(|| help(command));
+        for f in flags(line) {
+            assert!(have.contains(&f), "README's command line `{}` names {f}, which `restir-vpl {} --help` does not list", line.trim(), command.unwrap_or(""));
+            checked += 1;
+        }
+    }
+    assert!(checked > 100, "only {checked} flags found in README's command block");
+    for command in [None].into_iter().chain(commands.iter().map(|c| Some(*c))) {
+        for f in known.entry(command).or_insert_with(|| help(command)).iter().filter(|f| *f != "--help" && *f != "--version") {
+            assert!(readme.contains(f.as_str()), "`restir-vpl {} --help` lists {f}, which README never mentions", command.unwrap_or(""));
+        }
+    }
+}
