@@ -97,6 +97,23 @@ fn direct_vpl_flux_equals_light_power() {
     }
 }
 
+/// Each light's own VPLs carry its power: the point light (last in the light table, whose width
+/// wraps past 2^32) and the area lights apart. The strata make each light's VPL count its share
+/// of N_d to within about one VPL, so a flux divided by anything but the probability the light is
+/// chosen with shows (tolerance 4e-3: one VPL of the point light's ~2800 is 3.6e-4).
+#[test]
+fn each_lights_direct_vpls_carry_its_power() {
+    let scene = two_lights();
+    let set = restir_vpl::lights::LightSet::from_scene(&scene);
+    let point = set.lights.iter().filter(|l| l.flags & restir_vpl::gpu_types::LIGHT_POINT != 0).map(|l| l.emission.map(|c| 4.0 * std::f64::consts::PI * c as f64)).next().expect("the scene's bulb");
+    let (v, _) = vpls(&scene, RenderSettings { vpls_direct: 30_000, gi: false, ..small(8, 8, 1) });
+    let points = v.iter().filter(|x| x.kind == restir_vpl::gpu_types::VPL_DIRECT_POINT).count();
+    assert!(points > 1000, "{points} point-light VPLs");
+    assert_rel(flux_sum(&v, |k| k == restir_vpl::gpu_types::VPL_DIRECT_POINT), point, 4e-3, "point light's VPLs");
+    let total = light_power(&scene);
+    assert_rel(flux_sum(&v, |k| k == VPL_DIRECT_AREA), [0, 1, 2].map(|c| total[c] - point[c]), 4e-3, "area lights' VPLs");
+}
+
 /// A closed box of albedo ρ (the emitter quad inside it too), lit by one emitter of power Φ.
 fn closed_box_scene(rho: f32) -> Scene {
     let mut b = GltfBuilder::new();

@@ -1,8 +1,11 @@
 // photon_emit: virtual point lights from the area lights (docs/method.md). Lights are
 // chosen by inverting their CDF (push constant `light_count` entries), never from the frame constants.
 //   PHOTON_EMIT_DIRECT, direct VPLs: sample i of N_d picks light t by inverting the light CDF at
-//     the stratified u = (i + xi) / N_d, a uniform point on it, and gets flux Phi_t / (N_d P(t)).
-//   PHOTON_EMIT_PATHS, photon paths: each path starts like a direct sample with flux Phi_t / P(t)
+//     the stratified u = (i + xi) / N_d (in 32-bit fixed point, rotated by one random word per
+//     seed, so each u is exactly uniform), a uniform point on it, and gets flux Phi_t / (N_d P(t)),
+//     P(t) the width of t's interval in the table (the probability it is really chosen with).
+//   PHOTON_EMIT_PATHS, photon paths: each path starts like a direct sample (u: 32 random bits) with
+//     flux Phi_t / P(t)
 //     in a cosine direction; at each hit it stores a VPL with flux Phi * albedo (normal toward the
 //     incoming photon) and bounces (cosine) with Phi *= albedo; Russian roulette after min_bounces
 //     on the throughput relative to the start, survival clamp(max channel, 0.05, 0.95). The 1/P of
@@ -27,7 +30,9 @@ layout(set = 1, binding = 0, std430) buffer VplBuffer { Vpl vpls[]; };
 // indirect_count: VPL slots taken; next_path: paths of this dispatch handed out; rays: closest-hit
 // rays traced by this dispatch (both zeroed per batch; bench --rays reads the rays).
 layout(set = 1, binding = 1, std430) buffer VplCounter { uint indirect_count; uint next_path; uint rays; } counters;
-layout(set = 1, binding = 2, std430) readonly buffer LightCdf { float light_cdf[]; };
+// The end of each light's interval in units of 2^-32 (photon_emit.rs's light_cdf); the last entry
+// stands for 2^32.
+layout(set = 1, binding = 2, std430) readonly buffer LightCdf { uint light_cdf[]; };
 
 layout(push_constant) uniform Push {
     uint mode;         // PHOTON_EMIT_*
@@ -46,8 +51,8 @@ layout(push_constant) uniform Push {
 const uint SALT_DIRECT = 0x64697265u;
 const uint SALT_PATHS = 0x70617468u;
 
-// Smallest t with u < cdf[t] (inclusive CDF over the light pdfs).
-uint invert_light_cdf(float u) {
+// Smallest t with u < cdf[t], the last entry counting as 2^32 (never read).
+uint invert_light_cdf(uint u) {
     uint lo = 0u;
     uint hi = light_count - 1u;
     while (lo < hi) {
@@ -61,6 +66,15 @@ uint invert_light_cdf(float u) {
     return lo;
 }
 
+// The probability that invert_light_cdf picks t for a uniform 32-bit u: its interval's width.
+// Zero only for the whole range (one light takes it all): a light of width 0 is never picked.
+float light_choice_pdf(uint t) {
+    uint lo = t == 0u ? 0u : light_cdf[t - 1u];
+    uint hi = t + 1u == light_count ? 0u : light_cdf[t];
+    uint width = hi - lo;  // modulo 2^32, so the last light's width is 2^32 - lo
+    return width == 0u ? 1.0 : float(width) * (1.0 / 4294967296.0);
+}
+
 struct LightSample {
     vec3 position;
     float offset_scale;  // offset_ray's scale of the light's triangle
@@ -70,13 +84,14 @@ struct LightSample {
 
 LightSample sample_light_point(uint t, inout Rng rng) {
     Light l = light_texels(lights, t);
+    float pdf = light_choice_pdf(t);
     if ((l.flags & LIGHT_POINT) != 0u) {
         // Isotropic: power 4 pi I; `normal` is a uniform direction, used only to start photons.
         LightSample s;
         s.position = l.p0;
         s.offset_scale = 0.0;  // a point: never offset
         s.normal = sample_uniform_sphere(rand2(rng));
-        s.power_over_pdf = l.emission * (4.0 * PI / l.pdf);
+        s.power_over_pdf = l.emission * (4.0 * PI / pdf);
         return s;
     }
     vec3 b = sample_triangle_barycentrics(rand2(rng));
@@ -92,14 +107,17 @@ LightSample sample_light_point(uint t, inout Rng rng) {
             s.normal = -s.normal;
         }
     }
-    s.power_over_pdf = l.emission * (sides * PI * l.area / l.pdf);
+    s.power_over_pdf = l.emission * (sides * PI * l.area / pdf);
     return s;
 }
 
 void direct_vpl(uint i) {
     Rng rng = rng_init(i, 0u, seed, SALT_DIRECT);
-    float u = min((float(i) + rand(rng)) / float(total), 0.99999994);
-    uint t = invert_light_cdf(u);
+    // Stratum i in fixed point (float rounding only moves the strata a little), plus a rotation
+    // shared by all i: any point plus a uniform 32-bit rotation is uniform, so P(t) is exact.
+    float stratified = (float(i) + rand(rng)) / float(total) * 4294967296.0;
+    Rng rotation = rng_init(0u, 2u, seed, SALT_DIRECT);
+    uint t = invert_light_cdf(uint(min(stratified, 4294967040.0)) + rng_next(rotation));
     LightSample s = sample_light_point(t, rng);
     bool point = (light_texels(lights, t).flags & LIGHT_POINT) != 0u;
     Vpl v;
@@ -127,7 +145,7 @@ PhotonPath start_path(uint p) {
     PhotonPath path;
     path.index = p;
     path.rng = rng_init(p, 1u, seed, SALT_PATHS);
-    uint t = invert_light_cdf(rand(path.rng));
+    uint t = invert_light_cdf(rng_next(path.rng));
     LightSample s = sample_light_point(t, path.rng);
     path.phi0 = s.power_over_pdf;
     path.phi = path.phi0;

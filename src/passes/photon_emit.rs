@@ -225,25 +225,17 @@ impl PhotonEmitPass {
         let vpls = Buffer::new(ctx, "photon_emit.vpls", vpl_bytes, usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER, MemoryLocation::GpuOnly)?
             .with_texel_view(super::RECORD_TEXELS)?;
         let counter = Buffer::new(ctx, "photon_emit.indirect_count", 16, usage, MemoryLocation::GpuOnly)?;
-        let mut acc = 0.0f64;
-        let mut cdf: Vec<f32> = lights
-            .lights
-            .iter()
-            .map(|l| {
-                acc += l.pdf as f64;
-                acc as f32
-            })
-            .collect();
-        if let Some(last) = cdf.last_mut() {
-            *last = f32::MAX; // every u < 1 lands on a light despite rounding
-        }
-        let cdf_buf = Buffer::with_data(ctx, "photon_emit.light_cdf", bytemuck::cast_slice(&cdf), vk::BufferUsageFlags::STORAGE_BUFFER)?;
+        let cdf = light_cdf(lights.lights.iter().map(|l| l.pdf as f64));
+        // (One unread entry where no light can be chosen, since a buffer is not empty; the pass
+        // then traces nothing.)
+        let table: &[u32] = if cdf.is_empty() { &[0] } else { &cdf };
+        let cdf_buf = Buffer::with_data(ctx, "photon_emit.light_cdf", bytemuck::cast_slice(table), vk::BufferUsageFlags::STORAGE_BUFFER)?;
         let pipeline = Self::DESC
             .pipeline(ctx, scene_layout)
             .textured(textured)
             .buffers(&[(0, &vpls), (1, &counter), (2, &cdf_buf)])
             .build()?;
-        let light_count = lights.lights.len() as u32;
+        let light_count = cdf.len() as u32;
         Ok(Self {
             pipeline,
             vpls,
@@ -455,9 +447,78 @@ impl PhotonEmitPass {
     }
 }
 
+/// The light-choice table of `photon_emit` from the lights' probabilities `pdfs` (any positive
+/// scale): entry t is the end of light t's interval in 32-bit fixed point (units of 2^-32), so a
+/// uniform 32-bit word u picks the first t with u < cdf[t]. The table ends at the last light of
+/// positive probability (none after it can be chosen; empty if no light can), whose entry stands
+/// for 2^32 and is 0 (the search never reads it). Every light of positive probability gets at least one unit, however
+/// small its share, and the pass divides each VPL's flux by its light's width in this table, the
+/// probability with which it is really chosen: a float table, searched with 24-bit uniforms, gave a
+/// light of share 1e-7 about 1.2× its VPLs and one below ~3e-8 none (a dim point light beside area
+/// lights, or ~10^6 emissive triangles), and divided by the exact share.
+pub fn light_cdf(pdfs: impl Iterator<Item = f64> + Clone) -> Vec<u32> {
+    const ONE: f64 = 4294967296.0;
+    let total: f64 = pdfs.clone().filter(|p| *p > 0.0).sum();
+    let positive_after: Vec<u64> = {
+        let positive: Vec<bool> = pdfs.clone().map(|p| p > 0.0).collect();
+        let mut after = vec![0u64; positive.len()];
+        for t in (0..positive.len().saturating_sub(1)).rev() {
+            after[t] = after[t + 1] + u64::from(positive[t + 1]);
+        }
+        after
+    };
+    let n = pdfs.clone().enumerate().filter(|(_, p)| *p > 0.0).last().map_or(0, |(t, _)| t + 1);
+    let (mut acc, mut end) = (0.0f64, 0u64);
+    let mut cdf = Vec::with_capacity(n);
+    for (t, p) in pdfs.take(n).enumerate() {
+        if p > 0.0 {
+            acc += p / total;
+            // At least one unit for this light, and room for one for each positive light after it.
+            end = ((acc * ONE).round() as u64).max(end + 1).min((1u64 << 32) - positive_after[t]);
+        }
+        cdf.push(if t + 1 == n { 0 } else { end as u32 });
+    }
+    cdf
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Widths as the shader reads them (`light_choice_pdf`), in units of 2^-32.
+    fn widths(cdf: &[u32]) -> Vec<u64> {
+        (0..cdf.len())
+            .map(|t| {
+                let lo = if t == 0 { 0 } else { cdf[t - 1] as u64 };
+                let hi = if t + 1 == cdf.len() { 1u64 << 32 } else { cdf[t] as u64 };
+                hi - lo
+            })
+            .collect()
+    }
+
+    #[test]
+    fn light_cdf_gives_every_light_its_share_and_the_dimmest_at_least_one_unit() {
+        // A bright area light, a dim point light last (share 1e-11, below 2^-32), a zero one.
+        let pdfs = [0.6, 0.4 - 1e-11, 0.0, 1e-11];
+        let w = widths(&light_cdf(pdfs.iter().copied()));
+        assert_eq!(w.iter().sum::<u64>(), 1u64 << 32);
+        assert_eq!(w[2], 0, "a light of probability 0 is never chosen");
+        assert_eq!(w[3], 1, "the dimmest light is chosen with one unit, and its flux divided by it");
+        for t in [0, 1] {
+            assert!((w[t] as f64 / 4294967296.0 - pdfs[t]).abs() <= 2.0 / 4294967296.0, "light {t}: {w:?}");
+        }
+        // Shares of 1e-7 (where a float table with 24-bit uniforms was 19 % off) within one unit.
+        let many: Vec<f64> = std::iter::once(1.0 - 1e-7 * 1000.0).chain(std::iter::repeat_n(1e-7, 1000)).collect();
+        let w = widths(&light_cdf(many.iter().copied()));
+        assert_eq!(w.iter().sum::<u64>(), 1u64 << 32);
+        for (t, (w, p)) in w.iter().zip(&many).enumerate() {
+            assert!((*w as f64 - p * 4294967296.0).abs() <= 1.0, "light {t}: width {w} for share {p}");
+        }
+        // One light takes everything; a list of zeros and one light too.
+        assert_eq!(widths(&light_cdf([2.0].into_iter())), [1u64 << 32]);
+        assert_eq!(widths(&light_cdf([0.0, 3.0, 0.0].into_iter())), [0, 1u64 << 32], "the table ends at the last light that can be chosen");
+        assert!(light_cdf([0.0, 0.0].into_iter()).is_empty(), "no light can be chosen");
+    }
 
     /// Runs `plan` against a simulated tracer where path p makes `vpls(p)` VPLs, checking what the
     /// GPU pass relies on: the paths kept are exactly 0 .. P, each traced once into the counter
