@@ -55,20 +55,48 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
     let nodes = traverse(&doc, &mut warnings)?;
     check_morph_weights(&nodes, &mut warnings);
 
-    // Materials: all glTF materials, the default one appended below if needed.
-    let mut materials: Vec<Material> = doc
-        .materials()
-        .map(|m| convert_material(&m, &mut warnings))
-        .collect::<Result<_>>()?;
-    let textures = load_textures(&doc, &buffers, base_dir, decode_textures, &mut materials, &mut warnings)?;
-    let default_material = materials.len() as u32;
-    let mut uses_default = false;
-
     // Meshes referenced by the chosen scene, in glTF index order.
     let referenced: BTreeMap<usize, gltf::Mesh> = nodes
         .iter()
         .filter_map(|(node, _)| node.mesh().map(|m| (m.index(), m)))
         .collect();
+    if referenced.is_empty() && doc.default_scene().is_none() && doc.scenes().len() > 1 {
+        let with_meshes: Vec<String> = doc
+            .scenes()
+            .filter(|sc| sc.index() > 0 && scene_has_meshes(sc))
+            .map(|sc| sc.name().map_or_else(|| sc.index().to_string(), |n| format!("{} ('{n}')", sc.index())))
+            .collect();
+        if !with_meshes.is_empty() {
+            bail!(
+                "no triangles in scene 0, which is rendered because the file sets no default scene (its \"scene\" field); \
+                 scene {} holds meshes: set \"scene\" to its index",
+                with_meshes.join(", ")
+            );
+        }
+    }
+    check_geometry_size(&referenced)?;
+    // The materials the chosen scene's primitives use: only their textures are read (a texture of
+    // a material nothing here uses failed the scene when it could not be read).
+    let used: std::collections::BTreeSet<usize> =
+        referenced.values().flat_map(|m| m.primitives()).filter_map(|p| p.material().index()).collect();
+
+    // Materials: all glTF materials, the default one appended below if needed.
+    let mut materials: Vec<Material> = doc
+        .materials()
+        .map(|m| convert_material(&m, &mut warnings))
+        .collect::<Result<_>>()?;
+    for m in doc.materials().filter(|m| m.index().is_some_and(|i| used.contains(&i))) {
+        if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
+            let name = &materials[m.index().expect("filtered on the index")].name;
+            warnings.push(format!(
+                "material '{name}': alphaMode {:?} (cut-outs, transparency) is not supported; rendered opaque",
+                m.alpha_mode()
+            ));
+        }
+    }
+    let textures = load_textures(&doc, &buffers, base_dir, decode_textures, &used, &mut materials, &mut warnings)?;
+    let default_material = materials.len() as u32;
+    let mut uses_default = false;
     let mut mesh_map = BTreeMap::new();
     let mut meshes = Vec::with_capacity(referenced.len());
     for (gltf_index, gltf_mesh) in &referenced {
@@ -876,17 +904,67 @@ const MAX_TEXELS: u64 = 1 << 26;
 
 /// Decodes every glTF image used as a base colour texture (once each) and points the materials
 /// at them. An unreadable or undecodable image is an error naming the material and the image.
+/// Whether any node of `scene` (or below one) holds a mesh.
+fn scene_has_meshes(scene: &gltf::Scene) -> bool {
+    let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+    let mut seen = std::collections::BTreeSet::new();
+    while let Some(n) = stack.pop() {
+        if !seen.insert(n.index()) {
+            continue;
+        }
+        if n.mesh().is_some() {
+            return true;
+        }
+        stack.extend(n.children());
+    }
+    false
+}
+
+/// Vertices and indices over all of a scene's triangle primitives are limited to what a GPU's
+/// storage buffer can address (4 GiB: 2^27 vertices of 32 bytes, 2^30 u32 indices), checked from
+/// the accessors' counts before any is read: a few kilobytes of glTF (one large accessor without a
+/// buffer view, read by many primitives) otherwise made the loader allocate tens of gigabytes and
+/// abort.
+fn check_geometry_size(meshes: &BTreeMap<usize, gltf::Mesh>) -> Result<()> {
+    const MAX_VERTICES: u64 = (1 << 32) / 32;
+    const MAX_INDICES: u64 = 1 << 30;
+    let (mut vertices, mut indices) = (0u64, 0u64);
+    for prim in meshes.values().flat_map(|m| m.primitives()).filter(|p| triangle_mode(p.mode())) {
+        let n = prim.get(&Semantic::Positions).map_or(0, |a| a.count() as u64);
+        vertices += n;
+        // A list, strip or fan makes at most 3 indices per vertex it lists.
+        indices += 3 * prim.indices().map_or(n, |a| a.count() as u64);
+    }
+    if vertices > MAX_VERTICES || indices > 3 * MAX_INDICES {
+        bail!(
+            "the scene's triangle primitives list {vertices} vertices and up to {} triangles, more than a GPU's storage buffer \
+             holds (at most {MAX_VERTICES} vertices and {} triangles)",
+            indices / 3,
+            MAX_INDICES / 3
+        );
+    }
+    Ok(())
+}
+
+fn triangle_mode(mode: Mode) -> bool {
+    matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)
+}
+
 fn load_textures(
     doc: &Document,
     buffers: &[Vec<u8>],
     base_dir: Option<&Path>,
     decode: bool,
+    used: &std::collections::BTreeSet<usize>,
     materials: &mut [Material],
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Texture>> {
     let mut textures = Vec::new();
     let mut by_image: BTreeMap<usize, usize> = BTreeMap::new();
     for (m, material) in doc.materials().zip(materials.iter_mut()) {
+        if !m.index().is_some_and(|i| used.contains(&i)) {
+            continue;
+        }
         let Some(info) = m.pbr_metallic_roughness().base_color_texture() else {
             continue;
         };
@@ -957,6 +1035,21 @@ fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path
 }
 
 /// Concatenates all primitives of `mesh` into one [`Mesh`].
+/// The triangle list of a strip or fan over the vertices `v` (glTF 2.0, 3.7.2.1: strip triangle i
+/// is v_i, v_{i+1+i%2}, v_{i+2-i%2}, so every triangle keeps the strip's winding; fan triangle i is
+/// v_{i+1}, v_{i+2}, v_0).
+fn strip_or_fan_to_list(mode: Mode, v: &[u32]) -> Vec<u32> {
+    let triangles = v.len().saturating_sub(2);
+    let mut out = Vec::with_capacity(3 * triangles);
+    for i in 0..triangles {
+        match mode {
+            Mode::TriangleStrip => out.extend([v[i], v[i + 1 + i % 2], v[i + 2 - i % 2]]),
+            _ => out.extend([v[i + 1], v[i + 2], v[0]]),
+        }
+    }
+    out
+}
+
 fn load_mesh(
     mesh: &gltf::Mesh,
     buffers: &[Vec<u8>],
@@ -976,11 +1069,10 @@ fn load_mesh(
 
     for (pi, prim) in mesh.primitives().enumerate() {
         let what = format!("mesh '{name}' primitive {pi}");
-        if prim.mode() != Mode::Triangles {
-            bail!(
-                "{what} uses mode {:?}; only TRIANGLES is supported",
-                prim.mode()
-            );
+        if !triangle_mode(prim.mode()) {
+            // Lines and points (an exporter's loose edges, a CAD file's outlines) have no surface.
+            warnings.push(format!("{what}: mode {:?} has no surface to render; skipped", prim.mode()));
+            continue;
         }
         let pos_acc = prim
             .get(&Semantic::Positions)
@@ -1064,27 +1156,24 @@ fn load_mesh(
         }
         let uvs = replace_non_finite(uvs, Vec2::ZERO, |v| v.is_finite(), &what, "TEXCOORD_0", "(0, 0)", warnings);
 
-        let indices = match prim.indices() {
+        let listed = match prim.indices() {
             Some(acc) => {
                 let indices =
                     read_indices(&acc, buffers).with_context(|| format!("{what}: indices"))?;
-                if indices.len() % 3 != 0 {
-                    bail!(
-                        "{what}: index count {} is not a multiple of 3",
-                        indices.len()
-                    );
-                }
                 if let Some((k, &i)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
                     bail!("{what}: index {i} at position {k} is out of range ({n} vertices)");
                 }
                 indices
             }
-            None => {
-                if n % 3 != 0 {
-                    bail!("{what} is not indexed and its vertex count {n} is not a multiple of 3");
-                }
-                (0..n as u32).collect()
-            }
+            None => (0..n as u32).collect(),
+        };
+        let indices = match prim.mode() {
+            Mode::TriangleStrip | Mode::TriangleFan => strip_or_fan_to_list(prim.mode(), &listed),
+            _ if listed.len() % 3 != 0 => match prim.indices() {
+                Some(_) => bail!("{what}: index count {} is not a multiple of 3", listed.len()),
+                None => bail!("{what} is not indexed and its vertex count {n} is not a multiple of 3"),
+            },
+            _ => listed,
         };
 
         // A triangle with a non-finite vertex is dropped: in an acceleration structure its NaN

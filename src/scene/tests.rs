@@ -314,19 +314,43 @@ fn error_malformed_json() {
     );
 }
 
+/// Lines and points have no surface: skipped with a warning, the file's triangles still load (a
+/// loose-edge primitive refused the whole file). Strips and fans become lists with the winding of
+/// the list they stand for (glTF 2.0, 3.7.2.1).
 #[test]
-fn error_lines_mode() {
-    let mut doc = triangle_doc();
-    doc["meshes"][0]["primitives"][0]["mode"] = json!(1);
-    let err = load_err(&doc);
-    assert_contains(
-        &err,
-        &[
-            "test.gltf",
-            "mesh 'tri' primitive 0 uses mode Lines",
-            "only TRIANGLES",
-        ],
-    );
+fn lines_and_points_are_skipped_and_strips_and_fans_become_lists() {
+    for (mode, name) in [(0, "Points"), (1, "Lines"), (2, "LineLoop"), (3, "LineStrip")] {
+        let mut doc = triangle_doc();
+        let tri = doc["meshes"][0]["primitives"][0].clone();
+        let mut wire = tri.clone();
+        wire["mode"] = json!(mode);
+        doc["meshes"][0]["primitives"] = json!([wire, tri]);
+        let s = load_value(&doc).unwrap();
+        assert_eq!(s.triangle_count(), 1, "{name}");
+        assert_contains(&s.warnings.join("\n"), &["mesh 'tri' primitive 0: mode", name, "skipped"]);
+        // Alone, nothing is left, and the error says why.
+        doc["meshes"][0]["primitives"] = json!([wire]);
+        assert_contains(&load_err(&doc), &["no triangles in scene", "skipped"]);
+    }
+    // A unit quad as a strip (0 1 2 3: triangles 012 and 132) and as a fan (0 1 3 2: 013 and 132),
+    // counter-clockwise seen from +z.
+    let quad = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0]];
+    for (mode, order, expect) in [(5, [0u32, 1, 2, 3], [0u32, 1, 2, 1, 3, 2]), (6, [0, 1, 3, 2], [1, 3, 0, 3, 2, 0])] {
+        let mut b = GltfBuilder::new();
+        let m = b.material("grey", [0.5; 3], [0.0; 3], false);
+        let mesh = b.mesh("quad", &quad, None, &order, m);
+        b.node("quad", mesh, [0.0; 3]);
+        let mut doc: Value = serde_json::from_str(&b.to_json_string()).unwrap();
+        doc["meshes"][0]["primitives"][0]["mode"] = json!(mode);
+        let s = load_value(&doc).unwrap();
+        let mesh = &s.meshes[0];
+        assert_eq!(mesh.indices, expect, "mode {mode}");
+        for t in mesh.indices.chunks(3) {
+            let [a, b, c] = [0, 1, 2].map(|k| mesh.positions[t[k] as usize]);
+            assert!((b - a).cross(c - a).z > 0.0, "mode {mode}: triangle {t:?} is wound the other way");
+        }
+        assert!((s.meshes[0].indices.len() / 3) == 2 && s.warnings.is_empty(), "{:?}", s.warnings);
+    }
 }
 
 #[test]
@@ -831,6 +855,10 @@ fn base_color_textures_are_decoded_once_and_shared() {
     doc["textures"] = json!([{ "source": 0 }, { "source": 0, "sampler": 0 }]);
     doc["samplers"] = json!([{ "wrapS": 33071 }]);
     doc["images"] = json!([{ "name": "checker", "uri": png_data_uri(2, 2, &rgba) }]);
+    // Both materials in use (only used materials' textures are read).
+    let mut second = doc["meshes"][0]["primitives"][0].clone();
+    second["material"] = json!(1);
+    doc["meshes"][0]["primitives"].as_array_mut().unwrap().push(second);
     let s = load_value(&doc).unwrap();
     assert_eq!(s.textures.len(), 1, "one image, decoded once");
     let t = &s.textures[0];
@@ -862,6 +890,66 @@ fn texture_errors_name_the_material_and_image() {
     assert!(s.textures.is_empty());
     assert_eq!(s.materials[0].base_color_texture, None);
     assert_contains(&s.warnings.join("\n"), &["TEXCOORD_1", "ignored"]);
+}
+
+/// Only the materials the rendered scene uses have their textures read: a texture that cannot be
+/// read, on a material no primitive uses or used only in another glTF scene, failed the file.
+/// Cut-outs and transparency are not rendered: a used material asking for them is warned about.
+#[test]
+fn unused_materials_textures_are_not_read_and_alpha_modes_are_warned_about() {
+    let mut doc = triangle_doc();
+    doc["materials"].as_array_mut().unwrap().push(json!({
+        "name": "unused",
+        "alphaMode": "BLEND",
+        "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } },
+    }));
+    doc["textures"] = json!([{ "source": 0 }]);
+    doc["images"] = json!([{ "uri": "data:image/png;base64,AAAA" }]);
+    let s = load_value(&doc).unwrap();
+    assert!(s.textures.is_empty() && s.warnings.is_empty(), "{:?}", s.warnings);
+    // The same material in another glTF scene, not the one rendered: still not read.
+    let mut other = doc.clone();
+    other["meshes"].as_array_mut().unwrap().push(json!({ "name": "elsewhere", "primitives": [{ "attributes": { "POSITION": 0 }, "material": 1 }] }));
+    other["nodes"].as_array_mut().unwrap().push(json!({ "mesh": 1 }));
+    other["scenes"].as_array_mut().unwrap().push(json!({ "nodes": [1] }));
+    assert!(load_value(&other).unwrap().textures.is_empty());
+    // Used, it is read (and fails to decode), and its alpha mode is warned about.
+    doc["meshes"][0]["primitives"][0]["material"] = json!(1);
+    assert_contains(&load_err(&doc), &["material 'unused'", "cannot decode"]);
+    doc["images"] = json!([{ "uri": png_data_uri(1, 1, &[1, 2, 3, 4]) }]);
+    let s = load_value(&doc).unwrap();
+    assert_eq!(s.textures.len(), 1);
+    assert_contains(&s.warnings.join("\n"), &["material 'unused'", "alphaMode Blend", "rendered opaque"]);
+}
+
+/// A file with several glTF scenes and no default renders scene 0; when that one is empty and
+/// another holds meshes, the error says so (it said only "no triangles in scene").
+#[test]
+fn an_empty_first_scene_without_a_default_names_the_scene_with_meshes() {
+    let mut doc = triangle_doc();
+    doc.as_object_mut().unwrap().remove("scene");
+    doc["scenes"] = json!([{ "nodes": [] }, { "name": "main", "nodes": [0] }]);
+    assert_contains(&load_err(&doc), &["no triangles in scene 0", "no default scene", "scene 1 ('main') holds meshes"]);
+    doc["scene"] = json!(1);
+    assert_eq!(load_value(&doc).unwrap().triangle_count(), 1);
+}
+
+/// A few kilobytes of glTF (one accessor without a buffer view, 3 × 2^24 vertices, read by 16
+/// primitives) asked the loader for tens of gigabytes and aborted; the accessors' counts are now
+/// checked against what a GPU's storage buffer holds before any is read.
+#[test]
+fn geometry_beyond_a_storage_buffer_is_refused_before_it_is_read() {
+    let mut doc = triangle_doc();
+    let n = 3u64 << 24;
+    doc["accessors"].as_array_mut().unwrap().push(json!({
+        "componentType": 5126, "count": n, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0],
+        "sparse": { "count": 1, "indices": { "bufferView": 0, "componentType": 5125 }, "values": { "bufferView": 0 } },
+    }));
+    let last = doc["accessors"].as_array().unwrap().len() - 1;
+    let prim = json!({ "attributes": { "POSITION": last } });
+    doc["meshes"][0]["primitives"] = json!(vec![prim; 16]);
+    let e = load_err(&doc);
+    assert_contains(&e, &["805306368 vertices", "more than a GPU's storage buffer holds"]);
 }
 
 /// Images and cameras that pass the schema but that the gltf crate's accessors would panic on.
