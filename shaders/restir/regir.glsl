@@ -21,6 +21,7 @@
 
 #include "../common/types.glsl"
 #include "vpl.glsl"
+#include "../lib/finite.glsl"
 
 // The flat index of the cell holding x, or -1 outside the grid (or no grid).
 int regir_cell(GridParams g, vec3 x) {
@@ -28,7 +29,7 @@ int regir_cell(GridParams g, vec3 x) {
         return -1;
     }
     vec3 c = floor((x - g.lo) / g.cell_size);
-    if (any(lessThan(c, vec3(0.0))) || any(greaterThanEqual(c, vec3(float(g.cells)))) || any(isnan(c))) {
+    if (any(lessThan(c, vec3(0.0))) || any(greaterThanEqual(c, vec3(float(g.cells)))) || !is_finite(c)) {
         return -1;
     }
     uvec3 u = uvec3(c);
@@ -75,7 +76,11 @@ float regir_cell_target(vec3 y, uint kind, vec3 ny, vec3 flux, float r2, vec3 c,
     float d2 = p.attenuation == ATTENUATION_YUKSEL ? dmin * dmin : max(dmin * dmin, 0.01 * rc * rc);
     float t = luminance(flux) * INV_PI * INV_PI * emit * vpl_attenuation(d2, p.attenuation, r2);
     // Overflow clamps (the support must stay); a NaN (0 * inf at degenerate scales) counts as 0.
-    return isnan(t) ? 0.0 : min(t, 3.0e38);
+    // Tested on the bits (lib/finite.glsl: isnan may fold to false).
+    if (!is_finite(t)) {
+        return floatBitsToUint(t) == 0x7F800000u ? 3.0e38 : 0.0;
+    }
+    return min(t, 3.0e38);
 }
 
 // The grid source's pseudo-density at a candidate: p^_c / S (S <= 0: no estimate yet, 0).
