@@ -928,18 +928,17 @@ fn scene_has_meshes(scene: &gltf::Scene) -> bool {
 fn check_geometry_size(meshes: &BTreeMap<usize, gltf::Mesh>) -> Result<()> {
     const MAX_VERTICES: u64 = (1 << 32) / 32;
     const MAX_INDICES: u64 = 1 << 30;
-    let (mut vertices, mut indices) = (0u64, 0u64);
+    let (mut vertices, mut triangles) = (0u64, 0u64);
     for prim in meshes.values().flat_map(|m| m.primitives()).filter(|p| triangle_mode(p.mode())) {
         let n = prim.get(&Semantic::Positions).map_or(0, |a| a.count() as u64);
         vertices += n;
-        // A list, strip or fan makes at most 3 indices per vertex it lists.
-        indices += 3 * prim.indices().map_or(n, |a| a.count() as u64);
+        let listed = prim.indices().map_or(n, |a| a.count() as u64);
+        triangles += if prim.mode() == Mode::Triangles { listed / 3 } else { listed.saturating_sub(2) };
     }
-    if vertices > MAX_VERTICES || indices > 3 * MAX_INDICES {
+    if vertices > MAX_VERTICES || 3 * triangles > MAX_INDICES {
         bail!(
-            "the scene's triangle primitives list {vertices} vertices and up to {} triangles, more than a GPU's storage buffer \
+            "the scene's triangle primitives list {vertices} vertices and {triangles} triangles, more than a GPU's storage buffer \
              holds (at most {MAX_VERTICES} vertices and {} triangles)",
-            indices / 3,
             MAX_INDICES / 3
         );
     }

@@ -950,6 +950,15 @@ fn geometry_beyond_a_storage_buffer_is_refused_before_it_is_read() {
     doc["meshes"][0]["primitives"] = json!(vec![prim; 16]);
     let e = load_err(&doc);
     assert_contains(&e, &["805306368 vertices", "more than a GPU's storage buffer holds"]);
+    // Three vertices, and 2^29 triangles of indices: refused on the triangles.
+    let mut doc = triangle_doc();
+    doc["accessors"].as_array_mut().unwrap().push(json!({
+        "componentType": 5125, "count": 3u64 << 29, "type": "SCALAR",
+        "sparse": { "count": 1, "indices": { "bufferView": 0, "componentType": 5125 }, "values": { "bufferView": 0 } },
+    }));
+    let last = doc["accessors"].as_array().unwrap().len() - 1;
+    doc["meshes"][0]["primitives"][0]["indices"] = json!(last);
+    assert_contains(&load_err(&doc), &["3 vertices and 536870912 triangles", "357913941 triangles)"]);
 }
 
 /// Images and cameras that pass the schema but that the gltf crate's accessors would panic on.
