@@ -78,7 +78,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
     // The materials the chosen scene's primitives use: only their textures are read (a texture of
     // a material nothing here uses failed the scene when it could not be read).
     let used: std::collections::BTreeSet<usize> =
-        referenced.values().flat_map(|m| m.primitives()).filter_map(|p| p.material().index()).collect();
+        referenced.values().flat_map(|m| m.primitives()).filter(|p| triangle_mode(p.mode())).filter_map(|p| p.material().index()).collect();
 
     // Materials: all glTF materials, the default one appended below if needed.
     let mut materials: Vec<Material> = doc
@@ -931,11 +931,12 @@ fn check_geometry_size(meshes: &BTreeMap<usize, gltf::Mesh>) -> Result<()> {
     let (mut vertices, mut triangles) = (0u64, 0u64);
     for prim in meshes.values().flat_map(|m| m.primitives()).filter(|p| triangle_mode(p.mode())) {
         let n = prim.get(&Semantic::Positions).map_or(0, |a| a.count() as u64);
-        vertices += n;
+        // Counts come from the file (up to 2^64): the sums saturate.
+        vertices = vertices.saturating_add(n);
         let listed = prim.indices().map_or(n, |a| a.count() as u64);
-        triangles += if prim.mode() == Mode::Triangles { listed / 3 } else { listed.saturating_sub(2) };
+        triangles = triangles.saturating_add(if prim.mode() == Mode::Triangles { listed / 3 } else { listed.saturating_sub(2) });
     }
-    if vertices > MAX_VERTICES || 3 * triangles > MAX_INDICES {
+    if vertices > MAX_VERTICES || triangles.saturating_mul(3) > MAX_INDICES {
         bail!(
             "the scene's triangle primitives list {vertices} vertices and {triangles} triangles, more than a GPU's storage buffer \
              holds (at most {MAX_VERTICES} vertices and {} triangles)",
@@ -1079,6 +1080,15 @@ fn load_mesh(
         let positions =
             read_vec3(&pos_acc, buffers).with_context(|| format!("{what}: POSITION"))?;
         let n = positions.len();
+        // Each attribute's count against POSITION's before it is read (check_geometry_size
+        // budgets POSITION only; a mismatched one was read whole first).
+        for (semantic, label) in [(Semantic::Normals, "NORMAL"), (Semantic::TexCoords(0), "TEXCOORD_0"), (Semantic::Colors(0), "COLOR_0")] {
+            if let Some(acc) = prim.get(&semantic) {
+                if acc.count() != n {
+                    bail!("{what}: {label} has {} elements but POSITION has {n}", acc.count());
+                }
+            }
+        }
 
         let normals = match prim.get(&Semantic::Normals) {
             Some(acc)

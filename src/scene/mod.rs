@@ -35,8 +35,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Non-fatal problems (unsupported features that were ignored).
     pub warnings: Vec<String>,
-    /// The files besides `path` the scene was read from (external buffers and images), so that a
-    /// run can refuse outputs that would overwrite them.
+    /// The files besides `path` the scene names (external buffers and images, the images of
+    /// materials it does not use included, though they are not read), so that a run can refuse
+    /// outputs that would overwrite them: the file is the user's either way.
     pub files: Vec<PathBuf>,
 }
 

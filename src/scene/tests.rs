@@ -913,6 +913,14 @@ fn unused_materials_textures_are_not_read_and_alpha_modes_are_warned_about() {
     other["nodes"].as_array_mut().unwrap().push(json!({ "mesh": 1 }));
     other["scenes"].as_array_mut().unwrap().push(json!({ "nodes": [1] }));
     assert!(load_value(&other).unwrap().textures.is_empty());
+    // Used only by a lines primitive, which is skipped: not read, and no alpha warning.
+    let mut wire = doc.clone();
+    let mut lines = wire["meshes"][0]["primitives"][0].clone();
+    lines["mode"] = json!(1);
+    lines["material"] = json!(1);
+    wire["meshes"][0]["primitives"].as_array_mut().unwrap().push(lines);
+    let s = load_value(&wire).unwrap();
+    assert!(s.textures.is_empty() && !s.warnings.join("\n").contains("alphaMode"), "{:?}", s.warnings);
     // Used, it is read (and fails to decode), and its alpha mode is warned about.
     doc["meshes"][0]["primitives"][0]["material"] = json!(1);
     assert_contains(&load_err(&doc), &["material 'unused'", "cannot decode"]);
@@ -959,6 +967,31 @@ fn geometry_beyond_a_storage_buffer_is_refused_before_it_is_read() {
     let last = doc["accessors"].as_array().unwrap().len() - 1;
     doc["meshes"][0]["primitives"][0]["indices"] = json!(last);
     assert_contains(&load_err(&doc), &["3 vertices and 536870912 triangles", "357913941 triangles)"]);
+    // Counts near 2^64 over several primitives saturate instead of wrapping past the check (or
+    // overflowing, a panic where overflow is checked).
+    let mut doc = triangle_doc();
+    doc["accessors"].as_array_mut().unwrap().push(json!({
+        "componentType": 5126, "count": 1u64 << 62, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0],
+        "sparse": { "count": 1, "indices": { "bufferView": 0, "componentType": 5125 }, "values": { "bufferView": 0 } },
+    }));
+    let last = doc["accessors"].as_array().unwrap().len() - 1;
+    let prim = json!({ "attributes": { "POSITION": last }, "indices": 1 });
+    doc["meshes"][0]["primitives"] = json!(vec![prim; 4]);
+    assert_contains(&load_err(&doc), &["18446744073709551615 vertices", "more than a GPU's storage buffer holds"]);
+}
+
+/// A NORMAL, TEXCOORD_0 or COLOR_0 whose count differs from POSITION's is refused before it is
+/// read (COLOR_0 was not compared at all).
+#[test]
+fn attributes_of_another_count_than_position_are_refused() {
+    for attribute in ["NORMAL", "TEXCOORD_0", "COLOR_0"] {
+        let mut doc = triangle_doc();
+        let kind = if attribute == "TEXCOORD_0" { "VEC2" } else { "VEC3" };
+        doc["accessors"].as_array_mut().unwrap().push(json!({ "bufferView": 0, "componentType": 5126, "count": 2, "type": kind }));
+        let last = doc["accessors"].as_array().unwrap().len() - 1;
+        doc["meshes"][0]["primitives"][0]["attributes"][attribute] = json!(last);
+        assert_contains(&load_err(&doc), &[attribute, "has 2 elements but POSITION has 3"]);
+    }
 }
 
 /// Images and cameras that pass the schema but that the gltf crate's accessors would panic on.
