@@ -176,7 +176,10 @@ bool trace_segment(inout PhotonPath path) {
     float cos_shading = dot(hit.shading_normal, wi);
     float adjoint = cos_geometric > 0.0 && cos_shading > 0.0 ? cos_shading / cos_geometric : 0.0;
     path.phi *= hit_albedo(hit) * adjoint;
-    if (max3(path.phi) <= 0.0) {
+    // At a grazing hit (ng.wi near the smallest floats) the factor can overflow, and 0 * inf in a
+    // channel of albedo 0 is NaN: such a photon ends there, storing nothing, rather than leave a
+    // VPL of non-finite flux (it carries a vanishing share of the light: hits are dense in ng.wi).
+    if (!is_finite(path.phi) || max3(path.phi) <= 0.0) {
         return false;
     }
     uint slot = atomicAdd(counters.indirect_count, 1u);
