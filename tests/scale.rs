@@ -10,6 +10,7 @@ use restir_vpl::eval::compare::{compare, CompareOptions};
 use restir_vpl::gpu_types::GpuVpl;
 use restir_vpl::output::RgbImage;
 use restir_vpl::renderer::Renderer;
+use restir_vpl::scene::generate::GltfBuilder;
 use restir_vpl::scene::Scene;
 use restir_vpl::settings::{Bias, Mode, RestirSettings};
 use restir_vpl::RenderSettings;
@@ -200,6 +201,57 @@ fn a_far_away_triangle_leaves_the_image_as_it_is() {
     // The same paths (a path reaching the far copy is rare: it subtends ~1e-10 sr); tolerances
     // as for a rescaled scene above.
     assert!(c.relmse < 1e-5 && (c.mean_ratio - 1.0).abs() < 1e-4, "relMSE {:.3e}, mean ratio {:.6} against the box alone", c.relmse, c.mean_ratio);
+}
+
+/// A unit cube on a ground plane 2 × 2e4 across, lit from above, seen from close by; the ground
+/// either one quad or a 20 × 20 quad under the cube and a ring of quads around it (the same
+/// surface). Offsets follow each triangle's coordinates, so the one big quad's are larger near the
+/// origin, but they must stay small against the cube: with W&B's scale / 65536 there (0.15 units)
+/// rays from the ground started above the cube's foot, its contact shadow went, and the image was
+/// 2.9 % brighter than with the split ground; scale / 2^20 (0.0095) gives 0.2 % (160 × 120, 256
+/// frames). Tolerance 1 %: the two renders share their random numbers, so their ratio is far less
+/// noisy than either image.
+#[test]
+fn a_large_ground_quad_keeps_its_contact_shadows() {
+    let scene = |split: bool| {
+        let mut b = GltfBuilder::new();
+        let grey = b.material("grey", [0.7; 3], [0.0; 3], false);
+        let lamp = b.material("lamp", [0.5; 3], [20.0; 3], false);
+        // Counter-clockwise seen from above (+y).
+        let ground = |x0: f32, z0: f32, x1: f32, z1: f32| [[x0, 0.0, z0], [x0, 0.0, z1], [x1, 0.0, z1], [x1, 0.0, z0]];
+        let (s, big) = (10.0, 1e4);
+        let quads = if split {
+            vec![ground(-s, -s, s, s), ground(-big, -big, -s, big), ground(s, -big, big, big), ground(-s, -big, s, -s), ground(-s, s, s, big)]
+        } else {
+            vec![ground(-big, -big, big, big)]
+        };
+        let g = b.quads("ground", &quads, grey);
+        b.node("ground", g, [0.0; 3]);
+        let (x0, x1, y1, z0, z1) = (-0.5, 0.5, 1.0, -0.5, 0.5);
+        let cube = b.quads(
+            "cube",
+            &[
+                [[x0, y1, z0], [x0, y1, z1], [x1, y1, z1], [x1, y1, z0]],
+                [[x0, 0.0, z1], [x1, 0.0, z1], [x1, y1, z1], [x0, y1, z1]],
+                [[x1, 0.0, z0], [x0, 0.0, z0], [x0, y1, z0], [x1, y1, z0]],
+                [[x1, 0.0, z1], [x1, 0.0, z0], [x1, y1, z0], [x1, y1, z1]],
+                [[x0, 0.0, z0], [x0, 0.0, z1], [x0, y1, z1], [x0, y1, z0]],
+            ],
+            grey,
+        );
+        b.node("cube", cube, [0.0; 3]);
+        let l = b.quad("lamp", [[-0.5, 3.0, -0.5], [0.5, 3.0, -0.5], [0.5, 3.0, 0.5], [-0.5, 3.0, 0.5]], lamp);
+        b.node("lamp", l, [0.0; 3]);
+        b.camera("cam", [1.6, 0.7, 2.2], [0.0, 0.25, 0.0], [0.0, 1.0, 0.0], 0.7);
+        load_json(&b.to_json_string(), if split { "split ground" } else { "one ground quad" })
+    };
+    let base = RenderSettings { mode: Mode::Pt, ..small(64, 48, 32) };
+    let camera = restir_vpl::camera::Camera::look_at(glam::Vec3::new(1.6, 0.7, 2.2), glam::Vec3::new(0.0, 0.25, 0.0), glam::Vec3::Y, 0.7, "test");
+    let one = render_mean(&scene(false), &camera, &base, "one ground quad");
+    let split = render_mean(&scene(true), &camera, &base, "split ground");
+    let c = compare(&one, &split, &CompareOptions { flip: false, ..Default::default() }).unwrap();
+    eprintln!("one ground quad against the split ground: mean ratio {:.4}, RMSE {:.2e}", c.mean_ratio, c.rmse);
+    assert!((c.mean_ratio - 1.0).abs() < 0.01, "one ground quad renders {:.4}× the split ground's mean", c.mean_ratio);
 }
 
 /// For a failure's message: the path tracer's image at scale k against scale 1 with paths cut at
