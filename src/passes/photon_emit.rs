@@ -459,22 +459,16 @@ impl PhotonEmitPass {
 pub fn light_cdf(pdfs: impl Iterator<Item = f64> + Clone) -> Vec<u32> {
     const ONE: f64 = 4294967296.0;
     let total: f64 = pdfs.clone().filter(|p| *p > 0.0).sum();
-    let positive_after: Vec<u64> = {
-        let positive: Vec<bool> = pdfs.clone().map(|p| p > 0.0).collect();
-        let mut after = vec![0u64; positive.len()];
-        for t in (0..positive.len().saturating_sub(1)).rev() {
-            after[t] = after[t + 1] + u64::from(positive[t + 1]);
-        }
-        after
-    };
+    let mut positive_after = pdfs.clone().filter(|p| *p > 0.0).count() as u64;
     let n = pdfs.clone().enumerate().filter(|(_, p)| *p > 0.0).last().map_or(0, |(t, _)| t + 1);
     let (mut acc, mut end) = (0.0f64, 0u64);
     let mut cdf = Vec::with_capacity(n);
     for (t, p) in pdfs.take(n).enumerate() {
         if p > 0.0 {
             acc += p / total;
+            positive_after -= 1;
             // At least one unit for this light, and room for one for each positive light after it.
-            end = ((acc * ONE).round() as u64).max(end + 1).min((1u64 << 32) - positive_after[t]);
+            end = ((acc * ONE).round() as u64).max(end + 1).min((1u64 << 32) - positive_after);
         }
         cdf.push(if t + 1 == n { 0 } else { end as u32 });
     }

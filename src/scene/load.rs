@@ -902,8 +902,6 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
 /// Largest texture accepted (texels), so a corrupt header cannot ask for gigabytes.
 const MAX_TEXELS: u64 = 1 << 26;
 
-/// Decodes every glTF image used as a base colour texture (once each) and points the materials
-/// at them. An unreadable or undecodable image is an error naming the material and the image.
 /// Whether any node of `scene` (or below one) holds a mesh.
 fn scene_has_meshes(scene: &gltf::Scene) -> bool {
     let mut stack: Vec<gltf::Node> = scene.nodes().collect();
@@ -950,6 +948,8 @@ fn triangle_mode(mode: Mode) -> bool {
     matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan)
 }
 
+/// Decodes every glTF image used as a base colour texture by a material in `used` (once each) and points the materials
+/// at them. An unreadable or undecodable image is an error naming the material and the image.
 fn load_textures(
     doc: &Document,
     buffers: &[Vec<u8>],
@@ -1034,7 +1034,6 @@ fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path
     Ok(Texture { name, width: w, height: h, rgba8: decoded.into_raw() })
 }
 
-/// Concatenates all primitives of `mesh` into one [`Mesh`].
 /// The triangle list of a strip or fan over the vertices `v` (glTF 2.0, 3.7.2.1: strip triangle i
 /// is v_i, v_{i+1+i%2}, v_{i+2-i%2}, so every triangle keeps the strip's winding; fan triangle i is
 /// v_{i+1}, v_{i+2}, v_0).
@@ -1050,6 +1049,7 @@ fn strip_or_fan_to_list(mode: Mode, v: &[u32]) -> Vec<u32> {
     out
 }
 
+/// Concatenates all primitives of `mesh` into one [`Mesh`].
 fn load_mesh(
     mesh: &gltf::Mesh,
     buffers: &[Vec<u8>],
@@ -1106,12 +1106,6 @@ fn load_mesh(
             }
             None => vec![Vec3::ZERO; n],
         };
-        if normals.len() != n {
-            bail!(
-                "{what}: NORMAL has {} elements but POSITION has {n}",
-                normals.len()
-            );
-        }
         // A non-finite normal would reach the shading normal as NaN (an infinite one survives the
         // shader's zero-length test): it becomes zero, which the shader treats as no normal.
         let normals = replace_non_finite(normals, Vec3::ZERO, |v| v.is_finite(), &what, "NORMAL", "zero (no shading normal)", warnings);
@@ -1157,12 +1151,6 @@ fn load_mesh(
                 vec![Vec2::ZERO; n]
             }
         };
-        if uvs.len() != n {
-            bail!(
-                "{what}: TEXCOORD_0 has {} elements but POSITION has {n}",
-                uvs.len()
-            );
-        }
         let uvs = replace_non_finite(uvs, Vec2::ZERO, |v| v.is_finite(), &what, "TEXCOORD_0", "(0, 0)", warnings);
 
         let listed = match prim.indices() {
