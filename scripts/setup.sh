@@ -6,7 +6,7 @@
 #   - the Khronos validation layer (vulkan-validationlayers)
 #   - a C/C++ compiler for the glslang crate's build
 #   - Rust (stable, through rustup) when no toolchain as new as Cargo.toml's rust-version is found
-# With --test (the test command) also what the tests drive: Xvfb and xdotool for the window tests,
+# With --test (the test command) also what the tests drive: Xvfb, xdotool and xmessage for the window tests,
 # headless Chromium for the pass inspector page (the main job never pulls a browser).
 # The main job does not pull these.
 # Idempotent and quiet when everything is there. Set RESTIR_VPL_SKIP_SETUP=1 to skip it entirely.
@@ -54,6 +54,7 @@ if [ "$for_tests" = 1 ]; then
   # The window tests: an X server, a way to press keys, and the libraries winit loads.
   command -v Xvfb >/dev/null 2>&1 || missing+=(xvfb)
   command -v xdotool >/dev/null 2>&1 || missing+=(xdotool)
+  command -v xmessage >/dev/null 2>&1 || missing+=(x11-utils) # a window that covers the renderer's
   command -v chromium >/dev/null 2>&1 || missing+=(chromium)
   for lib in libxkbcommon-x11-0 libxcursor1 libxi6 libx11-xcb1; do have_pkg "$lib" || missing+=("$lib"); done
 fi

@@ -558,3 +558,68 @@ fn frozen_window_still_answers_and_home_replays_the_camera_path() {
     assert!(!err.contains("[vulkan") && !err.contains("panicked"), "stderr: {err}");
     common::assert_clean_summary(&summary(&out), "windowed run");
 }
+
+/// A window covered by another one (winit's `Occluded`, X11's VisibilityNotify) renders no frame
+/// that would be displayed alone, since nobody sees it, and resumes when shown; a still camera's
+/// accumulation goes on while covered. Before, a covered window rendered at full speed whatever
+/// it showed. The frame count is read from summary.json (Enter writes it, covered or not), and it
+/// must grow over 2 s while shown (the check can fail) and stay put over 2 s while covered.
+#[test]
+fn a_covered_window_pauses_frames_displayed_alone_but_accumulates() {
+    let Some(x) = xvfb() else { return };
+    if !have("xmessage") {
+        let msg = "this test covers the window with xmessage (x11-utils; bash scripts/test.sh installs it)";
+        assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "{msg}");
+        return common::skip(msg);
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let d = x.display.as_str();
+    let args = [&SCENE_ARGS[..], &["--mode", "uniform", "--width", "64", "--height", "48", "--progressive", "off"], &["--out", out.to_str().unwrap()]].concat();
+    let (child, wid, _) = start_window(d, &args, &[], "uniform ·");
+    let frames = |what: &str| -> u64 {
+        let _ = std::fs::remove_file(out.join("summary.json"));
+        write_until(d, &wid, &out, Duration::from_secs(60), what, |s| s["frames"].is_u64())["frames"].as_u64().unwrap()
+    };
+    // Counts over 2 s until `done` holds for (before, after); fails after `timeout`.
+    let frames_until = |what: &str, timeout: Duration, done: &dyn Fn(u64, u64) -> bool| {
+        let start = Instant::now();
+        loop {
+            let a = frames(what);
+            std::thread::sleep(Duration::from_secs(2));
+            let b = frames(what);
+            if done(a, b) {
+                return b;
+            }
+            assert!(start.elapsed() < timeout, "{what} within {timeout:?}: {a} then {b} frames 2 s later");
+        }
+    };
+    // Without WM the window sits at (0, 0): a larger xmessage there covers it whole.
+    let cover = || Command::new("xmessage").args(["-geometry", "300x240+0+0", "covering"]).env("DISPLAY", d).stderr(Stdio::null()).spawn().expect("start xmessage");
+    frames_until("frames rendered while shown", Duration::from_secs(60), &|a, b| b > a);
+    let mut xmessage = cover();
+    let paused = frames_until("no frame rendered while covered", Duration::from_secs(60), &|a, b| a == b);
+    xmessage.kill().unwrap();
+    xmessage.wait().unwrap();
+    let shown = frames_until("frames rendered again once shown", Duration::from_secs(60), &|a, b| b > a);
+    assert!(shown > paused);
+    // Progressive on, the camera still: the accumulation goes on while covered.
+    press_until_title(d, &wid, "p", "progressive accumulation on", Duration::from_secs(30));
+    let mut xmessage = cover();
+    std::thread::sleep(Duration::from_secs(1));
+    // "restir-vpl — uniform · 8.1 ms/frame (…) · 120 frames accumulated · …"
+    let accumulated = || -> u64 {
+        let title = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl", "getwindowname"]).stdout).trim().to_string();
+        title.split(" frames accumulated").next().and_then(|a| a.rsplit(' ').next()).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("no frame count in '{title}'"))
+    };
+    let a = accumulated();
+    std::thread::sleep(Duration::from_secs(2));
+    let b = accumulated();
+    assert!(b > a, "the accumulation stopped while covered: {a} then {b} frames accumulated");
+    xmessage.kill().unwrap();
+    xmessage.wait().unwrap();
+    let o = quit(d, child, &wid);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("[vulkan") && !err.contains("panicked"), "stderr: {err}");
+    common::assert_clean_summary(&summary(&out), "windowed run");
+}

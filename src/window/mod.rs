@@ -110,6 +110,12 @@ struct Running {
     frozen_total: std::time::Duration,
     /// F2: when the freeze going on began (None: not frozen).
     frozen_since: Option<Instant>,
+    /// The window is fully covered or minimised (winit's `Occluded`; X11 reports a window covered
+    /// by others, not one unmapped).
+    hidden: bool,
+    /// When the pause while hidden began: frames displayed alone are not rendered while nobody
+    /// can see them (an accumulation goes on); its time is left out as a freeze's is.
+    paused_since: Option<Instant>,
     /// When the third frame was shown (after warm-up), and the last one.
     timed_from: Option<Instant>,
     last_shown: Option<Instant>,
@@ -170,13 +176,33 @@ impl ApplicationHandler for App {
     }
 
     fn about_to_wait(&mut self, event_loop: &ActiveEventLoop) {
-        if let Some(r) = self.running.as_ref().filter(|r| !r.destroyed) {
-            let drawing = (!r.frozen() || r.step || r.refresh) && r.size.width > 0 && r.size.height > 0;
+        let path = self.path.as_ref();
+        let counting = self.opts.frames.is_some();
+        if let Some(r) = self.running.as_mut().filter(|r| !r.destroyed) {
+            // Hidden, a frame that would be displayed alone (camera path playing, progressive
+            // off) is seen by nobody: none is rendered until the window shows again. A still
+            // camera's accumulation goes on (F2 freezes it), and so does a --frames run.
+            let paused = r.hidden && !r.frozen() && !counting && !r.next_frame_accumulates(path);
+            match (paused, r.paused_since) {
+                (true, None) => {
+                    r.paused_since = Some(Instant::now());
+                    log::info!("window hidden: paused, since its frames are displayed alone (none accumulates); it resumes when shown");
+                }
+                (false, Some(since)) => {
+                    r.frozen_total += r.timed_span(since, Instant::now());
+                    r.paused_since = None;
+                    r.timing_restarts = true; // the paused time is no frame's
+                    log::info!("window shown: resumed");
+                }
+                _ => {}
+            }
+            let drawing = !paused && (!r.frozen() || r.step || r.refresh) && r.size.width > 0 && r.size.height > 0;
             if drawing {
                 event_loop.set_control_flow(ControlFlow::Poll);
                 r.window.request_redraw();
             } else {
-                // Frozen or minimised: sleep until an event (a key, a resize) instead of spinning.
+                // Frozen, hidden or minimised: sleep until an event (a key, a resize, shown again)
+                // instead of spinning.
                 event_loop.set_control_flow(ControlFlow::Wait);
             }
         }
@@ -257,6 +283,8 @@ impl App {
             path_from: 0,
             frozen_total: std::time::Duration::ZERO,
             frozen_since: None,
+            hidden: false,
+            paused_since: None,
             timed_from: None,
             last_shown: None,
             step: false,
@@ -309,7 +337,7 @@ impl App {
             // Key releases always reach the controller: a movement key held when a widget took
             // focus would otherwise stay down and the camera fly on.
             let release = matches!(&event, WindowEvent::KeyboardInput { event, .. } if event.state == ElementState::Released);
-            if consumed && !release && (!keyboard || r.ui.wants_keyboard()) && !matches!(event, WindowEvent::Resized(_) | WindowEvent::CloseRequested) {
+            if consumed && !release && (!keyboard || r.ui.wants_keyboard()) && !matches!(event, WindowEvent::Resized(_) | WindowEvent::Occluded(_) | WindowEvent::CloseRequested) {
                 return Ok(());
             }
         }
@@ -323,6 +351,14 @@ impl App {
             WindowEvent::Resized(size) => {
                 r.size = size;
                 r.resize_pending = true;
+            }
+            WindowEvent::Occluded(hidden) => {
+                if hidden && !r.hidden {
+                    // Keys held now would fly the camera where nobody sees it.
+                    r.controller.release_all(r.clock.elapsed().as_secs_f64());
+                    r.looking = false;
+                }
+                r.hidden = hidden;
             }
             WindowEvent::KeyboardInput { event, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
@@ -792,6 +828,13 @@ impl Running {
         path.map_or_else(|| self.controller.camera(), |p| p.at(self.path_frame(self.frames.saturating_sub(1))))
     }
 
+    /// Whether the next frame adds to the accumulation: progressive on and its camera the one on
+    /// screen (a camera path holds its last keyframe once played; the fly camera is still unless
+    /// a key is held).
+    fn next_frame_accumulates(&self, path: Option<&CameraPath>) -> bool {
+        self.renderer.settings().progressive && self.next_camera(path).same_view(&self.camera_on_screen(path))
+    }
+
     /// The camera of the next frame (what a key that renders one, F4 or F12, renders).
     fn next_camera(&self, path: Option<&CameraPath>) -> Camera {
         path.map_or_else(|| self.controller.camera(), |p| p.at(self.path_frame(self.frames)))
@@ -807,7 +850,8 @@ impl Running {
     fn displayed(&self, mode: PresentMode) -> Option<crate::headless::DisplayedFrames> {
         let (from, last) = (self.timed_from?, self.last_shown?);
         let frames = self.frames.checked_sub(3).filter(|&n| n > 0)?;
-        let frozen = self.frozen_total + self.frozen_since.map_or(std::time::Duration::ZERO, |since| self.timed_span(since, last));
+        let ongoing = |since: Option<Instant>| since.map_or(std::time::Duration::ZERO, |since| self.timed_span(since, last));
+        let frozen = self.frozen_total + ongoing(self.frozen_since) + ongoing(self.paused_since);
         let ms = (last - from).saturating_sub(frozen).as_secs_f64() * 1e3 / frames as f64;
         Some(crate::headless::DisplayedFrames { present_mode: mode.name().to_string(), frames, ms_per_frame: ms, fps: 1e3 / ms })
     }
