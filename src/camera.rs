@@ -73,7 +73,17 @@ impl Camera {
     /// This camera as a command-line camera (`--eye`, `--target`, `--up`, `--fov`: what reference
     /// settings record), from which [`Camera::initial`] makes it again.
     pub fn as_override(&self) -> CameraOverride {
-        CameraOverride { eye: self.position, target: self.position + self.forward, up: self.up, yfov_degrees: self.yfov.to_degrees() }
+        CameraOverride { eye: self.position, target: self.target_point(), up: self.up, yfov_degrees: self.yfov.to_degrees() }
+    }
+
+    /// A point the camera looks at, written where a camera is saved as eye and target: one unit
+    /// ahead near the origin, and as far ahead as the eye is from the origin beyond that, so that
+    /// rounding the target to f32 keeps the direction (one unit ahead of an eye at 3e7 turned the
+    /// view by 16° once saved and read back); at most 1e17 ahead, so that a target stays within
+    /// the 1e18 a camera path allows where its eye does.
+    pub fn target_point(&self) -> Vec3 {
+        let reach = self.position.abs().max_element().clamp(1.0, 1e17);
+        (self.position.as_dvec3() + self.forward.as_dvec3() * f64::from(reach)).as_vec3()
     }
 
     /// Whether two cameras see the same image (position, orientation and field of view; the
@@ -139,7 +149,9 @@ pub fn view_problem(eye: Vec3, target: Vec3, up: Vec3) -> Option<ViewProblem> {
     let Some(f) = unit(target - eye).filter(|_| (1e-18..=1e18).contains(&d)) else {
         return Some(ViewProblem::Distance(d));
     };
-    (f.cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30)).then_some(ViewProblem::UpParallel)
+    // On the unit up: its squared length over- or underflows f32 for |up| beyond ~1e19 or below
+    // ~1e-19 (an up of [0, 1e20, 0] was refused as parallel).
+    unit(up).is_none_or(|u| f.cross(u).length_squared() <= 1e-12).then_some(ViewProblem::UpParallel)
 }
 
 /// One keyframe of a camera path (`--camera-path FILE.json`), and the format `O` saves the window's
@@ -167,7 +179,7 @@ impl Keyframe {
         Self {
             frame,
             eye: camera.position.to_array(),
-            target: (camera.position + camera.forward).to_array(),
+            target: camera.target_point().to_array(),
             up: camera.up.to_array(),
             fov: camera.yfov.to_degrees(),
         }
@@ -176,7 +188,7 @@ impl Keyframe {
     fn check(&self) -> Result<(), String> {
         let (eye, target, up) = (Vec3::from(self.eye), Vec3::from(self.target), Vec3::from(self.up));
         if !(eye.is_finite() && target.is_finite() && up.is_finite() && self.fov.is_finite()) {
-            return Err("has a non-finite number".into());
+            return Err("has a number outside the 32-bit float range (beyond ±3.4e38)".into());
         }
         if !(self.fov > 0.0 && self.fov < 180.0) {
             return Err(format!("fov {} must be in (0, 180) degrees", self.fov));
@@ -232,7 +244,8 @@ impl CameraPath {
     /// Reads and checks `file`; errors name the file.
     pub fn load(file: &std::path::Path) -> anyhow::Result<Self> {
         let text = String::from_utf8(crate::output::read_input(file)?).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
-        Self::from_json(&text).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))
+        // A byte-order mark (Windows editors write one) is not JSON.
+        Self::from_json(text.strip_prefix('\u{feff}').unwrap_or(&text)).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))
     }
 
     /// A one-keyframe path holding `camera` (what `O` writes to camera.json).
@@ -331,7 +344,7 @@ impl FlyController {
     /// Starts at `camera` (also what Home returns to); `scene_size` (e.g. the bounds' diagonal)
     /// sets the initial speed: the scene is crossed in about five seconds.
     pub fn new(camera: &Camera, scene_size: f32) -> Self {
-        let world_up = if camera.up.dot(Vec3::Y) > 0.5 { Vec3::Y } else { camera.up.normalize() };
+        let world_up = Self::world_up(camera);
         let e1 = world_up.any_orthonormal_vector();
         let e2 = world_up.cross(e1);
         let mut c = Self {
@@ -352,12 +365,33 @@ impl FlyController {
         c
     }
 
+    /// The axis the controller yaws about and flies up along: the first of +Y (glTF's up), +Z, +X
+    /// and their negatives that `camera` is level with (its right vector within ~11° of
+    /// perpendicular to the axis, its up not pointing away from it), so that a camera pitched
+    /// steeply, or looking straight down, in a Y-up scene still turns about Y; else (a camera
+    /// rolled away from every axis) +Y when its up is within 60° of it, else its own up. (Before,
+    /// any camera pitched more than 60° from the horizon flew about its own up vector: a yaw then
+    /// rolled the horizon and Space moved along a tilted axis.)
+    fn world_up(camera: &Camera) -> Vec3 {
+        let (right, up) = (camera.right.normalize_or_zero(), camera.up.normalize_or_zero());
+        let axes = [Vec3::Y, Vec3::Z, Vec3::X, Vec3::NEG_Y, Vec3::NEG_Z, Vec3::NEG_X];
+        axes.into_iter()
+            .find(|a| right.dot(*a).abs() < 0.2 && up.dot(*a) > -1e-3)
+            .unwrap_or(if up.dot(Vec3::Y) > 0.5 || up == Vec3::ZERO { Vec3::Y } else { up })
+    }
+
     /// Jumps to `camera` (returned exactly until the next move).
     pub fn set_camera(&mut self, camera: &Camera) {
         let f = camera.forward.normalize();
         self.position = camera.position;
         self.pitch = f.dot(self.world_up).clamp(-1.0, 1.0).asin().clamp(-Self::MAX_PITCH, Self::MAX_PITCH);
-        self.yaw = f.dot(self.e2).atan2(f.dot(self.e1));
+        // The heading: the view's horizontal part, or for a view along the axis (straight down or
+        // up) the way the camera's up (down: its top edge) points, which is where it would face
+        // once tilted towards the horizon.
+        let along = f.dot(self.world_up);
+        let level = f - along * self.world_up;
+        let heading = if level.length_squared() > 1e-8 { level } else { camera.up * -along.signum() };
+        self.yaw = heading.dot(self.e2).atan2(heading.dot(self.e1));
         self.yfov = camera.yfov;
         self.exact = Some(*camera);
     }
@@ -603,6 +637,79 @@ mod tests {
         assert!((back.position - c.position).length() < 1e-6);
         assert!((back.forward - c.forward).length() < 1e-6);
         assert!((back.yfov - c.yfov).abs() < 1e-6);
+    }
+
+    /// Saved far from the origin (a scene in millimetres, a planet), the camera reads back with
+    /// its direction: one unit ahead of an eye at 3e7 rounded it by 16°.
+    #[test]
+    fn a_camera_far_from_the_origin_round_trips() {
+        for eye in [Vec3::new(4e4, 1.5e3, 6e4), Vec3::new(3e7, 0.0, 1e7), Vec3::new(-9e17, 2e17, 0.0)] {
+            let c = Camera::look_at(eye, eye + Vec3::new(0.3, -0.2, 1.0) * eye.length() * 1e-3, Vec3::Y, 0.7, "test");
+            let back = CameraPath::from_json(&CameraPath::still(&c).to_json()).unwrap().at(0.0);
+            // The angle, from the cross product (a dot product near 1 cannot resolve it in f32).
+            let angle = back.forward.cross(c.forward).length();
+            assert!(angle < 2e-5, "eye {eye}: the saved view turned by {angle} rad");
+            let o = c.as_override();
+            let angle = (o.target - o.eye).normalize().cross(c.forward).length();
+            assert!(angle < 2e-5, "eye {eye}: the override's view turned by {angle} rad");
+        }
+    }
+
+    /// Whether up is parallel to the view does not depend on its length.
+    #[test]
+    fn an_up_of_any_length_is_judged_by_its_direction() {
+        let (eye, target) = (Vec3::ZERO, Vec3::Z);
+        for scale in [1e-25, 1.0, 1e20, 3e38] {
+            assert_eq!(view_problem(eye, target, Vec3::Y * scale), None, "up {scale}");
+            assert_eq!(view_problem(eye, target, Vec3::Z * scale), Some(ViewProblem::UpParallel), "up along the view, {scale}");
+        }
+        assert_eq!(view_problem(eye, target, Vec3::ZERO), Some(ViewProblem::UpParallel));
+    }
+
+    /// A path file that starts with a byte-order mark (Windows editors write one) reads.
+    #[test]
+    fn a_path_with_a_byte_order_mark_reads() {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("bom.json");
+        std::fs::write(&file, format!("\u{feff}{}", CameraPath::still(&cam()).to_json())).unwrap();
+        assert_eq!(CameraPath::load(&file).unwrap().keyframes.len(), 1);
+    }
+
+    /// A camera pitched steeply, or looking straight down, in a Y-up scene still yaws about Y and
+    /// flies up along it: before, past 60° of pitch the controller took the camera's own up as the
+    /// world's, so a yaw rolled the horizon by up to the pitch and Space moved along a tilted axis.
+    #[test]
+    fn a_steep_camera_yaws_about_the_scenes_up() {
+        for pitch in [-30f32, -70.0, -89.9, -90.0, 80.0] {
+            let p = pitch.to_radians();
+            let eye = Vec3::new(0.0, 2.0, 0.0);
+            let c = Camera::look_at(eye, eye + Vec3::new(0.0, p.sin(), -p.cos()), Vec3::Y, 0.7, "test");
+            let mut f = FlyController::new(&c, 10.0);
+            // The camera as given while nothing moved; a tiny look keeps its heading (a view along
+            // the axis takes it from the camera's up).
+            f.look(1e-3, 0.0);
+            let nudged = f.camera();
+            assert!(nudged.forward.dot(c.forward) > 0.999 && nudged.up.dot(c.up) > 0.999, "pitch {pitch}: {nudged:?} against {c:?}");
+            // A quarter turn: the horizon stays level.
+            f.look(std::f32::consts::FRAC_PI_2 / 0.003, 0.0);
+            let turned = f.camera();
+            assert!(turned.right.dot(Vec3::Y).abs() < 1e-4, "pitch {pitch}: right {} after a yaw", turned.right);
+            f.key(MoveKey::Up, true, 0.0);
+            f.update(0.5);
+            let rise = f.camera().position - eye;
+            assert!(rise.normalize().dot(Vec3::Y) > 0.9999, "pitch {pitch}: Space moved along {rise}");
+        }
+        // Straight down, the image's top edge towards +X: a tiny look keeps that heading (the
+        // view has no horizontal part to take it from).
+        let c = Camera::look_at(Vec3::ZERO, Vec3::NEG_Y, Vec3::X, 0.7, "test");
+        let mut f = FlyController::new(&c, 10.0);
+        f.look(1e-3, 0.0);
+        assert!(f.camera().up.dot(Vec3::X) > 0.999 && f.camera().forward.dot(Vec3::NEG_Y) > 0.999, "{:?}", f.camera());
+        // A Z-up scene's camera flies about Z.
+        let c = Camera::look_at(Vec3::ZERO, Vec3::new(1.0, 0.0, -3.0), Vec3::Z, 0.7, "test");
+        let mut f = FlyController::new(&c, 10.0);
+        f.look(300.0, 0.0);
+        assert!(f.camera().right.dot(Vec3::Z).abs() < 1e-4, "{:?}", f.camera());
     }
 
     #[test]
