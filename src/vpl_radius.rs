@@ -57,7 +57,11 @@ pub fn local_spacings(positions: &[[f32; 3]], k: usize) -> Vec<Option<f32>> {
 /// spacing (see [`local_spacings`]). Returns the r² values and the median radius (for the log).
 pub fn knn_r2(positions: &[[f32; 3]], k: usize, multiple: f32, fallback_r: f32) -> (Vec<f32>, f32) {
     let spacings = local_spacings(positions, k);
-    let mut radii: Vec<f32> = spacings.iter().map(|s| s.map_or(fallback_r, |s| multiple * s)).collect();
+    // At most MAX_YUKSEL_RADIUS, as the global radius is checked to be: a sparse VPL's local
+    // spacing runs above the mean one, and with a large --yuksel-spacings its r² overflowed to inf
+    // (the shader's G then 0, or NaN at d = 0). A radius that large clamps everywhere anyway.
+    let max = crate::settings::MAX_YUKSEL_RADIUS;
+    let mut radii: Vec<f32> = spacings.iter().map(|s| s.map_or(fallback_r, |s| (multiple * s).min(max))).collect();
     let r2 = radii.iter().map(|r| r * r).collect();
     let median = if radii.is_empty() {
         fallback_r
@@ -119,5 +123,15 @@ mod tests {
         // Two points: the one neighbour is used (K clamps to n − 1).
         let two = local_spacings(&[[0.0; 3], [3.0, 4.0, 0.0]], 8);
         assert_eq!(two, vec![Some(5.0), Some(5.0)]);
+    }
+
+    /// A large multiple of a sparse set's spacing stays a finite r² (its square overflowed f32).
+    #[test]
+    fn radii_stop_at_the_largest_radius_allowed() {
+        let pts = [[0.0f32; 3], [1e3, 0.0, 0.0], [0.0, 1e3, 0.0]];
+        let (r2, median) = knn_r2(&pts, 2, 1e17, 0.5);
+        let max = crate::settings::MAX_YUKSEL_RADIUS;
+        assert!(r2.iter().all(|r| r.is_finite() && *r == max * max), "{r2:?}");
+        assert_eq!(median, max);
     }
 }

@@ -338,9 +338,10 @@ pub fn grid_cases(base: &RenderSettings) -> Vec<(String, RenderSettings)> {
 /// between the first and last keyframe, so that no two consecutive frames (the warm-up at the
 /// path's start included) share a camera however many frames are timed.
 pub fn moving_camera(path: &CameraPath, f: u32) -> Camera {
-    let first = path.keyframes[0].frame;
-    let span = path.keyframes[path.keyframes.len() - 1].frame.saturating_sub(first).max(1);
-    let t = (f + 1) % (2 * span);
+    // In u64: twice a span of 2^31 frames or more wrapped u32 (to 0: a division by zero).
+    let first = u64::from(path.keyframes[0].frame);
+    let span = u64::from(path.keyframes[path.keyframes.len() - 1].frame).saturating_sub(first).max(1);
+    let t = (u64::from(f) + 1) % (2 * span);
     let along = if t <= span { t } else { 2 * span - t };
     path.at((first + along) as f32)
 }
@@ -629,6 +630,21 @@ mod tests {
             assert!((p - previous).length() > 0.5, "frame {f} stands at {p} like the one before");
             assert!(p.x >= 0.0 && p.x <= 5.0 && p.y == 0.0, "frame {f} at {p} is off the path");
             previous = p;
+        }
+    }
+
+    /// A path spanning 2^31 frames or more: twice its span wrapped u32 to 0 and the remainder
+    /// divided by zero (bench --modes --moving panicked).
+    #[test]
+    fn moving_camera_takes_a_path_of_any_span() {
+        let path = CameraPath::from_json(
+            r#"{"keyframes": [{"frame": 0, "eye": [0, 0, 0], "target": [0, 0, 1], "up": [0, 1, 0], "fov": 40},
+                             {"frame": 2147483648, "eye": [8, 0, 0], "target": [8, 0, 1], "up": [0, 1, 0], "fov": 40}]}"#,
+        )
+        .expect("a valid path");
+        for f in [0, 1, 1000, u32::MAX] {
+            let p = moving_camera(&path, f).position;
+            assert!(p.is_finite() && p.x >= 0.0 && p.x <= 8.0, "frame {f} at {p}");
         }
     }
 
