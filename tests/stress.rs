@@ -42,6 +42,9 @@ struct Case {
     json: String,
     eye: [f32; 3],
     target: [f32; 3],
+    /// The camera sees lit surfaces: the path tracer's image may not be black (a scene that lost
+    /// its geometry, e.g. to NaN bounds in the BLAS, is still finite).
+    lit: bool,
 }
 
 /// An open-fronted room of size `s` (floor, ceiling, back and side walls) with a ceiling light of
@@ -70,7 +73,7 @@ fn room(name: &str, s: f32, le: f32, extra: impl FnOnce(&mut GltfBuilder, f32)) 
     let m = b.quad("light", lq, light);
     b.node("light", m, [0.0; 3]);
     extra(&mut b, s);
-    Case { name: name.into(), json: b.to_json_string(), eye: [0.5 * s, 0.5 * s, 1.2 * s], target: [0.5 * s, 0.45 * s, -0.5 * s] }
+    Case { name: name.into(), json: b.to_json_string(), eye: [0.5 * s, 0.5 * s, 1.2 * s], target: [0.5 * s, 0.45 * s, -0.5 * s], lit: true }
 }
 
 fn cases() -> Vec<Case> {
@@ -144,8 +147,11 @@ fn cases() -> Vec<Case> {
         b.node("solid", m, [0.0; 3]);
     });
     c.eye = [0.5, 0.5, 1.2];
+    c.lit = false; // no light reaches the inside of the solid
     out.push(c);
-    // NaN vertex positions in one mesh (the loader warns; the triangles are inactive in the BLAS).
+    // NaN vertex positions in one mesh: the loader drops the triangles with a non-finite vertex,
+    // with a warning (NaN bounds reaching the BLAS would swallow the whole scene: `lit` catches a
+    // black image, finite as it is).
     out.push(room("NaN vertex data", 1.0, 5.0, |b, s| {
         let grey = b.material("nan", [0.5; 3], [0.0; 3], false);
         let nan = f32::NAN;
@@ -155,7 +161,7 @@ fn cases() -> Vec<Case> {
     out
 }
 
-/// Every mode the renderer has (ReSTIR biased and unbiased, with and without visibility), and the
+/// Every mode the renderer has (ReSTIR unbiased with and without visibility, and biased), and the
 /// VPL modes with `--compensate` (its recursion runs into every corner and degenerate triangle).
 fn modes() -> Vec<(&'static str, Mode, RestirSettings, bool)> {
     let r = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), spatial_radius: Some(4.0), ..Default::default() };
@@ -173,7 +179,45 @@ fn modes() -> Vec<(&'static str, Mode, RestirSettings, bool)> {
     ]
 }
 
-fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> usize {
+/// The direct VPLs carry the lights' power. Lights are chosen in proportion to their luminance
+/// power P_t with N jittered strata (plus one rotation), so light t gets n_t VPLs with
+/// |n_t − N P_t / P| < 2 (its interval holds whole strata and two partial ones), each of flux
+/// Φ_t P / (N P_t). Hence the luminance of the sum is exact (the n_t sum to N): within 1e-5
+/// relative, f32 rounding of each VPL's flux and of the choice's 2^-32 widths, ~1e-7, with room.
+/// Per channel the sum is off by Σ_t (n_t − N P_t/P) Φ_t,c P/(N P_t), which, since the deviations
+/// sum to zero, is at most (2 P / N) Σ_t |Φ_t,c / P_t − Φ_c / P|: 0 when every light has the same
+/// colour, as in most cases here. (A flat 1e-3 per channel held for seed 0 by chance: 4 seeds of
+/// 60 gave 1.4e-3 with the coloured point light.)
+fn check_direct_flux(lights: &restir_vpl::lights::LightSet, p: &restir_vpl::passes::PhotonStats, what: &str) {
+    use restir_vpl::gpu_types::{LIGHT_POINT, MATERIAL_DOUBLE_SIDED};
+    let lum = |c: [f64; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    let (total, total_lum, n) = (lights.total_power, lights.total_power_lum, f64::from(p.direct_vpls));
+    let got = p.direct_flux;
+    assert!((lum(got) - total_lum).abs() <= 1e-5 * total_lum, "{what}: direct VPL flux's luminance {} vs the lights' {total_lum}", lum(got));
+    let powers: Vec<[f64; 3]> = lights
+        .lights
+        .iter()
+        .map(|l| {
+            let e = l.emission.map(f64::from);
+            let k = if l.flags & LIGHT_POINT != 0 {
+                4.0 * std::f64::consts::PI
+            } else {
+                let sides = if l.flags & MATERIAL_DOUBLE_SIDED != 0 { 2.0 } else { 1.0 };
+                sides * std::f64::consts::PI * f64::from(l.area)
+            };
+            e.map(|x| x * k)
+        })
+        .collect();
+    for c in 0..3 {
+        let spread: f64 = powers.iter().filter(|phi| lum(**phi) > 0.0).map(|phi| (phi[c] / lum(*phi) - total[c] / total_lum).abs()).sum();
+        let bound = 2.0 * total_lum / n * spread + 1e-5 * total[c].abs();
+        assert!((got[c] - total[c]).abs() <= bound, "{what}: direct VPL flux {} vs light power {} in channel {c} (bound {bound:e})", got[c], total[c]);
+    }
+}
+
+/// Renders `case` in every mode of [`modes`] and every view the mode can show; the (mode, view)
+/// pairs that ran.
+fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> Vec<(&'static str, View)> {
     let scene = match Scene::from_gltf_slice(case.json.as_bytes(), None, &case.name) {
         Ok(s) => s,
         Err(e) => panic!("{}: the generated scene does not load: {e:#}", case.name),
@@ -181,7 +225,7 @@ fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> usize {
     let base = RenderSettings { vpls_direct: 300, vpls_indirect: 300, ..small(24, 18, 2) };
     let gpu = upload(ctx, &scene, &base);
     let camera = Camera::look_at(Vec3::from(case.eye), Vec3::from(case.target), Vec3::Y, 50f32.to_radians(), "stress");
-    let mut renders = 0;
+    let mut renders = Vec::new();
     let mut r: Option<Renderer> = None;
     for (label, mode, restir, compensate) in modes() {
         for view in View::ALL {
@@ -198,19 +242,21 @@ fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> usize {
             for _ in 0..2 {
                 r.render_frame(&camera, false).unwrap_or_else(|e| panic!("{what}: {e:#}"));
             }
-            assert_all_finite(&r.read_mean().unwrap(), &what);
+            let mean = r.read_mean().unwrap();
+            assert_all_finite(&mean, &what);
+            if case.lit && mode == Mode::Pt && *view == View::Final {
+                assert!(mean.iter().any(|p| p.iter().any(|c| *c > 0.0)), "{what}: the image is black");
+            }
             assert_all_finite(&r.read_variance().unwrap(), &what);
             common::assert_no_nonfinite_samples(r, &what);
             if let Some(p) = r.photon_stats() {
-                let power = r.lights().total_power;
+                check_direct_flux(r.lights(), p, &what);
                 for c in 0..3 {
-                    let (got, want) = (p.direct_flux[c], power[c]);
-                    assert!((got - want).abs() <= 1e-3 * want.abs().max(1e-30), "{what}: direct VPL flux {got} vs light power {want}");
                     assert!(p.indirect_flux[c].is_finite() && p.indirect_flux[c] >= 0.0, "{what}: indirect flux {}", p.indirect_flux[c]);
                 }
             }
             assert_eq!(ctx.validation_errors(), 0, "{what}: validation error {:?}", ctx.first_validation_error());
-            renders += 1;
+            renders.push((label, *view));
         }
     }
     renders
@@ -221,12 +267,22 @@ fn generated_stress_scenes_in_every_mode_and_view() {
     let ctx = context();
     let mut total = 0;
     for case in cases() {
-        let n = check_case(&ctx, &case);
-        eprintln!("{}: {n} mode × view runs clean", case.name);
-        total += n;
+        let ran = check_case(&ctx, &case);
+        eprintln!("{}: {} mode × view runs clean", case.name, ran.len());
+        // Coverage, so that a settings check refusing a kind of run cannot empty the suite
+        // unnoticed: every mode ran its final image, every view ran in some mode, and the
+        // reservoir modes ran every view (the path tracer and brute force draw no reservoirs).
+        for (label, mode, _, _) in modes() {
+            assert!(ran.contains(&(label, View::Final)), "{}: mode {label} never ran", case.name);
+            if mode.uses_reservoirs() {
+                for view in View::ALL {
+                    assert!(ran.contains(&(label, *view)), "{}: mode {label} never ran view {}", case.name, view.name());
+                }
+            }
+        }
+        total += ran.len();
     }
     eprintln!("{total} runs in all");
-    assert!(total > 200, "the suite should cover many mode × view combinations: {total}");
 }
 
 /// Furnaces at extreme radiance and scale: the closed form L = Le / (1 − ρ) must hold.
