@@ -321,9 +321,9 @@ enum Command {
         curves: bool,
         /// Instead: the real-time measurement. A camera moves along the path committed beside each
         /// of the three scenes (scenes/<name>.path.json); every displayed frame of uniform, RIS,
-        /// ReSTIR (biased and unbiased, temporal reuse following the reprojected pixels) and ReSTIR
-        /// without temporal reuse is compared with a path-traced reference of that frame's camera
-        /// (cached in --out/references). Writes --out/motion.md, motion.csv and plots/*_motion_rmse.svg.
+        /// ReSTIR (biased and unbiased, temporal reuse following the reprojected pixels), ReSTIR
+        /// without temporal reuse, and RIS and unbiased ReSTIR with the ReGIR grid is compared with
+        /// a path-traced reference of that frame's camera (cached in --out/references). Writes --out/motion.md, motion.csv and plots/*_motion_rmse.svg.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons"])]
         motion: bool,
         /// Instead: this device's raw ray rate on the three scenes (coherent primary rays,

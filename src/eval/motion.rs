@@ -7,12 +7,15 @@
 //! - All modes share the device and scene; their frames interleave (one frame of each mode per
 //!   round) so drift on a shared machine hits every mode alike.
 //! - Each mode first renders [`WARMUP_FRAMES`] frames at the path's first camera (a user who was
-//!   looking before moving: ReSTIR's history is full), then the path's frames 0..F−1, one frame
-//!   each, with progressive accumulation off: the displayed image is that frame alone.
-//! - Frame f is compared with the reference of the path's camera at f: the path tracer, rendered
-//!   once per camera and cached like the other references.
-//! - With `runs > 1` the measurement repeats with independent pixel seeds and the errors are
-//!   averaged.
+//!   looking before moving: ReSTIR's history is full), then measured frame f at the path's frame
+//!   f + 1 after its first keyframe, so that every measured frame moved (frame 0 stood at the
+//!   warm-up camera until stop 48: no G-buffer, no reprojection, 8–14 ms cheaper), with
+//!   progressive accumulation off: the displayed image is that frame alone.
+//! - Frame f is compared with the reference of the same camera: the path tracer, rendered once per
+//!   camera and cached like the other references.
+//! - With `runs > 1` the measurement repeats with independent VPL sets and pixel seeds (each run
+//!   builds its renderers with its own seed; the modes of one run share it, so they stay paired)
+//!   and the errors are averaged.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -122,7 +125,7 @@ pub struct MotionOptions {
     pub scenes: Vec<SceneSpec>,
     pub vpls_direct: u32,
     pub vpls_indirect: u32,
-    /// Path frames measured (the path's frames 0..frames−1).
+    /// Frames measured: the path's frames 1..=frames after its first keyframe (at most its span).
     pub frames: u32,
     /// Path-traced frames per reference.
     pub reference_frames: u32,
@@ -139,7 +142,8 @@ impl MotionOptions {
             scenes: crate::eval::results::thesis_scenes(root, scale),
             vpls_direct: 100_000,
             vpls_indirect: 100_000,
-            frames: 32,
+            // The committed paths span 31 frames after their first keyframe: all of them.
+            frames: 31,
             // Reference noise adds the same variance to every mode's squared error (the modes'
             // images are independent of the reference), so it shifts, never reorders, the modes.
             reference_frames: 128,
@@ -172,6 +176,21 @@ pub fn path_file(scene: &Path) -> PathBuf {
     scene.with_extension("path.json")
 }
 
+/// The first keyframe's frame of `path` (read from `file`), if `frames` moving frames fit after
+/// it; else an error naming the file: past its last keyframe the camera stands still.
+fn check_span(path: &CameraPath, frames: u32, file: &Path) -> Result<u32> {
+    let first = path.keyframes[0].frame;
+    let span = path.keyframes[path.keyframes.len() - 1].frame - first;
+    if frames > span {
+        bail!(
+            "{}: {frames} moving frames need a path spanning at least as many frames after its first keyframe; it spans \
+             {span} (past its last keyframe the camera stands still)",
+            file.display()
+        );
+    }
+    Ok(first)
+}
+
 /// Measures every mode of [`motion_modes`] along each scene's path; returns the points (one per
 /// scene × mode × frame).
 pub fn run(ctx: &Arc<Context>, opts: &MotionOptions, log: &mut dyn FnMut(String)) -> Result<Vec<MotionPoint>> {
@@ -189,6 +208,9 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
         let label = spec.label();
         let path_json = path_file(&spec.path);
         let path = CameraPath::load(&path_json).with_context(|| format!("the camera path of {label}"))?;
+        let first = check_span(&path, opts.frames, &path_json)?;
+        // Measured frame f stands at the path's frame first + f + 1: each moved since the one before.
+        let path_camera = |f: u32| path.at((first + f + 1) as f32);
         let scene = spec.upload(ctx)?;
         let base = RenderSettings {
             progressive: false,
@@ -198,11 +220,12 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
         let mut references: Vec<RgbImage> = Vec::new();
         let mut noise: Vec<f64> = Vec::new();
         for f in 0..opts.frames {
-            let camera = path.at(f as f32);
+            let camera = path_camera(f);
             // Accumulated: `base` shows each frame alone, which made every "128-frame" reference
             // one frame (until 2026-11-25: the references' noise then hid the modes' differences).
             let settings = RenderSettings { mode: Mode::Pt, camera: Some(camera.as_override()), progressive: true, ..base.clone() };
-            let file = refs_dir.join(format!("{label}_{}x{}_motion_f{f:03}_pt.exr", spec.width, spec.height));
+            // Named by the path's frame (`_f…` files of the protocol before hold other cameras).
+            let file = refs_dir.join(format!("{label}_{}x{}_motion_p{:03}_pt.exr", spec.width, spec.height, first + f + 1));
             let made = make_reference(ctx, &scene, &settings, &file, ReferenceTarget::AtLeast { frames: opts.reference_frames }, &mut |_, _| {})?;
             if let Some((n, _, wall)) = made.rendered {
                 log(format!("{}: {n} pt frames in {:.1} s", file.display(), wall * 1e-3));
@@ -211,28 +234,29 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
             references.push(made.image);
         }
         log(format!("{label}: measuring {} modes over {} moving frames at {}x{}", modes.len(), opts.frames, spec.width, spec.height));
-        let mut renderers = Vec::new();
-        for m in modes {
-            let settings = m.settings(&base);
-            renderers.push(Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?);
-        }
         // Per (mode, frame) over the runs: gpu, rmse, relmse, flip; and each run's RMSE.
         let mut sums = vec![vec![[OverRuns::default(); 4]; opts.frames as usize]; modes.len()];
         let mut rmse_runs = vec![vec![Vec::with_capacity(opts.runs as usize); opts.frames as usize]; modes.len()];
         let compare_opts = CompareOptions { flip: opts.flip, ..Default::default() };
         for run in 0..opts.runs {
-            for r in renderers.iter_mut() {
-                // Seeds other than the base seed, the first run's too: the references are rendered
-                // with the base seed (as in `results`, where a run with it repeated the reference's
-                // own random numbers and came out with too low an error).
-                r.restart(crate::eval::run_seed(base.seed, run))?;
-                let start = path.at(0.0);
+            // Each run its own VPL set and pixel noise, shared by its modes (paired run by run):
+            // the ± over runs then covers the VPL set's own error too (one set for all runs until
+            // stop 48). Seeds other than the base seed, the first run's too: the references are
+            // rendered with it (as in `results`, where a run with it repeated the reference's own
+            // random numbers and came out with too low an error).
+            let seed = crate::eval::run_seed(base.seed, run);
+            let mut renderers = Vec::new();
+            for m in modes {
+                let settings = RenderSettings { seed, ..m.settings(&base) };
+                let mut r = Renderer::new(ctx.clone(), scene.clone(), settings).with_context(|| format!("mode {}", m.label))?;
+                let start = path.at(first as f32);
                 for _ in 0..WARMUP_FRAMES {
                     r.render_frame(&start, false)?;
                 }
+                renderers.push(r);
             }
             for f in 0..opts.frames {
-                let camera = path.at(f as f32);
+                let camera = path_camera(f);
                 for (i, r) in renderers.iter_mut().enumerate() {
                     let stats = r.render_frame(&camera, false)?;
                     let img = RgbImage { width: spec.width, height: spec.height, pixels: r.read_mean()? };
@@ -429,8 +453,9 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         s,
         "A camera moves along the path committed beside each scene (`scenes/<name>.path.json`); every displayed frame \
          (progressive accumulation off: the image is that frame alone) is compared with a {}-frame path-traced reference \
-         of that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames after {WARMUP_FRAMES} still \
-         warm-up frames, {} run(s) averaged (RMSE: the root of their mean squared error; ± the standard error over the runs of \
+         of that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames (the path's frames after its first \
+         keyframe, each moved since the one before) after {WARMUP_FRAMES} still warm-up frames at its first keyframe, {} run(s) \
+         averaged, each with its own VPL set and pixel noise, shared by its modes (RMSE: the root of their mean squared error; ± the standard error over the runs of \
          each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
          with temporal reuse every displayed frame after the first has history and draws the sampling of a frame displayed alone \
          (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, its pixels without history {} and {}, against {} and {} without temporal reuse). \
@@ -506,4 +531,24 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         let _ = writeln!(s, "![{name}](plots/{name})");
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every measured frame must move: more frames than the path spans after its first keyframe
+    /// are refused, naming the file.
+    #[test]
+    fn moving_frames_must_fit_in_the_path() {
+        let path = CameraPath::from_json(
+            r#"{"keyframes": [{"frame": 3, "eye": [0, 0, 0], "target": [0, 0, 1], "fov": 40},
+                             {"frame": 34, "eye": [1, 0, 0], "target": [1, 0, 1], "fov": 40}]}"#,
+        )
+        .expect("a valid path");
+        let file = Path::new("x.path.json");
+        assert_eq!(check_span(&path, 31, file).unwrap(), 3);
+        let e = check_span(&path, 32, file).unwrap_err().to_string();
+        assert!(e.contains("x.path.json") && e.contains("spans 31"), "{e}");
+    }
 }
