@@ -62,10 +62,13 @@ pub struct RayRate {
     pub triangles: usize,
     pub width: u32,
     pub height: u32,
-    /// Mrays/s of each timed dispatch.
+    /// Mrays/s of each timed dispatch, half timed before the passes and half after them.
     pub primary: TimingStats,
     pub shadow: TimingStats,
     pub bounce: TimingStats,
+    /// Median raw rate after the passes over the median before, per kind (primary, shadow,
+    /// bounce): the machine's drift over the measurement, which the shares' two sides straddle.
+    pub drift: [f64; 3],
     pub passes: Vec<PassRate>,
 }
 
@@ -96,9 +99,13 @@ const MODES: [(&str, Mode, bool, bool); 6] = [
 /// The label of the photon pass's row.
 pub const PHOTONS_LABEL: &str = "photons";
 
-/// Times `dispatches` dispatches of each raw ray kind (after one untimed warm-up), then renders
-/// `frames` frames (after one warm-up, with `--aa` so primary rays are traced every frame) of each
-/// of [`MODES`], and traces the photons (100k + 100k VPLs, the defaults) `frames` times more.
+/// Below this many pixels a raw dispatch times its launch rather than its rays (`bench --rays` warns).
+pub const SMALLEST_MEANINGFUL_PIXELS: u64 = 256 * 256;
+
+/// Times `dispatches` dispatches of each raw ray kind (after one untimed warm-up), half before and
+/// half after the passes (at least one each), which are: `frames` frames (after one warm-up, with
+/// `--aa` so primary rays are traced every frame) of each of [`MODES`], and the photons (100k +
+/// 100k VPLs, the defaults) traced `frames` times more.
 pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, height: u32, dispatches: u32, frames: u32) -> Result<RayRate> {
     anyhow::ensure!(dispatches > 0 && frames > 0, "bench --rays needs at least one timed dispatch and frame");
     ctx.check_launch_size(width, height)?;
@@ -111,6 +118,15 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
     let frame_buffer = Buffer::with_data(ctx, "ray_rate.frame", bytemuck::bytes_of(&frame), vk::BufferUsageFlags::UNIFORM_BUFFER)?;
     set.write_buffer_in(0, 8, &frame_buffer)?;
     let pixels = width as u64 * height as u64;
+    if pixels < SMALLEST_MEANINGFUL_PIXELS {
+        // At 8×8 the photon pass showed 2.5× and the path tracer 1.3× the raw rate: a dispatch
+        // that small times its launch, not its rays.
+        log::warn!(
+            "bench --rays at {width}×{height}: the raw dispatches are bound by their launch below {SMALLEST_MEANINGFUL_PIXELS} pixels, \
+             so shares there (above 100 % among them) say nothing about ray rates; the photon pass traces its 100k + 100k VPLs \
+             whatever the size. Measure at 1280×720 (the default)"
+        );
+    }
     let sink = Buffer::with_data(ctx, "ray_rate.sink", &vec![0u8; (pixels * 4) as usize], vk::BufferUsageFlags::STORAGE_BUFFER)?;
     // A compute pipeline with ray queries, a ray-tracing pipeline otherwise: the raw rate of the
     // way this context traces.
@@ -129,20 +145,24 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
         Ok(if ms > 0.0 { pixels as f64 / (ms * 1e3) } else { 0.0 })
     };
     let kinds = [RAY_RATE_PRIMARY, RAY_RATE_SHADOW, RAY_RATE_BOUNCE];
-    let mut samples = [Vec::new(), Vec::new(), Vec::new()];
     for kind in kinds {
         rate(kind, 0)?; // warm-up: shader compilation
     }
-    for i in 1..=dispatches {
-        // Interleaved so drift on a shared machine hits all kinds alike.
-        for (kind, out) in kinds.into_iter().zip(samples.iter_mut()) {
-            out.push(rate(kind, i)?);
+    // The raw rates are timed before the passes and again after them (half the dispatches each,
+    // at least one), so that a share's two sides straddle the same stretch of the machine's drift
+    // (minutes at 1280×720 on lavapipe, ±30 % there); the drift is reported.
+    let mut raw = |first: u32, n: u32| -> Result<[Vec<f64>; 3]> {
+        let mut samples = [Vec::new(), Vec::new(), Vec::new()];
+        for i in first..first + n {
+            // Interleaved so drift on a shared machine hits all kinds alike.
+            for (kind, out) in kinds.into_iter().zip(samples.iter_mut()) {
+                out.push(rate(kind, i)?);
+            }
         }
-    }
-    let [primary, shadow, bounce] = samples.map(|s| TimingStats::of(&s));
-    // Per ray, a path tracer's bounce costs a closest-hit and a shadow ray: the mean raw time.
-    let bounce_and_shadow = 2.0 / (1.0 / bounce.median + 1.0 / shadow.median);
-    let share = |mrays: f64, raw: f64| if raw > 0.0 && raw.is_finite() { mrays / raw } else { 0.0 };
+        Ok(samples)
+    };
+    let half = dispatches.div_ceil(2);
+    let before = raw(1, half)?;
 
     let mut passes = Vec::new();
     for (label, mode, compensate, initial_visibility) in MODES {
@@ -177,10 +197,10 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
                 continue;
             }
             let mrays = total_rays as f64 / (total_ms * 1e3);
-            let (against, raw) = match *name {
-                crate::passes::GbufferPass::NAME => ("primary", primary.median),
-                crate::passes::PathtracePass::NAME => ("bounce+shadow", bounce_and_shadow),
-                _ => ("shadow", shadow.median),
+            let against = match *name {
+                crate::passes::GbufferPass::NAME => "primary",
+                crate::passes::PathtracePass::NAME => "bounce+shadow",
+                _ => "shadow",
             };
             passes.push(PassRate {
                 mode: label.to_string(),
@@ -190,7 +210,7 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
                 gpu_ms: total_ms / frames as f64,
                 mrays_per_s: mrays,
                 against,
-                share: share(mrays, raw),
+                share: 0.0, // below, once the raw rates after the passes are in
             });
         }
     }
@@ -210,11 +230,30 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
             gpu_ms: ms,
             mrays_per_s: mrays,
             against: "bounce",
-            share: share(mrays, bounce.median),
+            share: 0.0,
         });
     }
+    let after = raw(1 + half, half)?;
+    let median = |v: &[f64]| TimingStats::of(v).median;
+    let drift: [f64; 3] = std::array::from_fn(|k| {
+        let (b, a) = (median(&before[k]), median(&after[k]));
+        if b > 0.0 { a / b } else { f64::NAN }
+    });
+    let [primary, shadow, bounce] = std::array::from_fn(|k| TimingStats::of(&[before[k].clone(), after[k].clone()].concat()));
+    // Per ray, a path tracer's bounce costs a closest-hit and a shadow ray: the mean raw time.
+    let bounce_and_shadow = 2.0 / (1.0 / bounce.median + 1.0 / shadow.median);
+    for p in &mut passes {
+        let raw = match p.against {
+            "primary" => primary.median,
+            "bounce+shadow" => bounce_and_shadow,
+            "bounce" => bounce.median,
+            _ => shadow.median,
+        };
+        // No raw rate (a dispatch timed at 0 ms): no share, shown as "–".
+        p.share = if raw > 0.0 && raw.is_finite() { p.mrays_per_s / raw } else { f64::NAN };
+    }
     let label = scene_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| scene_path.display().to_string());
-    Ok(RayRate { scene: label, triangles: gpu.triangle_count, width, height, primary, shadow, bounce, passes })
+    Ok(RayRate { scene: label, triangles: gpu.triangle_count, width, height, primary, shadow, bounce, drift, passes })
 }
 
 /// Markdown: the raw rates per scene, then every tracing pass's share.
@@ -222,11 +261,27 @@ pub fn markdown(rows: &[RayRate], device: &str) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     let _ = writeln!(s, "Device: {device}\n");
-    let _ = writeln!(s, "| scene | triangles | size | Mrays/s (median, min–max): primary | shadow | bounce |");
-    let _ = writeln!(s, "|---|---:|---|---:|---:|---:|");
+    let _ = writeln!(
+        s,
+        "Raw rates: half the dispatches timed before the passes, half after them; drift: the median after over the median before \
+         (primary / shadow / bounce). A share's two sides straddle that drift.\n"
+    );
+    let _ = writeln!(s, "| scene | triangles | size | Mrays/s (median, min–max): primary | shadow | bounce | drift |");
+    let _ = writeln!(s, "|---|---:|---|---:|---:|---:|---|");
     let stats = |t: &TimingStats| format!("{:.2} ({:.2}–{:.2})", t.median, t.min, t.max);
     for r in rows {
-        let _ = writeln!(s, "| {} | {} | {}×{} | {} | {} | {} |", r.scene, r.triangles, r.width, r.height, stats(&r.primary), stats(&r.shadow), stats(&r.bounce));
+        let drift = r.drift.map(|d| if d.is_finite() { format!("{d:.2}") } else { "–".into() }).join(" / ");
+        let _ = writeln!(
+            s,
+            "| {} | {} | {}×{} | {} | {} | {} | {drift} |",
+            r.scene,
+            r.triangles,
+            r.width,
+            r.height,
+            stats(&r.primary),
+            stats(&r.shadow),
+            stats(&r.bounce)
+        );
     }
     let _ = writeln!(s, "\n| scene | mode | pass | rays / px | GPU ms | Mrays/s | share of raw rate |");
     let _ = writeln!(s, "|---|---|---|---:|---:|---:|---:|");
@@ -235,8 +290,14 @@ pub fn markdown(rows: &[RayRate], device: &str) -> String {
             let per_pixel = p.rays_per_pixel.map(|x| format!("{x:.2}")).unwrap_or_else(|| format!("({:.0} rays)", p.rays));
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {per_pixel} | {:.1} | {:.2} | {:.0}% of {} |",
-                r.scene, p.mode, p.pass, p.gpu_ms, p.mrays_per_s, 100.0 * p.share, p.against
+                "| {} | {} | {} | {per_pixel} | {:.1} | {:.2} | {} of {} |",
+                r.scene,
+                p.mode,
+                p.pass,
+                p.gpu_ms,
+                p.mrays_per_s,
+                if p.share.is_finite() { format!("{:.0}%", 100.0 * p.share) } else { "–".into() },
+                p.against
             );
         }
     }

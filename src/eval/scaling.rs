@@ -37,12 +37,16 @@ pub struct ScalingOptions {
 }
 
 impl ScalingOptions {
-    /// The measurement for docs: 10k … 2M VPLs, 256² … 1920×1080, ~1k … ~1M triangles.
+    /// The measurement for docs: 10k … 2M VPLs, 256×144 … 1920×1080, ~1k … ~1M triangles. The
+    /// sizes share one aspect ratio: the camera keeps its vertical field of view, so at 16:9 the
+    /// square Cornell box leaves dark bars at the sides that cost almost nothing, and a sweep from
+    /// 256² and 512² to 1280×720 read that as a sublinear law (0.56–0.65 between 512² and
+    /// 1280×720, about 1 on either side).
     pub fn full(root: &Path) -> Self {
         Self {
             cornell: root.join("scenes/cornell_box.gltf"),
             vpl_counts: vec![10_000, 50_000, 200_000, 1_000_000, 2_000_000],
-            sizes: vec![(256, 256), (512, 512), (1280, 720), (1920, 1080)],
+            sizes: vec![(256, 144), (512, 288), (1280, 720), (1920, 1080)],
             spheres: vec![(16, 32), (50, 100), (160, 320), (500, 1000)],
             size: (640, 360),
             vpls: 200_000,
@@ -56,7 +60,7 @@ impl ScalingOptions {
         Self {
             cornell: root.join("scenes/cornell_box.gltf"),
             vpl_counts: vec![2_000, 8_000],
-            sizes: vec![(32, 32), (64, 64)],
+            sizes: vec![(32, 18), (64, 36)],
             spheres: vec![(8, 16), (16, 32)],
             size: (48, 32),
             vpls: 4_000,
@@ -149,7 +153,14 @@ fn summary(rows: &[crate::eval::bench::ModeBench]) -> String {
 /// Least-squares slope of ln(ms) against ln(x): the measured exponent of cost ∝ x^k (None with
 /// fewer than two usable points).
 pub fn exponent(points: &[(f64, f64)]) -> Option<f64> {
-    let logs: Vec<(f64, f64)> = points.iter().filter(|(x, y)| *x > 0.0 && *y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
+    exponent_fit(points).map(|f| f.0)
+}
+
+/// [`exponent`] and its standard error from the fit's residuals (None with fewer than three
+/// points: two always fit exactly).
+pub fn exponent_fit(points: &[(f64, f64)]) -> Option<(f64, Option<f64>)> {
+    let logs: Vec<(f64, f64)> =
+        points.iter().filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite()).map(|(x, y)| (x.ln(), y.ln())).collect();
     if logs.len() < 2 {
         return None;
     }
@@ -157,7 +168,20 @@ pub fn exponent(points: &[(f64, f64)]) -> Option<f64> {
     let (mx, my) = (logs.iter().map(|p| p.0).sum::<f64>() / n, logs.iter().map(|p| p.1).sum::<f64>() / n);
     let sxx: f64 = logs.iter().map(|p| (p.0 - mx).powi(2)).sum();
     let sxy: f64 = logs.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
-    (sxx > 0.0).then(|| sxy / sxx)
+    if sxx <= 0.0 {
+        return None;
+    }
+    let k = sxy / sxx;
+    let residuals: f64 = logs.iter().map(|p| (p.1 - my - k * (p.0 - mx)).powi(2)).sum();
+    let se = (logs.len() > 2).then(|| (residuals / (n - 2.0) / sxx).sqrt());
+    Some((k, se))
+}
+
+/// A measured exponent departs from the expected one: by more than 0.1 and more than two of its
+/// standard errors (with no standard error, two points, by more than 0.1).
+pub fn departs(k: f64, se: Option<f64>, expected: f64) -> bool {
+    let d = (k - expected).abs();
+    d > 0.1 && se.is_none_or(|se| d > 2.0 * se)
 }
 
 /// The law each curve is expected to follow: (exponent, why).
@@ -218,7 +242,7 @@ pub fn write_plots(dir: &Path, points: &[ScalingPoint]) -> Result<Vec<PathBuf>> 
 /// plot ([`write_plots`]).
 pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) -> String {
     let mut s = format!(
-        "Device: {device}. GPU ms per frame (median of {} timed frames per mode after 2 warm-up frames, modes interleaved) of uniform, RIS (32 candidates) and ReSTIR (unbiased defaults); photon_emit: median GPU ms of {} re-traces; BLAS/TLAS: wall ms of the build submission. Exponent: least-squares slope of log ms against log size; expected: what the algorithm predicts. VPL and triangle sweeps at {}×{}, pixel and triangle sweeps with {} VPLs. The triangle sweep is a room with a tessellated bumpy sphere (`bench::dense_scene`), seen from its camera.\n\n",
+        "Device: {device}. GPU ms per frame (median of {} timed frames per mode after 2 warm-up frames, modes interleaved) of uniform, RIS (32 candidates) and ReSTIR (unbiased defaults); photon_emit: median GPU ms of {} re-traces; BLAS/TLAS: wall ms of the build submission. Exponent: least-squares slope of log ms against log size, ± its standard error from the fit's residuals (the sizes are timed one after another, so the machine's drift, ±30 % on this host, enters it); ✗ where it departs from the expected one by more than 0.1 and more than two standard errors; expected: what the algorithm predicts. The image sizes share one aspect ratio (16:9). VPL and triangle sweeps at {}×{}, pixel and triangle sweeps with {} VPLs. The triangle sweep is a room with a tessellated bumpy sphere (`bench::dense_scene`), seen from its camera.\n\n",
         opts.frames, opts.photon_runs, opts.size.0, opts.size.1, opts.vpls
     );
     for (sweep, title, unit) in SWEEPS {
@@ -248,7 +272,11 @@ pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) ->
                 }
             }
             let (e, why) = expected(sweep, w);
-            let k = exponent(&pts).map_or("–".to_string(), |k| format!("{k:.2}"));
+            let k = exponent_fit(&pts).map_or("–".to_string(), |(k, se)| {
+                let se_text = se.map_or(String::new(), |se| format!(" ± {se:.2}"));
+                let mark = if departs(k, se, e) { " ✗" } else { "" };
+                format!("{k:.2}{se_text}{mark}")
+            });
             s += &format!(" {k} | {e:.0} |\n");
             let law = format!("expected {e:.0}: {why}");
             if !laws.contains(&law) {
@@ -286,6 +314,23 @@ pub fn write_csv(path: &Path, points: &[ScalingPoint]) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The slope's standard error is 0 on an exact power law and grows with scatter; a departure
+    /// needs both 0.1 and two standard errors.
+    #[test]
+    fn exponent_fit_gives_a_standard_error_and_departures() {
+        let exact: Vec<(f64, f64)> = [1e3, 1e4, 1e5].iter().map(|&x: &f64| (x, 2.0 * x)).collect();
+        let (k, se) = exponent_fit(&exact).unwrap();
+        assert!((k - 1.0).abs() < 1e-9 && se.unwrap() < 1e-9);
+        assert!(exponent_fit(&exact[..2]).unwrap().1.is_none(), "two points fit exactly: no error");
+        let scattered = [(1e3, 1.0), (1e4, 20.0), (1e5, 60.0), (1e6, 1500.0)];
+        let (k, se) = exponent_fit(&scattered).unwrap();
+        assert!(se.unwrap() > 0.05, "{k} {se:?}");
+        assert!(!departs(1.05, Some(0.01), 1.0), "within 0.1");
+        assert!(departs(0.8, Some(0.05), 1.0) && !departs(0.8, Some(0.2), 1.0));
+        assert!(departs(0.8, None, 1.0));
+        assert!(exponent_fit(&[(1.0, f64::NAN), (2.0, 1.0)]).is_none(), "a non-finite point is left out");
+    }
 
     #[test]
     fn exponent_recovers_a_power_law() {
