@@ -70,9 +70,13 @@ gpu_struct! {
     pub offset: u32,
     pub width: u32,
     pub height: u32,
-    pub _pad0: u32,
+    /// `TEXTURE_NEAREST` or 0.
+    pub flags: u32,
 }
 }
+
+/// `GpuTexture::flags`: the sampler's magFilter is NEAREST: one texel, no filtering.
+pub const TEXTURE_NEAREST: u32 = 1;
 
 /// Instance flags.
 pub const INSTANCE_MIRRORED: u32 = 1;
@@ -456,6 +460,7 @@ macro_rules! glsl_constants {
 pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     MATERIAL_DOUBLE_SIDED,
     LIGHT_POINT,
+    TEXTURE_NEAREST,
     INSTANCE_MIRRORED,
     INSTANCE_IDENTITY,
     FRAME_AA,

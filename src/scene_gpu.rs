@@ -242,7 +242,8 @@ impl SceneGpu {
             let mut table = Vec::with_capacity(scene.textures.len());
             let mut texels: Vec<u8> = Vec::new();
             for t in &scene.textures {
-                table.push(GpuTexture { offset: (texels.len() / 4) as u32, width: t.width, height: t.height, _pad0: 0 });
+                let flags = if t.nearest { crate::gpu_types::TEXTURE_NEAREST } else { 0 };
+                table.push(GpuTexture { offset: (texels.len() / 4) as u32, width: t.width, height: t.height, flags });
                 texels.extend_from_slice(&t.rgba8);
             }
             anyhow::ensure!(

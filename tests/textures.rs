@@ -31,17 +31,84 @@ fn texels() -> Vec<u8> {
 /// A textured wall that exactly fills a 90° (vertical) view of aspect `aspect`, lit by a point
 /// light at the camera. Only one surface: no light bounces between surfaces.
 fn wall_scene(aspect: f32) -> String {
+    // Corners CCW seen from +z; uv (0, 0) at the top left, as glTF puts the image's first row.
+    wall_scene_with(aspect, [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]], false)
+}
+
+/// [`wall_scene`] with the corners' `uvs` and, with `nearest`, a sampler whose magFilter and
+/// minFilter are NEAREST.
+fn wall_scene_with(aspect: f32, uvs: [[f32; 2]; 4], nearest: bool) -> String {
     let mut b = GltfBuilder::new();
     let tex = b.texture_png("checker", TEX_W, TEX_H, &texels());
     let mat = b.textured_material("wall", FACTOR, tex, false);
-    // Corners CCW seen from +z; uv (0, 0) at the top left, as glTF puts the image's first row.
     let positions = [[-aspect, 1.0, -1.0], [-aspect, -1.0, -1.0], [aspect, -1.0, -1.0], [aspect, 1.0, -1.0]];
-    let uvs = [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]];
     let mesh = b.mesh_with_uvs("wall", &positions, None, &uvs, &[0, 1, 2, 0, 2, 3], mat);
     b.node("wall", mesh, [0.0; 3]);
     b.point_light("bulb", [0.0, 0.0, 0.0], [1.0; 3], 5.0);
     b.camera("camera", [0.0; 3], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 90f32.to_radians());
-    b.to_json_string()
+    let mut json: serde_json::Value = serde_json::from_str(&b.to_json_string()).expect("the builder writes JSON");
+    if nearest {
+        const NEAREST: u32 = 9728;
+        json["samplers"][0]["magFilter"] = NEAREST.into();
+        json["samplers"][0]["minFilter"] = NEAREST.into();
+    }
+    json.to_string()
+}
+
+/// The decoded texel (x, y) of [`texels`], repeat-wrapped.
+fn texel_linear(x: i64, y: i64) -> [f64; 3] {
+    let t = texels();
+    let x = x.rem_euclid(TEX_W as i64) as usize;
+    let y = y.rem_euclid(TEX_H as i64) as usize;
+    let i = 4 * (y * TEX_W as usize + x);
+    [0, 1, 2].map(|c| srgb_to_linear(t[i + c] as f64 / 255.0))
+}
+
+/// Renders `scene` with and without textures (path tracer, one bounce: a point light at the camera
+/// and one surface, so no randomness) and returns the worst difference between their per-pixel
+/// ratio and `expected` at the pixel's (u, v) on a wall that fills the view with uv 0..1.
+fn worst_ratio_error(scene: &restir_vpl::scene::Scene, (w, h): (u32, u32), expected: impl Fn(f64, f64) -> [f64; 3]) -> f64 {
+    let settings = RenderSettings { mode: Mode::Pt, max_bounces: 1, ..small(w, h, 1) };
+    let on = render(scene, &settings);
+    let off = render(scene, &RenderSettings { textures: false, ..settings.clone() });
+    let mut worst = 0.0f64;
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let e = expected((x as f64 + 0.5) / w as f64, (y as f64 + 0.5) / h as f64);
+            for c in 0..3 {
+                let (a, b) = (on.mean[i][c] as f64, off.mean[i][c] as f64);
+                assert!(b > 1e-4, "pixel ({x}, {y}) unlit without textures: {b}");
+                worst = worst.max((a / b - e[c]).abs());
+            }
+        }
+    }
+    worst
+}
+
+/// A sampler with magFilter NEAREST reads the one texel under each uv (pixel art, labels, ID
+/// maps): it was filtered bilinearly like every other, without a word.
+#[test]
+fn a_nearest_sampler_reads_one_texel() {
+    let (w, h) = (32u32, 16u32);
+    let scene = load_json(&wall_scene_with(w as f32 / h as f32, [[0.0, 0.0], [0.0, 1.0], [1.0, 1.0], [1.0, 0.0]], true), "nearest.gltf");
+    assert!(scene.textures[0].nearest);
+    // Pixel centres fall inside texels (32 / 4 = 8 pixels per texel), never on their edges.
+    let worst = worst_ratio_error(&scene, (w, h), |u, v| texel_linear((u * TEX_W as f64).floor() as i64, (v * TEX_H as f64).floor() as i64));
+    assert!(worst < 1e-5, "textured / untextured differs from the nearest texel by up to {worst:e}");
+}
+
+/// Vertex uvs near the float maximum: their interpolation overflows to inf, and fract(inf) is NaN,
+/// which made the albedo NaN (131 of 4096 pixels black in a review's wall). Under repeat wrapping a
+/// uv that large is a whole number, so the wall reads the filtered texture at uv (0, 0).
+#[test]
+fn uvs_near_the_float_maximum_read_the_texture_at_zero() {
+    let (w, h) = (16u32, 8u32);
+    let big = f32::MAX;
+    let scene = load_json(&wall_scene_with(w as f32 / h as f32, [[big, big], [big, big], [big, -big], [-big, big]], false), "huge-uv.gltf");
+    // `render` also fails on any non-finite sample.
+    let worst = worst_ratio_error(&scene, (w, h), |_, _| expected(0.0, 0.0));
+    assert!(worst < 1e-5, "textured / untextured differs from the texture at uv 0 by up to {worst:e}");
 }
 
 fn srgb_to_linear(c: f64) -> f64 {
@@ -144,7 +211,7 @@ fn textures_over_the_storage_buffer_range_are_refused_by_name() {
     let mut scene = load_json(&wall_scene(1.0), "wall.gltf");
     // The check itself on every device, against a made-up 4 KiB range: the texture's 8 KiB are
     // over it, and a range that holds them passes.
-    let small = restir_vpl::scene::Texture { name: "huge".into(), width: 1024, height: 2, rgba8: vec![128; 1024 * 2 * 4] };
+    let small = restir_vpl::scene::Texture { name: "huge".into(), width: 1024, height: 2, rgba8: vec![128; 1024 * 2 * 4], nearest: false };
     let mut small_scene = load_json(&wall_scene(1.0), "wall.gltf");
     small_scene.textures[0] = small;
     let err = format!("{:#}", restir_vpl::scene_gpu::check_texel_range(&small_scene, 8192, 4096).unwrap_err());
@@ -161,7 +228,7 @@ fn textures_over_the_storage_buffer_range_are_refused_by_name() {
     }
     let texels = range / 4 + 1;
     let (w, h) = (1024u32, texels.div_ceil(1024) as u32);
-    scene.textures[0] = restir_vpl::scene::Texture { name: "huge".into(), width: w, height: h, rgba8: vec![128; (w * h * 4) as usize] };
+    scene.textures[0] = restir_vpl::scene::Texture { name: "huge".into(), width: w, height: h, rgba8: vec![128; (w * h * 4) as usize], nearest: false };
     let err = match restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES) {
         Ok(_) => panic!("{w}x{h} texels (over {range} bytes) were uploaded"),
         Err(e) => format!("{e:#}"),

@@ -143,12 +143,22 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
 
 #ifdef SCENE_TEXTURES
 // Bilinear, sRGB-decoded base colour of texture `t` at `uv` (repeat wrapping; decoded per texel
-// before filtering, as an sRGB image format would).
+// before filtering, as an sRGB image format would), or its one texel under `uv` for a NEAREST
+// sampler.
 vec3 sample_base_color(uint t, vec2 uv) {
     TextureInfo info = textures[t];
+    // A uv that overflowed (vertex uvs near the float maximum interpolate to inf) reads as 0:
+    // under repeat wrapping every float from 2^23 on is a whole number, so that is where any
+    // huge finite uv lands too. fract(inf) is NaN, which made the filter weights and the albedo NaN.
+    uv = vec2(is_finite(uv.x) ? uv.x : 0.0, is_finite(uv.y) ? uv.y : 0.0);
+    uvec2 size = uvec2(info.width, info.height);
+    if ((info.flags & TEXTURE_NEAREST) != 0u) {
+        uvec2 p = nearest_texel(uv, size);
+        return srgb_to_linear(unpack_rgba8(texels[info.offset + p.y * info.width + p.x]).rgb);
+    }
     uvec2 x, y;
     vec2 f;
-    bilinear_footprint(uv, uvec2(info.width, info.height), x, y, f);
+    bilinear_footprint(uv, size, x, y, f);
     uint row0 = info.offset + y.x * info.width;
     uint row1 = info.offset + y.y * info.width;
     vec3 c00 = srgb_to_linear(unpack_rgba8(texels[row0 + x.x]).rgb);

@@ -7,6 +7,7 @@
 
 const uint MATERIAL_DOUBLE_SIDED = 1u;
 const uint LIGHT_POINT = 2u;
+const uint TEXTURE_NEAREST = 1u;
 const uint INSTANCE_MIRRORED = 1u;
 const uint INSTANCE_IDENTITY = 2u;
 const uint FRAME_AA = 1u;
@@ -29,7 +30,7 @@ struct TextureInfo {
     uint offset;
     uint width;
     uint height;
-    uint _pad0;
+    uint flags;  // TEXTURE_NEAREST or 0
 };
 
 struct Instance {

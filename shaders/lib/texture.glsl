@@ -32,4 +32,10 @@ void bilinear_footprint(vec2 uv, uvec2 size, out uvec2 x, out uvec2 y, out vec2 
     y = uvec2(w0.y, w1.y);
 }
 
+// The texel under `uv` (NEAREST filtering, repeat wrapping): column floor(fract(u) * width), row
+// likewise, kept below the size where fract rounds up to 1.0 (and for any NaN).
+uvec2 nearest_texel(vec2 uv, uvec2 size) {
+    return min(uvec2(fract(uv) * vec2(size)), size - 1u);
+}
+
 #endif

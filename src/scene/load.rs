@@ -960,7 +960,7 @@ fn load_textures(
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Texture>> {
     let mut textures = Vec::new();
-    let mut by_image: BTreeMap<usize, usize> = BTreeMap::new();
+    let mut by_image: BTreeMap<(usize, bool), usize> = BTreeMap::new();
     for (m, material) in doc.materials().zip(materials.iter_mut()) {
         if !m.index().is_some_and(|i| used.contains(&i)) {
             continue;
@@ -987,21 +987,32 @@ fn load_textures(
                 sampler.wrap_t()
             ));
         }
+        // glTF leaves an absent magFilter to the renderer: bilinear. Without mipmaps the
+        // minFilter's choice between texels is the magFilter's, so that one decides.
+        let nearest = sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest);
         let image = texture.source();
-        let index = match by_image.get(&image.index()) {
+        let key = (image.index(), nearest);
+        let index = match by_image.get(&key) {
             Some(&i) => i,
             // --textures off: the image is not read; one white texel stands in (never uploaded).
             None if !decode => {
-                textures.push(Texture { name: format!("image{} (not decoded)", image.index()), width: 1, height: 1, rgba8: vec![255; 4] });
-                by_image.insert(image.index(), textures.len() - 1);
+                textures.push(Texture { name: format!("image{} (not decoded)", image.index()), width: 1, height: 1, rgba8: vec![255; 4], nearest });
+                by_image.insert(key, textures.len() - 1);
                 textures.len() - 1
             }
             None => {
-                let decoded = decode_image(&image, buffers, base_dir).with_context(|| {
-                    format!("material '{name}': base colour texture image {}", image.index())
-                })?;
+                // Decoded once per image: a second sampling of it takes a copy of the texels.
+                let decoded = match by_image.iter().find(|((i, _), _)| *i == image.index()) {
+                    Some((_, &t)) => Texture { nearest, ..textures[t].clone() },
+                    None => Texture {
+                        nearest,
+                        ..decode_image(&image, buffers, base_dir).with_context(|| {
+                            format!("material '{name}': base colour texture image {}", image.index())
+                        })?
+                    },
+                };
                 textures.push(decoded);
-                by_image.insert(image.index(), textures.len() - 1);
+                by_image.insert(key, textures.len() - 1);
                 textures.len() - 1
             }
         };
@@ -1031,7 +1042,7 @@ fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| anyhow!("'{name}': cannot decode (PNG and JPEG are supported): {e}"))?
         .to_rgba8();
-    Ok(Texture { name, width: w, height: h, rgba8: decoded.into_raw() })
+    Ok(Texture { name, width: w, height: h, rgba8: decoded.into_raw(), nearest: false })
 }
 
 /// The triangle list of a strip or fan over the vertices `v` (glTF 2.0, 3.7.2.1: strip triangle i

@@ -95,6 +95,9 @@ pub struct Texture {
     pub height: u32,
     /// Row-major RGBA8, sRGB-encoded as stored in the file; row 0 is v = 0 (the image's top row).
     pub rgba8: Vec<u8>,
+    /// The sampler's magFilter is NEAREST: sampled as one texel (pixel art, labels, ID maps),
+    /// else bilinear. (An image sampled both ways is two textures.)
+    pub nearest: bool,
 }
 
 /// Perspective camera.
