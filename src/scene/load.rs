@@ -94,6 +94,28 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
             ));
         }
     }
+    // The renderer's one BRDF is Lambertian: a metal (metallicFactor 1 is glTF's default when
+    // pbrMetallicRoughness leaves it out) renders as a diffuse surface of its base colour, far
+    // from how it looks elsewhere. One warning names them.
+    let metals: Vec<String> = doc
+        .materials()
+        .filter(|m| m.index().is_some_and(|i| used.contains(&i)))
+        .filter(|m| m.pbr_metallic_roughness().metallic_factor() > 0.0)
+        .map(|m| {
+            let pbr = m.pbr_metallic_roughness();
+            let texture = if pbr.metallic_roughness_texture().is_some() { " × its metallicRoughnessTexture" } else { "" };
+            format!("'{}' ({}{texture})", materials[m.index().expect("filtered on the index")].name, pbr.metallic_factor())
+        })
+        .collect();
+    if !metals.is_empty() {
+        let shown = metals.iter().take(5).cloned().collect::<Vec<_>>().join(", ");
+        let more = if metals.len() > 5 { format!(" and {} more", metals.len() - 5) } else { String::new() };
+        warnings.push(format!(
+            "{} material(s) with a metallicFactor above 0 (metalness; 1 is glTF's default when the file leaves it out): {shown}{more}; \
+             rendered as Lambertian diffuse surfaces of their base colour (the renderer's only BRDF)",
+            metals.len()
+        ));
+    }
     let textures = load_textures(&doc, &buffers, base_dir, decode_textures, &used, &mut materials, &mut warnings)?;
     let default_material = materials.len() as u32;
     let mut uses_default = false;

@@ -928,6 +928,11 @@ fn unused_materials_textures_are_not_read_and_alpha_modes_are_warned_about() {
     let s = load_value(&doc).unwrap();
     assert_eq!(s.textures.len(), 1);
     assert_contains(&s.warnings.join("\n"), &["material 'unused'", "alphaMode Blend", "rendered opaque"]);
+    // Its pbrMetallicRoughness leaves metallicFactor out: glTF's default 1, a metal, rendered as
+    // Lambertian diffuse with one warning naming it; metallicFactor 0 draws none.
+    assert_contains(&s.warnings.join("\n"), &["1 material(s) with a metallicFactor above 0", "'unused' (1)", "Lambertian"]);
+    doc["materials"][1]["pbrMetallicRoughness"]["metallicFactor"] = json!(0.0);
+    assert!(!load_value(&doc).unwrap().warnings.join("\n").contains("metallicFactor"));
 }
 
 /// A file with several glTF scenes and no default renders scene 0; when that one is empty and
