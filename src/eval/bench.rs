@@ -617,13 +617,18 @@ mod tests {
 
     /// Every timed frame moves: it differs from the one before (the first from the warm-up at the
     /// path's start), also past the path's last keyframe, and stays on the path.
+    /// A path from the origin at frame 0 to (x, 0, 0) at frame `last`, looking down +z.
+    fn straight_path(last: u64, x: f32) -> CameraPath {
+        CameraPath::from_json(&format!(
+            r#"{{"keyframes": [{{"frame": 0, "eye": [0, 0, 0], "target": [0, 0, 1], "fov": 40}},
+                              {{"frame": {last}, "eye": [{x}, 0, 0], "target": [{x}, 0, 1], "fov": 40}}]}}"#
+        ))
+        .expect("a valid path")
+    }
+
     #[test]
     fn moving_camera_never_stands_still() {
-        let path = CameraPath::from_json(
-            r#"{"keyframes": [{"frame": 0, "eye": [0, 0, 0], "target": [0, 0, 1], "up": [0, 1, 0], "fov": 40},
-                             {"frame": 5, "eye": [5, 0, 0], "target": [5, 0, 1], "up": [0, 1, 0], "fov": 40}]}"#,
-        )
-        .expect("a valid path");
+        let path = straight_path(5, 5.0);
         let mut previous = path.at(0.0).position;
         for f in 0..40 {
             let p = moving_camera(&path, f).position;
@@ -637,11 +642,7 @@ mod tests {
     /// divided by zero (bench --modes --moving panicked).
     #[test]
     fn moving_camera_takes_a_path_of_any_span() {
-        let path = CameraPath::from_json(
-            r#"{"keyframes": [{"frame": 0, "eye": [0, 0, 0], "target": [0, 0, 1], "up": [0, 1, 0], "fov": 40},
-                             {"frame": 2147483648, "eye": [8, 0, 0], "target": [8, 0, 1], "up": [0, 1, 0], "fov": 40}]}"#,
-        )
-        .expect("a valid path");
+        let path = straight_path(1 << 31, 8.0);
         for f in [0, 1, 1000, u32::MAX] {
             let p = moving_camera(&path, f).position;
             assert!(p.is_finite() && p.x >= 0.0 && p.x <= 8.0, "frame {f} at {p}");
