@@ -177,23 +177,47 @@ pub fn exponent_fit(points: &[(f64, f64)]) -> Option<(f64, Option<f64>)> {
     Some((k, se))
 }
 
-/// A measured exponent departs from the expected one: by more than 0.1 and more than two of its
-/// standard errors (with no standard error, two points, by more than 0.1).
-pub fn departs(k: f64, se: Option<f64>, expected: f64) -> bool {
-    let d = (k - expected).abs();
+/// A measured exponent departs from the expected range `lo..=hi`: by more than 0.1 and more than
+/// two of its standard errors (with no standard error, two points, by more than 0.1).
+pub fn departs(k: f64, se: Option<f64>, (lo, hi): (f64, f64)) -> bool {
+    let d = if k < lo { lo - k } else if k > hi { k - hi } else { 0.0 };
     d > 0.1 && se.is_none_or(|se| d > 2.0 * se)
 }
 
-/// The law each curve is expected to follow: (exponent, why).
-fn expected(sweep: &str, what: &str) -> (f64, &'static str) {
+/// How a curve is expected to grow with its size x.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Law {
+    /// ms ∝ x^k.
+    Power(f64),
+    /// ms ∝ log x (plus a constant): a power-law fit over x from `lo` up gives an exponent between
+    /// 0 (the constant dominates) and 1 / ln lo (all of it logarithmic).
+    Log,
+    /// ms ∝ x log x: between 1 and 1 + 1 / ln lo likewise.
+    NLogN,
+}
+
+impl Law {
+    /// The exponents a power-law fit over sizes from `lo` may give under this law.
+    fn range(self, lo: f64) -> (f64, f64) {
+        let log = 1.0 / lo.max(std::f64::consts::E).ln();
+        match self {
+            Law::Power(k) => (k, k),
+            Law::Log => (0.0, log),
+            Law::NLogN => (1.0, 1.0 + log),
+        }
+    }
+}
+
+/// The law each curve is expected to follow, and why.
+fn expected(sweep: &str, what: &str) -> (Law, &'static str) {
     match (sweep, what) {
-        ("vpls", "photon_emit") => (1.0, "one photon path per VPL: linear"),
-        ("vpls", _) => (0.0, "a fixed number of VPLs read per pixel: independent of the count (until the VPL buffer outgrows the caches)"),
-        ("pixels", _) => (1.0, "fixed work per pixel: linear in pixels"),
-        ("triangles", "blas build") => (1.0, "a BVH build: n log n, close to linear"),
-        ("triangles", "tlas build") => (0.0, "one instance per mesh: independent of triangles"),
-        ("triangles", _) => (0.0, "BVH traversal: logarithmic, close to flat"),
-        _ => (f64::NAN, ""),
+        ("vpls", "photon_emit") => (Law::Power(1.0), "one photon path per VPL: linear"),
+        ("vpls", _) => (Law::Power(0.0), "a fixed number of VPLs read per pixel: independent of the count (until the VPL buffer outgrows the caches)"),
+        ("pixels", _) => (Law::Power(1.0), "fixed work per pixel: linear in pixels"),
+        ("triangles", "blas build") => (Law::NLogN, "a BVH build: n log n, a power-law exponent from 1 to 1 + 1/ln n"),
+        ("triangles", "tlas build") => (Law::Power(0.0), "one instance per mesh: independent of triangles"),
+        ("triangles", _) => (Law::Log, "BVH traversal: logarithmic (plus the work that does not trace), a power-law exponent from 0 to 1/ln n"),
+        _ => (Law::Power(f64::NAN), ""),
     }
 }
 
@@ -271,14 +295,16 @@ pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) ->
                     None => s += " – |",
                 }
             }
-            let (e, why) = expected(sweep, w);
+            let (law, why) = expected(sweep, w);
+            let (lo, hi) = law.range(xs.first().copied().unwrap_or(1.0));
             let k = exponent_fit(&pts).map_or("–".to_string(), |(k, se)| {
                 let se_text = se.map_or(String::new(), |se| format!(" ± {se:.2}"));
-                let mark = if departs(k, se, e) { " ✗" } else { "" };
+                let mark = if departs(k, se, (lo, hi)) { " ✗" } else { "" };
                 format!("{k:.2}{se_text}{mark}")
             });
-            s += &format!(" {k} | {e:.0} |\n");
-            let law = format!("expected {e:.0}: {why}");
+            let e = if lo == hi { format!("{lo:.0}") } else { format!("{lo:.1}–{hi:.2}") };
+            s += &format!(" {k} | {e} |\n");
+            let law = format!("expected {e}: {why}");
             if !laws.contains(&law) {
                 laws.push(law);
             }
@@ -326,9 +352,17 @@ mod tests {
         let scattered = [(1e3, 1.0), (1e4, 20.0), (1e5, 60.0), (1e6, 1500.0)];
         let (k, se) = exponent_fit(&scattered).unwrap();
         assert!(se.unwrap() > 0.05, "{k} {se:?}");
-        assert!(!departs(1.05, Some(0.01), 1.0), "within 0.1");
-        assert!(departs(0.8, Some(0.05), 1.0) && !departs(0.8, Some(0.2), 1.0));
-        assert!(departs(0.8, None, 1.0));
+        assert!(!departs(1.05, Some(0.01), (1.0, 1.0)), "within 0.1");
+        assert!(departs(0.8, Some(0.05), (1.0, 1.0)) && !departs(0.8, Some(0.2), (1.0, 1.0)));
+        assert!(departs(0.8, None, (1.0, 1.0)));
+        // A logarithmic law over 1k… fits an exponent up to 1/ln 1000 = 0.145: 0.2 is within 0.1.
+        let log = Law::Log.range(1000.0);
+        assert!((log.1 - 1.0 / 1000f64.ln()).abs() < 1e-12 && log.0 == 0.0);
+        assert!(!departs(0.2, Some(0.01), log) && departs(0.3, Some(0.01), log));
+        // c ln x over 1k … 1M fits inside the range.
+        let pts: Vec<(f64, f64)> = [1e3, 1e4, 1e5, 1e6].iter().map(|&x: &f64| (x, 5.0 * x.ln())).collect();
+        let k = exponent(&pts).unwrap();
+        assert!(k > log.0 && k < log.1, "{k} in {log:?}");
         assert!(exponent_fit(&[(1.0, f64::NAN), (2.0, 1.0)]).is_none(), "a non-finite point is left out");
     }
 
