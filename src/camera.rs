@@ -81,7 +81,8 @@ impl Camera {
     /// of a pixel at 4K; and records of references made before stay equal), and beyond that as far
     /// ahead as the eye is from the origin, so that rounding the target to f32 keeps the direction
     /// (one unit ahead of an eye at 3e7 turned the view by 16° once saved and read back); at most
-    /// 1e17 ahead, so that a target stays within the 1e18 a camera path allows where its eye does.
+    /// 1e17 ahead (an eye beyond 9e17 looking outwards can still put it past the 1e18 a camera
+    /// path allows, which reading it back then refuses by name).
     pub fn target_point(&self) -> Vec3 {
         let far = self.position.abs().max_element();
         if far <= 1024.0 {
@@ -284,7 +285,7 @@ impl CameraPath {
         }
         let mut up = lerp(a.up, b.up);
         let forward = unit(target - eye).expect("keyframes are checked: finite, within 1e18");
-        if forward.cross(up).length_squared() <= 1e-12 * up.length_squared().max(1e-30) {
+        if unit(up).is_none_or(|u| forward.cross(u).length_squared() <= 1e-12) {
             // The view passes through the up direction: roll as little as possible from the
             // earlier keyframe, whose right axis stays perpendicular to up.
             let right_a = (Vec3::from(a.target) - Vec3::from(a.eye)).cross(Vec3::from(a.up));
@@ -346,9 +347,14 @@ pub struct FlyController {
 
 impl FlyController {
     /// Starts at `camera` (also what Home returns to); `scene_size` (e.g. the bounds' diagonal)
-    /// sets the initial speed: the scene is crossed in about five seconds.
-    pub fn new(camera: &Camera, scene_size: f32) -> Self {
-        let world_up = Self::world_up(camera);
+    /// sets the initial speed: the scene is crossed in about five seconds. `world_up` is the
+    /// scene's up, the axis the controller yaws about and flies up along: +Y for glTF (its
+    /// convention) unless the user gave `--up`. The camera alone cannot tell it (a Y-up camera
+    /// looking straight down with its top edge towards +Z is a level Z-up camera looking along
+    /// −Y); taking the camera's own up once its pitch passed 60° rolled the horizon on a yaw and
+    /// moved Space along a tilted axis. A zero or non-finite `world_up` is +Y.
+    pub fn new(camera: &Camera, scene_size: f32, world_up: Vec3) -> Self {
+        let world_up = unit(world_up).unwrap_or(Vec3::Y);
         let e1 = world_up.any_orthonormal_vector();
         let e2 = world_up.cross(e1);
         let mut c = Self {
@@ -369,21 +375,6 @@ impl FlyController {
         c
     }
 
-    /// The axis the controller yaws about and flies up along: the first of +Y (glTF's up), +Z, +X
-    /// and their negatives that `camera` is level with (its right vector within ~11° of
-    /// perpendicular to the axis, its up not pointing away from it), so that a camera pitched
-    /// steeply, or looking straight down, in a Y-up scene still turns about Y; else (a camera
-    /// rolled away from every axis) +Y when its up is within 60° of it, else its own up. (Before,
-    /// any camera pitched more than 60° from the horizon flew about its own up vector: a yaw then
-    /// rolled the horizon and Space moved along a tilted axis.)
-    fn world_up(camera: &Camera) -> Vec3 {
-        let (right, up) = (camera.right.normalize_or_zero(), camera.up.normalize_or_zero());
-        let axes = [Vec3::Y, Vec3::Z, Vec3::X, Vec3::NEG_Y, Vec3::NEG_Z, Vec3::NEG_X];
-        axes.into_iter()
-            .find(|a| right.dot(*a).abs() < 0.2 && up.dot(*a) > -1e-3)
-            .unwrap_or(if up.dot(Vec3::Y) > 0.5 || up == Vec3::ZERO { Vec3::Y } else { up })
-    }
-
     /// Jumps to `camera` (returned exactly until the next move).
     pub fn set_camera(&mut self, camera: &Camera) {
         let f = camera.forward.normalize();
@@ -398,6 +389,11 @@ impl FlyController {
         self.yaw = heading.dot(self.e2).atan2(heading.dot(self.e1));
         self.yfov = camera.yfov;
         self.exact = Some(*camera);
+    }
+
+    /// A movement key is held: the camera moves on the next update.
+    pub fn moving(&self) -> bool {
+        self.keys.down_since.iter().any(Option::is_some)
     }
 
     /// Back to the camera the controller started from.
@@ -688,7 +684,7 @@ mod tests {
             let p = pitch.to_radians();
             let eye = Vec3::new(0.0, 2.0, 0.0);
             let c = Camera::look_at(eye, eye + Vec3::new(0.0, p.sin(), -p.cos()), Vec3::Y, 0.7, "test");
-            let mut f = FlyController::new(&c, 10.0);
+            let mut f = FlyController::new(&c, 10.0, Vec3::Y);
             // The camera as given while nothing moved; a tiny look keeps its heading (a view along
             // the axis takes it from the camera's up).
             f.look(1e-3, 0.0);
@@ -706,20 +702,26 @@ mod tests {
         // Straight down, the image's top edge towards +X: a tiny look keeps that heading (the
         // view has no horizontal part to take it from).
         let c = Camera::look_at(Vec3::ZERO, Vec3::NEG_Y, Vec3::X, 0.7, "test");
-        let mut f = FlyController::new(&c, 10.0);
+        let mut f = FlyController::new(&c, 10.0, Vec3::Y);
         f.look(1e-3, 0.0);
         assert!(f.camera().up.dot(Vec3::X) > 0.999 && f.camera().forward.dot(Vec3::NEG_Y) > 0.999, "{:?}", f.camera());
-        // A Z-up scene's camera flies about Z.
-        let c = Camera::look_at(Vec3::ZERO, Vec3::new(1.0, 0.0, -3.0), Vec3::Z, 0.7, "test");
-        let mut f = FlyController::new(&c, 10.0);
-        f.look(300.0, 0.0);
-        assert!(f.camera().right.dot(Vec3::Z).abs() < 1e-4, "{:?}", f.camera());
+        // A Z-up scene (--up 0,0,1) flies about Z: a steep view, and a level one along +Y
+        // (Blender's front view), which a rule guessing the axis from the camera took for a Y-up
+        // camera pitched 90°.
+        for target in [Vec3::new(1.0, 0.0, -3.0), Vec3::new(0.0, 5.0, 0.0)] {
+            let c = Camera::look_at(Vec3::ZERO, target, Vec3::Z, 0.7, "test");
+            let mut f = FlyController::new(&c, 10.0, Vec3::Z);
+            f.look(1e-3, 0.0);
+            assert!(f.camera().forward.dot(c.forward) > 0.999 && f.camera().up.dot(c.up) > 0.999, "{target}: {:?}", f.camera());
+            f.look(300.0, 0.0);
+            assert!(f.camera().right.dot(Vec3::Z).abs() < 1e-4, "{target}: {:?}", f.camera());
+        }
     }
 
     #[test]
     fn controller_returns_the_given_camera_until_it_moves() {
         let c = cam();
-        let mut f = FlyController::new(&c, 10.0);
+        let mut f = FlyController::new(&c, 10.0, Vec3::Y);
         assert!(f.camera().same_view(&c));
         assert!(!f.update(0.1), "no key held: no move");
         f.key(MoveKey::Forward, true, 0.1);
@@ -742,7 +744,7 @@ mod tests {
     #[test]
     fn release_all_stops_the_camera_after_what_was_held() {
         let c = cam();
-        let mut f = FlyController::new(&c, 10.0);
+        let mut f = FlyController::new(&c, 10.0, Vec3::Y);
         f.update(0.0);
         f.set_fast(true);
         f.key(MoveKey::Forward, true, 0.0);
@@ -761,7 +763,7 @@ mod tests {
     #[test]
     fn a_tap_between_two_slow_frames_moves_by_what_was_held() {
         let c = cam();
-        let mut f = FlyController::new(&c, 10.0);
+        let mut f = FlyController::new(&c, 10.0, Vec3::Y);
         f.update(0.0);
         // W down for 0.3 s, released, all within one 2-second frame; a repeat press is ignored.
         f.key(MoveKey::Forward, true, 0.5);
@@ -802,7 +804,7 @@ mod tests {
 
     #[test]
     fn controller_looks_and_clamps_pitch() {
-        let mut f = FlyController::new(&cam(), 10.0);
+        let mut f = FlyController::new(&cam(), 10.0, Vec3::Y);
         // Turning right by a quarter turn: forward goes from -z to +x.
         f.look(std::f32::consts::FRAC_PI_2 / f.sensitivity, 0.0);
         assert!((f.camera().forward - Vec3::X).length() < 1e-4, "{:?}", f.camera().forward);

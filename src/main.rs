@@ -341,7 +341,7 @@ enum Command {
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion", "rays"])]
         radius: bool,
         /// Instead: how cost grows with the work. Frame GPU ms of uniform, RIS and ReSTIR against
-        /// the VPL count (10k … 2M), the image size (256² … 1920×1080) and the triangle count (~1k …
+        /// the VPL count (10k … 2M), the image size (256×144 … 1920×1080, 16:9) and the triangle count (~1k …
         /// ~1M, generated), with the photon pass and the BLAS/TLAS builds; each curve's measured
         /// exponent beside the expected one. Writes --out/scaling.md and scaling.csv.
         #[arg(long, conflicts_with_all = ["curves", "modes", "photons", "motion", "rays", "radius"])]

@@ -563,7 +563,8 @@ fn frozen_window_still_answers_and_home_replays_the_camera_path() {
 /// that would be displayed alone, since nobody sees it, and resumes when shown; a still camera's
 /// accumulation goes on while covered. Before, a covered window rendered at full speed whatever
 /// it showed. The frame count is read from summary.json (Enter writes it, covered or not), and it
-/// must grow over 2 s while shown (the check can fail) and stay put over 2 s while covered.
+/// must grow over 2 s while shown (the check can fail) and stay put over 2 s while covered; the
+/// accumulation is checked under a cover known to hold (frames stalled first).
 #[test]
 fn a_covered_window_pauses_frames_displayed_alone_but_accumulates() {
     let Some(x) = xvfb() else { return };
@@ -603,14 +604,17 @@ fn a_covered_window_pauses_frames_displayed_alone_but_accumulates() {
     xmessage.wait().unwrap();
     let shown = frames_until("frames rendered again once shown", Duration::from_secs(60), &|a, b| b > a);
     assert!(shown > paused);
-    // Progressive on, the camera still: the accumulation goes on while covered.
-    press_until_title(d, &wid, "p", "progressive accumulation on", Duration::from_secs(30));
+    // Covered again until the frames stall (so the window is known to be covered), then progressive
+    // on, the camera still: the accumulation goes on while covered.
     let mut xmessage = cover();
-    std::thread::sleep(Duration::from_secs(1));
+    frames_until("no frame rendered while covered again", Duration::from_secs(60), &|a, b| a == b);
+    press_until_title(d, &wid, "p", "progressive accumulation on", Duration::from_secs(30));
     // "restir-vpl — uniform · 8.1 ms/frame (…) · 120 frames accumulated · …"
     let accumulated = || -> u64 {
         let title = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl", "getwindowname"]).stdout).trim().to_string();
-        title.split(" frames accumulated").next().and_then(|a| a.rsplit(' ').next()).and_then(|v| v.parse().ok()).unwrap_or_else(|| panic!("no frame count in '{title}'"))
+        // "… · N frames accumulated" ("1 frame accumulated" right after a reset).
+        let words: Vec<&str> = title.split(" accumulated").next().unwrap_or_default().split_whitespace().collect();
+        words.len().checked_sub(2).and_then(|i| words[i].parse().ok()).unwrap_or_else(|| panic!("no frame count in '{title}'"))
     };
     let a = accumulated();
     std::thread::sleep(Duration::from_secs(2));

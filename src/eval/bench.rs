@@ -615,8 +615,6 @@ mod tests {
         assert_eq!(texts, ["158", "56.0", "3.46", "0.241", "0.0042", "0.0000"]);
     }
 
-    /// Every timed frame moves: it differs from the one before (the first from the warm-up at the
-    /// path's start), also past the path's last keyframe, and stays on the path.
     /// A path from the origin at frame 0 to (x, 0, 0) at frame `last`, looking down +z.
     fn straight_path(last: u64, x: f32) -> CameraPath {
         CameraPath::from_json(&format!(
@@ -626,6 +624,8 @@ mod tests {
         .expect("a valid path")
     }
 
+    /// Every timed frame moves: it differs from the one before (the first from the warm-up at the
+    /// path's start), also past the path's last keyframe, and stays on the path.
     #[test]
     fn moving_camera_never_stands_still() {
         let path = straight_path(5, 5.0);

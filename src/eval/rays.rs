@@ -51,7 +51,8 @@ pub struct PassRate {
     /// rays), "bounce+shadow" (pathtrace: a closest-hit and a shadow ray per bounce, so the raw
     /// time per ray is the mean of the two kinds') or "shadow" (every other pass).
     pub against: &'static str,
-    /// mrays_per_s / the raw rate it is measured against.
+    /// mrays_per_s / the raw rate it is measured against; NaN (null in JSON, "–" in the table)
+    /// where that raw rate is 0.
     pub share: f64,
 }
 

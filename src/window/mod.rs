@@ -192,7 +192,7 @@ impl ApplicationHandler for App {
                     r.frozen_total += r.timed_span(since, Instant::now());
                     r.paused_since = None;
                     r.timing_restarts = true; // the paused time is no frame's
-                    log::info!("window shown: resumed");
+                    log::info!("window: the pause while hidden ends (shown again, frozen, or accumulating)");
                 }
                 _ => {}
             }
@@ -269,7 +269,9 @@ impl App {
         let presenter = Presenter::new(&ctx, &swapchain)?;
         let ui = Overlay::new(&ctx, &window, &swapchain, PRESENT_SLOTS, self.reference.take())?;
         let (lo, hi) = scene.info.bounds;
-        let controller = FlyController::new(&renderer.initial_camera(), (hi - lo).length());
+        // The scene's up: --up where given, else glTF's +Y.
+        let world_up = self.settings.camera.as_ref().map_or(glam::Vec3::Y, |c| c.up);
+        let controller = FlyController::new(&renderer.initial_camera(), (hi - lo).length(), world_up);
         log::info!("window: {}", ctx.report);
         Ok(Running {
             ui,
@@ -828,11 +830,13 @@ impl Running {
         path.map_or_else(|| self.controller.camera(), |p| p.at(self.path_frame(self.frames.saturating_sub(1))))
     }
 
-    /// Whether the next frame adds to the accumulation: progressive on and its camera the one on
-    /// screen (a camera path holds its last keyframe once played; the fly camera is still unless
-    /// a key is held).
+    /// Whether the next frame adds to the accumulation: progressive on, its camera the one on
+    /// screen (a camera path holds its last keyframe once played) and no movement key held (a
+    /// covered window may keep the keyboard).
     fn next_frame_accumulates(&self, path: Option<&CameraPath>) -> bool {
-        self.renderer.settings().progressive && self.next_camera(path).same_view(&self.camera_on_screen(path))
+        self.renderer.settings().progressive
+            && self.next_camera(path).same_view(&self.camera_on_screen(path))
+            && (path.is_some() || !self.controller.moving())
     }
 
     /// The camera of the next frame (what a key that renders one, F4 or F12, renders).
