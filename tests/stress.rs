@@ -161,21 +161,34 @@ fn cases() -> Vec<Case> {
     out
 }
 
-/// Every mode the renderer has (ReSTIR unbiased with and without visibility, and biased), and the
-/// VPL modes with `--compensate` (its recursion runs into every corner and degenerate triangle).
-fn modes() -> Vec<(&'static str, Mode, RestirSettings, bool)> {
+/// A stress mode: its label, mode, ReSTIR settings, `--compensate`, and any other settings.
+type StressMode = (&'static str, Mode, RestirSettings, bool, fn(&mut RenderSettings));
+
+/// Every mode the renderer has (ReSTIR unbiased with and without visibility, and biased), the VPL
+/// modes with `--compensate` (its recursion runs into every corner and degenerate triangle), RIS
+/// with the ReGIR grid (its cells over degenerate and huge scenes), and ReSTIR with inverse-square
+/// attenuation, no temporal reuse and no light presampling (the passes those settings swap).
+fn modes() -> Vec<StressMode> {
     let r = |bias, vis| RestirSettings { bias, initial_visibility: Some(vis), spatial_radius: Some(4.0), ..Default::default() };
+    let none: fn(&mut RenderSettings) = |_| {};
     vec![
-        ("pt", Mode::Pt, RestirSettings::default(), false),
-        ("uniform", Mode::Uniform, RestirSettings::default(), false),
-        ("ris", Mode::Ris, RestirSettings::default(), false),
-        ("restir", Mode::Restir, r(Bias::Unbiased, false), false),
-        ("restir+vis", Mode::Restir, r(Bias::Unbiased, true), false),
-        ("restir biased", Mode::Restir, r(Bias::Biased, false), false),
-        ("bruteforce", Mode::Bruteforce, RestirSettings::default(), false),
-        ("ris compensated", Mode::Ris, RestirSettings::default(), true),
-        ("restir compensated", Mode::Restir, r(Bias::Unbiased, false), true),
-        ("bruteforce compensated", Mode::Bruteforce, RestirSettings::default(), true),
+        ("pt", Mode::Pt, RestirSettings::default(), false, none),
+        ("uniform", Mode::Uniform, RestirSettings::default(), false, none),
+        ("ris", Mode::Ris, RestirSettings::default(), false, none),
+        ("restir", Mode::Restir, r(Bias::Unbiased, false), false, none),
+        ("restir+vis", Mode::Restir, r(Bias::Unbiased, true), false, none),
+        ("restir biased", Mode::Restir, r(Bias::Biased, false), false, none),
+        ("bruteforce", Mode::Bruteforce, RestirSettings::default(), false, none),
+        ("ris compensated", Mode::Ris, RestirSettings::default(), true, none),
+        ("restir compensated", Mode::Restir, r(Bias::Unbiased, false), true, none),
+        ("bruteforce compensated", Mode::Bruteforce, RestirSettings::default(), true, none),
+        ("ris grid", Mode::Ris, RestirSettings::default(), false, |s| {
+            s.grid = restir_vpl::settings::GridSettings { candidates: 8, ..Default::default() }
+        }),
+        ("restir inverse-square, no temporal, no presampling", Mode::Restir, RestirSettings { temporal: false, ..r(Bias::Unbiased, false) }, false, |s| {
+            s.attenuation = restir_vpl::settings::Attenuation::InverseSquare;
+            s.presample = false;
+        }),
     ]
 }
 
@@ -227,9 +240,10 @@ fn check_case(ctx: &Arc<restir_vpl::vk::Context>, case: &Case) -> Vec<(&'static 
     let camera = Camera::look_at(Vec3::from(case.eye), Vec3::from(case.target), Vec3::Y, 50f32.to_radians(), "stress");
     let mut renders = Vec::new();
     let mut r: Option<Renderer> = None;
-    for (label, mode, restir, compensate) in modes() {
+    for (label, mode, restir, compensate, extra) in modes() {
         for view in View::ALL {
-            let s = RenderSettings { mode, restir, view: *view, compensate, ..base.clone() };
+            let mut s = RenderSettings { mode, restir, view: *view, compensate, ..base.clone() };
+            extra(&mut s);
             if s.validate().is_err() {
                 continue; // a view this mode cannot show (the CLI refuses it too)
             }
@@ -272,7 +286,7 @@ fn generated_stress_scenes_in_every_mode_and_view() {
         // Coverage, so that a settings check refusing a kind of run cannot empty the suite
         // unnoticed: every mode ran its final image, every view ran in some mode, and the
         // reservoir modes ran every view (the path tracer and brute force draw no reservoirs).
-        for (label, mode, _, _) in modes() {
+        for (label, mode, _, _, _) in modes() {
             assert!(ran.contains(&(label, View::Final)), "{}: mode {label} never ran", case.name);
             if mode.uses_reservoirs() {
                 for view in View::ALL {
