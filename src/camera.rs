@@ -262,6 +262,12 @@ impl CameraPath {
         serde_json::to_string_pretty(self).expect("a camera path serialises")
     }
 
+    /// The frames of the first and the last keyframe (checked: increasing, at least one keyframe).
+    pub fn frame_range(&self) -> (u32, u32) {
+        let k = &self.keyframes;
+        (k[0].frame, k[k.len() - 1].frame)
+    }
+
     /// The camera at frame `frame` (fractional frames interpolate too).
     pub fn at(&self, frame: f32) -> Camera {
         let k = &self.keyframes;

@@ -339,8 +339,8 @@ pub fn grid_cases(base: &RenderSettings) -> Vec<(String, RenderSettings)> {
 /// path's start included) share a camera however many frames are timed.
 pub fn moving_camera(path: &CameraPath, f: u32) -> Camera {
     // In u64: twice a span of 2^31 frames or more wrapped u32 (to 0: a division by zero).
-    let first = u64::from(path.keyframes[0].frame);
-    let span = u64::from(path.keyframes[path.keyframes.len() - 1].frame).saturating_sub(first).max(1);
+    let (first, last) = path.frame_range();
+    let (first, span) = (u64::from(first), u64::from(last.saturating_sub(first)).max(1));
     let t = (u64::from(f) + 1) % (2 * span);
     let along = if t <= span { t } else { 2 * span - t };
     path.at((first + along) as f32)

@@ -179,8 +179,8 @@ pub fn path_file(scene: &Path) -> PathBuf {
 /// The first keyframe's frame of `path` (read from `file`), if `frames` moving frames fit after
 /// it; else an error naming the file: past its last keyframe the camera stands still.
 fn check_span(path: &CameraPath, frames: u32, file: &Path) -> Result<u32> {
-    let first = path.keyframes[0].frame;
-    let span = path.keyframes[path.keyframes.len() - 1].frame - first;
+    let (first, last) = path.frame_range();
+    let span = last - first;
     if frames > span {
         bail!(
             "{}: {frames} moving frames need a path spanning at least as many frames after its first keyframe; it spans \

@@ -151,14 +151,9 @@ fn summary(rows: &[crate::eval::bench::ModeBench]) -> String {
 }
 
 /// Least-squares slope of ln(ms) against ln(x): the measured exponent of cost ∝ x^k (None with
-/// fewer than two usable points).
-pub fn exponent(points: &[(f64, f64)]) -> Option<f64> {
-    exponent_fit(points).map(|f| f.0)
-}
-
-/// [`exponent`] and its standard error from the fit's residuals (None with fewer than three
-/// points: two always fit exactly).
-pub fn exponent_fit(points: &[(f64, f64)]) -> Option<(f64, Option<f64>)> {
+/// fewer than two usable points), and its standard error from the fit's residuals (None with
+/// fewer than three points: two always fit exactly).
+pub fn exponent(points: &[(f64, f64)]) -> Option<(f64, Option<f64>)> {
     let logs: Vec<(f64, f64)> =
         points.iter().filter(|(x, y)| *x > 0.0 && *y > 0.0 && x.is_finite() && y.is_finite()).map(|(x, y)| (x.ln(), y.ln())).collect();
     if logs.len() < 2 {
@@ -297,7 +292,7 @@ pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) ->
             }
             let (law, why) = expected(sweep, w);
             let (lo, hi) = law.range(xs.first().copied().unwrap_or(1.0));
-            let k = exponent_fit(&pts).map_or("–".to_string(), |(k, se)| {
+            let k = exponent(&pts).map_or("–".to_string(), |(k, se)| {
                 let se_text = se.map_or(String::new(), |se| format!(" ± {se:.2}"));
                 let mark = if departs(k, se, (lo, hi)) { " ✗" } else { "" };
                 format!("{k:.2}{se_text}{mark}")
@@ -344,13 +339,13 @@ mod tests {
     /// The slope's standard error is 0 on an exact power law and grows with scatter; a departure
     /// needs both 0.1 and two standard errors.
     #[test]
-    fn exponent_fit_gives_a_standard_error_and_departures() {
+    fn exponent_gives_a_standard_error_and_departures() {
         let exact: Vec<(f64, f64)> = [1e3, 1e4, 1e5].iter().map(|&x: &f64| (x, 2.0 * x)).collect();
-        let (k, se) = exponent_fit(&exact).unwrap();
+        let (k, se) = exponent(&exact).unwrap();
         assert!((k - 1.0).abs() < 1e-9 && se.unwrap() < 1e-9);
-        assert!(exponent_fit(&exact[..2]).unwrap().1.is_none(), "two points fit exactly: no error");
+        assert!(exponent(&exact[..2]).unwrap().1.is_none(), "two points fit exactly: no error");
         let scattered = [(1e3, 1.0), (1e4, 20.0), (1e5, 60.0), (1e6, 1500.0)];
-        let (k, se) = exponent_fit(&scattered).unwrap();
+        let (k, se) = exponent(&scattered).unwrap();
         assert!(se.unwrap() > 0.05, "{k} {se:?}");
         assert!(!departs(1.05, Some(0.01), (1.0, 1.0)), "within 0.1");
         assert!(departs(0.8, Some(0.05), (1.0, 1.0)) && !departs(0.8, Some(0.2), (1.0, 1.0)));
@@ -361,17 +356,17 @@ mod tests {
         assert!(!departs(0.2, Some(0.01), log) && departs(0.3, Some(0.01), log));
         // c ln x over 1k … 1M fits inside the range.
         let pts: Vec<(f64, f64)> = [1e3, 1e4, 1e5, 1e6].iter().map(|&x: &f64| (x, 5.0 * x.ln())).collect();
-        let k = exponent(&pts).unwrap();
+        let k = exponent(&pts).unwrap().0;
         assert!(k > log.0 && k < log.1, "{k} in {log:?}");
-        assert!(exponent_fit(&[(1.0, f64::INFINITY), (2.0, 1.0)]).is_none(), "a non-finite point is left out");
+        assert!(exponent(&[(1.0, f64::INFINITY), (2.0, 1.0)]).is_none(), "a non-finite point is left out");
     }
 
     #[test]
     fn exponent_recovers_a_power_law() {
         let pts: Vec<(f64, f64)> = [1e3, 1e4, 1e5, 1e6].iter().map(|&x: &f64| (x, 3.0 * x.powf(0.75))).collect();
-        assert!((exponent(&pts).unwrap() - 0.75).abs() < 1e-9);
+        assert!((exponent(&pts).unwrap().0 - 0.75).abs() < 1e-9);
         assert!(exponent(&pts[..1]).is_none());
         let flat = [(10.0, 5.0), (1000.0, 5.0)];
-        assert!(exponent(&flat).unwrap().abs() < 1e-12);
+        assert!(exponent(&flat).unwrap().0.abs() < 1e-12);
     }
 }

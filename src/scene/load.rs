@@ -85,28 +85,24 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
         .materials()
         .map(|m| convert_material(&m, &mut warnings))
         .collect::<Result<_>>()?;
+    // The renderer's one BRDF is Lambertian: a metal (metallicFactor 1 is glTF's default when
+    // pbrMetallicRoughness leaves it out) renders as a diffuse surface of its base colour, far
+    // from how it looks elsewhere. One warning names them, after the alpha modes'.
+    let mut metals: Vec<String> = Vec::new();
     for m in doc.materials().filter(|m| m.index().is_some_and(|i| used.contains(&i))) {
+        let name = &materials[m.index().expect("filtered on the index")].name;
         if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-            let name = &materials[m.index().expect("filtered on the index")].name;
             warnings.push(format!(
                 "material '{name}': alphaMode {:?} (cut-outs, transparency) is not supported; rendered opaque",
                 m.alpha_mode()
             ));
         }
-    }
-    // The renderer's one BRDF is Lambertian: a metal (metallicFactor 1 is glTF's default when
-    // pbrMetallicRoughness leaves it out) renders as a diffuse surface of its base colour, far
-    // from how it looks elsewhere. One warning names them.
-    let metals: Vec<String> = doc
-        .materials()
-        .filter(|m| m.index().is_some_and(|i| used.contains(&i)))
-        .filter(|m| m.pbr_metallic_roughness().metallic_factor() > 0.0)
-        .map(|m| {
-            let pbr = m.pbr_metallic_roughness();
+        let pbr = m.pbr_metallic_roughness();
+        if pbr.metallic_factor() > 0.0 {
             let texture = if pbr.metallic_roughness_texture().is_some() { " × its metallicRoughnessTexture" } else { "" };
-            format!("'{}' ({}{texture})", materials[m.index().expect("filtered on the index")].name, pbr.metallic_factor())
-        })
-        .collect();
+            metals.push(format!("'{name}' ({}{texture})", pbr.metallic_factor()));
+        }
+    }
     if !metals.is_empty() {
         let shown = metals.iter().take(5).cloned().collect::<Vec<_>>().join(", ");
         let more = if metals.len() > 5 { format!(" and {} more", metals.len() - 5) } else { String::new() };
