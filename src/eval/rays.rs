@@ -47,13 +47,51 @@ pub struct PassRate {
     pub rays: f64,
     pub gpu_ms: f64,
     pub mrays_per_s: f64,
-    /// The raw rate it is measured against: "primary" (gbuffer), "bounce" (photon_emit: closest-hit
-    /// rays), "bounce+shadow" (pathtrace: a closest-hit and a shadow ray per bounce, so the raw
-    /// time per ray is the mean of the two kinds') or "shadow" (every other pass).
-    pub against: &'static str,
+    /// The raw rate it is measured against.
+    pub against: RawKind,
     /// mrays_per_s / the raw rate it is measured against; NaN (null in JSON, "–" in the table)
     /// where that raw rate is 0.
     pub share: f64,
+}
+
+/// The raw rate a pass is measured against.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum RawKind {
+    /// Coherent camera rays: the G-buffer pass.
+    #[serde(rename = "primary")]
+    Primary,
+    /// Shadow rays of random length: every pass that traces visibility.
+    #[serde(rename = "shadow")]
+    Shadow,
+    /// Closest-hit rays from surface to surface: the photon pass.
+    #[serde(rename = "bounce")]
+    Bounce,
+    /// A closest-hit and a shadow ray per bounce (the path tracer), so the raw time per ray is the
+    /// mean of the two kinds'.
+    #[serde(rename = "bounce+shadow")]
+    BounceAndShadow,
+}
+
+impl RawKind {
+    /// The kind a real frame's tracing pass is measured against, by the pass's name.
+    fn of_pass(name: &str) -> Self {
+        match name {
+            crate::passes::GbufferPass::NAME => Self::Primary,
+            crate::passes::PathtracePass::NAME => Self::BounceAndShadow,
+            crate::passes::PhotonEmitPass::NAME => Self::Bounce,
+            _ => Self::Shadow,
+        }
+    }
+
+    /// As the table and the JSON name it.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Primary => "primary",
+            Self::Shadow => "shadow",
+            Self::Bounce => "bounce",
+            Self::BounceAndShadow => "bounce+shadow",
+        }
+    }
 }
 
 /// The raw rates and the passes of one scene.
@@ -198,11 +236,7 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
                 continue;
             }
             let mrays = total_rays as f64 / (total_ms * 1e3);
-            let against = match *name {
-                crate::passes::GbufferPass::NAME => "primary",
-                crate::passes::PathtracePass::NAME => "bounce+shadow",
-                _ => "shadow",
-            };
+            let against = RawKind::of_pass(name);
             passes.push(PassRate {
                 mode: label.to_string(),
                 pass: name.to_string(),
@@ -230,7 +264,7 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
             rays: stats.rays as f64,
             gpu_ms: ms,
             mrays_per_s: mrays,
-            against: "bounce",
+            against: RawKind::of_pass(crate::passes::PhotonEmitPass::NAME),
             share: 0.0,
         });
     }
@@ -245,10 +279,10 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
     let bounce_and_shadow = 2.0 / (1.0 / bounce.median + 1.0 / shadow.median);
     for p in &mut passes {
         let raw = match p.against {
-            "primary" => primary.median,
-            "bounce+shadow" => bounce_and_shadow,
-            "bounce" => bounce.median,
-            _ => shadow.median,
+            RawKind::Primary => primary.median,
+            RawKind::BounceAndShadow => bounce_and_shadow,
+            RawKind::Bounce => bounce.median,
+            RawKind::Shadow => shadow.median,
         };
         // No raw rate (a dispatch timed at 0 ms): no share, shown as "–".
         p.share = if raw > 0.0 && raw.is_finite() { p.mrays_per_s / raw } else { f64::NAN };
@@ -298,9 +332,27 @@ pub fn markdown(rows: &[RayRate], device: &str) -> String {
                 p.gpu_ms,
                 p.mrays_per_s,
                 if p.share.is_finite() { format!("{:.0}%", 100.0 * p.share) } else { "–".into() },
-                p.against
+                p.against.label()
             );
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::RawKind;
+
+    /// The JSON (serde's names) and the table (`label`) name each kind alike, and each pass that
+    /// traces is measured against its own kind.
+    #[test]
+    fn raw_kinds_are_named_alike_in_json_and_table() {
+        for kind in [RawKind::Primary, RawKind::Shadow, RawKind::Bounce, RawKind::BounceAndShadow] {
+            assert_eq!(serde_json::to_string(&kind).unwrap(), format!("\"{}\"", kind.label()));
+        }
+        assert_eq!(RawKind::of_pass(crate::passes::GbufferPass::NAME), RawKind::Primary);
+        assert_eq!(RawKind::of_pass(crate::passes::PathtracePass::NAME), RawKind::BounceAndShadow);
+        assert_eq!(RawKind::of_pass(crate::passes::PhotonEmitPass::NAME), RawKind::Bounce);
+        assert_eq!(RawKind::of_pass(crate::passes::RestirSpatialPass::NAME), RawKind::Shadow);
+    }
 }

@@ -97,9 +97,11 @@ impl BatchPlan {
 
     /// Paths in the next batch, `count` VPLs having come from `paths` paths so far. The first
     /// batch assumes every path makes `max_bounces` VPLs, so it fits the buffer whatever happens;
-    /// later ones aim at the remaining VPLs from the mean per path so far, with 1 % + 256 to spare
-    /// (so one more batch is rarely needed), and keep that expectation within 1/1.2 of the room
-    /// left. A batch that overflows anyway (a mean from few paths can be far off) is traced again
+    /// later ones aim at the remaining VPLs from the mean per path so far, with 1 % + min(256,
+    /// 4 √remaining) to spare (about 3–4 standard deviations of the VPLs that many paths make, so
+    /// one more batch is rarely needed and a small target is not overshot ten times over), and
+    /// no more than a quarter past the target were the mean two standard errors higher (a mean
+    /// from few paths can be far off), and keep that expectation within 1/1.2 of the room left. A batch that overflows anyway (a mean from few paths can be far off) is traced again
     /// at half its size by [`Self::run`].
     pub fn batch_size(&self, count: u32, paths: u64) -> u32 {
         let room = self.capacity.saturating_sub(count) as f64;
@@ -109,7 +111,13 @@ impl BatchPlan {
         } else {
             let per_path = (count as f64 / paths as f64).max(1e-3);
             let remaining = self.target.saturating_sub(count) as f64;
-            ((remaining * 1.01 + 256.0) / per_path, room / (1.2 * per_path))
+            let spare = (4.0 * remaining.sqrt()).min(256.0);
+            // A mean from few paths can be far too low: at two standard errors above it (a
+            // path's VPLs lie in 0..=max_bounces, so their variance is at most max_bounces × the
+            // mean), the batch should not pass the target by more than a quarter of it.
+            let high = per_path + 2.0 * (self.max_bounces as f64 * per_path / paths as f64).sqrt();
+            let bounded = (remaining + self.target as f64 / 4.0) / high;
+            (((remaining * 1.01 + spare) / per_path).min(bounded), room / (1.2 * per_path))
         };
         let left = self.max_paths().saturating_sub(paths).min(u32::MAX as u64 / 2) as f64;
         wanted.ceil().min(fits.floor()).min(left).max(0.0) as u32
@@ -567,6 +575,18 @@ mod tests {
         assert!(paths > 60_000, "{paths}");
         assert!(batches <= 3, "{batches} batches");
         assert_eq!(overflows, 0);
+    }
+
+    /// A small target (50, which overshot to 454 with a flat 256 to spare) ends near itself,
+    /// in a few batches.
+    #[test]
+    fn a_small_target_is_not_overshot_many_times_over() {
+        for seed in 0..64u64 {
+            let (count, _, batches, overflows) = simulate(plan(50, 8), |p| (hash(p ^ (seed << 40)) % 4) as u32);
+            assert!((50..=75).contains(&count), "seed {seed}: {count} VPLs for a target of 50");
+            assert!(batches <= 6, "seed {seed}: {batches} batches");
+            assert_eq!(overflows, 0);
+        }
     }
 
     /// The first batch finds no VPL (every early path escapes) and later paths make many: the
