@@ -9,7 +9,7 @@ use anyhow::{Context as _, Result};
 use serde::Serialize;
 
 use crate::camera::{Camera, CameraPath};
-use crate::output::{write_exr, write_png, TimingStats};
+use crate::output::{stage_exr, stage_png, write_exr, TimingStats};
 use crate::renderer::{Renderer, VplSummary};
 use crate::scene::Scene;
 use crate::scene_gpu::SceneGpu;
@@ -33,13 +33,22 @@ pub struct Summary {
     pub accumulated_frames: u32,
     /// GPU time per pass over all frames where it ran (ms).
     pub pass_ms: BTreeMap<String, TimingStats>,
+    /// GPU time of each pass's first dispatch (ms): on a driver that compiles a shader when it is
+    /// first dispatched (lavapipe) with a cold shader cache, mostly the compilation.
+    pub pass_first_ms: BTreeMap<String, f64>,
+    /// GPU time per pass over the frames where it ran after its first (ms; count 0 for a pass
+    /// that ran once): the steady cost, with no compilation in it.
+    pub pass_ms_after_first: BTreeMap<String, TimingStats>,
     /// Sum of the pass times of each frame (ms).
     pub gpu_ms_per_frame: TimingStats,
+    /// Of those, the first frame's (ms), which holds most shader compilation ([`Self::pass_first_ms`]).
+    pub gpu_ms_first_frame: f64,
     /// Wall-clock time per frame including submission and waiting (ms).
     pub wall_ms_per_frame: TimingStats,
     /// Rays per pixel per frame (primary + sampling passes).
     pub rays_per_pixel: TimingStats,
-    /// Rays per pixel per frame, by the pass that traced them (primary rays under "gbuffer").
+    /// Rays per pixel per frame, by the pass that traced them (primary rays under "gbuffer"), over
+    /// all frames (0 where a pass traced nothing), so the passes' means add up to the whole's.
     pub rays_per_pixel_by_pass: BTreeMap<String, TimingStats>,
     /// The VPL shading setup (VPL modes only).
     pub vpl: Option<crate::renderer::VplSummary>,
@@ -109,6 +118,37 @@ pub fn snapshot_file(frame: u32) -> String {
     format!("accum_{frame:04}.exr")
 }
 
+/// The frame of a `--save-every` snapshot's file name ([`snapshot_file`]), None for any other name.
+pub fn snapshot_frame(name: &str) -> Option<u32> {
+    let digits = name.strip_prefix("accum_")?.strip_suffix(".exr")?;
+    (digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit())).then(|| digits.parse().ok()).flatten()
+}
+
+/// Before a run with `--save-every`: removes an earlier run's snapshots from `dir` (a series that
+/// mixed two runs, accum_0003 and accum_0004 of a longer one beside this run's, misled a script
+/// reading them all), and refuses a directory in the place of a snapshot this run writes (found
+/// only when that frame was reached). Returns the files removed.
+fn remove_earlier_snapshots(dir: &std::path::Path, settings: &RenderSettings) -> Result<usize> {
+    let mut removed = 0;
+    if settings.save_every == 0 {
+        return Ok(0);
+    }
+    let entries = std::fs::read_dir(dir).with_context(|| format!("--out {}: cannot list the directory", dir.display()))?;
+    for entry in entries.filter_map(|e| e.ok()) {
+        let name = entry.file_name();
+        let Some(frame) = name.to_str().and_then(snapshot_frame) else { continue };
+        let path = entry.path();
+        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir()) {
+            let written = frame > 0 && frame <= settings.frames && frame % settings.save_every == 0;
+            anyhow::ensure!(!written, "--out {}: {} is a directory, where --save-every writes frame {frame}'s snapshot", dir.display(), name.to_string_lossy());
+            continue;
+        }
+        std::fs::remove_file(&path).with_context(|| format!("--out {}: removing an earlier run's snapshot {}", dir.display(), path.display()))?;
+        removed += 1;
+    }
+    Ok(removed)
+}
+
 /// Refuses a run whose outputs would overwrite one of its inputs: the scene, the files it reads
 /// (`scene_files`: external buffers and images) or the camera path, under `--out`'s fixed names
 /// (and `--save-every`'s snapshots) or as `--dump-vpls`. Checked once the scene is loaded, before
@@ -120,14 +160,19 @@ pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std:
     inputs.extend(settings.camera_path.as_deref().map(|p| ("the --camera-path", p)));
     for (what, input) in inputs {
         if let Some(dir) = &settings.out_dir {
+            // Every fixed name, not only the input's own: out/final.png as a link to the scene
+            // had the scene overwritten. Snapshots by the input's name: a run with --save-every
+            // writes (and first removes) every accum_NNNN.exr there.
             let name = input.file_name().and_then(|n| n.to_str()).unwrap_or_default();
-            let written = RUN_OUTPUT_FILES.contains(&name) || (settings.save_every > 0 && name.starts_with("accum_") && name.ends_with(".exr"));
-            if written && crate::output::same_file(&dir.join(name), input) {
-                anyhow::bail!(
-                    "--out {}: the run writes {name} there, which is {what} ({}); choose another --out",
-                    dir.display(),
-                    input.display()
-                );
+            let snapshot = (settings.save_every > 0 && snapshot_frame(name).is_some()).then_some(name);
+            for written in RUN_OUTPUT_FILES.into_iter().chain(snapshot) {
+                if crate::output::same_file(&dir.join(written), input) {
+                    anyhow::bail!(
+                        "--out {}: the run writes {written} there, which is {what} ({}); choose another --out",
+                        dir.display(),
+                        input.display()
+                    );
+                }
             }
         }
         if let Some(ply) = &settings.dump_vpls {
@@ -185,6 +230,10 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         }
         if settings.dump_passes.is_some() {
             crate::dump::check_dump_dir(&dir.join("passes"))?;
+        }
+        let removed = remove_earlier_snapshots(dir, settings)?;
+        if removed > 0 {
+            log::info!("--out {}: removed {removed} --save-every snapshot(s) of an earlier run", dir.display());
         }
     }
     // Read before the renderer's set-up (photons, pipelines), so that a bad file fails at once.
@@ -301,12 +350,15 @@ pub fn finish_run(
 ) -> Result<Summary> {
     renderer.complete_all()?;
     let settings = renderer.settings().clone();
+    // The three files are staged and put in place together at the end: a write that fails (a full
+    // disk) leaves an earlier run's set whole, not its summary beside this run's EXR.
+    let mut staged = Vec::new();
     if let Some(dir) = &settings.out_dir {
         std::fs::create_dir_all(dir).with_context(|| format!("--out {}: cannot create the directory", dir.display()))?;
         let exr = dir.join("final.exr");
-        write_exr(&exr, settings.width, settings.height, &renderer.read_mean()?)?;
+        staged.push(stage_exr(&exr, settings.width, settings.height, &renderer.read_mean()?)?);
         let png = dir.join("final.png");
-        write_png(&png, settings.width, settings.height, &renderer.read_preview()?)?;
+        staged.push(stage_png(&png, settings.width, settings.height, &renderer.read_preview()?)?);
         outputs.insert(0, png.display().to_string());
         outputs.insert(0, exr.display().to_string());
     }
@@ -345,7 +397,10 @@ pub fn finish_run(
         frames,
         accumulated_frames: renderer.accumulated(),
         pass_ms: log.pass_stats(),
+        pass_first_ms: log.first_pass_ms(),
+        pass_ms_after_first: log.pass_stats_after_first(),
         gpu_ms_per_frame: log.gpu(),
+        gpu_ms_first_frame: log.gpu_ms.first().copied().unwrap_or(0.0),
         wall_ms_per_frame: log.wall(),
         rays_per_pixel: log.rays_per_pixel(),
         rays_per_pixel_by_pass: log.rays_per_pixel_by_pass(),
@@ -364,7 +419,10 @@ pub fn finish_run(
     if let Some(dir) = &summary.settings.out_dir {
         let path: PathBuf = dir.join("summary.json");
         let json = serde_json::to_string_pretty(&summary).context("serialising summary.json")?;
-        crate::output::write_replacing(&path, |partial| Ok(std::fs::write(partial, json)?))?;
+        staged.push(crate::output::stage(&path, |partial| Ok(std::fs::write(partial, json)?))?);
+    }
+    for file in staged {
+        file.commit()?;
     }
     Ok(summary)
 }

@@ -688,16 +688,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         let settings = settings_from(render, None)?;
         // A headless run's extra outputs and checks: a reference writes --out and nothing else
         // (they were accepted and did nothing).
-        let headless_only: Vec<&str> = [
-            ("--dump-vpls", settings.dump_vpls.is_some()),
-            ("--dump-passes", settings.dump_passes.is_some()),
-            ("--save-every", settings.save_every > 0),
-            ("--check-finite", settings.check_finite),
-            ("--renderdoc-capture", settings.renderdoc_capture.is_some()),
-        ]
-        .into_iter()
-        .filter_map(|(flag, given)| given.then_some(flag))
-        .collect();
+        let headless_only = headless_only_flags(&settings);
         if !headless_only.is_empty() {
             bail!(
                 "{}: not done by `reference`, which writes only --out; give {} to a --headless run with the same settings",
@@ -1012,6 +1003,15 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     if cli.headless && cli.reference.is_some() {
         bail!("--reference shows a split screen in the window; headless runs compare with `restir-vpl compare`");
     }
+    // The window does not do a headless run's extra outputs and checks (they were accepted and
+    // did nothing there: a --check-finite window checked no frame).
+    let headless_only = headless_only_flags(&settings);
+    if !cli.headless && !headless_only.is_empty() {
+        bail!(
+            "{}: done by --headless runs only; the window has F4 (dump the next frame's passes to --out/passes) and F12 (a RenderDoc capture)",
+            headless_only.join(", ")
+        );
+    }
     let summary = if cli.headless {
         warn_unused_flags(&settings, given);
         restir_vpl::run(&settings)?.summary
@@ -1037,9 +1037,23 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     };
     println!("scene: {} ({} triangles; lights: {lights})", s.scene.path, s.scene.triangles);
     println!(
-        "{} frames of {}x{} ({}), {:.2} rays/pixel/frame",
-        s.frames, settings.width, settings.height, settings.mode.name(), s.rays_per_pixel.mean
+        "{} of {}x{} ({}), {:.2} rays/pixel/frame",
+        plural(s.frames as usize, "frame"),
+        settings.width,
+        settings.height,
+        settings.mode.name(),
+        s.rays_per_pixel.mean
     );
+    if s.accumulated_frames < s.frames {
+        // (summary.json said so; the printout read as if final.exr averaged every frame.)
+        println!(
+            "final image: {} (the accumulation starts again when the camera or a setting changes, and every frame with --progressive off)",
+            match s.accumulated_frames {
+                1 => "the last frame alone".to_string(),
+                n => format!("the mean of the last {n} frames"),
+            }
+        );
+    }
     if let Some(p) = &s.photons {
         println!(
             "photon_emit (once, static scene): {:.2} GPU ms, {} paths ({:.2} M paths/s), {} closest-hit rays, {} direct + {} indirect VPLs",
@@ -1053,7 +1067,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     }
     if let Some(v) = &s.vpl {
         println!(
-            "vpl: {} VPLs, {} candidate(s) ({} source{}{}), Yuksel r = {}, targets with visibility: {}, unbiased reuse: {}{}",
+            "vpl: {} VPLs, {} candidate(s) ({} source{}{}), Yuksel r = {}{}{}",
             v.vpl_count,
             v.candidates,
             v.candidate_source,
@@ -1069,8 +1083,13 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 ))
                 .unwrap_or_default(),
             v.yuksel_radius.map(|r| format!("{r:.4}")).unwrap_or_else(|| "- (inverse square)".into()),
-            v.initial_visibility,
-            v.unbiased_reuse,
+            // Only ReSTIR has targets to reuse and reuse to bias (the line said "unbiased reuse:
+            // false" for uniform sampling).
+            if settings.mode == Mode::Restir {
+                format!(", targets with visibility: {}, unbiased reuse: {}", v.initial_visibility, v.unbiased_reuse)
+            } else {
+                String::new()
+            },
             v.spatial_radius_px.map(|r| format!(", spatial radius {r:.1} px")).unwrap_or_default()
         );
         if let (Some([c, n]), m @ 1..) = (v.moving_sampling, v.moving_frames) {
@@ -1080,14 +1099,18 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             );
         }
     }
-    println!("GPU ms per pass (median / min / max), rays per pixel per frame (mean):");
-    for (name, t) in &s.pass_ms {
+    // A pass's first dispatch apart: lavapipe compiles a shader when it is first dispatched (from
+    // its disk cache after the first run), which once made a pass that ran once read 998 ms for 2.
+    println!("GPU ms per pass: first dispatch (with a cold shader cache, lavapipe compiles the shader in it), then median / min / max of the later ones; rays per pixel per frame (mean):");
+    for (name, t) in &s.pass_ms_after_first {
+        let first = s.pass_first_ms.get(name).copied().unwrap_or(f64::NAN);
         let rays = s.rays_per_pixel_by_pass.get(name).map(|r| format!("{:>8.2} rays/px", r.mean)).unwrap_or_default();
-        println!("  {name:<24} {:>9.2} {:>9.2} {:>9.2} {rays}", t.median, t.min, t.max);
+        let later = if t.count > 0 { format!("{:>9.2} {:>9.2} {:>9.2}", t.median, t.min, t.max) } else { format!("{:>29}", "(ran once)") };
+        println!("  {name:<24} {first:>9.2} {later} {rays}");
     }
     println!(
-        "ms per frame: {:.2} GPU, {:.2} wall (median); total {:.2} s",
-        s.gpu_ms_per_frame.median, s.wall_ms_per_frame.median, s.total_seconds
+        "ms per frame: {:.2} GPU, {:.2} wall (median); the first frame {:.2} GPU; total {:.2} s",
+        s.gpu_ms_per_frame.median, s.wall_ms_per_frame.median, s.gpu_ms_first_frame, s.total_seconds
     );
     if s.nonfinite_samples > 0 {
         println!("non-finite samples replaced by 0: {}", s.nonfinite_samples);
@@ -1095,7 +1118,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     for w in &s.warnings {
         println!("warning: {w}");
     }
-    println!("images:");
+    println!("outputs:");
     for o in &s.outputs {
         println!("  {o}");
     }
@@ -1123,6 +1146,7 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
         ReferenceTarget::New { first_frame, frames: settings.frames }
     };
     // Before the device and the scene, as well as before the frames (make_reference checks again).
+    restir_vpl::output::check_image_extension("--out", out, "exr")?;
     restir_vpl::output::prepare_output_file(out).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
     let (ctx, scene) = upload(settings)?;
     let mut next_report = 0u32;
@@ -1249,10 +1273,30 @@ fn given_render_flags(matches: &clap::ArgMatches) -> Vec<String> {
         .collect()
 }
 
+/// The flags given among those that only a headless run acts on: its extra outputs and checks.
+fn headless_only_flags(settings: &RenderSettings) -> Vec<&'static str> {
+    [
+        ("--dump-vpls", settings.dump_vpls.is_some()),
+        ("--dump-passes", settings.dump_passes.is_some()),
+        ("--save-every", settings.save_every > 0),
+        ("--check-finite", settings.check_finite),
+        ("--renderdoc-capture", settings.renderdoc_capture.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, given)| given.then_some(flag))
+    .collect()
+}
+
 fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
     let given: Vec<&str> = given.iter().map(String::as_str).collect();
     for w in settings.unused_flags(&given).into_iter().chain(settings.bounded_flags(&given)) {
         log::warn!("{w}");
+    }
+    if let Some(dir) = settings.out_dir.as_deref().filter(|d| d.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("png"))) {
+        log::warn!("--out {}: names the directory the run writes final.exr, final.png and summary.json into, not an image file", dir.display());
+    }
+    if settings.save_every > settings.frames {
+        log::warn!("--save-every {} is more than --frames {}: no snapshot is written", settings.save_every, settings.frames);
     }
     if settings.view == restir_vpl::settings::View::Indirect && !settings.gi {
         log::warn!("--view indirect with --no-gi: the image is black (--no-gi traces no indirect VPLs)");
@@ -1297,6 +1341,13 @@ fn join_signed_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> 
 }
 
 fn main() -> ExitCode {
+    // A closed stdout (`| head -1`, `| true`) ends the process quietly, as it does any Unix tool;
+    // Rust's runtime ignores SIGPIPE, so println! panicked there (exit 101, after the outputs).
+    #[cfg(unix)]
+    // SAFETY: restoring a signal's default disposition at start, before any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let matches = Cli::command().get_matches_from(join_signed_values(std::env::args_os().collect()));
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let given = given_render_flags(&matches);

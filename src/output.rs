@@ -15,10 +15,54 @@ use anyhow::{Context as _, Result};
 /// or a pipe (`/dev/null`) is written in place: the rename replaced the link or the device node
 /// itself with a regular file.
 pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
+    stage(path, write)?.commit()
+}
+
+/// A file written as [`write_replacing`] writes it, up to the rename: [`Self::commit`] puts it in
+/// place; dropped uncommitted, its partial file is removed. Files that belong together (a run's
+/// images and summary) are all staged before any is committed, so that a write that fails (a full
+/// disk) leaves the earlier set whole instead of a mix of two runs. A device or a pipe has no
+/// partial file: it is written when staged.
+#[must_use = "a staged file is removed unless committed"]
+pub struct Staged {
+    /// The partial file and its target; None once committed (or for a device, written in place).
+    partial: Option<(PathBuf, PathBuf)>,
+    /// The path as the caller named it, for messages.
+    named: PathBuf,
+}
+
+impl Staged {
+    /// Renames the partial file over its target.
+    pub fn commit(mut self) -> Result<()> {
+        if let Some((partial, target)) = self.partial.take() {
+            let renamed = std::fs::rename(&partial, &target).with_context(|| format!("renaming {} to {}", partial.display(), target.display()));
+            if renamed.is_err() {
+                let _ = std::fs::remove_file(&partial);
+            }
+            renamed.with_context(|| format!("writing {}", self.named.display()))?;
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
+    fn drop(&mut self) {
+        if let Some((partial, _)) = self.partial.take() {
+            let _ = std::fs::remove_file(partial);
+        }
+    }
+}
+
+/// Writes `path`'s new content beside it, to be put in place by [`Staged::commit`].
+pub fn stage(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<Staged> {
+    let named = path.to_path_buf();
     let resolved = follow_links(path);
     match std::fs::metadata(&resolved) {
         Ok(m) if m.is_dir() => anyhow::bail!("writing {}: it is a directory", path.display()),
-        Ok(m) if !m.is_file() => return write_in_place(&resolved, write).with_context(|| format!("writing {}", path.display())),
+        Ok(m) if !m.is_file() => {
+            write_in_place(&resolved, write).with_context(|| format!("writing {}", path.display()))?;
+            return Ok(Staged { partial: None, named });
+        }
         _ => {}
     }
     let path = resolved.as_path();
@@ -29,13 +73,10 @@ pub fn write_replacing(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> 
     let n = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     partial_name.push(format!(".{}.{n}.partial", std::process::id()));
     let partial: PathBuf = path.with_file_name(partial_name);
-    let written = write(&partial).and_then(|()| {
-        std::fs::rename(&partial, path).with_context(|| format!("renaming {} to {}", partial.display(), path.display()))
-    });
-    if written.is_err() {
-        let _ = std::fs::remove_file(&partial);
-    }
-    written.with_context(|| format!("writing {}", path.display()))
+    // Owned from here, so that a failed write's partial file is removed.
+    let staged = Staged { partial: Some((partial.clone(), path.to_path_buf())), named };
+    write(&partial).with_context(|| format!("writing {}", staged.named.display()))?;
+    Ok(staged)
 }
 
 /// A device or a pipe written in place: the bytes are made in a temporary file first and then
@@ -169,7 +210,19 @@ pub fn prepare_output_file(path: &Path) -> Result<()> {
 /// Checks that `path` can be written the way [`write_replacing`] will: its directory exists and
 /// takes a new file (created and removed again here), and `path` is not a directory.
 pub fn check_writable(path: &Path) -> Result<()> {
+    // "d/" would pass the probe below (made beside "d", in the working directory) and fail at the
+    // rename, after the render.
+    anyhow::ensure!(
+        !path.as_os_str().as_encoded_bytes().ends_with(std::path::MAIN_SEPARATOR_STR.as_bytes()),
+        "{} ends in a path separator, so it names a directory; name a file",
+        path.display()
+    );
     anyhow::ensure!(!path.is_dir(), "{} is a directory; name a file", path.display());
+    // Checked where write_replacing writes: through a symbolic link (a dangling one included).
+    let named = path;
+    let linked = follow_links(path);
+    let path = linked.as_path();
+    let link_note = if path != named { format!(" (where the link {} leads)", named.display()) } else { String::new() };
     // A device or pipe (/dev/null, /dev/stdout) is written in place, with no file beside it: no
     // probe in /dev (not opened either: a pipe with no reader would block here).
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
@@ -182,8 +235,25 @@ pub fn check_writable(path: &Path) -> Result<()> {
         n.push(format!(".{}.probe", std::process::id()));
         path.with_file_name(n)
     };
-    std::fs::File::create(&probe).with_context(|| format!("cannot create a file beside {}", path.display()))?;
+    std::fs::File::create(&probe).with_context(|| format!("cannot create a file beside {}{link_note}", path.display()))?;
     let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Image file extensions a reader would take for a format (lowercase).
+const IMAGE_EXTENSIONS: [&str; 9] = ["exr", "png", "jpg", "jpeg", "tif", "tiff", "hdr", "bmp", "webp"];
+
+/// Refuses an output named for another image format than the one `flag` writes (`reference --out
+/// a.png` wrote an OpenEXR file named a.png, `compare --error-image e.exr` a PNG): `format` is the
+/// lowercase extension written. Any other name (none, `.tmp`, upper case) is left as given.
+pub fn check_image_extension(flag: &str, path: &Path, format: &str) -> Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).unwrap_or_default();
+    let what = if format == "exr" { "an OpenEXR image" } else { "a PNG image" };
+    anyhow::ensure!(
+        ext == format || !IMAGE_EXTENSIONS.contains(&ext.as_str()),
+        "{flag} {}: writes {what}, which a .{ext} name would mislabel; name it *.{format}",
+        path.display()
+    );
     Ok(())
 }
 
@@ -196,8 +266,13 @@ pub fn encode_png(width: u32, height: u32, rgba: &[u8]) -> Result<Vec<u8>> {
 
 /// Writes a float32 RGB OpenEXR file; `pixels` are row-major with row 0 at the top.
 pub fn write_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<()> {
+    stage_exr(path, width, height, pixels)?.commit()
+}
+
+/// [`write_exr`] up to the rename ([`stage`]).
+pub fn stage_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> Result<Staged> {
     anyhow::ensure!(pixels.len() == (width * height) as usize, "image size mismatch writing {}", path.display());
-    write_replacing(path, |partial| {
+    stage(path, |partial| {
         exr::prelude::write_rgb_file(partial, width as usize, height as usize, |x, y| {
             let p = pixels[y * width as usize + x];
             (p[0], p[1], p[2])
@@ -289,7 +364,12 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
 
 /// Writes an RGBA8 buffer as PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
-    write_replacing(path, |partial| {
+    stage_png(path, width, height, rgba)?.commit()
+}
+
+/// [`write_png`] up to the rename ([`stage`]).
+pub fn stage_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<Staged> {
+    stage(path, |partial| {
         // Encoded in memory and written with fs::write: image's save_buffer writes through a
         // BufWriter that it never flushes, so a full disk gave an empty file and no error.
         std::fs::write(partial, encode_png(width, height, rgba)?)?;
@@ -506,6 +586,50 @@ mod tests {
         assert_eq!(std::fs::read_to_string(&path).unwrap(), before);
         let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
         assert_eq!(names, vec![std::ffi::OsString::from("summary.json")]);
+    }
+
+    /// A path ending in a separator names a directory, refused before the render (it passed the
+    /// probe, made beside "d" in the working directory, and failed at the rename after the frames);
+    /// a link is checked where it leads, so a dangling one into a missing directory fails here.
+    #[cfg(unix)]
+    #[test]
+    fn check_writable_refuses_directory_names_and_follows_links() {
+        let dir = tempfile::tempdir().unwrap();
+        let slash = PathBuf::from(format!("{}/d/", dir.path().display()));
+        let e = format!("{:#}", check_writable(&slash).unwrap_err());
+        assert!(e.contains("/d/") && e.contains("names a directory"), "{e}");
+        let link = dir.path().join("final.exr");
+        std::os::unix::fs::symlink("/nonexistent-restir-vpl-dir/final.exr", &link).unwrap();
+        let e = format!("{:#}", check_writable(&link).unwrap_err());
+        assert!(e.contains("/nonexistent-restir-vpl-dir/final.exr") && e.contains("where the link"), "{e}");
+        check_writable(&dir.path().join("new.exr")).unwrap();
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "the probe is removed; only the link is there");
+    }
+
+    /// Files staged together: until every one is committed the old ones stay whole, and a staged
+    /// file dropped (a later one failed) leaves no partial file.
+    #[test]
+    fn staged_files_replace_nothing_until_committed() {
+        let dir = tempfile::tempdir().unwrap();
+        let (a, b) = (dir.path().join("final.exr"), dir.path().join("summary.json"));
+        std::fs::write(&a, "old a").unwrap();
+        std::fs::write(&b, "old b").unwrap();
+        let staged = stage(&a, |p| Ok(std::fs::write(p, "new a")?)).unwrap();
+        let failed = stage(&b, |p| {
+            std::fs::write(p, "half")?;
+            anyhow::bail!("disk full")
+        });
+        assert!(failed.is_err());
+        drop(staged);
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a");
+        assert_eq!(std::fs::read_to_string(&b).unwrap(), "old b");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2, "no partial file left");
+        let (x, y) = (stage(&a, |p| Ok(std::fs::write(p, "new a")?)).unwrap(), stage(&b, |p| Ok(std::fs::write(p, "new b")?)).unwrap());
+        assert_eq!(std::fs::read_to_string(&a).unwrap(), "old a", "staged, not yet in place");
+        x.commit().unwrap();
+        y.commit().unwrap();
+        assert_eq!((std::fs::read_to_string(&a).unwrap(), std::fs::read_to_string(&b).unwrap()), ("new a".into(), "new b".into()));
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     }
 
     /// Threads replacing one file at once (the contexts of one test binary saving the pipeline

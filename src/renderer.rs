@@ -121,11 +121,29 @@ impl FrameLog {
         self.pass_ms.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v))).collect()
     }
 
-    /// Rays per pixel per frame, by the pass that traced them.
+    /// GPU ms of each pass's first dispatch in the log. On a driver that compiles a shader when it
+    /// is first dispatched (lavapipe), and whose cache is cold, it holds the compilation.
+    pub fn first_pass_ms(&self) -> BTreeMap<String, f64> {
+        self.pass_ms.iter().filter_map(|(k, v)| Some((k.to_string(), *v.first()?))).collect()
+    }
+
+    /// GPU ms per pass over the frames it ran in after its first ([`Self::first_pass_ms`]); an
+    /// empty (count 0) entry for a pass that ran once.
+    pub fn pass_stats_after_first(&self) -> BTreeMap<String, TimingStats> {
+        self.pass_ms.iter().map(|(k, v)| (k.to_string(), TimingStats::of(v.get(1..).unwrap_or_default()))).collect()
+    }
+
+    /// Rays per pixel per frame, by the pass that traced them, over every frame of the log (0 in
+    /// the frames a pass did not trace in), so that the passes' means add up to
+    /// [`Self::rays_per_pixel`]'s.
     pub fn rays_per_pixel_by_pass(&self) -> BTreeMap<String, TimingStats> {
         self.pass_rays
             .iter()
-            .map(|(k, v)| (k.to_string(), TimingStats::of(&v.iter().map(|&n| n as f64 / self.pixels).collect::<Vec<_>>())))
+            .map(|(k, v)| {
+                let mut per_pixel: Vec<f64> = v.iter().map(|&n| n as f64 / self.pixels).collect();
+                per_pixel.resize(per_pixel.len().max(self.frames()), 0.0);
+                (k.to_string(), TimingStats::of(&per_pixel))
+            })
             .collect()
     }
 }

@@ -104,6 +104,50 @@ fn unwritable_outputs_fail_before_rendering() {
     assert_fails(&["--headless", "--width", "8", "--height", "8", "--frames", "1", "--out", "/dev/null"], &["--out /dev/null", "exists and is not a directory"]);
 }
 
+/// An output name that is a link to an input is refused: out/final.png → the scene had the scene
+/// overwritten with a PNG (the check looked only at names the input itself had).
+#[cfg(unix)]
+#[test]
+fn an_output_linked_to_the_scene_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("box.gltf");
+    std::fs::copy(repo_path("scenes/cornell_box.gltf"), &scene).unwrap();
+    let before = std::fs::read(&scene).unwrap();
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    std::os::unix::fs::symlink("../box.gltf", out.join("final.png")).unwrap();
+    let args = ["--headless", "--scene", scene.to_str().unwrap(), "--width", "8", "--height", "8", "--frames", "1", "--out", out.to_str().unwrap()];
+    assert_fails(&args, &["--out", "writes final.png there, which is the scene"]);
+    assert_eq!(std::fs::read(&scene).unwrap(), before, "the scene is untouched");
+}
+
+/// A run with --save-every replaces an earlier run's snapshots (a longer run's accum_0003 stayed
+/// beside a shorter one's), and a directory where a snapshot goes is refused before the frames.
+#[test]
+fn save_every_replaces_an_earlier_runs_snapshots() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().display().to_string();
+    let args = |frames: &'static str| {
+        ["--headless", "--mode", "pt", "--width", "8", "--height", "8", "--save-every", "1", "--frames", frames, "--out", &out].map(String::from)
+    };
+    let o = run(&args("3").iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.path().join("accum_0003.exr").is_file());
+    std::fs::write(dir.path().join("accum_0007.exr"), b"not ours either").unwrap();
+    std::fs::write(dir.path().join("accum_.exr"), b"not a snapshot name").unwrap();
+    let o = run(&args("2").iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert_eq!(names, ["accum_.exr", "accum_0001.exr", "accum_0002.exr", "final.exr", "final.png", "summary.json"]);
+    std::fs::create_dir(dir.path().join("accum_0002.exr.d")).unwrap();
+    std::fs::remove_file(dir.path().join("accum_0002.exr")).unwrap();
+    std::fs::create_dir(dir.path().join("accum_0002.exr")).unwrap();
+    let o = run(&args("2").iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(!o.status.success() && stderr(&o).contains("accum_0002.exr is a directory"), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("frames"), "refused before the frames: {}", stderr(&o));
+}
+
 #[test]
 fn scene_that_is_not_a_file() {
     assert_fails(&["--headless", "--scene", "/dev/zero", "--frames", "1"], &["/dev/zero", "not a regular file"]);
@@ -177,6 +221,9 @@ fn bad_flags() {
     assert_fails(&["--headless", "--dump-vpls", "scenes"], &["--dump-vpls scenes: is a directory"]);
     // A window-only flag in a headless run is refused (it was ignored).
     assert_fails(&["--headless", "--present-mode", "mailbox"], &["--present-mode", "no window"]);
+    // ... and a headless-only flag in the window (a --check-finite window checked nothing), before
+    // any window opens (so with no display too).
+    assert_fails(&["--frames", "1", "--check-finite", "--save-every", "1"], &["--save-every, --check-finite: done by --headless runs only", "F4"]);
     assert_fails(&["--headless", "--out", &dump_dir, "--dump-vpls", &final_exr], &["--dump-vpls", "is also an output of --out"]);
     // ... and over a --save-every snapshot or --dump-passes' copy of the VPLs (the PLY was written,
     // then replaced by the snapshot, and the run said nothing).
@@ -204,6 +251,16 @@ fn bad_flags() {
     assert_fails(&args, &["/proc/restir-vpl-test.exr"]);
     let err = stderr(&run(&args));
     assert!(!err.contains("/3 frames"), "the path was checked only after rendering: {err}");
+    // An output named for another image format than the one written (an EXR named a.png).
+    assert_fails(&["reference", "--width", "8", "--height", "8", "--frames", "3", "--out", "/tmp/restir-vpl-ref.png"], &["--out /tmp/restir-vpl-ref.png: writes an OpenEXR image", "*.exr"]);
+    assert_fails(&["compare", "a.exr", "b.exr", "--error-image", "/tmp/restir-vpl-err.EXR"], &["--error-image /tmp/restir-vpl-err.EXR: writes a PNG image", "*.png"]);
+    assert_fails(&["merge-references", "a.exr", "b.exr", "--out", "/tmp/restir-vpl-merged.png"], &["--out /tmp/restir-vpl-merged.png: writes an OpenEXR image"]);
+    // A path ending in a separator names a directory: refused before the frames (the probe beside
+    // "d" passed and the rename failed after them).
+    let slash = std::env::temp_dir().join("restir-vpl-cli-slash").display().to_string() + "/";
+    let args = ["reference", "--width", "8", "--height", "8", "--frames", "3", "--out", &slash];
+    assert_fails(&args, &["--out", "names a directory"]);
+    assert!(!stderr(&run(&args)).contains("/3 frames"), "the path was checked only after rendering");
     assert_fails(&["bench", "--curves", "--photons"], &["--curves", "--photons"]);
     // A flag the chosen benchmark does not read is refused, naming it (it was ignored).
     assert_fails(&["bench", "--rays", "--scene", "/nonexistent.gltf"], &["bench --rays does not use --scene"]);
@@ -495,6 +552,12 @@ fn restir_summary_reports_rays_per_pass() {
     assert!(by_pass["restir_initial_temporal"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
     assert!(by_pass["restir_spatial_shade"]["mean"].as_f64().unwrap() > 0.0, "{by_pass}");
     assert_eq!(summary["pass_ms"]["restir_initial_temporal"]["count"], 2, "frames 1 and 2: {summary}");
+    // Per frame over all frames, 0 where a pass traced nothing, so the passes add up to the whole
+    // (restir_initial traced in frame 0 alone; its mean was over that one frame).
+    let sum: f64 = by_pass.as_object().unwrap().values().map(|t| t["mean"].as_f64().unwrap()).sum();
+    let whole = summary["rays_per_pixel"]["mean"].as_f64().unwrap();
+    assert!((sum - whole).abs() <= 1e-9 * whole, "by pass {sum} against {whole}: {by_pass}");
+    assert_eq!(by_pass["restir_initial"]["count"], 3, "{by_pass}");
     assert!(by_pass.get("vpl_shade").is_none() && by_pass.get("restir_spatial").is_none(), "{by_pass}");
 }
 

@@ -402,7 +402,7 @@ pub fn time_settings(
         let log = r.log();
         let gpu = log.gpu().median;
         let rays: Vec<(String, f64)> =
-            log.rays_per_pixel_by_pass().into_iter().map(|(k, t)| (k, t.median)).filter(|(_, n)| *n > 0.0).collect();
+            log.rays_per_pixel_by_pass().into_iter().map(|(k, t)| (k, t.mean)).filter(|(_, n)| *n > 0.0).collect();
         let first = *first_ms.get_or_insert(gpu);
         out.push(ModeBench {
             label: label.to_string(),

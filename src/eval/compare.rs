@@ -376,6 +376,9 @@ pub fn run_cli(
             }
         }
     }
+    if let Some(e) = error_image {
+        crate::output::check_image_extension("--error-image", e, "png").map_err(|e| BadArgument(format!("{e:#}")))?;
+    }
     if let (Some(e), Some(j)) = (error_image, json) {
         if crate::output::same_file(e, j) {
             return Err(BadArgument(format!("--error-image and --json both name {}; give two files", e.display())).into());

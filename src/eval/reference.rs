@@ -336,6 +336,7 @@ pub fn merge_labelled(parts: &[(RgbImage, ReferenceMeta)], labels: &[String]) ->
 /// The `restir-vpl merge-references` command: merges `inputs` into `out` and prints the result's
 /// frame count and ranges.
 pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path, overwrite: bool) -> Result<()> {
+    crate::output::check_image_extension("--out", out, "exr")?;
     // Writing over one of the parts would lose its frames if anything went wrong after the write.
     if let Some(p) = inputs.iter().find(|p| crate::output::same_file(p, out)) {
         bail!("--out {}: is also the input {}; write the merge to a new file", out.display(), p.display());
