@@ -195,11 +195,58 @@ fn stats(file: String, buffer: &'static str, d: &Decoded, white: Option<f32>) ->
     OutputStats { file, buffer, what: d.what, look: d.look, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad, white }
 }
 
-/// A dumped frame: its manifest and every output image's values by file name (for the page's
-/// per-pixel readout).
+/// A dumped frame: its manifest and the values its page embeds for the per-pixel readout.
 pub struct DumpedFrame {
     pub manifest: FrameManifest,
-    pub values: Vec<(String, Vec<[f32; 3]>)>,
+    /// Every output's values but the false-colour ids, when the frame has a readout.
+    pub values: Vec<PixelValues>,
+    /// Why the frame has no readout (its size, or the page's budget spent by earlier frames).
+    pub readout_off: Option<String>,
+}
+
+/// One output's values as the page embeds them: one number per pixel for a grey output (its three
+/// channels are equal), three otherwise; row-major, row 0 at the top.
+pub struct PixelValues {
+    pub file: String,
+    pub channels: usize,
+    pub values: Vec<f32>,
+}
+
+/// Most pixels whose values the page embeds for its per-pixel readout.
+pub const READOUT_MAX_PIXELS: u32 = 256 * 256;
+
+/// Most values one page embeds over all its frames (4 bytes each, ~5.3 characters in the page as
+/// base64): `--dump-passes all` at 256×256 embedded every frame's (~2.6M values a ReSTIR frame, as
+/// decimal text then), and 20 frames made a 688 MB page that Chromium showed blank. Frames past
+/// the budget have no readout (the page says so) and their values are not kept in memory.
+pub const READOUT_BUDGET_VALUES: usize = 8 << 20;
+
+/// What is left of a page's [`READOUT_BUDGET_VALUES`] as its frames are dumped.
+pub struct ReadoutBudget {
+    left: usize,
+}
+
+impl Default for ReadoutBudget {
+    fn default() -> Self {
+        Self { left: READOUT_BUDGET_VALUES }
+    }
+}
+
+impl ReadoutBudget {
+    /// Keeps `values` (one frame's) if the budget holds them all; else gives why not.
+    fn take(&mut self, values: &mut Vec<PixelValues>) -> Option<String> {
+        let n: usize = values.iter().map(|v| v.values.len()).sum();
+        if n <= self.left {
+            self.left -= n;
+            return None;
+        }
+        values.clear();
+        Some(format!(
+            "per-pixel readout off for this frame: the page embeds at most {}M values and earlier frames took {}M of them (read the EXR files)",
+            READOUT_BUDGET_VALUES >> 20,
+            (READOUT_BUDGET_VALUES - self.left) as f64 / (1 << 20) as f64
+        ))
+    }
 }
 
 /// One pass of the frame, in order: run (with its outputs) or skipped (with why).
@@ -219,6 +266,11 @@ pub struct PassEntry {
     /// GPU ms of the pass (all its dispatches this frame) and the rays it traced per pixel.
     pub gpu_ms: Option<f64>,
     pub rays_per_pixel: Option<f64>,
+    /// This frame ran the pass for the first time in the run (since the settings last changed):
+    /// with a cold shader cache, lavapipe compiles the shader in its first dispatch, so its GPU ms
+    /// holds the compilation (a dumped frame runs the passes apart, which other frames run fused:
+    /// restir_spatial read 284 ms for ~1).
+    pub first_dispatch: bool,
     pub outputs: Vec<OutputStats>,
 }
 
@@ -302,6 +354,8 @@ pub fn write_frame(
     stats_of_frame: &FrameStats,
     captured: &[Captured],
     variance: Option<Vec<[f32; 3]>>,
+    log: &crate::renderer::FrameLog,
+    budget: &mut ReadoutBudget,
 ) -> Result<DumpedFrame> {
     let fdir = dir.join(format!("frame_{frame:04}"));
     remove_dumped_frame(&fdir)?;
@@ -310,6 +364,7 @@ pub fn write_frame(
     let pixels = (width * height).max(1) as f64;
     let mut passes = Vec::new();
     let mut values = Vec::new();
+    let readout = width * height <= READOUT_MAX_PIXELS;
     // The dispatch's position in the frame: the plan is the frame's order, and a pass that ran
     // was dispatched once per capture of it (restir_spatial ×P), or once if it writes no
     // per-pixel output (vpl_presample, regir_build).
@@ -327,6 +382,7 @@ pub fn write_frame(
             bindings: desc.map(|d| d.bindings.iter().map(|b| b.name).collect()).unwrap_or_default(),
             gpu_ms: None,
             rays_per_pixel: None,
+            first_dispatch: status == "run" && log.pass_ms.get(name).is_none_or(|v| v.len() <= 1),
             outputs: Vec::new(),
         };
         // The time of dispatch `repeat` of this pass.
@@ -382,7 +438,13 @@ pub fn write_frame(
                         let (png, white) = thumbnail(d);
                         write_png(&fdir.join(file.replace(".exr", ".png")), width, height, &png)?;
                         e.outputs.push(stats(file.clone(), c.buffer, d, white));
-                        values.push((file, d.image.pixels.clone()));
+                        // (Kept only for a page that shows them: at 1280×720 every frame's were
+                        // held to the end of the run, 167 MB a ReSTIR frame.)
+                        if readout && d.look != "ids" {
+                            let channels = if d.look == "grey" { 1 } else { 3 };
+                            let values_of = d.image.pixels.iter().flat_map(|p| p[..channels].iter().copied()).collect();
+                            values.push(PixelValues { file, channels, values: values_of });
+                        }
                     }
                     passes.push(e);
                 }
@@ -399,7 +461,8 @@ pub fn write_frame(
     };
     let path = fdir.join("manifest.json");
     std::fs::write(&path, serde_json::to_string_pretty(&manifest)?).with_context(|| format!("writing {}", path.display()))?;
-    Ok(DumpedFrame { manifest, values })
+    let readout_off = if readout { budget.take(&mut values) } else { Some("per-pixel readout off above 256×256 pixels (read the EXR files)".to_string()) };
+    Ok(DumpedFrame { manifest, values, readout_off })
 }
 
 /// A dispatch's name in file names: the pass, and for a repeated pass which dispatch.
@@ -455,29 +518,25 @@ pub fn thumbnail(d: &Decoded) -> (Vec<u8>, Option<f32>) {
     (out, grey)
 }
 
-/// Most pixels whose values the page embeds for its per-pixel readout.
-const READOUT_MAX_PIXELS: u32 = 256 * 256;
-
 /// Writes `dir/index.html`: one self-contained page (PNG thumbnails beside it, no network) with
 /// each dumped frame's passes in order as an event list, every output's thumbnail and statistics,
 /// click to enlarge, and a per-pixel readout of every buffer on hover (values embedded in the
-/// page for images up to 256×256).
+/// page, as base64 float32, for images up to 256×256 and within [`READOUT_BUDGET_VALUES`]).
+/// `index.html#frame=F&x=X&y=Y` opens frame F's first output enlarged with pixel (X, Y)'s readout.
 pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
+    use base64::Engine as _;
     let mut html = String::from(INSPECTOR_HEAD);
     let mut data = String::from("const FRAMES = [");
-    for DumpedFrame { manifest: m, values } in frames {
-        let readout = m.width * m.height <= READOUT_MAX_PIXELS;
+    for DumpedFrame { manifest: m, values, readout_off } in frames {
         let _ = write!(data, "{{frame:{},w:{},h:{},values:{{", m.frame, m.width, m.height);
-        if readout {
-            for (file, px) in values {
-                let flat: Vec<String> = px.iter().flat_map(|p| p.iter().map(|c| if c.is_finite() { format!("{c:.6e}") } else { "null".into() })).collect();
-                let _ = write!(data, "{:?}:[{}],", file, flat.join(","));
-            }
+        for v in values {
+            let bytes: &[u8] = bytemuck::cast_slice(&v.values);
+            let _ = write!(data, "{:?}:{{c:{},b:\"{}\"}},", v.file, v.channels, base64::engine::general_purpose::STANDARD.encode(bytes));
         }
         data.push_str("}},");
         let _ = write!(html, "<section><h2>frame {} · {} · view {} · {}×{}</h2>", m.frame, m.mode, m.view, m.width, m.height);
-        if !readout {
-            let _ = write!(html, "<p class=note>per-pixel readout off above 256×256 pixels (read the EXR files)</p>");
+        if let Some(why) = readout_off {
+            let _ = write!(html, "<p class=note>{}</p>", esc(why));
         }
         html.push_str("<table><tr><th>#</th><th>pass</th><th>GPU ms</th><th>rays/px</th><th>groups</th><th>outputs</th></tr>");
         for p in &m.passes {
@@ -492,7 +551,9 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                 esc(&p.bindings.join(", ")),
                 p.pass,
                 if p.pass == crate::passes::RestirSpatialPass::NAME { format!(" {}", p.repeat + 1) } else { String::new() },
-                p.gpu_ms.map(|v| format!("{v:.3}")).unwrap_or_default(),
+                p.gpu_ms
+                    .map(|v| if p.first_dispatch { format!("<span title=\"the pass's first dispatch in the run: with a cold shader cache, lavapipe compiles the shader in it\">{v:.3}*</span>") } else { format!("{v:.3}") })
+                    .unwrap_or_default(),
                 p.rays_per_pixel.map(|v| format!("{v:.2}")).unwrap_or_default(),
                 p.workgroups.map(|g| format!("{}×{}×{}", g[0], g[1], g[2])).unwrap_or_default(),
             );
@@ -551,7 +612,7 @@ figure img{display:block;width:128px;height:128px;object-fit:contain;background:
 #zimg{image-rendering:pixelated;max-width:70vw;max-height:85vh;cursor:crosshair}
 #readout{position:fixed;right:16px;top:16px;width:26vw;white-space:pre-wrap;font:12px monospace;color:#eee}
 </style></head><body><h1>restir-vpl · pass outputs</h1>
-<p>Passes in the order the frame ran them; skipped passes say why. Click an output to enlarge it; hover a pixel for the values of every buffer of that frame there. Magenta: non-finite.</p>
+<p>Passes in the order the frame ran them; skipped passes say why. Click an output to enlarge it; hover a pixel for the values of every buffer of that frame there. Magenta: non-finite. GPU ms with *: the pass's first dispatch in the run, which on lavapipe with a cold shader cache holds the shader's compilation.</p>
 "#;
 
 const INSPECTOR_SCRIPT: &str = r#"
@@ -568,12 +629,32 @@ document.getElementById('zimg').addEventListener('mousemove',e=>{
   const r=zi.getBoundingClientRect();
   const x=Math.floor((e.clientX-r.left)/r.width*f.w), y=Math.floor((e.clientY-r.top)/r.height*f.h);
   if(x<0||y<0||x>=f.w||y>=f.h)return;
-  const i=(y*f.w+x)*3; let t=`pixel (${x}, ${y})\n`;
-  const files=Object.keys(f.values);
-  if(!files.length){t+='(no readout for images this large)';}
-  for(const k of files){const v=f.values[k];const s=[v[i],v[i+1],v[i+2]].map(c=>c===null?'NaN/Inf':c.toPrecision(5));t+=`${k}: ${s.join(', ')}\n`;}
-  document.getElementById('readout').textContent=t;
+  document.getElementById('readout').textContent=readout(f,x,y);
 });
+// Each output's float32 values, decoded from base64 on first use.
+function floats(v){
+  if(!v.f){const s=atob(v.b), u=new Uint8Array(s.length); for(let i=0;i<s.length;i++)u[i]=s.charCodeAt(i); v.f=new Float32Array(u.buffer);}
+  return v.f;
+}
+function readout(f,x,y){
+  let t=`pixel (${x}, ${y})\n`;
+  const files=Object.keys(f.values);
+  if(!files.length){t+='(no readout for this frame: see the note under its title)';}
+  for(const k of files){
+    const v=f.values[k], a=floats(v), i=(y*f.w+x)*v.c;
+    const s=Array.from(a.subarray(i,i+v.c),c=>Number.isFinite(c)?c.toPrecision(5):'NaN/Inf');
+    t+=`${k}: ${s.join(', ')}\n`;
+  }
+  return t;
+}
+// index.html#frame=F&x=X&y=Y: that frame's first output enlarged, with that pixel's readout.
+{
+  const q=new URLSearchParams(location.hash.slice(1));
+  const f=FRAMES.find(f=>String(f.frame)===q.get('frame'));
+  const x=Number(q.get('x')), y=Number(q.get('y'));
+  const img=document.querySelector(`img[data-frame="${q.get('frame')}"]`);
+  if(f&&img&&Number.isInteger(x)&&Number.isInteger(y)&&x>=0&&y>=0&&x<f.w&&y<f.h){big(img); document.getElementById('readout').textContent=readout(f,x,y);}
+}
 "#;
 
 #[cfg(test)]
@@ -601,5 +682,24 @@ mod tests {
         let sparse = grey([vec![0.0; 999], vec![5.0]].concat());
         assert_eq!(grey_white(&sparse), 5.0);
         assert_eq!(grey_white(&grey(vec![0.0, f32::NAN])), 1e-30);
+    }
+
+    /// The page's readout budget: frames are kept whole while it lasts; a frame past it keeps no
+    /// values (so none are held in memory to the end of the run) and says why.
+    #[test]
+    fn the_readout_budget_keeps_whole_frames_until_it_is_spent() {
+        let frame = |n: usize| vec![PixelValues { file: "a.exr".into(), channels: 1, values: vec![0.5; n] }];
+        let mut budget = ReadoutBudget::default();
+        let third = READOUT_BUDGET_VALUES / 3;
+        for _ in 0..3 {
+            let mut f = frame(third);
+            assert_eq!(budget.take(&mut f), None);
+            assert_eq!(f[0].values.len(), third);
+        }
+        let mut over = frame(READOUT_BUDGET_VALUES - 3 * third + 1);
+        let why = budget.take(&mut over).expect("past the budget");
+        assert!(over.is_empty() && why.contains("readout off for this frame"), "{why}");
+        let mut fits = frame(READOUT_BUDGET_VALUES - 3 * third);
+        assert_eq!(budget.take(&mut fits), None, "a frame that fits what is left is kept");
     }
 }

@@ -266,6 +266,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     }
     let progress = Progress::new(settings.progress, settings.frames as u64);
     let mut dumped = Vec::new();
+    let mut readout_budget = crate::dump::ReadoutBudget::default();
     let mut renderdoc = settings.renderdoc_capture.map(|_| crate::vk::renderdoc::Capturer::attach(&ctx));
     if let Some(rd) = &renderdoc {
         if !rd.attached() {
@@ -296,7 +297,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
                 let plan = renderer.last_plan().context("a frame was just recorded")?.clone();
                 let variance = Some(renderer.read_variance()?);
                 let dir = dir.join("passes");
-                dumped.push(crate::dump::write_frame(&dir, f, settings.width, settings.height, settings, &plan, &stats, &captured, variance)?);
+                dumped.push(crate::dump::write_frame(&dir, f, settings.width, settings.height, settings, &plan, &stats, &captured, variance, renderer.log(), &mut readout_budget)?);
             }
             if let Err(e) = finite {
                 if let (true, Some(dir)) = (dump_failed, &settings.out_dir) {

@@ -674,6 +674,9 @@ impl Renderer {
         self.settings = settings;
         self.state = FrameState::default();
         self.log = FrameLog { pixels: self.parts.targets.pixels() as f64, ..Default::default() };
+        // The last frame's statistics were the old settings' (the overlay showed the old mode's
+        // passes under the new mode's name, for as long as the loop stayed frozen).
+        self.last_stats = FrameStats::default();
         Ok(())
     }
 

@@ -327,6 +327,31 @@ fn the_inspector_page_renders_in_headless_chromium() {
     colours.sort_unstable();
     colours.dedup();
     assert!(colours.len() > 500, "the page looks blank: {} distinct colours", colours.len());
+
+    // The per-pixel readout (base64 float32 in the page), opened by a link to one pixel: every
+    // output it lists holds that pixel's value in the EXR beside the page, to its 5 digits.
+    let (x, y) = (5u32, 3u32);
+    let o = Command::new(browser)
+        .args(["--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=3000", "--dump-dom"])
+        .arg(format!("--user-data-dir={}", dir.path().join("profile").display()))
+        .arg(format!("file://{}#frame=0&x={x}&y={y}", page.display()))
+        .output()
+        .unwrap();
+    let dom = String::from_utf8_lossy(&o.stdout);
+    let readout = dom.split("<pre id=\"readout\">").nth(1).and_then(|r| r.split("</pre>").next()).expect("the page has its readout");
+    let mut checked = 0;
+    for line in readout.lines().skip(1) {
+        let (file, values) = line.split_once(": ").unwrap_or_else(|| panic!("readout line {line:?}"));
+        let exr = restir_vpl::output::read_exr(&dir.path().join("passes/frame_0000").join(file)).unwrap();
+        let px = exr.pixels[(y * exr.width + x) as usize];
+        for (c, v) in values.split(", ").enumerate() {
+            let v: f32 = v.parse().unwrap_or_else(|_| panic!("{file}: {v:?}"));
+            assert!((v - px[c]).abs() <= 1e-4 * px[c].abs() + 1e-30, "{file} at ({x}, {y}) channel {c}: the page reads {v}, the EXR holds {}", px[c]);
+        }
+        checked += 1;
+    }
+    assert!(checked >= 10, "the readout lists the frame's outputs: {readout}");
+    assert!(!readout.contains("ids.exr") && !readout.contains("__vpl.exr"), "false-colour ids are not read out as numbers: {readout}");
 }
 
 /// The G-buffer's records land where the passes read them: at a pixel count that is not a multiple

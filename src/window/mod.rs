@@ -106,6 +106,9 @@ struct Running {
     frames: u32,
     /// The window frame at which `--camera-path` (last) started: Home plays it again.
     path_from: u32,
+    /// The frame label of the last F4 dump: a later one takes a higher label even when no frame
+    /// was shown between them (F2, then F4 twice, wrote one frame_NNNN folder over the other).
+    last_dump_label: Option<u32>,
     /// Time spent frozen since the timed frames began (left out of `displayed`'s frame time).
     frozen_total: std::time::Duration,
     /// F2: when the freeze going on began (None: not frozen).
@@ -283,6 +286,7 @@ impl App {
             controller,
             frames: 0,
             path_from: 0,
+            last_dump_label: None,
             frozen_total: std::time::Duration::ZERO,
             frozen_since: None,
             hidden: false,
@@ -585,12 +589,18 @@ impl App {
                 let plan = r.renderer.last_plan().context("a frame was just recorded")?.clone();
                 let variance = Some(r.renderer.read_variance()?);
                 let vpls = r.renderer.read_vpls()?;
-                let written = crate::dump::write_frame(&dir, r.frames, s.width, s.height, &s, &plan, &stats, &captured, variance)
+                let label = r.last_dump_label.map_or(r.frames, |l| r.frames.max(l + 1));
+                r.last_dump_label = Some(label);
+                let written = crate::dump::write_frame(&dir, label, s.width, s.height, &s, &plan, &stats, &captured, variance, r.renderer.log(), &mut Default::default())
                     .and_then(|frame| crate::dump::write_inspector(&dir, &[frame]))
                     .and_then(|page| {
-                        // The VPLs beside the page, as a headless dump writes them.
-                        if let Some(v) = &vpls {
-                            crate::ply::write_vpls(&dir.join("vpls.ply"), v)?;
+                        // The VPLs beside the page, as a headless dump writes them; a mode
+                        // without VPLs leaves none (an earlier F4's would read as this frame's).
+                        let ply = dir.join("vpls.ply");
+                        match &vpls {
+                            Some(v) => crate::ply::write_vpls(&ply, v)?,
+                            None if ply.is_file() => std::fs::remove_file(&ply).with_context(|| format!("removing {}", ply.display()))?,
+                            None => {}
                         }
                         Ok(page)
                     });

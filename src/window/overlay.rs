@@ -431,6 +431,9 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
     let mut what: Option<String> = None;
     let stats = renderer.last_stats();
     let pixels = renderer.pixels().max(1) as f64;
+    // No frame completed since the settings changed: no numbers yet, rather than the old ones.
+    let measured = !stats.dispatch_ms.is_empty();
+    let per_pixel = |rays: u64| if measured { format!("{:.2}", rays as f64 / pixels) } else { "–".to_string() };
     // In a small window (at 320×240 the 300 px panel hid the image) it starts collapsed to its
     // title bar (a click opens it); it is resizable, and narrower where the window is.
     let screen = ui.ctx().content_rect();
@@ -458,14 +461,14 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
         .vscroll(true)
         .show(ui.ctx(), |ui| {
         ui.label(format!(
-            "{} · view {} · {}×{}\n{:.1} ms/frame ({:.0} fps) · GPU {:.2} ms\n{} frame{} accumulated{}",
+            "{} · view {} · {}×{}\n{:.1} ms/frame ({:.0} fps) · GPU {} ms\n{} frame{} accumulated{}",
             s.mode.name(),
             s.view.name(),
             s.width,
             s.height,
             info.ms_per_frame,
             1e3 / info.ms_per_frame.max(1e-3),
-            stats.gpu_ms(),
+            if measured { format!("{:.2}", stats.gpu_ms()) } else { "–".to_string() },
             renderer.accumulated(),
             if renderer.accumulated() == 1 { "" } else { "s" },
             if info.frozen { " · FROZEN (F2 resumes, F3 steps)" } else { "" }
@@ -477,9 +480,9 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
                 Some([c, n]) if stats.moving => format!(" · moving {c}×{n}"),
                 _ => String::new(),
             };
-            ui.label(format!("{} VPLs · {:.2} rays/px{moving}", v.vpl_count, stats.rays as f64 / pixels));
+            ui.label(format!("{} VPLs · {} rays/px{moving}", v.vpl_count, per_pixel(stats.rays)));
         } else {
-            ui.label(format!("{:.2} rays/px", stats.rays as f64 / pixels));
+            ui.label(format!("{} rays/px", per_pixel(stats.rays)));
         }
         // Always one line, empty or not, and truncated (the title has it whole): a message that
         // came and went moved every row below it, so a click meant for one setting landed on
