@@ -235,6 +235,14 @@ fn build_tlas(
         vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
             | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
     )?;
+    // The build reads instances at a 16-byte aligned address (VUID-vkCmdBuildAccelerationStructuresKHR
+    // -pInfos-03715), which a buffer's memory alignment gives on every driver seen but the spec
+    // does not promise.
+    anyhow::ensure!(
+        instance_buffer.address() % 16 == 0,
+        "tlas.instances: the driver placed the instance buffer at {:#x}, not 16-byte aligned as the TLAS build needs",
+        instance_buffer.address()
+    );
     let data = vk::AccelerationStructureGeometryInstancesDataKHR::default()
         .array_of_pointers(false)
         .data(vk::DeviceOrHostAddressConstKHR { device_address: instance_buffer.address() });

@@ -350,9 +350,13 @@ fn inspect(instance: &ash::Instance, index: usize, pd: vk::PhysicalDevice, reque
         pipeline_missing.push(ash::khr::ray_tracing_pipeline::NAME.to_string_lossy().into_owned());
     }
     let mut driver = vk::PhysicalDeviceDriverProperties::default();
-    let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
-    // SAFETY: as above; Vulkan 1.1+ core query.
-    unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    // Chained only where the device has it (core in 1.2, else VK_KHR_driver_properties): the
+    // layer would count the chain on an older device, one the run never picks, as an error.
+    if props.api_version >= vk::API_VERSION_1_2 || has_ext(ash::khr::driver_properties::NAME) {
+        let mut props2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver);
+        // SAFETY: as above; Vulkan 1.1+ core query, with a structure the device knows.
+        unsafe { instance.get_physical_device_properties2(pd, &mut props2) };
+    }
     let driver_name = driver.driver_info_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
     let driver_id = driver.driver_name_as_c_str().map(|c| c.to_string_lossy().into_owned()).unwrap_or_default();
     if props.api_version >= vk::API_VERSION_1_2 {
@@ -550,6 +554,10 @@ impl Context {
         let gpu_timeout = gpu_timeout_from_env()?;
         let entry = load_entry()?;
         let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate, opts.window.as_ref())?;
+        // Destroys what is made below if a step fails (every `?` from here leaked the instance,
+        // and after vkCreateDevice the device too); disarmed once the context owns them.
+        let mut unwind = Unwind::default();
+        unwind.instance = Some(instance.clone());
         let validation = Arc::new(ValidationCounter::default());
         let debug_instance = if has_debug_utils {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
@@ -573,6 +581,7 @@ impl Context {
         } else {
             None
         };
+        unwind.debug = debug_instance.clone();
 
         let surface = match &opts.window {
             Some(w) => {
@@ -581,14 +590,12 @@ impl Context {
                 let raw = unsafe { ash_window::create_surface(&entry, &instance, w.display, w.window, None) };
                 match raw {
                     Ok(raw) => Some((ash::khr::surface::Instance::new(&entry, &instance), raw)),
-                    Err(e) => {
-                        destroy_instance(&instance, &debug_instance);
-                        bail!("cannot create a Vulkan surface for the window: {e}");
-                    }
+                    Err(e) => bail!("cannot create a Vulkan surface for the window: {e}"),
                 }
             }
             None => None,
         };
+        unwind.surface = surface.clone();
         // SAFETY: valid instance.
         let pds = match unsafe { instance.enumerate_physical_devices() } {
             Ok(pds) => pds,
@@ -615,16 +622,12 @@ impl Context {
         let chosen = match opts.device_index {
             Some(i) => {
                 let Some((r, _, pd)) = inspected.iter().find(|x| x.0.index == i) else {
-                    destroy_surface(&surface);
-                    destroy_instance(&instance, &debug_instance);
                     bail!(
                         "--device {i}: there is no device {i}; devices:\n{}",
                         reports.iter().map(|d| format!("  {d}")).collect::<Vec<_>>().join("\n")
                     );
                 };
                 if !r.qualifies() {
-                    destroy_surface(&surface);
-                    destroy_instance(&instance, &debug_instance);
                     return Err(NoTracingDevice {
                         devices: reports,
                         hint: Some(format!("--device {i} picks a device that cannot run the renderer")),
@@ -638,8 +641,6 @@ impl Context {
                 match best {
                     Some((r, _, pd)) => (r.clone(), *pd),
                     None => {
-                        destroy_surface(&surface);
-                        destroy_instance(&instance, &debug_instance);
                         let hint = no_device_hint(&reports);
                         return Err(NoTracingDevice { devices: reports, hint }.into());
                     }
@@ -712,6 +713,7 @@ impl Context {
             unsafe { instance.create_device(physical_device, &info, None) }
         }
         .with_context(|| format!("vkCreateDevice failed on {}", report.name))?;
+        unwind.device = Some(device.clone());
         // SAFETY: queue family and index exist (created above).
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         let accel = ash::khr::acceleration_structure::Device::new(&instance, &device);
@@ -739,6 +741,7 @@ impl Context {
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
         // SAFETY: valid device.
         let command_pool = unsafe { device.create_command_pool(&pool_info, None) }.context("vkCreateCommandPool")?;
+        unwind.command_pool = command_pool;
 
         let pipeline_cache_file = super::pipeline_cache::cache_path(&properties);
         let initial = match &pipeline_cache_file {
@@ -771,6 +774,7 @@ impl Context {
             swapchain_loader: ash::khr::swapchain::Device::new(&instance, &device),
         });
         log::info!("device: {report}");
+        unwind.disarm();
         Ok(Self {
             entry,
             instance,
@@ -1097,10 +1101,47 @@ fn present_family(
     with_timestamps.or_else(|| families.iter().enumerate().position(|(i, f)| ok(i, f))).map(|i| i as u32)
 }
 
-fn destroy_surface(surface: &Option<(ash::khr::surface::Instance, vk::SurfaceKHR)>) {
-    if let Some((loader, raw)) = surface {
-        // SAFETY: called on error paths before any swapchain exists.
-        unsafe { loader.destroy_surface(*raw, None) };
+/// What `Context::new` has made so far, destroyed in reverse order if it fails part-way (its
+/// locals made later, the allocator, drop before this, which is declared first).
+#[derive(Default)]
+struct Unwind {
+    instance: Option<ash::Instance>,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    surface: Option<(ash::khr::surface::Instance, vk::SurfaceKHR)>,
+    device: Option<ash::Device>,
+    command_pool: vk::CommandPool,
+}
+
+impl Unwind {
+    /// The context owns everything now: nothing is destroyed here.
+    fn disarm(&mut self) {
+        self.instance = None;
+        self.debug = None;
+        self.surface = None;
+        self.device = None;
+        self.command_pool = vk::CommandPool::null();
+    }
+}
+
+impl Drop for Unwind {
+    fn drop(&mut self) {
+        // SAFETY: on a failed Context::new, nothing made from these objects is left (no swapchain,
+        // no submission); the reverse order of creation.
+        unsafe {
+            if let Some(device) = self.device.take() {
+                if self.command_pool != vk::CommandPool::null() {
+                    device.destroy_command_pool(self.command_pool, None);
+                }
+                let _lifetime = lifetime_exclusive();
+                device.destroy_device(None);
+            }
+            if let Some((loader, raw)) = self.surface.take() {
+                loader.destroy_surface(raw, None);
+            }
+        }
+        if let Some(instance) = self.instance.take() {
+            destroy_instance(&instance, &self.debug.take());
+        }
     }
 }
 

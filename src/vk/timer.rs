@@ -40,6 +40,14 @@ impl GpuTimer {
     /// `max_scopes`: how many scopes one frame may record.
     pub fn new(ctx: &Arc<Context>, max_scopes: u32) -> Result<Self> {
         let capacity = max_scopes * 2;
+        // Before the pool, which nothing would destroy if this failed after it.
+        let breadcrumbs = Buffer::new(
+            ctx,
+            "gpu_timer.breadcrumbs",
+            4 * u64::from(max_scopes),
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
         let info = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(capacity);
         // SAFETY: valid device.
         let pool = unsafe { ctx.device.create_query_pool(&info, None) }.context("timestamp query pool")?;
@@ -49,13 +57,6 @@ impl GpuTimer {
         let bits = families[ctx.queue_family as usize].timestamp_valid_bits;
         let valid = bits > 0 && ctx.properties.limits.timestamp_period > 0.0;
         let mask = if bits >= 64 { u64::MAX } else { (1u64 << bits) - 1 };
-        let breadcrumbs = Buffer::new(
-            ctx,
-            "gpu_timer.breadcrumbs",
-            4 * u64::from(max_scopes),
-            vk::BufferUsageFlags::TRANSFER_DST,
-            MemoryLocation::GpuToCpu,
-        )?;
         Ok(Self {
             ctx: ctx.clone(),
             pool,

@@ -950,20 +950,20 @@ impl Presenter {
             format,
             vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC,
         )?;
-        let mut cmds = Vec::new();
-        let mut fences = Vec::new();
-        let mut acquired = Vec::new();
+        // Owned before the slots are made, so that a failure part-way destroys the slots made so
+        // far (Drop; they leaked).
+        let mut made = Self { ctx: ctx.clone(), staging, cmds: Vec::new(), fences: Vec::new(), acquired: Vec::new(), next: 0 };
         for i in 0..PRESENT_SLOTS {
             // All destroyed in Drop after a wait for idle.
             let (cmd, fence) = ctx.command_buffer_and_fence(&format!("present{i}"), true)?;
+            made.cmds.push(cmd);
+            made.fences.push(fence);
             // SAFETY: valid device.
             let sem = unsafe { ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None)? };
             ctx.set_name(sem, &format!("present{i}.acquired"));
-            cmds.push(cmd);
-            fences.push(fence);
-            acquired.push(sem);
+            made.acquired.push(sem);
         }
-        Ok(Self { ctx: ctx.clone(), staging, cmds, fences, acquired, next: 0 })
+        Ok(made)
     }
 
     /// Waits until present slot `f`'s last submission (blit and overlay) has finished.
@@ -1082,10 +1082,15 @@ impl Drop for Presenter {
         // SAFETY: wait for idle, then free every slot's objects.
         unsafe {
             let _ = self.ctx.device.device_wait_idle();
-            for i in 0..self.cmds.len() {
-                self.ctx.device.destroy_fence(self.fences[i], None);
-                self.ctx.device.destroy_semaphore(self.acquired[i], None);
-                self.ctx.device.free_command_buffers(self.ctx.command_pool, &[self.cmds[i]]);
+            // (Each list on its own: a slot made in part has a fence and no semaphore.)
+            for &f in &self.fences {
+                self.ctx.device.destroy_fence(f, None);
+            }
+            for &s in &self.acquired {
+                self.ctx.device.destroy_semaphore(s, None);
+            }
+            if !self.cmds.is_empty() {
+                self.ctx.device.free_command_buffers(self.ctx.command_pool, &self.cmds);
             }
         }
     }

@@ -114,10 +114,12 @@ impl Swapchain {
         // SAFETY: valid device and surface; the old swapchain (if any) is retired by this call.
         let raw = unsafe { p.swapchain_loader.create_swapchain(&info, None) }.context("vkCreateSwapchainKHR")?;
         ctx.set_name(raw, "swapchain");
+        // Owned from here, so that a failure below destroys what was made (Drop): a leaked
+        // swapchain outlived its surface, which vkDestroySurfaceKHR forbids.
+        let mut made = Self { ctx: ctx.clone(), raw, format, extent, images: Vec::new(), views: Vec::new(), present_mode, render_finished: Vec::new() };
         // SAFETY: the swapchain was just created.
-        let images = unsafe { p.swapchain_loader.get_swapchain_images(raw) }?;
-        let mut views = Vec::with_capacity(images.len());
-        let mut render_finished = Vec::with_capacity(images.len());
+        made.images = unsafe { p.swapchain_loader.get_swapchain_images(raw) }?;
+        let images = made.images.clone();
         for (i, image) in images.iter().enumerate() {
             ctx.set_name(*image, &format!("swapchain.image{i}"));
             let view_info = vk::ImageViewCreateInfo::default()
@@ -128,11 +130,11 @@ impl Swapchain {
             // SAFETY: the image belongs to the swapchain.
             let view = unsafe { ctx.device.create_image_view(&view_info, None) }?;
             ctx.set_name(view, &format!("swapchain.view{i}"));
-            views.push(view);
+            made.views.push(view);
             // SAFETY: valid device.
             let sem = unsafe { ctx.device.create_semaphore(&vk::SemaphoreCreateInfo::default(), None) }?;
             ctx.set_name(sem, &format!("swapchain.render_finished{i}"));
-            render_finished.push(sem);
+            made.render_finished.push(sem);
         }
         log::info!(
             "swapchain: {}x{} {:?} {:?}, {} images, {:?}",
@@ -143,7 +145,7 @@ impl Swapchain {
             images.len(),
             present_mode
         );
-        Ok(Self { ctx: ctx.clone(), raw, format, extent, images, views, present_mode, render_finished })
+        Ok(made)
     }
 }
 
