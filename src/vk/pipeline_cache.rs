@@ -4,9 +4,11 @@
 //! The file lives in `$RESTIR_VPL_CACHE_DIR`, else `$XDG_CACHE_HOME/restir-vpl`, else
 //! `~/.cache/restir-vpl`, and is named by the device (vendor, device id, driver version, the
 //! driver's pipeline-cache UUID) and by the hash of every embedded SPIR-V module: another driver,
-//! device or build never reads it. Its header is checked against the device before the driver sees
-//! it; a file that does not match is ignored (and replaced on save). `RESTIR_VPL_PIPELINE_CACHE=off`
-//! turns it off.
+//! device or build never reads it. The driver's data is framed by our own 16 bytes (a magic, its
+//! length and its CRC-32), and its header is checked against the device, before the driver sees
+//! it: the spec allows only data the driver itself returned, so a file cut short or damaged on disk
+//! (the driver's own header intact) must not reach it. A file that does not match is ignored (and
+//! replaced on save). `RESTIR_VPL_PIPELINE_CACHE=off` turns it off.
 
 use std::path::{Path, PathBuf};
 
@@ -26,7 +28,7 @@ pub fn cache_path(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
         .or_else(|| var("HOME").filter(|h| h.is_absolute()).map(|h| h.join(".cache").join("restir-vpl")))?;
     let uuid: String = props.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
     Some(dir.join(format!(
-        "pipelines-{:04x}-{:04x}-{:x}-{uuid}-{:016x}.bin",
+        "pipelines-v2-{:04x}-{:04x}-{:x}-{uuid}-{:016x}.bin",
         props.vendor_id,
         props.device_id,
         props.driver_version,
@@ -34,16 +36,48 @@ pub fn cache_path(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
     )))
 }
 
-/// The cache file's data if its header (VkPipelineCacheHeaderVersionOne) names this device;
-/// Err(reason) when it exists but does not.
+/// The first bytes of every cache file this program writes ("v2" in the file name).
+const MAGIC: &[u8; 8] = b"RVPLPC02";
+
+/// The cache file's data (without our frame) if its frame is whole and its header
+/// (VkPipelineCacheHeaderVersionOne) names this device; Err(reason) when it exists but is not.
 pub fn load(path: &Path, props: &vk::PhysicalDeviceProperties) -> Result<Option<Vec<u8>>, String> {
-    let data = match std::fs::read(path) {
+    let file = match std::fs::read(path) {
         Ok(d) => d,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(e) => return Err(e.to_string()),
     };
-    header_matches(&data, props)?;
-    Ok(Some(data))
+    let data = unframe(&file)?;
+    header_matches(data, props)?;
+    Ok(Some(data.to_vec()))
+}
+
+/// The driver's data framed for the file: [`MAGIC`], its length and its CRC-32 (u32 each, little
+/// endian), then the data.
+fn frame(data: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(16 + data.len());
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&(data.len() as u32).to_le_bytes());
+    out.extend_from_slice(&crc32fast::hash(data).to_le_bytes());
+    out.extend_from_slice(data);
+    out
+}
+
+/// The data inside a file's frame, if the frame is whole: its magic, its length and its checksum.
+fn unframe(file: &[u8]) -> Result<&[u8], String> {
+    if file.len() < 16 || &file[..8] != MAGIC {
+        return Err(format!("{} bytes, not starting as this program's cache files do", file.len()));
+    }
+    let word = |i: usize| u32::from_le_bytes(file[i..i + 4].try_into().expect("4 bytes"));
+    let (len, crc) = (word(8) as usize, word(12));
+    let data = &file[16..];
+    if data.len() != len {
+        return Err(format!("{} bytes of data where its frame says {len}: cut short or damaged", data.len()));
+    }
+    if crc32fast::hash(data) != crc {
+        return Err("its checksum does not match its data: damaged".into());
+    }
+    Ok(data)
 }
 
 /// Checks the 32-byte header: length, version one, vendor, device and cache UUID.
@@ -67,5 +101,53 @@ pub fn save(path: &Path, data: &[u8]) -> anyhow::Result<()> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)?;
     }
-    crate::output::write_replacing(path, |partial| Ok(std::fs::write(partial, data)?))
+    anyhow::ensure!(u32::try_from(data.len()).is_ok(), "{} bytes of pipeline cache: more than its frame records", data.len());
+    let framed = frame(data);
+    crate::output::write_replacing(path, |partial| Ok(std::fs::write(partial, framed)?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn props() -> vk::PhysicalDeviceProperties {
+        vk::PhysicalDeviceProperties { vendor_id: 0x10de, device_id: 0x2330, pipeline_cache_uuid: [7; 16], ..Default::default() }
+    }
+
+    /// A driver's data with a valid header and a body of `n` bytes.
+    fn driver_data(n: usize) -> Vec<u8> {
+        let p = props();
+        let mut d = Vec::new();
+        for w in [32u32, vk::PipelineCacheHeaderVersion::ONE.as_raw() as u32, p.vendor_id, p.device_id] {
+            d.extend_from_slice(&w.to_le_bytes());
+        }
+        d.extend_from_slice(&p.pipeline_cache_uuid);
+        d.extend((0..n).map(|i| (i * 31 % 251) as u8));
+        d
+    }
+
+    /// What was saved loads back as it was; a file cut short, a flipped byte in the driver's body
+    /// (its header intact, which is all the driver's header check sees) or a file of the earlier
+    /// unframed format is refused before the driver could read it.
+    #[test]
+    fn only_whole_frames_reach_the_driver() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cache.bin");
+        let data = driver_data(5000);
+        save(&path, &data).unwrap();
+        assert_eq!(load(&path, &props()).unwrap(), Some(data.clone()));
+        let file = std::fs::read(&path).unwrap();
+        std::fs::write(&path, &file[..file.len() - 100]).unwrap();
+        assert!(load(&path, &props()).unwrap_err().contains("cut short"));
+        let mut flipped = file.clone();
+        flipped[16 + 32 + 1000] ^= 0x40;
+        std::fs::write(&path, &flipped).unwrap();
+        assert!(load(&path, &props()).unwrap_err().contains("checksum"));
+        std::fs::write(&path, &data).unwrap();
+        assert!(load(&path, &props()).unwrap_err().contains("not starting as"));
+        let other = vk::PhysicalDeviceProperties { device_id: 1, ..props() };
+        save(&path, &data).unwrap();
+        assert!(load(&path, &other).unwrap_err().contains("another device"));
+        assert_eq!(load(&dir.path().join("none.bin"), &props()).unwrap(), None);
+    }
 }
