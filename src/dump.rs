@@ -62,7 +62,8 @@ pub struct Decoded {
     pub image: RgbImage,
 }
 
-fn hash_colour(v: u32) -> [f32; 3] {
+/// The false colour of id `v` in an `ids` output (the G-buffer's: `instance × 65599 ^ triangle`).
+pub fn hash_colour(v: u32) -> [f32; 3] {
     let mut h = v.wrapping_mul(0x9e37_79b9) ^ 0x5bd1_e995;
     h ^= h >> 15;
     h = h.wrapping_mul(0x2c1b_3c6d);
@@ -204,12 +205,31 @@ pub struct DumpedFrame {
     pub readout_off: Option<String>,
 }
 
-/// One output's values as the page embeds them: one number per pixel for a grey output (its three
-/// channels are equal), three otherwise; row-major, row 0 at the top.
+/// One output's values as the page embeds them, as 32-bit words: one float per pixel for a grey
+/// output (its three channels are equal), three otherwise; for a false-colour ids output the ids
+/// themselves (the G-buffer's instance and triangle, a reservoir's VPL index; `u32::MAX`: none).
+/// Row-major, row 0 at the top.
 pub struct PixelValues {
     pub file: String,
     pub channels: usize,
-    pub values: Vec<f32>,
+    /// The words are ids (u32), not float bits.
+    pub ids: bool,
+    pub words: Vec<u32>,
+}
+
+/// The ids behind an `ids` output of capture `c`: (channels, words), u32::MAX where there is none.
+fn raw_ids(c: &Captured, pixels: usize) -> Option<(usize, Vec<u32>)> {
+    match c.kind {
+        CaptureKind::Surfaces => {
+            let s = decode_surfaces(&c.bytes[..pixels * std::mem::size_of::<GpuSurfaceTexels>()]);
+            Some((2, s.iter().flat_map(|s| if s.offset_scale < 0.0 { [u32::MAX; 2] } else { [s.instance, s.triangle] }).collect()))
+        }
+        CaptureKind::Reservoirs => {
+            let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..pixels * std::mem::size_of::<GpuReservoir>()]);
+            Some((1, r.iter().map(|r| r.vpl).collect()))
+        }
+        CaptureKind::Rgba | CaptureKind::Rgba8 => None,
+    }
 }
 
 /// Most pixels whose values the page embeds for its per-pixel readout.
@@ -235,7 +255,7 @@ impl Default for ReadoutBudget {
 impl ReadoutBudget {
     /// Keeps `values` (one frame's) if the budget holds them all; else gives why not.
     fn take(&mut self, values: &mut Vec<PixelValues>) -> Option<String> {
-        let n: usize = values.iter().map(|v| v.values.len()).sum();
+        let n: usize = values.iter().map(|v| v.words.len()).sum();
         if n <= self.left {
             self.left -= n;
             return None;
@@ -440,10 +460,17 @@ pub fn write_frame(
                         e.outputs.push(stats(file.clone(), c.buffer, d, white));
                         // (Kept only for a page that shows them: at 1280×720 every frame's were
                         // held to the end of the run, 167 MB a ReSTIR frame.)
-                        if readout && d.look != "ids" {
-                            let channels = if d.look == "grey" { 1 } else { 3 };
-                            let values_of = d.image.pixels.iter().flat_map(|p| p[..channels].iter().copied()).collect();
-                            values.push(PixelValues { file, channels, values: values_of });
+                        if readout {
+                            let (channels, ids, words) = if d.look == "ids" {
+                                match raw_ids(c, (width * height) as usize) {
+                                    Some((channels, words)) => (channels, true, words),
+                                    None => continue,
+                                }
+                            } else {
+                                let channels = if d.look == "grey" { 1 } else { 3 };
+                                (channels, false, d.image.pixels.iter().flat_map(|p| p[..channels].iter().map(|v| v.to_bits())).collect())
+                            };
+                            values.push(PixelValues { file, channels, ids, words });
                         }
                     }
                     passes.push(e);
@@ -530,8 +557,8 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
     for DumpedFrame { manifest: m, values, readout_off } in frames {
         let _ = write!(data, "{{frame:{},w:{},h:{},values:{{", m.frame, m.width, m.height);
         for v in values {
-            let bytes: &[u8] = bytemuck::cast_slice(&v.values);
-            let _ = write!(data, "{:?}:{{c:{},b:\"{}\"}},", v.file, v.channels, base64::engine::general_purpose::STANDARD.encode(bytes));
+            let bytes: &[u8] = bytemuck::cast_slice(&v.words);
+            let _ = write!(data, "{:?}:{{c:{},i:{},b:\"{}\"}},", v.file, v.channels, v.ids, base64::engine::general_purpose::STANDARD.encode(bytes));
         }
         data.push_str("}},");
         let _ = write!(html, "<section><h2>frame {} · {} · view {} · {}×{}</h2>", m.frame, m.mode, m.view, m.width, m.height);
@@ -631,10 +658,14 @@ document.getElementById('zimg').addEventListener('mousemove',e=>{
   if(x<0||y<0||x>=f.w||y>=f.h)return;
   document.getElementById('readout').textContent=readout(f,x,y);
 });
-// Each output's float32 values, decoded from base64 on first use.
+// Each output's values (float32, or u32 ids), decoded from base64 on first use.
 function floats(v){
-  if(!v.f){const s=atob(v.b), u=new Uint8Array(s.length); for(let i=0;i<s.length;i++)u[i]=s.charCodeAt(i); v.f=new Float32Array(u.buffer);}
+  if(!v.f){const s=atob(v.b), u=new Uint8Array(s.length); for(let i=0;i<s.length;i++)u[i]=s.charCodeAt(i); v.f=v.i?new Uint32Array(u.buffer):new Float32Array(u.buffer);}
   return v.f;
+}
+function show(v,c){
+  if(v.i)return c===4294967295?'none':String(c);
+  return Number.isFinite(c)?c.toPrecision(5):'NaN/Inf';
 }
 function readout(f,x,y){
   let t=`pixel (${x}, ${y})\n`;
@@ -642,7 +673,7 @@ function readout(f,x,y){
   if(!files.length){t+='(no readout for this frame: see the note under its title)';}
   for(const k of files){
     const v=f.values[k], a=floats(v), i=(y*f.w+x)*v.c;
-    const s=Array.from(a.subarray(i,i+v.c),c=>Number.isFinite(c)?c.toPrecision(5):'NaN/Inf');
+    const s=Array.from(a.subarray(i,i+v.c),c=>show(v,c));
     t+=`${k}: ${s.join(', ')}\n`;
   }
   return t;
@@ -688,13 +719,13 @@ mod tests {
     /// values (so none are held in memory to the end of the run) and says why.
     #[test]
     fn the_readout_budget_keeps_whole_frames_until_it_is_spent() {
-        let frame = |n: usize| vec![PixelValues { file: "a.exr".into(), channels: 1, values: vec![0.5; n] }];
+        let frame = |n: usize| vec![PixelValues { file: "a.exr".into(), channels: 1, ids: false, words: vec![0; n] }];
         let mut budget = ReadoutBudget::default();
         let third = READOUT_BUDGET_VALUES / 3;
         for _ in 0..3 {
             let mut f = frame(third);
             assert_eq!(budget.take(&mut f), None);
-            assert_eq!(f[0].values.len(), third);
+            assert_eq!(f[0].words.len(), third);
         }
         let mut over = frame(READOUT_BUDGET_VALUES - 3 * third + 1);
         let why = budget.take(&mut over).expect("past the budget");

@@ -340,18 +340,36 @@ fn the_inspector_page_renders_in_headless_chromium() {
     let dom = String::from_utf8_lossy(&o.stdout);
     let readout = dom.split("<pre id=\"readout\">").nth(1).and_then(|r| r.split("</pre>").next()).expect("the page has its readout");
     let mut checked = 0;
+    let mut ids = 0;
     for line in readout.lines().skip(1) {
         let (file, values) = line.split_once(": ").unwrap_or_else(|| panic!("readout line {line:?}"));
         let exr = restir_vpl::output::read_exr(&dir.path().join("passes/frame_0000").join(file)).unwrap();
         let px = exr.pixels[(y * exr.width + x) as usize];
+        // The ids themselves, whose false colour the EXR holds: (instance, triangle) of the
+        // G-buffer, a reservoir's VPL index.
+        if file.ends_with("__ids.exr") || file.ends_with("__vpl.exr") {
+            if values.contains("none") {
+                assert_eq!(px, [0.0; 3], "{file} at ({x}, {y}): no id, black");
+                ids += 1;
+                continue;
+            }
+            let n: Vec<u32> = values.split(", ").map(|v| v.parse().unwrap_or_else(|_| panic!("{file}: id {v:?}"))).collect();
+            let id = match n[..] {
+                [instance, triangle] => instance.wrapping_mul(65_599) ^ triangle,
+                [vpl] => vpl,
+                _ => panic!("{file}: {values}"),
+            };
+            assert_eq!(restir_vpl::dump::hash_colour(id), px, "{file} at ({x}, {y}): ids {values} against the EXR's colour");
+            ids += 1;
+            continue;
+        }
         for (c, v) in values.split(", ").enumerate() {
             let v: f32 = v.parse().unwrap_or_else(|_| panic!("{file}: {v:?}"));
             assert!((v - px[c]).abs() <= 1e-4 * px[c].abs() + 1e-30, "{file} at ({x}, {y}) channel {c}: the page reads {v}, the EXR holds {}", px[c]);
         }
         checked += 1;
     }
-    assert!(checked >= 10, "the readout lists the frame's outputs: {readout}");
-    assert!(!readout.contains("ids.exr") && !readout.contains("__vpl.exr"), "false-colour ids are not read out as numbers: {readout}");
+    assert!(checked >= 10 && ids >= 2, "the readout lists the frame's outputs, the G-buffer's and reservoirs' ids among them: {readout}");
 }
 
 /// The G-buffer's records land where the passes read them: at a pixel count that is not a multiple
