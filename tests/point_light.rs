@@ -58,3 +58,30 @@ fn point_light_over_a_plane_matches_the_closed_form() {
     }
     assert!(checked > 1000);
 }
+
+/// Point lights spawned in the window (L) are held to the loader's limit on the lights' power:
+/// each press added a quarter of the scene's, and past 1e30 W the 32-bit fluxes overflow. A light
+/// that keeps the total under it is taken, one that passes it is refused and the lights stay.
+#[test]
+fn spawned_lights_are_held_to_the_power_limit() {
+    use restir_vpl::lights::PointEmitter;
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let m = b.quad("plane", [[-5.0, 0.0, -5.0], [-5.0, 0.0, 5.0], [5.0, 0.0, 5.0], [5.0, 0.0, -5.0]], grey);
+    b.node("plane", m, [0.0; 3]);
+    b.point_light("bulb", [0.0, 1.0, 0.0], [1.0, 1.0, 1.0], 1.0);
+    let scene = load_json(&b.to_json_string(), "spawned_light_limit");
+    let ctx = context();
+    let settings = RenderSettings { mode: restir_vpl::settings::Mode::Uniform, vpls_direct: 100, vpls_indirect: 100, ..small(8, 8, 1) };
+    let gpu = upload(&ctx, &scene, &settings);
+    let mut r = restir_vpl::renderer::Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    // 4π I W each: 0.6e30 W is taken, a second one (1.2e30 W in all) is refused.
+    let light = PointEmitter { position: Vec3::new(1.0, 1.0, 0.0), intensity: Vec3::splat(0.6e30 / (4.0 * std::f32::consts::PI)) };
+    r.set_extra_lights(vec![light]).expect("under the limit");
+    let err = format!("{:#}", r.set_extra_lights(vec![light, light]).unwrap_err());
+    assert!(err.contains("1e30 W"), "{err}");
+    assert_eq!(r.extra_lights().len(), 1, "the lights stay as they were");
+    r.render_frame(&r.initial_camera(), false).unwrap();
+    assert_all_finite(&r.read_mean().unwrap(), "after a refused light");
+    assert_no_validation_errors(&ctx);
+}

@@ -1,63 +1,25 @@
-//! Minimal standard-alphabet base64 (RFC 4648) for glTF `data:` URIs.
+//! base64 for glTF `data:` URIs, through the base64 crate: encoding with padding; decoding as
+//! lenient as glTF files in the wild need (padding optional, ASCII whitespace skipped, and the
+//! URL-safe alphabet taken as well as the standard one).
 
-const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+use base64::engine::{DecodePaddingMode, GeneralPurpose, GeneralPurposeConfig};
+use base64::{alphabet, Engine as _};
 
-/// Encodes `data` with padding.
+/// Encodes `data` with padding (the standard alphabet).
 pub fn encode(data: &[u8]) -> String {
-    let mut out = String::with_capacity(data.len().div_ceil(3) * 4);
-    for chunk in data.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
-        for k in 0..4 {
-            if k <= chunk.len() {
-                out.push(ALPHABET[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
+    base64::engine::general_purpose::STANDARD.encode(data)
 }
 
-/// Decodes base64 text; padding is optional, ASCII whitespace is skipped.
+/// Decodes base64 text; padding is optional, ASCII whitespace is skipped, and a text written in
+/// the URL-safe alphabet (`-` and `_`) is read in it.
 pub fn decode(text: &str) -> Result<Vec<u8>, String> {
-    let mut out = Vec::with_capacity(text.len() / 4 * 3);
-    let mut acc = 0u32;
-    let mut bits = 0u32;
-    let mut padding = 0usize;
-    for (pos, c) in text.bytes().enumerate() {
-        let v = match c {
-            b'A'..=b'Z' => c - b'A',
-            b'a'..=b'z' => c - b'a' + 26,
-            b'0'..=b'9' => c - b'0' + 52,
-            b'+' | b'-' => 62,
-            b'/' | b'_' => 63,
-            b'=' => {
-                padding += 1;
-                continue;
-            }
-            c if c.is_ascii_whitespace() => continue,
-            _ => return Err(format!("invalid base64 character at offset {pos}")),
-        };
-        if padding > 0 {
-            return Err(format!(
-                "base64 data continues after padding at offset {pos}"
-            ));
-        }
-        acc = (acc << 6) | u32::from(v);
-        bits += 6;
-        if bits >= 8 {
-            bits -= 8;
-            out.push((acc >> bits) as u8);
-            acc &= (1 << bits) - 1;
-        }
-    }
-    if bits >= 6 {
-        return Err("truncated base64 data".to_string());
-    }
-    Ok(out)
+    let config = GeneralPurposeConfig::new().with_decode_padding_mode(DecodePaddingMode::Indifferent);
+    let url_safe = text.bytes().any(|c| c == b'-' || c == b'_');
+    let engine = GeneralPurpose::new(if url_safe { &alphabet::URL_SAFE } else { &alphabet::STANDARD }, config);
+    let decoded = if text.bytes().any(|c| c.is_ascii_whitespace()) {
+        engine.decode(text.bytes().filter(|c| !c.is_ascii_whitespace()).collect::<Vec<u8>>())
+    } else {
+        engine.decode(text)
+    };
+    decoded.map_err(|e| format!("invalid base64: {e}"))
 }

@@ -8,6 +8,7 @@
 mod base64;
 pub mod generate;
 mod load;
+pub use load::MAX_LIGHT_POWER;
 mod merge;
 
 #[cfg(test)]

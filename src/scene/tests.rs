@@ -1191,6 +1191,10 @@ fn base64_round_trip() {
     assert_eq!(base64::encode(b"Ma"), "TWE=");
     assert!(base64::decode("TW=u").is_err());
     assert!(base64::decode("T").is_err());
+    // As lenient as data URIs in the wild need: no padding, whitespace, the URL-safe alphabet.
+    assert_eq!(base64::decode("TWE").unwrap(), b"Ma");
+    assert_eq!(base64::decode("TW\nFu").unwrap(), b"Man");
+    assert_eq!(base64::decode("-_8=").unwrap(), base64::decode("+/8=").unwrap());
 }
 
 #[test]
