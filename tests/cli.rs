@@ -619,18 +619,28 @@ fn pipeline_cache_is_saved_checked_and_a_foreign_file_ignored() {
     assert_eq!(files.len(), 1, "one cache file per device and build: {files:?}");
     let file = &files[0];
     let data = std::fs::read(file).unwrap();
-    // VkPipelineCacheHeaderVersionOne: length 32 and version 1 first.
-    assert!(data.len() >= 32 && data[0..4] == 32u32.to_le_bytes() && data[4..8] == 1u32.to_le_bytes(), "{:?}", &data[..data.len().min(32)]);
+    // Our frame (magic, length, CRC-32), then VkPipelineCacheHeaderVersionOne: length 32 and
+    // version 1 first.
+    let driver = &data[16..];
+    assert!(&data[..8] == b"RVPLPC02" && data[8..12] == (driver.len() as u32).to_le_bytes(), "{:?}", &data[..16]);
+    assert!(driver.len() >= 32 && driver[0..4] == 32u32.to_le_bytes() && driver[4..8] == 1u32.to_le_bytes(), "{:?}", &driver[..driver.len().min(32)]);
     let o = go();
-    assert!(stderr(&o).contains(&format!("({} bytes loaded)", data.len())), "{}", stderr(&o));
-    // A file from another device (wrong vendor in the header) is ignored with a warning and replaced.
+    assert!(stderr(&o).contains(&format!("({} bytes loaded)", driver.len())), "{}", stderr(&o));
+    // A file from another device (wrong vendor in the header, its frame whole) is ignored with a
+    // warning and replaced; so is a damaged one (its checksum fails).
     let mut foreign = data.clone();
-    foreign[8..12].copy_from_slice(&0xdeadu32.to_le_bytes());
-    std::fs::write(file, &foreign).unwrap();
-    let o = go();
-    assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("written by another device or driver"), "{}", stderr(&o));
-    assert_eq!(std::fs::read(file).unwrap()[8..12], data[8..12], "the foreign file was not replaced");
+    foreign[16 + 8..16 + 12].copy_from_slice(&0xdeadu32.to_le_bytes());
+    let crc = crc32fast::hash(&foreign[16..]);
+    foreign[12..16].copy_from_slice(&crc.to_le_bytes());
+    let mut damaged = data.clone();
+    *damaged.last_mut().unwrap() ^= 1;
+    for (bad, says) in [(foreign, "written by another device or driver"), (damaged, "damaged")] {
+        std::fs::write(file, &bad).unwrap();
+        let o = go();
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert!(stderr(&o).contains(says), "{}", stderr(&o));
+        assert_eq!(std::fs::read(file).unwrap(), data, "the file was not replaced");
+    }
     // RESTIR_VPL_PIPELINE_CACHE=off: nothing read or written.
     let off = tempfile::tempdir().unwrap();
     let o = bin().args(args).env("RESTIR_VPL_CACHE_DIR", off.path()).env("RESTIR_VPL_PIPELINE_CACHE", "off").output().unwrap();
@@ -993,6 +1003,9 @@ fn restir_vpl_validate_takes_the_usual_spellings_and_refuses_others() {
     let o = bin().args(args).env("RESTIR_VPL_VALIDATE", "maybe").output().unwrap();
     let err = stderr(&o);
     assert!(!o.status.success() && err.contains("RESTIR_VPL_VALIDATE=\"maybe\"") && !err.contains("panicked"), "{err}");
+    // The timing benchmarks, which run without the layer, refuse it too (they took it silently).
+    let o = bin().args(["bench", "--frames", "1", "--width", "8", "--height", "8"]).env("RESTIR_VPL_VALIDATE", "maybe").output().unwrap();
+    assert!(!o.status.success() && stderr(&o).contains("RESTIR_VPL_VALIDATE=\"maybe\""), "{}", stderr(&o));
     let spellings: &[(&str, bool)] = if validate() { &[("true", true), ("ON", true), ("off", false), ("", false)] } else { &[("off", false), ("", false)] };
     for (value, on) in spellings {
         let o = bin().args(args).env("RESTIR_VPL_VALIDATE", value).output().unwrap();

@@ -290,6 +290,19 @@ fn check_finite_names_the_pass_and_pixel_of_a_planted_nan() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(!o.status.success() && err.contains("2 non-finite sample(s)"), "{err}");
     }
+    // A command whose numbers come from its images fails on them with or without validation: a
+    // reference (the ground truth others are measured against) with samples replaced by 0.
+    let reference = dir.path().join("ref.exr");
+    let o = Command::new(env!("CARGO_BIN_EXE_restir-vpl"))
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args(["reference", "--mode", "ris", "--width", "8", "--height", "8", "--frames", "2", "--vpls-direct", "200", "--vpls-indirect", "200", "--out"])
+        .arg(&reference)
+        .env("RESTIR_VPL_DEBUG_POISON", "vpl_shade")
+        .env_remove("RESTIR_VPL_VALIDATE")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("2 non-finite sample(s)") && err.contains("ref.exr"), "{err}");
 }
 
 /// The inspector page in a real browser: headless Chromium loads it (no network) and its

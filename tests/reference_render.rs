@@ -125,6 +125,10 @@ fn cli_reference_resumes_and_refuses_mismatches() {
         assert!(!o.status.success() && err.contains(named) && err.contains("mean of its frames"), "{err}");
         assert!(!y.exists());
     }
+    // The VPL picture estimates nothing (it was taken, a "reference" with a noise of 0).
+    let o = cli(&["reference", "--mode", "ris", "--view", "vpls", "--width", "16", "--height", "16", "--frames", "2", "--out", y.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--view vpls") && !y.exists(), "{err}");
     // A headless run's extra outputs are not a reference's: refused, not ignored.
     let ply = dir.path().join("v.ply");
     let o = run(&["--frames", "1", "--dump-vpls", ply.to_str().unwrap(), "--save-every", "1", "--out", y.to_str().unwrap()]);

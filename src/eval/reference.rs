@@ -495,6 +495,10 @@ pub fn reference_mode_ok(settings: &RenderSettings) -> Result<()> {
             settings.view.name()
         );
     }
+    if settings.view == crate::settings::View::Vpls {
+        // (It was accepted: a "reference" of the VPL picture, with a noise of 0.)
+        bail!("--view vpls: draws the VPL set, which estimates no radiance; a reference is an image's converged mean (use --view final, direct or indirect)");
+    }
     if !settings.progressive {
         bail!("--progressive off: shows each frame alone; a reference is the mean of its frames (leave it on)");
     }

@@ -878,6 +878,20 @@ impl Context {
         }
     }
 
+    /// For a command whose report is computed from its images (`results`, `bench --curves`,
+    /// `--motion`, `--radius`, `reference`): [`Context::ensure_clean`], and any non-finite sample
+    /// fails it with or without validation, since the accumulation replaced it by 0 and the
+    /// report's errors and biases would hide it.
+    pub fn ensure_clean_report(&self) -> Result<()> {
+        match (self.validation_errors(), self.nonfinite_samples()) {
+            (0, 0) => Ok(()),
+            (0, n) => anyhow::bail!(
+                "{n} non-finite sample(s) (NaN or Inf) were replaced by 0 in the images this report is computed from: its numbers would hide a shader's defect (--check-finite finds the pass)"
+            ),
+            (n, _) => anyhow::bail!("{n} Vulkan validation error(s) under validation; the first: {}", self.first_validation_error().unwrap_or_default()),
+        }
+    }
+
     /// Allocates memory for a buffer or image under `name` (the name gpu-allocator reports; callers
     /// give the Vulkan object the same one with [`Self::set_name`]).
     pub fn allocate(
