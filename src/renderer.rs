@@ -1308,7 +1308,16 @@ impl Renderer {
         self.complete_all()?;
         // Waiting for idle before the light buffers in use are replaced.
         self.ctx.wait_idle()?;
-        let lights = LightBuffers::new(&self.ctx, LightSet::new(&self.scene.emitters, &extra))?;
+        let set = LightSet::new(&self.scene.emitters, &extra);
+        // The loader's limit, checked again: each spawned light adds a quarter of the scene's
+        // power (past the limit the 32-bit fluxes overflow and the image goes black).
+        let most = set.total_power.iter().copied().fold(0.0, f64::max);
+        anyhow::ensure!(
+            most.is_finite() && most <= crate::scene::MAX_LIGHT_POWER,
+            "the lights would emit {most:.3e} W together, more than the {:.0e} W the renderer's 32-bit fluxes hold",
+            crate::scene::MAX_LIGHT_POWER
+        );
+        let lights = LightBuffers::new(&self.ctx, set)?;
         // The photon pass reads the lights through set 0: point it at the new ones first, and back
         // at the old ones if the rebuild fails.
         lights.write_set(&self.scene_set)?;

@@ -254,6 +254,82 @@ fn a_large_ground_quad_keeps_its_contact_shadows() {
     assert!((c.mean_ratio - 1.0).abs() < 0.01, "one ground quad renders {:.4}× the split ground's mean", c.mean_ratio);
 }
 
+/// A room whose walls share their edges exactly (each wall's corners the same coordinates as its
+/// neighbours'), seen from inside with a wide lens so that its inside edges run along the image's
+/// diagonals. A hit interpolated on one wall rounded up to an ulp past the neighbouring wall's
+/// plane, and every ray leaving it (bounces, light samples, VPL shadow rays) started behind that
+/// wall: black pixels along the edges, never filled in without --aa (9 of 128² in brute force, the
+/// same in the path tracer and ReSTIR, at side 0.5592 and at other scales). Every pixel sees a
+/// lit surface here, so none may be black, in the path tracer and in a VPL mode.
+#[test]
+fn a_rooms_inside_edges_are_not_black() {
+    for side in [0.5592f32, 55.92] {
+        let mut b = GltfBuilder::new();
+        let white = b.material("white", [0.75; 3], [0.0; 3], false);
+        let lamp = b.material("lamp", [0.5; 3], [10.0; 3], false);
+        let l = side;
+        // Facing inwards (counter-clockwise seen from inside); the front (z = 0) is open.
+        let walls = [
+            [[0.0, 0.0, 0.0], [0.0, 0.0, l], [l, 0.0, l], [l, 0.0, 0.0]],
+            [[0.0, l, 0.0], [l, l, 0.0], [l, l, l], [0.0, l, l]],
+            [[0.0, 0.0, l], [0.0, l, l], [l, l, l], [l, 0.0, l]],
+            [[0.0, 0.0, 0.0], [0.0, l, 0.0], [0.0, l, l], [0.0, 0.0, l]],
+            [[l, 0.0, 0.0], [l, 0.0, l], [l, l, l], [l, l, 0.0]],
+        ];
+        let room = b.quads("room", &walls, white);
+        b.node("room", room, [0.0; 3]);
+        let (c, h) = (0.5 * l, 0.1 * l);
+        let light = b.quad("lamp", [[c - h, 0.99 * l, c - h], [c + h, 0.99 * l, c - h], [c + h, 0.99 * l, c + h], [c - h, 0.99 * l, c + h]], lamp);
+        b.node("lamp", light, [0.0; 3]);
+        let scene = load_json(&b.to_json_string(), &format!("room of side {side}"));
+        let camera = restir_vpl::camera::Camera::look_at(glam::Vec3::new(c, c, 0.02 * l), glam::Vec3::new(c, c, l), glam::Vec3::Y, 1.6, "test");
+        for mode in [Mode::Pt, Mode::Ris] {
+            let base = RenderSettings { mode, vpls_direct: 2_000, vpls_indirect: 2_000, ..small(128, 128, 8) };
+            let img = render_mean(&scene, &camera, &base, &format!("room of side {side}, {}", mode.name()));
+            let black: Vec<(u32, u32)> = (0..128 * 128u32).filter(|&i| img.pixels[i as usize] == [0.0; 3]).map(|i| (i % 128, i / 128)).collect();
+            assert!(black.is_empty(), "room of side {side}, {}: {} black pixel(s), e.g. {:?}", mode.name(), black.len(), &black[..black.len().min(8)]);
+        }
+    }
+}
+
+/// Smooth shading under a large node scale: a merged mesh (the default for small scenes) keeps
+/// its normals scaled by the inverse of the node's scale, and the shader's absolute test on their
+/// interpolated length (1e-12) took them for missing from a scale of 1e6 on, so every smooth
+/// surface was shaded flat (a sphere faceted at 3e6; the per-instance path was right). Here one
+/// triangle's vertex normals are all tilted 17° off its plane's normal: every hit's shading normal
+/// in the G-buffer must be the tilted one, merged or not, at scale 1 and 3e6.
+#[test]
+fn smooth_normals_survive_a_large_node_scale() {
+    use restir_vpl::renderer::CaptureKind;
+    let tilt = glam::Vec3::new(0.3, 1.0, 0.0).normalize();
+    for (k, merge_blas) in [(1.0f32, 1024), (3e6, 1024), (3e6, 0)] {
+        let mut b = GltfBuilder::new();
+        let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+        let lamp = b.material("lamp", [0.5; 3], [5.0; 3], false);
+        let tri = b.mesh("tri", &[[-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 0.0, -1.0]], Some(&[tilt.to_array(); 3]), &[0, 1, 2], grey);
+        let light = b.quad("lamp", [[-0.2, 2.0, -0.2], [0.2, 2.0, -0.2], [0.2, 2.0, 0.2], [-0.2, 2.0, 0.2]], lamp);
+        let scale = [k, 0.0, 0.0, 0.0, 0.0, k, 0.0, 0.0, 0.0, 0.0, k, 0.0, 0.0, 0.0, 0.0, 1.0];
+        b.node_matrix("tri", tri, scale);
+        b.node_matrix("lamp", light, scale);
+        let scene = load_json(&b.to_json_string(), &format!("tilted normals ×{k}"));
+        let settings = RenderSettings { mode: Mode::Pt, merge_blas, ..small(16, 16, 1) };
+        let ctx = context();
+        let gpu = upload(&ctx, &scene, &settings);
+        assert_eq!(gpu.merged_instances > 0, merge_blas > 0, "merged as asked");
+        let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+        let camera = restir_vpl::camera::Camera::look_at(glam::Vec3::new(0.0, 3.0, 0.5) * k, glam::Vec3::ZERO, glam::Vec3::Y, 0.6, "test");
+        let (_, captured) = r.render_frame_captured(&camera, false).unwrap();
+        let bytes = &captured.iter().find(|c| c.kind == CaptureKind::Surfaces).expect("the G-buffer is captured").bytes;
+        let hits: Vec<_> = restir_vpl::dump::decode_surfaces(bytes).into_iter().filter(|s| s.offset_scale > 0.0 && s.position[1].abs() < 1e-3 * k).collect();
+        assert!(hits.len() > 20, "×{k}: the triangle fills part of the view ({} hits)", hits.len());
+        for s in &hits {
+            let n = glam::Vec3::from(s.shading_normal);
+            assert!(n.dot(tilt) > 0.9999, "×{k}, merge {merge_blas}: shading normal {n} instead of the vertex normals' {tilt}");
+        }
+        common::assert_no_validation_errors(&ctx);
+    }
+}
+
 /// For a failure's message: the path tracer's image at scale k against scale 1 with paths cut at
 /// 1, 2, 3 bounces, so a device's failure says whether camera rays and their next-event rays
 /// already differ (1) or only later bounces do.

@@ -107,8 +107,8 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
         p2 = (m * vec4(p2, 1.0)).xyz;
     }
     Hit h;
-    h.position = b.x * p0 + b.y * p1 + b.z * p2;
     h.offset_scale = triangle_offset_scale(p0, p1, p2);
+    h.position = triangle_point(b, p0, p1, p2, h.offset_scale);
     vec3 ng = triangle_normal(p0, p1, p2);
     if ((flags & INSTANCE_MIRRORED) != 0u) {
         ng = -ng;
@@ -120,7 +120,11 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     }
     vec3 n_obj = b.x * v0.normal + b.y * v1.normal + b.z * v2.normal;
     vec3 ns = ng;
-    if (dot(n_obj, n_obj) > 1e-12) {
+    // Relative to the vertex normals' own lengths: a merged mesh's normals are scaled by the
+    // inverse of its nodes' scale (merge.rs keeps them so), and against an absolute 1e-12 a node
+    // scale from 1e6 on made every smooth surface flat.
+    float n_len = dot(v0.normal, v0.normal) + dot(v1.normal, v1.normal) + dot(v2.normal, v2.normal);
+    if (dot(n_obj, n_obj) > 1e-12 * n_len) {
         ns = n_obj;
         if (!identity) {
             ns = mat3(instance_matrix_texels(instances, inst, 1u)) * n_obj;

@@ -125,6 +125,38 @@ vec3 triangle_normal(vec3 p0, vec3 p1, vec3 p2) {
     return len > 0.0 ? n / len : vec3(0.0);
 }
 
+// `x` moved `n` ulps toward `to`, never past it: near the origin (|x| under `near`), where ulps
+// vanish, by `tiny` instead, as offset_ray switches there.
+float step_toward(float x, float to, int n, float near, float tiny) {
+    if (to == x) {
+        return x;
+    }
+    bool up = to > x;
+    float moved;
+    if (abs(x) < near) {
+        moved = x + (up ? tiny : -tiny);
+    } else {
+        // Away from 0 the bits of a float grow with its magnitude.
+        moved = intBitsToFloat(floatBitsToInt(x) + (((x > 0.0) == up) ? n : -n));
+    }
+    return up ? min(moved, to) : max(moved, to);
+}
+
+// The point of triangle (p0, p1, p2) at barycentrics b, on the triangle's side of each edge:
+// interpolated, it rounds to a few ulps off the triangle, and at an inside edge shared with
+// another wall (a room's corner, walls sharing their vertices) one ulp past that wall's plane,
+// where every ray leaving it (offset along its own normal only) started behind the wall: black
+// pixels along a room's edges. Clamped into the triangle's bounding box (exact for axis-aligned
+// walls) and moved 4 ulps toward its centroid on each axis (`scale`: triangle_offset_scale; near
+// the origin by scale / 2^26, 4 ulps at offset_ray's threshold of scale / 32).
+vec3 triangle_point(vec3 b, vec3 p0, vec3 p1, vec3 p2, float scale) {
+    vec3 p = clamp(b.x * p0 + b.y * p1 + b.z * p2, min(min(p0, p1), p2), max(max(p0, p1), p2));
+    vec3 c = (p0 + p1 + p2) * (1.0 / 3.0);
+    float near = scale * (1.0 / 32.0);
+    float tiny = scale * (1.0 / 67108864.0);
+    return vec3(step_toward(p.x, c.x, 4, near, tiny), step_toward(p.y, c.y, 4, near, tiny), step_toward(p.z, c.z, 4, near, tiny));
+}
+
 // Ray-origin offset against self-intersection (Waechter & Binder, Ray Tracing Gems, ch. 6):
 // moves p along n by a few ulps (far from the origin) or, near the origin where ulps vanish, by a
 // small amount. Their "near" and "small" (1/32 and 1/65536) are for triangles of unit size: here

@@ -233,7 +233,10 @@ impl OverRuns {
     pub fn standard_error(&self) -> Option<f64> {
         (self.n > 1).then(|| {
             let n = self.n as f64;
-            ((self.sum_sq - self.sum * self.sum / n).max(0.0) / (n - 1.0) / n).sqrt()
+            // NaN stays NaN (an infinite value among them): f64::max(NaN, 0) is 0, which printed
+            // "inf ± 0.0000".
+            let spread = self.sum_sq - self.sum * self.sum / n;
+            if spread.is_nan() { f64::NAN } else { (spread.max(0.0) / (n - 1.0) / n).sqrt() }
         })
     }
 }
@@ -1180,5 +1183,24 @@ mod tests {
         for (days, date) in cases {
             assert_eq!(civil_from_days(days), date, "day {days}");
         }
+    }
+
+    /// The standard error over runs: √(s² / n) with the n − 1 variance; an infinite value makes
+    /// it NaN, not 0 (it printed "inf ± 0.0000").
+    #[test]
+    fn the_standard_error_over_runs() {
+        let mut r = super::OverRuns::default();
+        for x in [1.0, 2.0, 4.0] {
+            r.add(x);
+        }
+        // Mean 7/3, s² = ((4/3)² + (1/3)² + (5/3)²) / 2 = 7/3.
+        assert!((r.standard_error().unwrap() - (7.0f64 / 3.0 / 3.0).sqrt()).abs() < 1e-12);
+        let mut inf = super::OverRuns::default();
+        inf.add(1.0);
+        inf.add(f64::INFINITY);
+        assert!(inf.standard_error().unwrap().is_nan());
+        let mut one = super::OverRuns::default();
+        one.add(1.0);
+        assert_eq!(one.standard_error(), None);
     }
 }
