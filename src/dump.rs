@@ -199,7 +199,7 @@ fn stats(file: String, buffer: &'static str, d: &Decoded, white: Option<f32>) ->
 /// A dumped frame: its manifest and the values its page embeds for the per-pixel readout.
 pub struct DumpedFrame {
     pub manifest: FrameManifest,
-    /// Every output's values but the false-colour ids, when the frame has a readout.
+    /// Every output's values (the ids behind a false-colour output), when the frame has a readout.
     pub values: Vec<PixelValues>,
     /// Why the frame has no readout (its size, or the page's budget spent by earlier frames).
     pub readout_off: Option<String>,
@@ -402,7 +402,8 @@ pub fn write_frame(
             bindings: desc.map(|d| d.bindings.iter().map(|b| b.name).collect()).unwrap_or_default(),
             gpu_ms: None,
             rays_per_pixel: None,
-            first_dispatch: status == "run" && log.pass_ms.get(name).is_none_or(|v| v.len() <= 1),
+            // (Only a pass's first dispatch in a frame compiles: restir_spatial's later ones do not.)
+            first_dispatch: status == "run" && repeat == 0 && log.pass_ms.get(name).is_none_or(|v| v.len() <= 1),
             outputs: Vec::new(),
         };
         // The time of dispatch `repeat` of this pass.
@@ -678,13 +679,14 @@ function readout(f,x,y){
   }
   return t;
 }
-// index.html#frame=F&x=X&y=Y: that frame's first output enlarged, with that pixel's readout.
+// index.html#frame=F&x=X&y=Y: that frame's first output enlarged, with that pixel's readout (all
+// three given as whole numbers, or nothing happens).
 {
-  const q=new URLSearchParams(location.hash.slice(1));
-  const f=FRAMES.find(f=>String(f.frame)===q.get('frame'));
+  const q=new URLSearchParams(location.hash.slice(1)), whole=k=>/^\d+$/.test(q.get(k)||'');
+  const f=whole('frame')&&whole('x')&&whole('y')?FRAMES.find(f=>String(f.frame)===q.get('frame')):null;
   const x=Number(q.get('x')), y=Number(q.get('y'));
-  const img=document.querySelector(`img[data-frame="${q.get('frame')}"]`);
-  if(f&&img&&Number.isInteger(x)&&Number.isInteger(y)&&x>=0&&y>=0&&x<f.w&&y<f.h){big(img); document.getElementById('readout').textContent=readout(f,x,y);}
+  const img=f&&document.querySelector(`img[data-frame="${f.frame}"]`);
+  if(img&&x<f.w&&y<f.h){big(img); document.getElementById('readout').textContent=readout(f,x,y);}
 }
 "#;
 

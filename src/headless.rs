@@ -121,13 +121,16 @@ pub fn snapshot_file(frame: u32) -> String {
 /// The frame of a `--save-every` snapshot's file name ([`snapshot_file`]), None for any other name.
 pub fn snapshot_frame(name: &str) -> Option<u32> {
     let digits = name.strip_prefix("accum_")?.strip_suffix(".exr")?;
-    (digits.len() >= 4 && digits.bytes().all(|b| b.is_ascii_digit())).then(|| digits.parse().ok()).flatten()
+    let frame: u32 = digits.bytes().all(|b| b.is_ascii_digit()).then(|| digits.parse().ok()).flatten()?;
+    // Exactly as the program names it (accum_00001.exr is not one).
+    (snapshot_file(frame) == name).then_some(frame)
 }
 
 /// Before a run with `--save-every`: removes an earlier run's snapshots from `dir` (a series that
 /// mixed two runs, accum_0003 and accum_0004 of a longer one beside this run's, misled a script
-/// reading them all), and refuses a directory in the place of a snapshot this run writes (found
-/// only when that frame was reached). Returns the files removed.
+/// reading them all): files named as the program names them that are OpenEXR files; anything else
+/// is left. Refuses a directory in the place of a snapshot this run writes (found only when that
+/// frame was reached). Returns the files removed.
 fn remove_earlier_snapshots(dir: &std::path::Path, settings: &RenderSettings) -> Result<usize> {
     let mut removed = 0;
     if settings.save_every == 0 {
@@ -141,6 +144,9 @@ fn remove_earlier_snapshots(dir: &std::path::Path, settings: &RenderSettings) ->
         if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir()) {
             let written = frame > 0 && frame <= settings.frames && frame % settings.save_every == 0;
             anyhow::ensure!(!written, "--out {}: {} is a directory, where --save-every writes frame {frame}'s snapshot", dir.display(), name.to_string_lossy());
+            continue;
+        }
+        if !crate::output::is_exr_file(&path) {
             continue;
         }
         std::fs::remove_file(&path).with_context(|| format!("--out {}: removing an earlier run's snapshot {}", dir.display(), path.display()))?;
@@ -231,10 +237,6 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         if settings.dump_passes.is_some() {
             crate::dump::check_dump_dir(&dir.join("passes"))?;
         }
-        let removed = remove_earlier_snapshots(dir, settings)?;
-        if removed > 0 {
-            log::info!("--out {}: removed {removed} --save-every snapshot(s) of an earlier run", dir.display());
-        }
     }
     // Read before the renderer's set-up (photons, pipelines), so that a bad file fails at once.
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
@@ -258,6 +260,13 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     let dump = settings.dump_passes_selection()?;
     if let (Some(_), Some(dir)) = (&dump, &settings.out_dir) {
         crate::dump::remove_earlier_dumps(&dir.join("passes"))?;
+    }
+    // After the set-up that can fail (the camera path, the renderer), before the first frame.
+    if let Some(dir) = &settings.out_dir {
+        let removed = remove_earlier_snapshots(dir, settings)?;
+        if removed > 0 {
+            log::warn!("--out {}: removed {removed} --save-every snapshot(s) of an earlier run", dir.display());
+        }
     }
     if let Some(path) = &settings.dump_vpls {
         let vpls = renderer.read_vpls()?.unwrap_or_default();

@@ -805,9 +805,9 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             restir_vpl::eval::scaling::write_csv(&csv, &points)?;
             let plots = restir_vpl::eval::scaling::write_plots(out, &points)?;
             ctx.ensure_clean()?;
-            println!("{}\n{}", md.display(), csv.display());
+            restir_vpl::outln!("{}\n{}", md.display(), csv.display());
             for p in plots {
-                println!("{}", p.display());
+                restir_vpl::outln!("{}", p.display());
             }
             return Ok(());
         }
@@ -826,7 +826,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let md = write_report(out, "radius.md", "The Yuksel radius as a trade-off (`bench --radius`)", &restir_vpl::eval::radius::markdown(&opts, &rows))?;
             let csv = out.join("radius.csv");
             restir_vpl::eval::radius::write_csv(&csv, &rows)?;
-            println!("{}\n{}", md.display(), csv.display());
+            restir_vpl::outln!("{}\n{}", md.display(), csv.display());
             return Ok(());
         }
         if *motion {
@@ -843,9 +843,9 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             ctx.ensure_clean_report()?;
             let files = restir_vpl::eval::motion::write_outputs(out, &points)?;
             let md = write_report(out, "motion.md", "Moving camera: error of every displayed frame", &restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots))?;
-            println!("{}\n{}", md.display(), files.csv.display());
+            restir_vpl::outln!("{}\n{}", md.display(), files.csv.display());
             for p in &files.plots {
-                println!("{}", p.display());
+                restir_vpl::outln!("{}", p.display());
             }
             return Ok(());
         }
@@ -892,7 +892,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 rows.push(restir_vpl::eval::rays::measure(&ctx, &spec.path, w, h, *frames, *frames)?);
             }
             ctx.ensure_clean()?;
-            print!("{}", restir_vpl::eval::rays::markdown(&rows, &ctx.report.name));
+            restir_vpl::out!("{}", restir_vpl::eval::rays::markdown(&rows, &ctx.report.name));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
                     .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
@@ -901,7 +901,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         }
         if *workgroups {
             let rows = restir_vpl::eval::bench::workgroups(scene, width.unwrap_or(1280), height.unwrap_or(720), *frames, *device)?;
-            print!("{}", restir_vpl::eval::bench::workgroups_markdown(&rows));
+            restir_vpl::out!("{}", restir_vpl::eval::bench::workgroups_markdown(&rows));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
                     .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
@@ -943,7 +943,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 let rows: Vec<_> = sections.iter().flat_map(|s| s.rows.iter()).collect();
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?).map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
             }
-            println!("{}", md.display());
+            restir_vpl::outln!("{}", md.display());
             return Ok(());
         }
         if *modes {
@@ -953,7 +953,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 vec![(1280, 720), (1280, 1280)]
             };
             let rows = restir_vpl::eval::bench::modes(scene, &sizes, 100_000, 100_000, *frames, *device, *moving, *fusion, *grid)?;
-            print!("{}", restir_vpl::eval::bench::modes_markdown(&rows));
+            restir_vpl::out!("{}", restir_vpl::eval::bench::modes_markdown(&rows));
             if let Some(path) = json {
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?)
                     .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
@@ -965,11 +965,11 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let runs = *frames;
             let loaded = restir_vpl::scene::Scene::load(scene)?;
             let dense = restir_vpl::eval::bench::dense_scene(160, 320)?;
-            println!("| scene | triangles | VPLs (direct + indirect) | photon paths | closest-hit rays | GPU ms (median of {runs}) | M paths/s | M rays/s (path batches' time) |");
-            println!("|---|---:|---:|---:|---:|---:|---:|---:|");
+            restir_vpl::outln!("| scene | triangles | VPLs (direct + indirect) | photon paths | closest-hit rays | GPU ms (median of {runs}) | M paths/s | M rays/s (path batches' time) |");
+            restir_vpl::outln!("|---|---:|---:|---:|---:|---:|---:|---:|");
             for (s, label) in [(&loaded, scene.display().to_string()), (&dense, "generated bumpy sphere in a room".to_string())] {
                 let b = restir_vpl::eval::bench::photons(s, &label, 100_000, 100_000, runs, *device)?;
-                println!(
+                restir_vpl::outln!(
                     "| {} | {} | {} + {} | {} | {} | {:.1} | {:.2} | {:.2} |",
                     b.scene,
                     b.triangles,
@@ -985,7 +985,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             return Ok(());
         }
         let report = restir_vpl::eval::bench::core(scene, width.unwrap_or(512), height.unwrap_or(512), *frames, *device)?;
-        print!("{}", report.markdown());
+        restir_vpl::out!("{}", report.markdown());
         if let Some(path) = json {
             std::fs::write(path, serde_json::to_string_pretty(&report)?)
                 .map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
@@ -995,10 +995,10 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     if cli.list_devices {
         let devices = restir_vpl::vk::context::list_devices(cli.render.trace.and_then(TraceArg::tracing))?;
         if devices.is_empty() {
-            println!("no Vulkan devices found (is a Vulkan driver installed? run scripts/setup.sh)");
+            restir_vpl::outln!("no Vulkan devices found (is a Vulkan driver installed? run scripts/setup.sh)");
         }
         for d in devices {
-            println!("{d}");
+            restir_vpl::outln!("{d}");
         }
         return Ok(());
     }
@@ -1035,15 +1035,15 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     };
     let s = &summary;
     let settings = &s.settings;
-    println!("device: {}", s.device);
+    restir_vpl::outln!("device: {}", s.device);
     let plural = |n: usize, one: &str| if n == 1 { format!("1 {one}") } else { format!("{n} {one}s") };
     let triangles = s.scene.area_lights - s.scene.point_lights;
     let lights = match s.scene.point_lights {
         0 => plural(triangles, "emissive triangle"),
         points => format!("{} and {}", plural(triangles, "emissive triangle"), plural(points, "point light")),
     };
-    println!("scene: {} ({} triangles; lights: {lights})", s.scene.path, s.scene.triangles);
-    println!(
+    restir_vpl::outln!("scene: {} ({} triangles; lights: {lights})", s.scene.path, s.scene.triangles);
+    restir_vpl::outln!(
         "{} of {}x{} ({}), {:.2} rays/pixel/frame",
         plural(s.frames as usize, "frame"),
         settings.width,
@@ -1053,7 +1053,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     );
     if s.accumulated_frames < s.frames {
         // (summary.json said so; the printout read as if final.exr averaged every frame.)
-        println!(
+        restir_vpl::outln!(
             "final image: {} (the accumulation starts again when the camera or a setting changes, and every frame with --progressive off)",
             match s.accumulated_frames {
                 1 => "the last frame alone".to_string(),
@@ -1062,7 +1062,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         );
     }
     if let Some(p) = &s.photons {
-        println!(
+        restir_vpl::outln!(
             "photon_emit (once, static scene): {:.2} GPU ms, {} paths ({:.2} M paths/s), {} closest-hit rays, {} direct + {} indirect VPLs",
             p.gpu_ms,
             p.paths,
@@ -1073,7 +1073,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         );
     }
     if let Some(v) = &s.vpl {
-        println!(
+        restir_vpl::outln!(
             "vpl: {} VPLs, {} candidate(s) ({} source{}{}), Yuksel r = {}{}{}",
             v.vpl_count,
             v.candidates,
@@ -1100,7 +1100,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             v.spatial_radius_px.map(|r| format!(", spatial radius {r:.1} px")).unwrap_or_default()
         );
         if let (Some([c, n]), m @ 1..) = (v.moving_sampling, v.moving_frames) {
-            println!(
+            restir_vpl::outln!(
                 "  {m} frame(s) displayed alone with temporal history ran with {c} candidates and {n} neighbours, {} and {} for a pixel without history (--moving-candidates, --moving-neighbours)",
                 settings.candidates, settings.restir.spatial_neighbours
             );
@@ -1108,29 +1108,29 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     }
     // A pass's first dispatch apart: lavapipe compiles a shader when it is first dispatched (from
     // its disk cache after the first run), which once made a pass that ran once read 998 ms for 2.
-    println!("GPU ms per pass: first dispatch (with a cold shader cache, lavapipe compiles the shader in it), then median / min / max of the later ones; rays per pixel per frame (mean):");
+    restir_vpl::outln!("GPU ms per pass: first dispatch (with a cold shader cache, lavapipe compiles the shader in it), then median / min / max of the later ones; rays per pixel per frame (mean):");
     for (name, t) in &s.pass_ms_after_first {
         let first = s.pass_first_ms.get(name).copied().unwrap_or(f64::NAN);
         let rays = s.rays_per_pixel_by_pass.get(name).map(|r| format!("{:>8.2} rays/px", r.mean)).unwrap_or_default();
         let later = if t.count > 0 { format!("{:>9.2} {:>9.2} {:>9.2}", t.median, t.min, t.max) } else { format!("{:>29}", "(ran once)") };
-        println!("  {name:<24} {first:>9.2} {later} {rays}");
+        restir_vpl::outln!("  {name:<24} {first:>9.2} {later} {rays}");
     }
-    println!(
+    restir_vpl::outln!(
         "ms per frame: {:.2} GPU, {:.2} wall (median); the first frame {:.2} GPU; total {:.2} s",
         s.gpu_ms_per_frame.median, s.wall_ms_per_frame.median, s.gpu_ms_first_frame, s.total_seconds
     );
     if s.nonfinite_samples > 0 {
-        println!("non-finite samples replaced by 0: {}", s.nonfinite_samples);
+        restir_vpl::outln!("non-finite samples replaced by 0: {}", s.nonfinite_samples);
     }
     for w in &s.warnings {
-        println!("warning: {w}");
+        restir_vpl::outln!("warning: {w}");
     }
-    println!("outputs:");
+    restir_vpl::outln!("outputs:");
     for o in &s.outputs {
-        println!("  {o}");
+        restir_vpl::outln!("  {o}");
     }
     if let Some(dir) = &settings.out_dir {
-        println!("  {}", dir.join("summary.json").display());
+        restir_vpl::outln!("  {}", dir.join("summary.json").display());
     }
     // Asked for (--validate), the layer's errors fail the run, after the outputs are written, and
     // so do non-finite samples (a shader bug that the accumulation hides by writing 0).
@@ -1167,13 +1167,13 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
     eprintln!();
     ctx.ensure_clean_report().map_err(|e| anyhow::anyhow!("{}: written, but {e:#}", out.display()))?;
     let meta = &made.meta;
-    println!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
-    println!("frames: {}", meta.describe_frames());
+    restir_vpl::outln!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
+    restir_vpl::outln!("frames: {}", meta.describe_frames());
     if let Some(mse) = meta.noise_mse {
-        println!("estimated noise RMSE of the reference (sqrt(mean variance / frames)): {:.3e}", mse.sqrt());
+        restir_vpl::outln!("estimated noise RMSE of the reference (sqrt(mean variance / frames)): {:.3e}", mse.sqrt());
     }
     if let Some((frames, gpu_ms, wall_ms)) = made.rendered {
-        println!("this run: {frames} frames in {:.1} s wall, {:.1} s GPU", wall_ms * 1e-3, gpu_ms * 1e-3);
+        restir_vpl::outln!("this run: {frames} frames in {:.1} s wall, {:.1} s GPU", wall_ms * 1e-3, gpu_ms * 1e-3);
     }
     Ok(())
 }
@@ -1245,12 +1245,13 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
         ..Default::default()
     })?);
     let out = restir_vpl::eval::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
-    ctx.ensure_clean_report()?;
-    println!("{}", out.markdown.display());
-    println!("{}", out.csv.display());
-    println!("{}", out.frame_times_csv.display());
+    // (results::run has written its files by now.)
+    ctx.ensure_clean_report().map_err(|e| anyhow::anyhow!("{}: written, but {e:#}", out.markdown.display()))?;
+    restir_vpl::outln!("{}", out.markdown.display());
+    restir_vpl::outln!("{}", out.csv.display());
+    restir_vpl::outln!("{}", out.frame_times_csv.display());
     for p in &out.plots {
-        println!("{}", p.display());
+        restir_vpl::outln!("{}", p.display());
     }
     Ok(())
 }
@@ -1348,13 +1349,6 @@ fn join_signed_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> 
 }
 
 fn main() -> ExitCode {
-    // A closed stdout (`| head -1`, `| true`) ends the process quietly, as it does any Unix tool;
-    // Rust's runtime ignores SIGPIPE, so println! panicked there (exit 101, after the outputs).
-    #[cfg(unix)]
-    // SAFETY: restoring a signal's default disposition at start, before any thread exists.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
     let matches = Cli::command().get_matches_from(join_signed_values(std::env::args_os().collect()));
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let given = given_render_flags(&matches);

@@ -4,6 +4,42 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result};
 
+/// Writes `args` to stdout (what [`outln!`](crate::outln) and [`out!`](crate::out) print). A
+/// closed stdout (`| head -1`) ends the process quietly with the status a death by SIGPIPE gives
+/// (141): `println!` panicked there (Rust ignores SIGPIPE, so the write fails with EPIPE), and
+/// restoring SIGPIPE's default would also kill the process on any other broken pipe, an output
+/// FIFO's, with no message and its temporary files left behind.
+pub fn stdout_write(args: std::fmt::Arguments) {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    if let Err(e) = out.write_fmt(args).and_then(|()| out.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(141);
+        }
+        eprintln!("error: writing to stdout: {e}");
+        std::process::exit(1);
+    }
+}
+
+/// `println!` through [`stdout_write`].
+#[macro_export]
+macro_rules! outln {
+    () => {
+        $crate::output::stdout_write(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::output::stdout_write(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `print!` through [`stdout_write`].
+#[macro_export]
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::output::stdout_write(format_args!($($arg)*))
+    };
+}
+
 /// Writes `path` through `write`, which is handed a hidden sibling (`.NAME.PID.N.partial`, N counting
 /// the writes of this process, so that threads writing one file at once, as the contexts of a test
 /// binary saving the pipeline cache, each have their own) to fill;
@@ -217,6 +253,15 @@ pub fn check_writable(path: &Path) -> Result<()> {
         "{} ends in a path separator, so it names a directory; name a file",
         path.display()
     );
+    // ("d/." and "d/.." do not end in a separator and name no file either; components() drops
+    // a trailing ".", so the bytes are looked at.)
+    let bytes = path.as_os_str().as_encoded_bytes();
+    let dot = [std::path::MAIN_SEPARATOR as u8, b'.'];
+    anyhow::ensure!(
+        bytes != b"." && !bytes.ends_with(&dot) && matches!(path.components().next_back(), Some(std::path::Component::Normal(_))),
+        "{} names no file (it ends in `.` or `..`); name a file",
+        path.display()
+    );
     anyhow::ensure!(!path.is_dir(), "{} is a directory; name a file", path.display());
     // Checked where write_replacing writes: through a symbolic link (a dangling one included).
     let named = path;
@@ -297,6 +342,14 @@ pub struct RgbImage {
 
 /// The first four bytes of every OpenEXR file (20000630 as a little-endian u32).
 const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+
+/// Whether `path` is a regular file that starts with OpenEXR's magic number.
+pub fn is_exr_file(path: &Path) -> bool {
+    let mut magic = [0u8; 4];
+    std::fs::metadata(path).is_ok_and(|m| m.is_file())
+        && std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic)).is_ok()
+        && magic == EXR_MAGIC
+}
 
 /// Reads the first RGB(A) layer of an EXR file as float32, row 0 at the top.
 pub fn read_exr(path: &Path) -> Result<RgbImage> {
@@ -598,6 +651,10 @@ mod tests {
         let slash = PathBuf::from(format!("{}/d/", dir.path().display()));
         let e = format!("{:#}", check_writable(&slash).unwrap_err());
         assert!(e.contains("/d/") && e.contains("names a directory"), "{e}");
+        for odd in ["d/.", "d/.."] {
+            let e = format!("{:#}", check_writable(&dir.path().join(odd)).unwrap_err());
+            assert!(e.contains("names no file"), "{odd}: {e}");
+        }
         let link = dir.path().join("final.exr");
         std::os::unix::fs::symlink("/nonexistent-restir-vpl-dir/final.exr", &link).unwrap();
         let e = format!("{:#}", check_writable(&link).unwrap_err());

@@ -1311,7 +1311,8 @@ impl Renderer {
         let set = LightSet::new(&self.scene.emitters, &extra);
         // The loader's limit, checked again: each spawned light adds a quarter of the scene's
         // power (past the limit the 32-bit fluxes overflow and the image goes black).
-        let most = set.total_power.iter().copied().fold(0.0, f64::max);
+        // (A NaN channel counts: f64::max would pass over it.)
+        let most = set.total_power.iter().copied().fold(0.0, |m: f64, p| if p.is_nan() { f64::NAN } else { m.max(p) });
         anyhow::ensure!(
             most.is_finite() && most <= crate::scene::MAX_LIGHT_POWER,
             "the lights would emit {most:.3e} W together, more than the {:.0e} W the renderer's 32-bit fluxes hold",

@@ -133,14 +133,23 @@ fn save_every_replaces_an_earlier_runs_snapshots() {
     let o = run(&args("3").iter().map(String::as_str).collect::<Vec<_>>());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.path().join("accum_0003.exr").is_file());
-    std::fs::write(dir.path().join("accum_0007.exr"), b"not ours either").unwrap();
+    // Only files named as the program names them and holding an EXR go: a user's text file under
+    // a snapshot's name stays, as do names the program never writes.
+    std::fs::write(dir.path().join("accum_0007.exr"), b"not ours").unwrap();
+    std::fs::copy(dir.path().join("accum_0003.exr"), dir.path().join("accum_00001.exr")).unwrap();
     std::fs::write(dir.path().join("accum_.exr"), b"not a snapshot name").unwrap();
     let o = run(&args("2").iter().map(String::as_str).collect::<Vec<_>>());
     assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("removed 3 --save-every snapshot(s)"), "{}", stderr(&o));
     let mut names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     names.sort();
-    assert_eq!(names, ["accum_.exr", "accum_0001.exr", "accum_0002.exr", "final.exr", "final.png", "summary.json"]);
-    std::fs::create_dir(dir.path().join("accum_0002.exr.d")).unwrap();
+    assert_eq!(names, ["accum_.exr", "accum_00001.exr", "accum_0001.exr", "accum_0002.exr", "accum_0007.exr", "final.exr", "final.png", "summary.json"]);
+    // A run that fails in its set-up (a bad camera path) removes nothing.
+    let bad_path = dir.path().join("bad.path.json");
+    std::fs::write(&bad_path, b"{ not json").unwrap();
+    let o = run(&[args("2").iter().map(String::as_str).collect::<Vec<_>>(), vec!["--camera-path", bad_path.to_str().unwrap()]].concat());
+    assert!(!o.status.success() && dir.path().join("accum_0002.exr").is_file(), "{}", stderr(&o));
+    std::fs::remove_file(&bad_path).unwrap();
     std::fs::remove_file(dir.path().join("accum_0002.exr")).unwrap();
     std::fs::create_dir(dir.path().join("accum_0002.exr")).unwrap();
     let o = run(&args("2").iter().map(String::as_str).collect::<Vec<_>>());
@@ -1124,5 +1133,26 @@ fn readme_command_lines_name_only_flags_the_program_has() {
             });
             assert!(whole, "`restir-vpl {} --help` lists {f}, which README never mentions", command.unwrap_or(""));
         }
+    }
+}
+
+/// A closed stdout (`restir-vpl … | head -1`) ends the run quietly with SIGPIPE's status, 141,
+/// after its outputs are written: println! panicked there (exit 101, "failed printing to
+/// stdout"), and a full stdout (/dev/full) is an error naming it.
+#[test]
+fn a_closed_stdout_ends_the_run_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = ["--headless", "--mode", "uniform", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "50", "--vpls-indirect", "50", "--out", dir.path().to_str().unwrap()];
+    let mut child = bin().args(args).stdout(std::process::Stdio::piped()).stderr(std::process::Stdio::piped()).spawn().unwrap();
+    drop(child.stdout.take()); // the reader goes away before anything is printed
+    let o = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(141), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(dir.path().join("summary.json").is_file(), "the outputs come first");
+    if Path::new("/dev/full").exists() {
+        let o = bin().args(args).stdout(std::fs::File::create("/dev/full").unwrap()).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.code() == Some(1) && err.contains("writing to stdout"), "{err}");
     }
 }

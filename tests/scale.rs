@@ -263,7 +263,11 @@ fn a_large_ground_quad_keeps_its_contact_shadows() {
 /// lit surface here, so none may be black, in the path tracer and in a VPL mode.
 #[test]
 fn a_rooms_inside_edges_are_not_black() {
-    for side in [0.5592f32, 55.92] {
+    // Axis-aligned at two sizes, and turned (30° about y, 20° about x): there 60 pixels were black,
+    // and a step of each axis by its own ulps moved as many edge points behind the other wall as
+    // it saved.
+    let turned = glam::Mat4::from_rotation_y(30f32.to_radians()) * glam::Mat4::from_rotation_x(20f32.to_radians());
+    for (side, turn) in [(0.5592f32, glam::Mat4::IDENTITY), (55.92, glam::Mat4::IDENTITY), (0.5592, turned)] {
         let mut b = GltfBuilder::new();
         let white = b.material("white", [0.75; 3], [0.0; 3], false);
         let lamp = b.material("lamp", [0.5; 3], [10.0; 3], false);
@@ -277,17 +281,19 @@ fn a_rooms_inside_edges_are_not_black() {
             [[l, 0.0, 0.0], [l, 0.0, l], [l, l, l], [l, l, 0.0]],
         ];
         let room = b.quads("room", &walls, white);
-        b.node("room", room, [0.0; 3]);
+        b.node_matrix("room", room, turn.to_cols_array());
         let (c, h) = (0.5 * l, 0.1 * l);
         let light = b.quad("lamp", [[c - h, 0.99 * l, c - h], [c + h, 0.99 * l, c - h], [c + h, 0.99 * l, c + h], [c - h, 0.99 * l, c + h]], lamp);
-        b.node("lamp", light, [0.0; 3]);
+        b.node_matrix("lamp", light, turn.to_cols_array());
         let scene = load_json(&b.to_json_string(), &format!("room of side {side}"));
-        let camera = restir_vpl::camera::Camera::look_at(glam::Vec3::new(c, c, 0.02 * l), glam::Vec3::new(c, c, l), glam::Vec3::Y, 1.6, "test");
+        let at = |p: glam::Vec3| turn.transform_point3(p);
+        let camera = restir_vpl::camera::Camera::look_at(at(glam::Vec3::new(c, c, 0.02 * l)), at(glam::Vec3::new(c, c, l)), turn.transform_vector3(glam::Vec3::Y), 1.6, "test");
         for mode in [Mode::Pt, Mode::Ris] {
             let base = RenderSettings { mode, vpls_direct: 2_000, vpls_indirect: 2_000, ..small(128, 128, 8) };
-            let img = render_mean(&scene, &camera, &base, &format!("room of side {side}, {}", mode.name()));
+            let what = format!("room of side {side}{}, {}", if turn == glam::Mat4::IDENTITY { "" } else { " turned" }, mode.name());
+            let img = render_mean(&scene, &camera, &base, &what);
             let black: Vec<(u32, u32)> = (0..128 * 128u32).filter(|&i| img.pixels[i as usize] == [0.0; 3]).map(|i| (i % 128, i / 128)).collect();
-            assert!(black.is_empty(), "room of side {side}, {}: {} black pixel(s), e.g. {:?}", mode.name(), black.len(), &black[..black.len().min(8)]);
+            assert!(black.is_empty(), "{what}: {} black pixel(s), e.g. {:?}", black.len(), &black[..black.len().min(8)]);
         }
     }
 }

@@ -36,7 +36,8 @@ vec3 next_event(vec3 x, vec3 ng, vec3 ns, float x_scale, vec3 rho, float residua
         vec3 wi = to_light * inversesqrt(max(d2, 1e-30));
         float cos_x = dot(ns, wi);
         float weight = residual_r2 < 0.0 ? 1.0 : yuksel_residual(d2, residual_r2);
-        if (cos_x > 0.0 && dot(ng, wi) > 0.0 && d2 > 0.0 && weight > 0.0) {
+        // (d2 × pdf underflowing to 0 made the sample infinite.)
+        if (cos_x > 0.0 && dot(ng, wi) > 0.0 && d2 * l.pdf > 0.0 && weight > 0.0) {
             rays += 1u;
             if (segment_visible(offset_ray(x, ng, x_scale), l.p0)) {
                 return lambert_brdf(rho) * l.emission * (weight * cos_x / (d2 * l.pdf));
@@ -61,9 +62,12 @@ vec3 next_event(vec3 x, vec3 ng, vec3 ns, float x_scale, vec3 rho, float residua
         float pdf_light = (l.pdf / l.area) * d2 / cos_l;
         float w = power_heuristic(pdf_light, lambert_pdf(cos_x));
         vec3 nl_toward_x = cos_l_signed > 0.0 ? nl : -nl;
-        rays += 1u;
-        if (segment_visible(offset_ray(x, ng, x_scale), offset_ray(y, nl_toward_x, triangle_offset_scale(l.p0, l.p1, l.p2)))) {
-            return lambert_brdf(rho) * l.emission * (weight * cos_x * w / pdf_light);
+        // (A selection pdf that underflowed to 0 made w / pdf_light 0 / 0.)
+        if (pdf_light > 0.0) {
+            rays += 1u;
+            if (segment_visible(offset_ray(x, ng, x_scale), offset_ray(y, nl_toward_x, triangle_offset_scale(l.p0, l.p1, l.p2)))) {
+                return lambert_brdf(rho) * l.emission * (weight * cos_x * w / pdf_light);
+            }
         }
     }
     return vec3(0.0);

@@ -396,12 +396,12 @@ pub fn run_cli(
     let (cmp, map) = compare_with_error_map(&a, &b, &CompareOptions { flip: need_map, ..*opts })
         .with_context(|| format!("comparing {} with {}", a_path.display(), b_path.display()))?;
     let cmp = if opts.flip { cmp } else { Comparison { flip: None, ..cmp } };
-    println!("test       {}", a_path.display());
-    println!("reference  {}", b_path.display());
-    print!("{}", table(&cmp));
+    crate::outln!("test       {}", a_path.display());
+    crate::outln!("reference  {}", b_path.display());
+    crate::out!("{}", table(&cmp));
     if let (Some(path), Some(map)) = (error_image, &map) {
         write_error_image(path, cmp.width, cmp.height, map).with_context(|| format!("--error-image {}", path.display()))?;
-        println!("FLIP error image: {}", path.display());
+        crate::outln!("FLIP error image: {}", path.display());
     }
     if let Some(path) = json {
         let mut comparison = serde_json::to_value(&cmp)?;

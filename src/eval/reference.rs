@@ -356,9 +356,9 @@ pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path, overwrite: bool)
     crate::output::prepare_output_file(out).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
     write_reference(out, &img, &meta).map_err(|e| anyhow::anyhow!("--out {}: {e:#}", out.display()))?;
     for (p, (_, m)) in inputs.iter().zip(&parts) {
-        println!("  {}: {}", p.display(), m.describe_frames());
+        crate::outln!("  {}: {}", p.display(), m.describe_frames());
     }
-    println!(
+    crate::outln!(
         "merged {} reference{} into {}: {}{}",
         inputs.len(),
         if inputs.len() == 1 { "" } else { "s" },

@@ -676,8 +676,8 @@ fn results_markdown(
     let _ = writeln!(s, "|---|---:|---:|---:|---|---:|");
     for b in model_bias {
         let verdict = match b.noise_rmse {
-            // Identical images (MSE 0 and its standard error 0) made z NaN, printed as such.
-            Some(_) if b.mse_se <= 0.0 => "not resolved (the images agree exactly: no spread to measure against)".into(),
+            // Identical images (an RMSE of 0) made z NaN, printed as such.
+            Some(_) if b.rmse == 0.0 => "not resolved (the images agree exactly)".into(),
             Some(n) => {
                 let excess = b.rmse * b.rmse - n * n;
                 let z = excess / b.mse_se;

@@ -100,8 +100,8 @@ impl BatchPlan {
     /// later ones aim at the remaining VPLs from the mean per path so far, with 1 % + min(256,
     /// 4 √remaining) to spare (about 3–4 standard deviations of the VPLs that many paths make, so
     /// one more batch is rarely needed and a small target is not overshot ten times over), and
-    /// no more than a quarter past the target were the mean two standard errors higher (a mean
-    /// from few paths can be far off), and keep that expectation within 1/1.2 of the room left. A batch that overflows anyway (a mean from few paths can be far off) is traced again
+    /// no more than a quarter past the target were the mean two standard errors higher, and keep
+    /// that expectation within 1/1.2 of the room left. A batch that overflows anyway (a mean from few paths can be far off) is traced again
     /// at half its size by [`Self::run`].
     pub fn batch_size(&self, count: u32, paths: u64) -> u32 {
         let room = self.capacity.saturating_sub(count) as f64;

@@ -13,7 +13,8 @@ pub fn encode(data: &[u8]) -> String {
 /// Decodes base64 text; padding is optional, ASCII whitespace is skipped, and a text written in
 /// the URL-safe alphabet (`-` and `_`) is read in it.
 pub fn decode(text: &str) -> Result<Vec<u8>, String> {
-    let config = GeneralPurposeConfig::new().with_decode_padding_mode(DecodePaddingMode::Indifferent);
+    // (Trailing bits that are not zero, "TWF=", were taken by the hand-written decoder before.)
+    let config = GeneralPurposeConfig::new().with_decode_padding_mode(DecodePaddingMode::Indifferent).with_decode_allow_trailing_bits(true);
     let url_safe = text.bytes().any(|c| c == b'-' || c == b'_');
     let engine = GeneralPurpose::new(if url_safe { &alphabet::URL_SAFE } else { &alphabet::STANDARD }, config);
     let decoded = if text.bytes().any(|c| c.is_ascii_whitespace()) {

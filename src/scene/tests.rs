@@ -1195,6 +1195,7 @@ fn base64_round_trip() {
     assert_eq!(base64::decode("TWE").unwrap(), b"Ma");
     assert_eq!(base64::decode("TW\nFu").unwrap(), b"Man");
     assert_eq!(base64::decode("-_8=").unwrap(), base64::decode("+/8=").unwrap());
+    assert_eq!(base64::decode("TWF=").unwrap(), b"Ma", "non-zero trailing bits");
 }
 
 #[test]

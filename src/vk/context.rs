@@ -554,11 +554,13 @@ impl Context {
         let gpu_timeout = gpu_timeout_from_env()?;
         let entry = load_entry()?;
         let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate, opts.window.as_ref())?;
+        // Declared before `unwind`, so dropped after it: the messenger that `unwind` destroys
+        // reads it as its user data until then.
+        let validation = Arc::new(ValidationCounter::default());
         // Destroys what is made below if a step fails (every `?` from here leaked the instance,
         // and after vkCreateDevice the device too); disarmed once the context owns them.
         let mut unwind = Unwind::default();
         unwind.instance = Some(instance.clone());
-        let validation = Arc::new(ValidationCounter::default());
         let debug_instance = if has_debug_utils {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
