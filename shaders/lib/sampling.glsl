@@ -140,6 +140,7 @@ const float EDGE_MARGIN = 1.0 / 131072.0;
 // the wall: black pixels along a room's edges, axis-aligned or turned. Each barycentric is raised
 // to the one that puts the point that far from the opposite edge (then renormalised), so only
 // points that close to an edge move, across it: a large triangle's interior stays where it was.
+// (The G-buffer's position moves with them: a plane's reprojection is exact to the margin.)
 vec3 triangle_point(vec3 b, vec3 p0, vec3 p1, vec3 p2, float scale) {
     // In units of `scale`, whose squares cannot overflow.
     vec3 q0 = p0 / scale, q1 = p1 / scale, q2 = p2 / scale;
