@@ -90,6 +90,9 @@ pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
             vec![
                 Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| s.position).collect()) },
                 Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()) },
+                // Beside the shading normal: where the two part, interpolated vertex normals are
+                // at work (or went wrong: a smooth surface shaded flat has them equal).
+                Decoded { what: "geometric_normal", look: "signed", image: img(s.iter().map(|s| s.geometric_normal).collect()) },
                 Decoded { what: "albedo", look: "hdr", image: img(s.iter().map(|s| s.albedo).collect()) },
                 Decoded { what: "emission", look: "hdr", image: img(s.iter().map(|s| s.emission).collect()) },
                 Decoded { what: "depth", look: "grey", image: img(s.iter().map(|s| [s.view_depth; 3]).collect()) },
