@@ -86,7 +86,10 @@ pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
     match c.kind {
         CaptureKind::Surfaces => {
             let s: Vec<GpuSurface> = decode_surfaces(&c.bytes[..n * std::mem::size_of::<GpuSurfaceTexels>()]);
-            let ids = |s: &GpuSurface| if s.offset_scale < 0.0 { [0.0; 3] } else { hash_colour(s.instance.wrapping_mul(65_599) ^ s.triangle) };
+            let ids = |s: &GpuSurface| match surface_ids(s) {
+                [RESERVOIR_EMPTY, _] => [0.0; 3],
+                [instance, triangle] => hash_colour(instance.wrapping_mul(65_599) ^ triangle),
+            };
             vec![
                 Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| s.position).collect()) },
                 Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()) },
@@ -220,12 +223,18 @@ pub struct PixelValues {
     pub words: Vec<u32>,
 }
 
+/// A G-buffer record's (instance, triangle), both u32::MAX (RESERVOIR_EMPTY, a reservoir's "none"
+/// too) for a miss.
+fn surface_ids(s: &GpuSurface) -> [u32; 2] {
+    if s.offset_scale < 0.0 { [RESERVOIR_EMPTY; 2] } else { [s.instance, s.triangle] }
+}
+
 /// The ids behind an `ids` output of capture `c`: (channels, words), u32::MAX where there is none.
 fn raw_ids(c: &Captured, pixels: usize) -> Option<(usize, Vec<u32>)> {
     match c.kind {
         CaptureKind::Surfaces => {
             let s = decode_surfaces(&c.bytes[..pixels * std::mem::size_of::<GpuSurfaceTexels>()]);
-            Some((2, s.iter().flat_map(|s| if s.offset_scale < 0.0 { [u32::MAX; 2] } else { [s.instance, s.triangle] }).collect()))
+            Some((2, s.iter().flat_map(surface_ids).collect()))
         }
         CaptureKind::Reservoirs => {
             let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..pixels * std::mem::size_of::<GpuReservoir>()]);
@@ -663,7 +672,7 @@ document.getElementById('zimg').addEventListener('mousemove',e=>{
   document.getElementById('readout').textContent=readout(f,x,y);
 });
 // Each output's values (float32, or u32 ids), decoded from base64 on first use.
-function floats(v){
+function words(v){
   if(!v.f){const s=atob(v.b), u=new Uint8Array(s.length); for(let i=0;i<s.length;i++)u[i]=s.charCodeAt(i); v.f=v.i?new Uint32Array(u.buffer):new Float32Array(u.buffer);}
   return v.f;
 }
@@ -676,7 +685,7 @@ function readout(f,x,y){
   const files=Object.keys(f.values);
   if(!files.length){t+='(no readout for this frame: see the note under its title)';}
   for(const k of files){
-    const v=f.values[k], a=floats(v), i=(y*f.w+x)*v.c;
+    const v=f.values[k], a=words(v), i=(y*f.w+x)*v.c;
     const s=Array.from(a.subarray(i,i+v.c),c=>show(v,c));
     t+=`${k}: ${s.join(', ')}\n`;
   }

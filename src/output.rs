@@ -248,14 +248,14 @@ pub fn prepare_output_file(path: &Path) -> Result<()> {
 pub fn check_writable(path: &Path) -> Result<()> {
     // "d/" would pass the probe below (made beside "d", in the working directory) and fail at the
     // rename, after the render.
+    let bytes = path.as_os_str().as_encoded_bytes();
     anyhow::ensure!(
-        !path.as_os_str().as_encoded_bytes().ends_with(std::path::MAIN_SEPARATOR_STR.as_bytes()),
+        !bytes.ends_with(std::path::MAIN_SEPARATOR_STR.as_bytes()),
         "{} ends in a path separator, so it names a directory; name a file",
         path.display()
     );
     // ("d/." and "d/.." do not end in a separator and name no file either; components() drops
     // a trailing ".", so the bytes are looked at.)
-    let bytes = path.as_os_str().as_encoded_bytes();
     let dot = [std::path::MAIN_SEPARATOR as u8, b'.'];
     anyhow::ensure!(
         bytes != b"." && !bytes.ends_with(&dot) && matches!(path.components().next_back(), Some(std::path::Component::Normal(_))),
@@ -345,10 +345,14 @@ const EXR_MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
 
 /// Whether `path` is a regular file that starts with OpenEXR's magic number.
 pub fn is_exr_file(path: &Path) -> bool {
+    std::fs::metadata(path).is_ok_and(|m| m.is_file()) && first_four_bytes(path).is_ok_and(|m| m == EXR_MAGIC)
+}
+
+/// The first four bytes of a file (where EXR_MAGIC is).
+fn first_four_bytes(path: &Path) -> std::io::Result<[u8; 4]> {
     let mut magic = [0u8; 4];
-    std::fs::metadata(path).is_ok_and(|m| m.is_file())
-        && std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic)).is_ok()
-        && magic == EXR_MAGIC
+    std::io::Read::read_exact(&mut std::fs::File::open(path)?, &mut magic)?;
+    Ok(magic)
 }
 
 /// Reads the first RGB(A) layer of an EXR file as float32, row 0 at the top.
@@ -363,9 +367,8 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
     use exr::prelude::*;
     // Another kind of file (a PNG, a scene) gets a plain answer, not the parser's "file identifier
     // missing".
-    let mut magic = [0u8; 4];
-    match std::fs::File::open(path).and_then(|mut f| std::io::Read::read_exact(&mut f, &mut magic)) {
-        Ok(()) if magic != EXR_MAGIC => {
+    match first_four_bytes(path) {
+        Ok(magic) if magic != EXR_MAGIC => {
             anyhow::bail!("reading {}: not an OpenEXR file (it does not start with EXR's magic number)", path.display())
         }
         Err(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {

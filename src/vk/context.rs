@@ -872,11 +872,18 @@ impl Context {
     /// [`Context::ensure_clean`] for a run that asked for validation (`validate_requested`): its
     /// non-finite samples fail it whether or not the layer could be loaded, as a headless run's do.
     pub fn ensure_clean_for(&self, validate_requested: bool) -> Result<()> {
+        self.ensure_no_validation_errors()?;
         let nonfinite = if self.validation_enabled || validate_requested { self.nonfinite_samples() } else { 0 };
-        match (self.validation_errors(), nonfinite) {
-            (0, 0) => Ok(()),
-            (0, n) => anyhow::bail!("{n} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under validation: a shader produced them"),
-            (n, _) => anyhow::bail!("{n} Vulkan validation error(s) under validation; the first: {}", self.first_validation_error().unwrap_or_default()),
+        anyhow::ensure!(nonfinite == 0, "{nonfinite} non-finite sample(s) (NaN or Inf, replaced by 0 in the images) under validation: a shader produced them");
+        Ok(())
+    }
+
+    /// The validation errors counted so far, as an error naming the first (they come before any
+    /// count of non-finite samples in both checks below and above).
+    fn ensure_no_validation_errors(&self) -> Result<()> {
+        match self.validation_errors() {
+            0 => Ok(()),
+            n => anyhow::bail!("{n} Vulkan validation error(s) under validation; the first: {}", self.first_validation_error().unwrap_or_default()),
         }
     }
 
@@ -885,13 +892,13 @@ impl Context {
     /// fails it with or without validation, since the accumulation replaced it by 0 and the
     /// report's errors and biases would hide it.
     pub fn ensure_clean_report(&self) -> Result<()> {
-        match (self.validation_errors(), self.nonfinite_samples()) {
-            (0, 0) => Ok(()),
-            (0, n) => anyhow::bail!(
-                "{n} non-finite sample(s) (NaN or Inf) were replaced by 0 in the images this report is computed from: its numbers would hide a shader's defect (--check-finite finds the pass)"
-            ),
-            (n, _) => anyhow::bail!("{n} Vulkan validation error(s) under validation; the first: {}", self.first_validation_error().unwrap_or_default()),
-        }
+        self.ensure_no_validation_errors()?;
+        let n = self.nonfinite_samples();
+        anyhow::ensure!(
+            n == 0,
+            "{n} non-finite sample(s) (NaN or Inf) were replaced by 0 in the images this report is computed from: its numbers would hide a shader's defect (--check-finite finds the pass)"
+        );
+        Ok(())
     }
 
     /// Allocates memory for a buffer or image under `name` (the name gpu-allocator reports; callers
