@@ -1311,10 +1311,11 @@ impl Renderer {
         let set = LightSet::new(&self.scene.emitters, &extra);
         // The loader's limit, checked again: each spawned light adds a quarter of the scene's
         // power (past the limit the 32-bit fluxes overflow and the image goes black).
-        // (A NaN channel counts: f64::max would pass over it.)
-        let most = set.total_power.iter().copied().fold(0.0, |m: f64, p| if p.is_nan() { f64::NAN } else { m.max(p) });
+        // (Every channel's finiteness apart: f64::max passes over a NaN, and folded through it
+        // a NaN channel was lost to any later one.)
+        let most = set.total_power.iter().copied().fold(0.0, f64::max);
         anyhow::ensure!(
-            most.is_finite() && most <= crate::scene::MAX_LIGHT_POWER,
+            set.total_power.iter().all(|p| p.is_finite()) && most <= crate::scene::MAX_LIGHT_POWER,
             "the lights would emit {most:.3e} W together, more than the {:.0e} W the renderer's 32-bit fluxes hold",
             crate::scene::MAX_LIGHT_POWER
         );
