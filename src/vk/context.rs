@@ -458,7 +458,33 @@ fn keep_drivers_loaded(entry: &ash::Entry) {
     });
 }
 
-fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHandles>) -> Result<(ash::Instance, bool, bool)> {
+/// The debug messenger's settings, for the messenger and for vkCreateInstance's pNext (which
+/// covers the messages of vkCreateInstance and vkDestroyInstance themselves, where no messenger
+/// exists yet or any longer). `counter` must outlive every use of the returned info.
+fn messenger_info(counter: &Arc<ValidationCounter>) -> vk::DebugUtilsMessengerCreateInfoEXT<'static> {
+    vk::DebugUtilsMessengerCreateInfoEXT::default()
+        .message_severity(
+            vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+        )
+        .message_type(
+            vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+        )
+        .pfn_user_callback(Some(debug_callback))
+        .user_data(Arc::as_ptr(counter) as *mut c_void)
+}
+
+/// Makes the instance; where the loader has VK_EXT_debug_utils and `counter` is given, the
+/// messages of vkCreateInstance and vkDestroyInstance go to it too.
+fn create_instance(
+    entry: &ash::Entry,
+    validate: bool,
+    window: Option<&WindowHandles>,
+    counter: Option<&Arc<ValidationCounter>>,
+) -> Result<(ash::Instance, bool, bool)> {
     // The whole of it under the device-lifetime lock, the enumerations too, since each one has the
     // loader load and query every driver as vkCreateInstance does. (The failure that led here, a
     // test context on an H100 and an H200 finding no driver, was not a race between threads but
@@ -507,7 +533,12 @@ fn create_instance(entry: &ash::Entry, validate: bool, window: Option<&WindowHan
     if layer_has_features {
         info = info.push_next(&mut features);
     }
-    // SAFETY: the create info points at locals that outlive the call.
+    let mut instance_messenger = counter.filter(|_| has_debug_utils).map(messenger_info);
+    if let Some(m) = instance_messenger.as_mut() {
+        info = info.push_next(m);
+    }
+    // SAFETY: the create info points at locals that outlive the call; the messenger's user data
+    // (the caller's counter) outlives the instance.
     let instance = match unsafe { entry.create_instance(&info, None) } {
         Ok(instance) => instance,
         // The loader found no driver at all: no device, said as such (exit code 2).
@@ -531,7 +562,7 @@ pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
         None => tracing_from_env()?,
     };
     let entry = load_entry()?;
-    let (instance, _, _) = match create_instance(&entry, false, None) {
+    let (instance, _, _) = match create_instance(&entry, false, None, None) {
         Ok(created) => created,
         // No driver at all: an empty list, as when drivers find no device.
         Err(e) if e.downcast_ref::<NoTracingDevice>().is_some() => return Ok(Vec::new()),
@@ -553,29 +584,18 @@ impl Context {
         };
         let gpu_timeout = gpu_timeout_from_env()?;
         let entry = load_entry()?;
-        let (instance, validation_enabled, has_debug_utils) = create_instance(&entry, opts.validate, opts.window.as_ref())?;
-        // Declared before `unwind`, so dropped after it: the messenger that `unwind` destroys
-        // reads it as its user data until then.
+        // Made before the instance and dropped after it (declared before `unwind`, and a field
+        // of the context): the messengers read it as their user data until the instance is gone.
         let validation = Arc::new(ValidationCounter::default());
+        let (instance, validation_enabled, has_debug_utils) =
+            create_instance(&entry, opts.validate, opts.window.as_ref(), Some(&validation))?;
         // Destroys what is made below if a step fails (every `?` from here leaked the instance,
         // and after vkCreateDevice the device too); disarmed once the context owns them.
         let mut unwind = Unwind::default();
         unwind.instance = Some(instance.clone());
         let debug_instance = if has_debug_utils {
             let loader = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
-                        | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                        | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
-                )
-                .message_type(
-                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-                )
-                .pfn_user_callback(Some(debug_callback))
-                .user_data(Arc::as_ptr(&validation) as *mut c_void);
+            let info = messenger_info(&validation);
             // SAFETY: the counter behind user_data lives in `validation`, which outlives the messenger.
             let messenger = unsafe { loader.create_debug_utils_messenger(&info, None) }
                 .context("vkCreateDebugUtilsMessengerEXT failed")?;
@@ -854,6 +874,13 @@ impl Context {
     /// Adds `n` to [`Self::nonfinite_samples`] (renderers, as their frames complete).
     pub fn add_nonfinite_samples(&self, n: u64) {
         self.nonfinite_samples.fetch_add(n, Ordering::SeqCst);
+    }
+
+    /// The counter itself, to read after the context is gone: the messages of its teardown
+    /// (vkDestroyDevice and vkDestroyInstance report every object left alive) come after any
+    /// check a run makes through the context.
+    pub fn validation_counter(&self) -> Arc<ValidationCounter> {
+        Arc::clone(&self.validation)
     }
 
     /// The first validation error message, if any.
