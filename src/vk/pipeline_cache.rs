@@ -8,7 +8,8 @@
 //! length and its CRC-32), and its header is checked against the device, before the driver sees
 //! it: the spec allows only data the driver itself returned, so a file cut short or damaged on disk
 //! (the driver's own header intact) must not reach it. A file that does not match is ignored (and
-//! replaced on save). `RESTIR_VPL_PIPELINE_CACHE=off` turns it off.
+//! replaced on save). Saving removes old builds' files beside it ([`stale`]).
+//! `RESTIR_VPL_PIPELINE_CACHE=off` turns it off.
 
 use std::path::{Path, PathBuf};
 
@@ -96,14 +97,60 @@ pub fn header_matches(data: &[u8], props: &vk::PhysicalDeviceProperties) -> Resu
     Ok(())
 }
 
-/// Writes the cache atomically (see [`crate::output::write_replacing`]).
+/// Writes the cache atomically (see [`crate::output::write_replacing`]), then removes other
+/// builds' and drivers' files beside it that [`stale`] names.
 pub fn save(path: &Path, data: &[u8]) -> anyhow::Result<()> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir)?;
     }
     anyhow::ensure!(u32::try_from(data.len()).is_ok(), "{} bytes of pipeline cache: more than its frame records", data.len());
     let framed = frame(data);
-    crate::output::write_replacing(path, |partial| Ok(std::fs::write(partial, framed)?))
+    crate::output::write_replacing(path, |partial| Ok(std::fs::write(partial, framed)?))?;
+    for old in stale(path) {
+        if let Err(e) = std::fs::remove_file(&old) {
+            log::debug!("pipeline cache: cannot remove {}: {e}", old.display());
+        }
+    }
+    Ok(())
+}
+
+/// How many cache files of other builds or drivers are kept beside the current one (the most
+/// recently written), so that switching between a few builds (branches, worktrees) still finds
+/// each one's file.
+pub const KEEP_OTHERS: usize = 8;
+/// Files older than this are removed whatever their number.
+pub const KEEP_DAYS: u64 = 30;
+
+/// The cache files beside `current` to remove: every build writes its own (the shader hash is in
+/// the name), and on a GPU each holds megabytes of compiled pipelines that no later build reads.
+/// Only this program's file names count (`pipelines-*.bin`, any version), never `current`
+/// itself: those unmodified for [`KEEP_DAYS`], and all but the [`KEEP_OTHERS`] newest of the rest.
+pub fn stale(current: &Path) -> Vec<PathBuf> {
+    let Some(dir) = current.parent() else { return Vec::new() };
+    let Ok(entries) = std::fs::read_dir(dir) else { return Vec::new() };
+    let now = std::time::SystemTime::now();
+    let max_age = std::time::Duration::from_secs(KEEP_DAYS * 24 * 3600);
+    let mut others: Vec<(std::time::SystemTime, PathBuf)> = entries
+        .flatten()
+        .filter(|e| {
+            let name = e.file_name();
+            let name = name.to_string_lossy();
+            name.starts_with("pipelines-") && name.ends_with(".bin") && e.path() != current
+        })
+        // Plain files only (not a link, whose target could be anything).
+        .filter_map(|e| {
+            let meta = std::fs::symlink_metadata(e.path()).ok().filter(|m| m.is_file())?;
+            Some((meta.modified().ok()?, e.path()))
+        })
+        .collect();
+    // Newest first; a file "modified" in the future (a clock set back) counts as new.
+    others.sort_by(|a, b| b.0.cmp(&a.0));
+    others
+        .into_iter()
+        .enumerate()
+        .filter(|(i, (modified, _))| *i >= KEEP_OTHERS || now.duration_since(*modified).is_ok_and(|age| age > max_age))
+        .map(|(_, (_, path))| path)
+        .collect()
 }
 
 #[cfg(test)]
@@ -149,5 +196,40 @@ mod tests {
         save(&path, &data).unwrap();
         assert!(load(&path, &other).unwrap_err().contains("another device"));
         assert_eq!(load(&dir.path().join("none.bin"), &props()).unwrap(), None);
+    }
+
+    /// Saving removes other builds' files beyond the newest [`KEEP_OTHERS`] and any older than
+    /// [`KEEP_DAYS`]; it keeps its own file, other names and links.
+    #[test]
+    fn saving_removes_old_builds_files_only() {
+        let dir = tempfile::tempdir().unwrap();
+        let day = std::time::Duration::from_secs(24 * 3600);
+        let now = std::time::SystemTime::now();
+        let made = |name: &str, age_days: u32| {
+            let path = dir.path().join(name);
+            std::fs::write(&path, b"x").unwrap();
+            let f = std::fs::File::options().write(true).open(&path).unwrap();
+            f.set_modified(now - day * age_days).unwrap();
+            path
+        };
+        // Ten recent files of other builds (1..10 days old), one of an earlier naming, one 40
+        // days old, and files this program did not name.
+        let recent: Vec<_> = (1..=10).map(|d| made(&format!("pipelines-v2-{d:02}.bin"), d)).collect();
+        let ancient = made("pipelines-v2-ancient.bin", 40);
+        let older_version = made("pipelines-10005-0000-1-aa-bb.bin", 2);
+        let foreign = [made("notes.txt", 400), made("pipelines-v2-x.bin.keep", 400), made("other.bin", 400)];
+        let link = dir.path().join("pipelines-v2-link.bin");
+        std::os::unix::fs::symlink(&foreign[0], &link).unwrap();
+        let current = dir.path().join("pipelines-v2-current.bin");
+        save(&current, &driver_data(10)).unwrap();
+        assert!(current.exists());
+        // Newest first: days 1 and 2 (two files) and 3..=7 make KEEP_OTHERS = 8; 8, 9, 10 and
+        // 40 days go.
+        let mut kept: Vec<_> = recent.iter().chain([&ancient, &older_version]).filter(|p| p.exists()).cloned().collect();
+        kept.sort();
+        let mut expect: Vec<_> = recent[..7].iter().chain([&older_version]).cloned().collect();
+        expect.sort();
+        assert_eq!(kept, expect);
+        assert!(foreign.iter().all(|f| f.exists()) && link.exists(), "only this program's cache files are removed");
     }
 }
