@@ -364,7 +364,8 @@ pub const SHADE_VIEW_MOTION: u32 = 4;
 pub const COMPENSATE_EMISSION: u32 = 1;
 pub const COMPENSATE_VPLS: u32 = 2;
 
-/// `GpuFrame::debug_poison`: `vpl_shade` writes a NaN at pixel (1, 1) (tests of `--check-finite`).
+/// `GpuFrame::debug_poison`: `vpl_shade` (or `restir_spatial_shade`, where it runs fused there)
+/// writes a NaN at pixel (1, 1) (tests of `--check-finite`).
 pub const POISON_VPL_SHADE: u32 = 1;
 /// `GpuFrame::debug_poison`: `vpl_bruteforce` counts 2^32 − 256 rays more at pixel (0, 0), so that
 /// a small frame carries into its counter's high word (tests of the 64-bit count).

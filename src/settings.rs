@@ -670,7 +670,9 @@ impl RenderSettings {
 
     /// (RIS candidates, spatial neighbours) of a ReSTIR frame displayed alone while temporal reuse
     /// has history ([`RestirSettings::moving_candidates`], [`RestirSettings::moving_neighbours`]):
-    /// never more than the still camera's, never fewer candidates than the grid's.
+    /// never more than the still camera's, never fewer candidates than the grid's. Without spatial
+    /// reuse the neighbours are the still camera's (none are drawn either way: such a frame read
+    /// as "moving" in the summary and the overlay when only --moving-neighbours differed).
     pub fn moving_sampling(&self) -> (u32, u32) {
         let r = &self.restir;
         let candidates = match r.moving_candidates {
@@ -679,6 +681,7 @@ impl RenderSettings {
         };
         let neighbours = match r.moving_neighbours {
             0 => r.spatial_neighbours,
+            _ if !self.reuses_spatially() => r.spatial_neighbours,
             k => k.min(r.spatial_neighbours),
         };
         (candidates, neighbours)
@@ -1097,6 +1100,14 @@ mod tests {
         assert_eq!(with(32, 0, 8, 0, 0).moving_sampling(), (32, 8));
         assert_eq!(with(8, 0, 2, 16, 4).moving_sampling(), (8, 2));
         assert_eq!(with(32, 24, 8, 16, 4).moving_sampling(), (24, 4));
+        // Without spatial reuse only the candidates can differ: --moving-candidates 0 then leaves
+        // a frame sampled as a still one's (the renderer counted it as moving).
+        let no_spatial = |moving_candidates| {
+            let s = with(32, 0, 8, moving_candidates, 4);
+            RenderSettings { restir: RestirSettings { spatial_passes: 0, ..s.restir }, ..s }
+        };
+        assert_eq!(no_spatial(0).moving_sampling(), (32, 8));
+        assert_eq!(no_spatial(16).moving_sampling(), (16, 8));
         for (s, flag) in [(with(32, 0, 8, 1025, 4), "--moving-candidates 1025"), (with(32, 0, 8, 16, 33), "--moving-neighbours 33")] {
             let e = s.validate().unwrap_err().to_string();
             assert!(e.starts_with(flag), "{e}");

@@ -117,6 +117,11 @@ fn cli_reference_resumes_and_refuses_mismatches() {
     let o = cli(&["reference", "--mode", "restir", "--frames", "1", "--out", dir.path().join("x.exr").to_str().unwrap()]);
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("--mode restir"));
+    // The ReGIR grid carries state from frame to frame: a part from --first-frame k started with
+    // an empty grid, and merged parts differed from one long run.
+    let o = cli(&["reference", "--mode", "ris", "--grid-candidates", "8", "--frames", "1", "--out", dir.path().join("x.exr").to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--grid-candidates 8") && err.contains("independent"), "{err}");
     // Settings that show each frame alone would write one frame labelled as all of them.
     let y = dir.path().join("y.exr");
     for (flags, named) in [(["--mode", "pt", "--progressive", "off"], "--progressive off"), (["--mode", "ris", "--view", "reservoir-w"], "--view reservoir-w")] {

@@ -60,6 +60,10 @@ void main() {
     Reservoir r = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, UNBIASED, VISIBLE_TARGETS, rays);
     dst[index] = r;
     samples[index] = vec4(shade_estimate(s, r, pc.params, vpls, rays), 1.0);
+    if (frame.debug_poison == POISON_VPL_SHADE && pixel == uvec2(1u, 1u)) {
+        // Tests of --check-finite only: vpl_shade's NaN, also where vpl_shade runs fused here.
+        samples[index] = vec4(vec3(uintBitsToFloat(0x7fc00000u)), 1.0);
+    }
     if (rays > 0u) {
         atomicAdd(ray_count[RAYS_SPATIAL_SHADE], rays);
     }
