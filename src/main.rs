@@ -1348,11 +1348,37 @@ fn join_signed_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> 
     out
 }
 
+/// `--list-devices` takes only `--trace` (the way of tracing it reports for) and `--verbose`.
+fn list_devices_alone(matches: &clap::ArgMatches) -> Result<()> {
+    let others: Vec<String> = matches
+        .ids()
+        .map(|id| id.as_str())
+        // (The derive's argument groups, "Cli" and "RenderArgs", are among the ids.)
+        .filter(|id| id.starts_with(|c: char| c.is_ascii_lowercase()) && !["list_devices", "trace", "verbose"].contains(id))
+        .filter(|id| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
+        .map(|id| format!("--{}", id.replace('_', "-")))
+        .collect();
+    anyhow::ensure!(
+        others.is_empty(),
+        "--list-devices lists the devices and exits: it takes only --trace and --verbose, not {}",
+        others.join(", ")
+    );
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let matches = Cli::command().get_matches_from(join_signed_values(std::env::args_os().collect()));
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let given = given_render_flags(&matches);
     restir_vpl::logger::init(cli.render.verbose);
+    if cli.list_devices {
+        // It lists and exits: any other flag was silently ignored (even a missing scene or a bad
+        // size passed). Clap refuses it with a command.
+        if let Err(e) = list_devices_alone(&matches) {
+            eprintln!("error: {e:#}");
+            return ExitCode::from(2);
+        }
+    }
     // An explicit --trace, auto included, wins over RESTIR_VPL_TRACE, which a context reads when
     // its settings name no way of tracing (auto names none): removed before any context is made,
     // while the process has one thread.

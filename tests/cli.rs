@@ -332,6 +332,11 @@ fn list_devices_reports_each_device() {
     assert!(o.status.success(), "{}", stderr(&o));
     let s = String::from_utf8_lossy(&o.stdout);
     assert!(s.contains("[0]"), "{s}");
+    assert!(run(&["--list-devices", "--verbose", "--trace", "auto"]).status.success());
+    // It lists and exits: other flags and commands are refused, not silently ignored.
+    assert_fails(&["--list-devices", "--width", "0", "--scene", "/nope.gltf"], &["--list-devices", "--width", "--scene"]);
+    assert_fails(&["--list-devices", "--headless"], &["--list-devices", "--headless"]);
+    assert_fails(&["--list-devices", "bench", "--rays"], &["--list-devices", "bench"]);
 }
 
 /// How rays are traced: `--trace` and `RESTIR_VPL_TRACE` pick it, `--list-devices` says it, a bad

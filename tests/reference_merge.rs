@@ -279,6 +279,51 @@ fn reference_configs_ignore_settings_the_mode_does_not_use() {
         s.mode = Mode::Ris;
         s.candidates = 3;
     })));
+    // Every flag a reference run warns "has no effect here" about is left out, so a resume
+    // without it matches (a RIS file made with --max-bounces 3 was refused: "max_bounces 3 vs 8").
+    let unused = |mode: Mode, flags: &[&str], f: &dyn Fn(&mut RenderSettings)| {
+        let mut s = RenderSettings { mode, ..Default::default() };
+        f(&mut s);
+        let warned = s.unused_flags(flags);
+        assert_eq!(warned.len(), flags.len(), "{mode:?}: {flags:?} should all be unused: {warned:?}");
+        assert!(same_config(&reference_config(&s, "abc").unwrap(), &config(&|d| d.mode = mode)), "{mode:?}: {flags:?}");
+    };
+    for mode in [Mode::Ris, Mode::Uniform, Mode::Bruteforce] {
+        unused(mode, &["max_bounces", "vpl_radius"], &|s| {
+            s.max_bounces = 3;
+            s.vpl_radius = Some(0.5);
+        });
+    }
+    unused(Mode::Uniform, &["presample"], &|s| s.presample = !s.presample);
+    unused(Mode::Pt, &["yuksel_spacings", "yuksel_knn", "no_gi", "presample"], &|s| {
+        s.yuksel_spacings = Some(4.0);
+        s.yuksel_knn = Some(3);
+        s.gi = false;
+        s.presample = !s.presample;
+    });
+    // Without GI the indirect VPLs' settings shape nothing (GI itself does).
+    let no_gi = |f: &dyn Fn(&mut RenderSettings)| {
+        config(&|s| {
+            s.mode = Mode::Ris;
+            s.gi = false;
+            f(s);
+        })
+    };
+    assert!(same_config(&no_gi(&|_| ()), &no_gi(&|s| {
+        s.vpls_indirect = 5;
+        s.photon_max_bounces = 2;
+    })));
+    assert!(!same_config(&no_gi(&|_| ()), &ris));
+    // ReSTIR with --temporal off (the one a reference takes): its temporal settings do nothing.
+    let restir_still = |mcap: f32, boiling: f32| {
+        config(&|s| {
+            s.mode = Mode::Restir;
+            s.restir.temporal = false;
+            s.restir.mcap = mcap;
+            s.restir.boiling_filter = boiling;
+        })
+    };
+    assert!(same_config(&restir_still(20.0, 0.2), &restir_still(3.0, 0.0)));
 
     // The ReGIR grid: no key unless RIS or ReSTIR take candidates from it, so references written
     // before it existed still match; with grid candidates the config differs.

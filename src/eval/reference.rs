@@ -406,31 +406,51 @@ pub fn reference_config(settings: &RenderSettings, scene_hash: &str) -> Result<S
 }
 
 /// Settings a mode's image does not depend on: a path-traced reference stays valid when, say,
-/// ReSTIR's defaults change.
+/// ReSTIR's defaults change. The same rule as the "has no effect here" warnings
+/// (`RenderSettings::unused_flags`) for what a reference can be made with: a file made with a
+/// flag the run said did nothing was refused for a resume without it ("max_bounces 3 vs 8").
+/// (`vpl_radius` sets only `--view vpls`, which no reference takes.)
 fn unused_keys(mode: Mode) -> &'static [&'static str] {
     match mode {
         Mode::Pt => &[
             "restir",
             "candidates",
             "candidate_source",
+            "presample",
             "attenuation",
             "vpl_radius",
             "yuksel_radius",
+            "yuksel_spacings",
+            "yuksel_knn",
             "vpls_direct",
             "vpls_indirect",
+            "gi",
             "photon_min_bounces",
             "photon_max_bounces",
             "compensate",
         ],
-        Mode::Bruteforce | Mode::Uniform => &["restir", "candidates", "candidate_source"],
-        Mode::Ris => &["restir"],
-        Mode::Restir => &[],
+        Mode::Bruteforce | Mode::Uniform => &["restir", "candidates", "candidate_source", "presample", "max_bounces", "vpl_radius"],
+        Mode::Ris => &["restir", "max_bounces", "vpl_radius"],
+        Mode::Restir => &["max_bounces", "vpl_radius"],
     }
 }
 
 fn strip_unused(obj: &mut serde_json::Map<String, serde_json::Value>, mode: Mode) {
     for k in unused_keys(mode) {
         obj.remove(*k);
+    }
+    // Without GI no indirect VPL is traced (their count and bounces shape nothing).
+    if obj.get("gi").and_then(|g| g.as_bool()) == Some(false) {
+        for k in ["vpls_indirect", "photon_min_bounces", "photon_max_bounces"] {
+            obj.remove(k);
+        }
+    }
+    // ReSTIR's temporal settings, with --temporal off (the only ReSTIR a reference takes).
+    if let Some(restir) = obj.get_mut("restir").and_then(|r| r.as_object_mut()) {
+        if restir.get("temporal").and_then(|t| t.as_bool()) == Some(false) {
+            restir.remove("mcap");
+            restir.remove("boiling_filter");
+        }
     }
     // The ReGIR grid shapes only RIS and ReSTIR images, and only with grid candidates: without
     // them the image is the one of a build before the grid existed, whose files have no such key.
