@@ -145,6 +145,19 @@ pub enum ViewProblem {
     UpParallel,
 }
 
+/// The narrowest vertical field of view taken, in degrees. Narrower, tan(fov / 2) approaches the
+/// spacing of 32-bit floats around 1 at a picture's pixel pitch, and below ~1e-38 it is 0: the
+/// motion vectors divide by it (--fov 1e-45 made 2048 NaN samples in 32×32 pixels).
+pub const MIN_FOV_DEGREES: f32 = 0.01;
+
+/// Whether `degrees` is a field of view the renderer takes: in [[`MIN_FOV_DEGREES`], 180).
+pub fn fov_ok(degrees: f32) -> bool {
+    (MIN_FOV_DEGREES..180.0).contains(&degrees)
+}
+
+/// The farthest from the origin an eye or target may be (a camera path's and `--eye`'s).
+pub const MAX_CAMERA_COORDINATE: f32 = 1e18;
+
 pub fn view_problem(eye: Vec3, target: Vec3, up: Vec3) -> Option<ViewProblem> {
     let d = (target.as_dvec3() - eye.as_dvec3()).length();
     if d == 0.0 {
@@ -195,8 +208,8 @@ impl Keyframe {
         if !(eye.is_finite() && target.is_finite() && up.is_finite() && self.fov.is_finite()) {
             return Err("has a number outside the 32-bit float range (beyond ±3.4e38)".into());
         }
-        if !(self.fov > 0.0 && self.fov < 180.0) {
-            return Err(format!("fov {} must be in (0, 180) degrees", self.fov));
+        if !fov_ok(self.fov) {
+            return Err(format!("fov {} must be in [{MIN_FOV_DEGREES}, 180) degrees", self.fov));
         }
         match view_problem(eye, target, up) {
             Some(ViewProblem::SamePoint) => return Err("eye and target are the same point".into()),
@@ -206,8 +219,8 @@ impl Keyframe {
             Some(ViewProblem::UpParallel) => return Err("up is parallel to the view direction (or zero)".into()),
             None => {}
         }
-        if eye.abs().max_element() > 1e18 || target.abs().max_element() > 1e18 {
-            return Err("eye and target must be within 1e18 of the origin".into());
+        if eye.abs().max_element() > MAX_CAMERA_COORDINATE || target.abs().max_element() > MAX_CAMERA_COORDINATE {
+            return Err(format!("eye and target must be within {MAX_CAMERA_COORDINATE:e} of the origin"));
         }
         Ok(())
     }
@@ -284,20 +297,24 @@ impl CameraPath {
         let t = (frame - a.frame as f32) / (b.frame - a.frame) as f32;
         let lerp = |x: [f32; 3], y: [f32; 3]| Vec3::from(x).lerp(Vec3::from(y), t);
         let eye = lerp(a.eye, b.eye);
-        let mut target = lerp(a.target, b.target);
-        if (target - eye).length_squared() == 0.0 {
+        // The view direction interpolated itself (the same as the interpolated target minus the
+        // interpolated eye, without their rounding: an eye and a target 1e-7 apart at 1 rounded
+        // to one point between keyframes, and the camera panicked).
+        let dir = |k: &Keyframe| Vec3::from(k.target) - Vec3::from(k.eye);
+        let mut view = dir(a).lerp(dir(b), t);
+        if unit(view).is_none() {
             // Eye and target cross: keep looking the way the earlier keyframe looks.
-            target = eye + (Vec3::from(a.target) - Vec3::from(a.eye));
+            view = dir(a);
         }
         let mut up = lerp(a.up, b.up);
-        let forward = unit(target - eye).expect("keyframes are checked: finite, within 1e18");
+        let forward = unit(view).expect("keyframes are checked: eye and target 1e-18 to 1e18 apart");
         if unit(up).is_none_or(|u| forward.cross(u).length_squared() <= 1e-12) {
             // The view passes through the up direction: roll as little as possible from the
             // earlier keyframe, whose right axis stays perpendicular to up.
             let right_a = (Vec3::from(a.target) - Vec3::from(a.eye)).cross(Vec3::from(a.up));
             up = right_a.cross(forward);
         }
-        Camera::look_at(eye, target, up, (a.fov + (b.fov - a.fov) * t).to_radians(), "camera path")
+        Camera::from_directions(eye, view, up, (a.fov + (b.fov - a.fov) * t).to_radians(), "camera path")
     }
 }
 
@@ -598,6 +615,24 @@ mod tests {
         assert!(c.right.dot(c.forward).abs() < 1e-5 && c.up.dot(c.forward).abs() < 1e-5 && (c.right.length() - 1.0).abs() < 1e-5);
         // The earlier keyframe's right axis (forward +x × up +y = +z) is kept.
         assert!((c.right - Vec3::Z).length() < 1e-5, "{c:?}");
+    }
+
+    /// Eye and target 1e-7 apart at coordinates of 1: the interpolated points rounded to one
+    /// point at frame 1 and the camera panicked; the interpolated view direction does not round.
+    #[test]
+    fn a_path_with_eye_and_target_close_together_interpolates() {
+        let p = CameraPath::from_json(
+            r#"{"keyframes": [{"frame": 0, "eye": [1,0,0], "target": [1.0000001,0,0], "fov": 40},
+                              {"frame": 2, "eye": [3,0,0], "target": [2.9999998,0,0], "fov": 40}]}"#,
+        )
+        .unwrap();
+        for f in [0.0, 0.5, 1.0, 1.5, 2.0] {
+            let c = p.at(f);
+            assert!(c.is_finite() && (c.forward.length() - 1.0).abs() < 1e-5, "frame {f}: {c:?}");
+        }
+        // The direction turns over where the interpolated one crosses zero (at frame 2/3).
+        assert!((p.at(0.5).forward - Vec3::X).length() < 1e-5, "{:?}", p.at(0.5));
+        assert!((p.at(1.0).forward + Vec3::X).length() < 1e-5, "{:?}", p.at(1.0));
     }
 
     /// The automatic camera frames bounds whose diagonal overflows f32 (and a scene of one point).

@@ -960,8 +960,15 @@ impl RenderSettings {
             bail!("--camera-path and --eye/--target both set the camera: give one of them");
         }
         if let Some(c) = &self.camera {
-            if !(c.yfov_degrees > 0.0 && c.yfov_degrees < 180.0) {
-                bail!("--fov {}: must be in (0, 180) degrees", c.yfov_degrees);
+            if !crate::camera::fov_ok(c.yfov_degrees) {
+                bail!("--fov {}: must be in [{}, 180) degrees", c.yfov_degrees, crate::camera::MIN_FOV_DEGREES);
+            }
+            // As a camera path's keyframes (--eye 3e38,0,0 rendered black).
+            let far = crate::camera::MAX_CAMERA_COORDINATE;
+            for (flag, p) in [("--eye", c.eye), ("--target", c.target)] {
+                if p.abs().max_element() > far {
+                    bail!("{flag} {p}: must be within {far:e} of the origin (32-bit floats)");
+                }
             }
             // As a camera path's keyframes are checked (camera::view_problem).
             use crate::camera::ViewProblem;

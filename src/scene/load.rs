@@ -164,7 +164,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
             match cam.projection() {
                 gltf::camera::Projection::Perspective(p) if camera.is_none() => {
                     let yfov = p.yfov();
-                    if yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI {
+                    if crate::camera::fov_ok(yfov.to_degrees()) {
                         check_camera_transform(world, &node_name, &name)?;
                         camera = Some(Camera {
                             name,
