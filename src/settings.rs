@@ -961,14 +961,7 @@ impl RenderSettings {
         }
         if let Some(c) = &self.camera {
             if !crate::camera::fov_ok(c.yfov_degrees) {
-                bail!("--fov {}: must be in [{}, 180) degrees", c.yfov_degrees, crate::camera::MIN_FOV_DEGREES);
-            }
-            // As a camera path's keyframes (--eye 3e38,0,0 rendered black).
-            let far = crate::camera::MAX_CAMERA_COORDINATE;
-            for (flag, p) in [("--eye", c.eye), ("--target", c.target)] {
-                if p.abs().max_element() > far {
-                    bail!("{flag} {p}: must be within {far:e} of the origin (32-bit floats)");
-                }
+                bail!("--fov {:?}: must be in [{}, 180) degrees", c.yfov_degrees, crate::camera::MIN_FOV_DEGREES);
             }
             // As a camera path's keyframes are checked (camera::view_problem).
             use crate::camera::ViewProblem;
@@ -981,6 +974,13 @@ impl RenderSettings {
                     bail!("--up {}: must be non-zero and not parallel to the view direction (--target minus --eye)", c.up)
                 }
                 None => {}
+            }
+            // As a camera path's keyframes (--eye 3e38,0,0 rendered black).
+            let far = crate::camera::MAX_CAMERA_COORDINATE;
+            for (flag, p) in [("--eye", c.eye), ("--target", c.target)] {
+                if p.abs().max_element() > far {
+                    bail!("{flag} {:?},{:?},{:?}: must be within {far:e} of the origin (32-bit floats)", p.x, p.y, p.z);
+                }
             }
         }
         Ok(())
