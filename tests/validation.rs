@@ -126,3 +126,18 @@ fn a_render_leaves_nothing_alive_at_teardown() {
         counter.first_error.lock().unwrap()
     );
 }
+
+/// A buffer larger than the device allocates at once is refused, naming it and the limit, before
+/// anything is made or copied (lavapipe crashed in its copy of a 2.2 GB vertex buffer, which a
+/// 704-byte glTF with a sparse accessor of 68M vertices asked for).
+#[test]
+fn a_buffer_beyond_the_allocation_limit_is_refused_by_name() {
+    let ctx = context();
+    assert!(ctx.max_allocation >= 1 << 30, "maxMemoryAllocationSize read as {}", ctx.max_allocation);
+    let e = Buffer::new(&ctx, "too_large", ctx.max_allocation + 1, vk::BufferUsageFlags::STORAGE_BUFFER, MemoryLocation::GpuOnly)
+        .err()
+        .expect("refused")
+        .to_string();
+    assert!(e.contains("'too_large'") && e.contains("maxMemoryAllocationSize"), "{e}");
+    assert_no_validation_errors(&ctx);
+}

@@ -28,8 +28,18 @@ pub struct Buffer {
     pub texel_view: Option<vk::BufferView>,
 }
 
+/// The texels of `format` in a buffer of `size` bytes named `name`, if the device's
+/// maxTexelBufferElements allows a view of them all.
+fn check_texels(ctx: &Context, name: &str, size: u64, format: TexelFormat) -> Result<u64> {
+    let texels = size / format.bytes;
+    let limit = u64::from(ctx.properties.limits.max_texel_buffer_elements);
+    anyhow::ensure!(texels <= limit, "buffer '{name}' holds {texels} texels, more than this device's maxTexelBufferElements ({limit})");
+    Ok(texels)
+}
+
 impl Buffer {
-    /// Creates a buffer named `name`. `size` 0 is rounded up to 16 bytes (Vulkan forbids empty
+    /// Creates a buffer named `name`. Refused, before anything is made, when it is larger than
+    /// the device allocates at once. `size` 0 is rounded up to 16 bytes (Vulkan forbids empty
     /// buffers; an empty scene array still needs a binding).
     pub fn new(
         ctx: &Arc<Context>,
@@ -39,6 +49,12 @@ impl Buffer {
         location: MemoryLocation,
     ) -> Result<Self> {
         let size = size.max(16);
+        anyhow::ensure!(
+            ctx.max_allocation == 0 || size <= ctx.max_allocation,
+            "buffer '{name}' needs {:.2} GiB, more than this device allocates at once (maxMemoryAllocationSize {:.2} GiB)",
+            size as f64 / (1u64 << 30) as f64,
+            ctx.max_allocation as f64 / (1u64 << 30) as f64
+        );
         let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
         let device = &ctx.device;
         // SAFETY: valid device and create info.
@@ -65,7 +81,9 @@ impl Buffer {
 
     /// A device-local buffer filled with `data` and read as texels of `texels` (`with_data` with
     /// UNIFORM_TEXEL_BUFFER added to `usage`, then `with_texel_view`).
+    /// The texel count is checked before anything is made or copied.
     pub fn with_texel_data(ctx: &Arc<Context>, name: &str, data: &[u8], texels: TexelFormat, usage: vk::BufferUsageFlags) -> Result<Self> {
+        check_texels(ctx, name, (data.len() as u64).max(16), texels)?;
         Self::with_data(ctx, name, data, usage | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER)?.with_texel_view(texels)
     }
 
@@ -74,13 +92,7 @@ impl Buffer {
     /// maxTexelBufferElements is below the buffer's texel count.
     pub fn with_texel_view(mut self, texels_format: TexelFormat) -> Result<Self> {
         let TexelFormat { format, bytes: texel_bytes } = texels_format;
-        let texels = self.size / texel_bytes;
-        let limit = u64::from(self.ctx.properties.limits.max_texel_buffer_elements);
-        anyhow::ensure!(
-            texels <= limit,
-            "buffer '{}' holds {texels} texels, more than this device's maxTexelBufferElements ({limit})",
-            self.name
-        );
+        let texels = check_texels(&self.ctx, &self.name, self.size, texels_format)?;
         let info = vk::BufferViewCreateInfo::default().buffer(self.raw).format(format).offset(0).range(texels * texel_bytes);
         // SAFETY: the buffer is alive, was created with texel-buffer usage by the caller, and the
         // range lies inside it.

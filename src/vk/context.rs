@@ -239,6 +239,10 @@ pub struct Context {
     nonfinite_samples: AtomicU64,
     /// How long one submission may run (`RESTIR_VPL_GPU_TIMEOUT_S`; None: no limit).
     pub gpu_timeout: Option<Duration>,
+    /// The largest single memory allocation the device takes (maxMemoryAllocationSize, Vulkan
+    /// 1.1): every buffer is checked against it before it is made or filled (lavapipe crashed
+    /// copying a 2.2 GB vertex buffer).
+    pub max_allocation: u64,
     /// Whether compute shaders have subgroup arithmetic (Vulkan 1.1's `subgroupAdd`,
     /// `subgroupElect`), which `restir_boiling`'s reduction uses.
     pub subgroup_arithmetic: bool,
@@ -677,7 +681,8 @@ impl Context {
         let mut asp = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut rtp = vk::PhysicalDeviceRayTracingPipelinePropertiesKHR::default();
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
-        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut asp).push_next(&mut subgroup);
+        let mut maintenance3 = vk::PhysicalDeviceMaintenance3Properties::default();
+        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut asp).push_next(&mut subgroup).push_next(&mut maintenance3);
         if tracing == Tracing::Pipeline {
             p2 = p2.push_next(&mut rtp);
         }
@@ -824,6 +829,7 @@ impl Context {
             gpu_timeout,
             hung: AtomicBool::new(false),
             subgroup_arithmetic,
+            max_allocation: maintenance3.max_memory_allocation_size,
         })
     }
 
