@@ -175,6 +175,21 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
 }
 
+/// Reads a file a scene names (a buffer or an image): a regular file only (a pipe there, which
+/// the scene file itself may be, blocked the load for ever), at most `at_most` bytes of it where
+/// given (a buffer's byteLength: a 3 GB file behind a 48-byte buffer was read whole).
+pub fn read_referenced(path: &Path, at_most: Option<u64>) -> Result<Vec<u8>> {
+    let meta = std::fs::metadata(path).with_context(|| format!("cannot read '{}'", path.display()))?;
+    anyhow::ensure!(!meta.is_dir(), "cannot read '{}': it is a directory", path.display());
+    anyhow::ensure!(meta.is_file(), "cannot read '{}': not a regular file", path.display());
+    let file = std::fs::File::open(path).with_context(|| format!("cannot read '{}'", path.display()))?;
+    let limit = at_most.unwrap_or(u64::MAX);
+    let mut data = Vec::with_capacity(meta.len().min(limit) as usize);
+    std::io::Read::read_to_end(&mut std::io::Read::take(file, limit), &mut data)
+        .with_context(|| format!("cannot read '{}'", path.display()))?;
+    Ok(data)
+}
+
 /// Whether `path` is the directory `dir` or lies inside it (at any depth), both resolved as
 /// [`same_file`] resolves them, so also when neither exists yet.
 pub fn is_within(path: &Path, dir: &Path) -> bool {

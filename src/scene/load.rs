@@ -729,7 +729,7 @@ fn load_buffers(
                     anyhow!("buffer {i} has no \"uri\": only a .glb file's first buffer may omit it (it is then the binary chunk), and this file has no binary chunk")
                 })?,
                 gltf::buffer::Source::Uri(uri) => {
-                    read_uri(uri, base_dir).with_context(|| format!("buffer {i}"))?
+                    read_uri(uri, base_dir, Some(buffer.length() as u64)).with_context(|| format!("buffer {i}"))?
                 }
             };
             if data.len() < buffer.length() {
@@ -758,7 +758,8 @@ fn external_files(doc: &Document, base_dir: Option<&Path>) -> Vec<std::path::Pat
     buffers.chain(images).filter_map(|uri| uri_file(uri, base_dir).ok().flatten()).collect()
 }
 
-fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
+/// The bytes a URI names (of an external file, at most `at_most` of them where given).
+fn read_uri(uri: &str, base_dir: Option<&Path>, at_most: Option<u64>) -> Result<Vec<u8>> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let (_, payload) = rest
             .split_once(";base64,")
@@ -766,7 +767,7 @@ fn read_uri(uri: &str, base_dir: Option<&Path>) -> Result<Vec<u8>> {
         return base64::decode(payload).map_err(|e| anyhow!("bad data URI: {e}"));
     }
     let path = uri_file(uri, base_dir)?.expect("not a data: URI (returned above)");
-    crate::output::read_input(&path)
+    crate::output::read_referenced(&path, at_most)
 }
 
 /// The file a URI names: relative to `base_dir`, percent-decoded; None for a `data:` URI, an
@@ -1046,7 +1047,7 @@ fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path
         .unwrap_or_else(|| format!("image{}", image.index()));
     let bytes = match image.source() {
         gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)?.to_vec(),
-        gltf::image::Source::Uri { uri, .. } => read_uri(uri, base_dir)?,
+        gltf::image::Source::Uri { uri, .. } => read_uri(uri, base_dir, None)?,
     };
     let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
         .with_guessed_format()

@@ -1133,10 +1133,36 @@ fn external_buffer_file() {
     let path = dir.join("ext.gltf");
     std::fs::write(&path, doc.to_string()).unwrap();
     let s = Scene::load(&path);
+    // A file longer than its buffer's byteLength is read up to it only (a 3 GB file behind a
+    // 48-byte buffer was read whole).
+    let mut long = bin.clone();
+    long.extend(std::iter::repeat_n(0xabu8, 1 << 20));
+    std::fs::write(dir.join("long.bin"), &long).unwrap();
+    assert_eq!(crate::output::read_referenced(&dir.join("long.bin"), Some(bin.len() as u64)).unwrap(), bin);
+    doc["buffers"][0]["uri"] = json!("long.bin");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let from_long = Scene::load(&path).map(|s| s.triangle_count());
+    // A pipe is refused at once (it blocked the load for ever). If it were read, a writer opens it
+    // after a while so that the test fails on the message instead of hanging.
+    let fifo = dir.join("pipe.bin");
+    let made = std::process::Command::new("mkfifo").arg(&fifo).status().is_ok_and(|s| s.success());
+    let from_pipe = made.then(|| {
+        let unblock = fifo.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(std::time::Duration::from_secs(10));
+            drop(std::fs::OpenOptions::new().write(true).open(unblock));
+        });
+        doc["buffers"][0]["uri"] = json!("pipe.bin");
+        std::fs::write(&path, doc.to_string()).unwrap();
+        Scene::load(&path).map(|_| ()).unwrap_err()
+    });
     doc["buffers"][0]["uri"] = json!("sub%20dir/missing.bin");
     std::fs::write(&path, doc.to_string()).unwrap();
     let err = Scene::load(&path).map(|_| ()).unwrap_err();
     std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(from_long.unwrap(), 1);
+    let from_pipe = format!("{:#}", from_pipe.expect("mkfifo made a pipe"));
+    assert_contains(&from_pipe, &["pipe.bin", "not a regular file"]);
     let s = s.unwrap();
     assert_eq!(s.triangle_count(), 1);
     assert_eq!(s.path, path);
