@@ -1899,6 +1899,10 @@ fn degenerate_mesh_transform_is_an_error() {
     doc["nodes"][floor]["scale"] = json!([1e38, 1.0, 1.0]);
     doc["nodes"][floor]["translation"] = json!([3e38, 0.0, 0.0]);
     assert_contains(&load_err(&doc), &["test.gltf: node 'floor' (mesh 'floor')", "non-finite position"]);
+    // Past the mesh box's quick bound but finite at every vertex: loads (the vertices decide).
+    let mut doc = cornell_doc();
+    doc["nodes"][floor]["translation"] = json!([1e38, 0.0, 0.0]);
+    assert!(load_value(&doc).is_ok());
 
     // A triangle with a NaN vertex goes (in one BLAS its NaN bounds blacked out the whole
     // scene), the primitive's other triangle stays, and no non-finite position is left behind
@@ -2132,4 +2136,34 @@ fn emitters_too_small_for_f32_are_named() {
     assert_contains(&s.warnings.join("\n"), &["1 emissive triangle has an area under 32-bit floats' smallest"]);
     // A plain triangle says nothing.
     assert!(load_value(&triangle_doc()).unwrap().warnings.is_empty());
+}
+
+/// The world bounds of instances that only scale along the axes and move come from their mesh's
+/// box: equal, bit for bit, to transforming every vertex (negative and odd scales too); other
+/// instances (rotated, sheared) still transform every vertex.
+#[test]
+fn world_bounds_from_mesh_boxes_equal_every_vertex_transformed() {
+    let mut s = cornell();
+    let base = s.instances.clone();
+    let transforms = [
+        Mat4::from_scale_rotation_translation(Vec3::new(-3.7, 0.31, 1e-3), glam::Quat::IDENTITY, Vec3::new(1e4, -7.1, 0.3)),
+        Mat4::from_translation(Vec3::new(-0.1, 1.0 / 3.0, 5e6)),
+        Mat4::from_scale(Vec3::new(1e-7, -2.0, 7.0)),
+        Mat4::from_rotation_y(0.3) * Mat4::from_scale(Vec3::splat(2.0)),
+        Mat4::from_cols_array(&[1.0, 0.2, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.5, 0.0, 0.0, 1.0]),
+    ];
+    for (k, t) in transforms.iter().enumerate() {
+        for inst in &base {
+            s.instances.push(Instance { name: format!("{}-{k}", inst.name), mesh: inst.mesh, transform: *t * inst.transform });
+        }
+    }
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for inst in &s.instances {
+        for &p in &s.meshes[inst.mesh].positions {
+            let w = inst.transform.transform_point3(p);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    assert_eq!(s.world_bounds(), (lo, hi));
 }
