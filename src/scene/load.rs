@@ -995,6 +995,9 @@ fn load_textures(
     materials: &mut [Material],
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Texture>> {
+    if decode {
+        check_texture_total(doc, buffers, base_dir, used)?;
+    }
     let mut textures = Vec::new();
     let mut by_image: BTreeMap<(usize, bool), usize> = BTreeMap::new();
     for (m, material) in doc.materials().zip(materials.iter_mut()) {
@@ -1057,7 +1060,51 @@ fn load_textures(
     Ok(textures)
 }
 
-fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path>) -> Result<Texture> {
+/// Most texels of all textures together (4 GiB of RGBA8): all of them are one storage buffer
+/// binding, and no device's maxStorageBufferRange (a u32) reaches past it.
+const MAX_TOTAL_TEXELS: u64 = 1 << 30;
+
+/// Refuses, before any image is decoded, textures that together hold more than
+/// [`MAX_TOTAL_TEXELS`] (from their headers; an image sampled two ways counts twice, as it is
+/// uploaded twice): twelve 8192² images (200 KB files) took 6.4 GB and 10 s to decode before the
+/// upload refused them.
+fn check_texture_total(doc: &Document, buffers: &[Vec<u8>], base_dir: Option<&Path>, used: &std::collections::BTreeSet<usize>) -> Result<()> {
+    let mut keys = std::collections::BTreeSet::new();
+    // Each image with the first material that samples it (named in its errors, as load_textures does).
+    let mut images: BTreeMap<usize, (gltf::Image, String)> = BTreeMap::new();
+    for m in doc.materials().filter(|m| m.index().is_some_and(|i| used.contains(&i))) {
+        if let Some(info) = m.pbr_metallic_roughness().base_color_texture().filter(|i| i.tex_coord() == 0) {
+            let nearest = info.texture().sampler().mag_filter() == Some(gltf::texture::MagFilter::Nearest);
+            let image = info.texture().source();
+            keys.insert((image.index(), nearest));
+            let material = m.name().map(str::to_owned).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
+            images.entry(image.index()).or_insert((image, material));
+        }
+    }
+    let mut sizes: BTreeMap<usize, (String, u32, u32)> = BTreeMap::new();
+    for (index, (image, material)) in &images {
+        let what = || format!("material '{material}': base colour texture image {index}");
+        let (name, bytes) = image_bytes(image, buffers, base_dir).with_context(what)?;
+        let (w, h) = image_dimensions(&name, &bytes).with_context(what)?;
+        sizes.insert(*index, (name, w, h));
+    }
+    let total: u64 = keys.iter().filter_map(|(i, _)| sizes.get(i)).map(|(_, w, h)| u64::from(*w) * u64::from(*h)).sum();
+    if total > MAX_TOTAL_TEXELS {
+        let mut largest: Vec<&(String, u32, u32)> = sizes.values().collect();
+        largest.sort_by_key(|(_, w, h)| std::cmp::Reverse(u64::from(*w) * u64::from(*h)));
+        let names: Vec<String> = largest.iter().take(3).map(|(n, w, h)| format!("'{n}' {w}x{h}")).collect();
+        bail!(
+            "its base colour textures hold {total} texels ({:.1} GiB of RGBA8), more than any device reads through one \
+             buffer ({MAX_TOTAL_TEXELS} texels); render with --textures off, or scale down the largest ({})",
+            (total * 4) as f64 / (1u64 << 30) as f64,
+            names.join(", ")
+        );
+    }
+    Ok(())
+}
+
+/// An image's name (or `image{index}`) and its encoded bytes.
+fn image_bytes(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path>) -> Result<(String, Vec<u8>)> {
     let name = image
         .name()
         .map(str::to_owned)
@@ -1066,7 +1113,12 @@ fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path
         gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)?.to_vec(),
         gltf::image::Source::Uri { uri, .. } => read_uri(uri, base_dir, None)?,
     };
-    let reader = image::ImageReader::new(std::io::Cursor::new(&bytes))
+    Ok((name, bytes))
+}
+
+/// An encoded image's size from its header, within 1..=[`MAX_TEXELS`] texels.
+fn image_dimensions(name: &str, bytes: &[u8]) -> Result<(u32, u32)> {
+    let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| anyhow!("'{name}': {e}"))?;
     let (w, h) = reader
@@ -1075,6 +1127,12 @@ fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path
     if w == 0 || h == 0 || u64::from(w) * u64::from(h) > MAX_TEXELS {
         bail!("'{name}': {w}x{h} texels is outside 1..={MAX_TEXELS}");
     }
+    Ok((w, h))
+}
+
+fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path>) -> Result<Texture> {
+    let (name, bytes) = image_bytes(image, buffers, base_dir)?;
+    let (w, h) = image_dimensions(&name, &bytes)?;
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| anyhow!("'{name}': cannot decode (PNG and JPEG are supported): {e}"))?
         .to_rgba8();

@@ -892,6 +892,60 @@ fn texture_errors_name_the_material_and_image() {
     assert_contains(&s.warnings.join("\n"), &["TEXCOORD_1", "ignored"]);
 }
 
+/// A PNG of `w`×`h` RGBA8 texels whose image data is cut short after two bytes: its size reads,
+/// its texels do not decode.
+fn png_header_only(w: u32, h: u32) -> Vec<u8> {
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let mut chunk = |kind: &[u8; 4], data: &[u8]| {
+        png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        let start = png.len();
+        png.extend_from_slice(kind);
+        png.extend_from_slice(data);
+        let crc = crc32fast::hash(&png[start..]);
+        png.extend_from_slice(&crc.to_be_bytes());
+    };
+    let mut ihdr = Vec::new();
+    ihdr.extend_from_slice(&w.to_be_bytes());
+    ihdr.extend_from_slice(&h.to_be_bytes());
+    ihdr.extend_from_slice(&[8, 6, 0, 0, 0]);
+    chunk(b"IHDR", &ihdr);
+    // The start of a zlib stream: the header reader wants an IDAT chunk; its data is cut short.
+    chunk(b"IDAT", &[0x78, 0x9c]);
+    chunk(b"IEND", &[]);
+    png
+}
+
+/// Textures holding more texels together than any device binds (2^30) are refused from their
+/// headers, before any is decoded (twelve 8192² images took 6.4 GB and 10 s to decode before the
+/// upload refused them): header-only PNGs, which could not be decoded, get this error.
+#[test]
+fn textures_too_large_together_are_refused_before_decoding() {
+    let mut doc = triangle_doc();
+    let prim = doc["meshes"][0]["primitives"][0].clone();
+    let uri = format!("data:image/png;base64,{}", base64::encode(&png_header_only(8192, 8192)));
+    let n = 17; // 17 × 2^26 texels > 2^30
+    let (mut materials, mut textures, mut images, mut prims) = (vec![], vec![], vec![], vec![]);
+    for k in 0..n {
+        materials.push(json!({ "name": format!("m{k}"), "pbrMetallicRoughness": { "baseColorTexture": { "index": k } } }));
+        textures.push(json!({ "source": k }));
+        images.push(json!({ "name": format!("big{k}"), "uri": uri }));
+        let mut p = prim.clone();
+        p["material"] = json!(k);
+        prims.push(p);
+    }
+    doc["materials"] = json!(materials);
+    doc["textures"] = json!(textures);
+    doc["images"] = json!(images);
+    doc["meshes"][0]["primitives"] = json!(prims);
+    assert_contains(&load_err(&doc), &["1140850688 texels", "--textures off", "'big0' 8192x8192"]);
+    // One fewer fits the total; the first image then fails to decode (it has no data).
+    for key in ["materials", "textures", "images"] {
+        doc[key].as_array_mut().unwrap().pop();
+    }
+    doc["meshes"][0]["primitives"].as_array_mut().unwrap().pop();
+    assert_contains(&load_err(&doc), &["material 'm0'", "image 0"]);
+}
+
 /// Only the materials the rendered scene uses have their textures read: a texture that cannot be
 /// read, on a material no primitive uses or used only in another glTF scene, failed the file.
 /// Cut-outs and transparency are not rendered: a used material asking for them is warned about.
