@@ -64,7 +64,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
         let with_meshes: Vec<String> = doc
             .scenes()
             .filter(|sc| sc.index() > 0 && scene_has_meshes(sc))
-            .map(|sc| sc.name().map_or_else(|| sc.index().to_string(), |n| format!("{} ('{n}')", sc.index())))
+            .map(|sc| sc.name().map_or_else(|| sc.index().to_string(), |n| format!("{} ('{}')", sc.index(), shown_name(n))))
             .collect();
         if !with_meshes.is_empty() {
             bail!(
@@ -140,7 +140,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
     for (node, world) in &nodes {
         let node_name = node
             .name()
-            .map(str::to_owned)
+            .map(shown_name)
             .unwrap_or_else(|| format!("node{}", node.index()));
         if let Some(m) = node.mesh() {
             if let Some(&mesh) = mesh_map.get(&m.index()) {
@@ -161,13 +161,18 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
         if let Some(cam) = node.camera() {
             let name = cam
                 .name()
-                .map(str::to_owned)
+                .map(shown_name)
                 .unwrap_or_else(|| node_name.clone());
             match cam.projection() {
                 gltf::camera::Projection::Perspective(p) if camera.is_none() => {
                     let yfov = p.yfov();
                     if crate::camera::fov_ok(yfov.to_degrees()) {
                         check_camera_transform(world, &node_name, &name)?;
+                        if let Some(aspect) = p.aspect_ratio() {
+                            warnings.push(format!(
+                                "camera '{name}': aspectRatio {aspect} ignored; the image's --width and --height set it (yfov is kept)"
+                            ));
+                        }
                         camera = Some(Camera {
                             name,
                             transform: *world,
@@ -188,7 +193,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
         if let Some(light) = node.light() {
             let name = light
                 .name()
-                .map(str::to_owned)
+                .map(shown_name)
                 .unwrap_or_else(|| node_name.clone());
             match light.kind() {
                 LightKind::Point => {
@@ -205,6 +210,11 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                              (a negative channel emits negative light)",
                             fmt_floats(&color)
                         );
+                    }
+                    if let Some(range) = light.range() {
+                        warnings.push(format!(
+                            "point light '{name}': range {range} ignored; the light falls off with 1/d² everywhere"
+                        ));
                     }
                     point_lights.push(PointLight {
                         name,
@@ -302,8 +312,18 @@ fn fmt_columns(m: &Mat4) -> String {
 /// one off unit length by more than f32 rounding is normalised (with a warning beyond 1e-3).
 fn local_matrix(node: &gltf::Node, warnings: &mut Vec<String>) -> Result<Mat4> {
     use gltf::scene::Transform;
+    // JSON numbers beyond f32 read as ±Inf: said of the property, not as a NaN world matrix later.
+    let outside = |what: &str, values: &[f32]| -> Result<()> {
+        if values.iter().all(|v| v.is_finite()) {
+            return Ok(());
+        }
+        bail!("node '{}': its {what} has a value outside the 32-bit float range (beyond ±3.4e38)", node_label(node))
+    };
     let transform = match node.transform() {
         Transform::Decomposed { translation, rotation, scale } => {
+            outside("translation", &translation)?;
+            outside("rotation", &rotation)?;
+            outside("scale", &scale)?;
             let len = rotation.iter().map(|&c| f64::from(c).powi(2)).sum::<f64>().sqrt();
             if !(len > 0.0 && len.is_finite()) {
                 bail!(
@@ -328,7 +348,10 @@ fn local_matrix(node: &gltf::Node, warnings: &mut Vec<String>) -> Result<Mat4> {
             };
             Transform::Decomposed { translation, rotation, scale }
         }
-        matrix => matrix,
+        Transform::Matrix { matrix } => {
+            outside("matrix", matrix.as_flattened())?;
+            Transform::Matrix { matrix }
+        }
     };
     Ok(Mat4::from_cols_array_2d(&transform.matrix()))
 }
@@ -339,7 +362,7 @@ fn local_matrix(node: &gltf::Node, warnings: &mut Vec<String>) -> Result<Mat4> {
 fn check_node_matrices(root: &gltf::json::Root, warnings: &mut Vec<String>) {
     for (i, node) in root.nodes.iter().enumerate() {
         let Some(m) = node.matrix else { continue };
-        let name = node.name.clone().unwrap_or_else(|| format!("node{i}"));
+        let name = node.name.as_deref().map(shown_name).unwrap_or_else(|| format!("node{i}"));
         if node.translation.is_some() || node.rotation.is_some() || node.scale.is_some() {
             warnings.push(format!(
                 "node '{name}': has a matrix and translation/rotation/scale, which glTF forbids; the matrix is used and the rest ignored"
@@ -401,7 +424,7 @@ fn check_morph_weights(nodes: &[(gltf::Node, Mat4)], warnings: &mut Vec<String>)
         let targets = mesh.primitives().map(|p| p.morph_targets().len()).max().unwrap_or(0);
         let weights = node.weights().or_else(|| mesh.weights()).unwrap_or_default();
         if targets > 0 && weights.iter().any(|&w| w != 0.0) && warned.insert(mesh.index()) {
-            let name = mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned);
+            let name = mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), shown_name);
             warnings.push(format!(
                 "mesh '{name}' (node '{}'): morph targets are not supported; its weights {} are ignored and the base shape is rendered",
                 node_label(node),
@@ -414,7 +437,7 @@ fn check_morph_weights(nodes: &[(gltf::Node, Mat4)], warnings: &mut Vec<String>)
 /// The node's name, or `node{index}`.
 fn node_label(node: &gltf::Node) -> String {
     node.name()
-        .map(str::to_owned)
+        .map(shown_name)
         .unwrap_or_else(|| format!("node{}", node.index()))
 }
 
@@ -900,7 +923,7 @@ fn traverse<'a>(
 fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Material> {
     let name = m
         .name()
-        .map(str::to_owned)
+        .map(shown_name)
         .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
     let pbr = m.pbr_metallic_roughness();
     // glTF 2.0 restricts each component to [0, 1]; outside it the albedo gives negative or
@@ -937,6 +960,12 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
 
 /// Largest texture accepted (texels), so a corrupt header cannot ask for gigabytes.
 const MAX_TEXELS: u64 = 1 << 26;
+
+/// A name from the file as messages and the summary show it: control characters escaped (a
+/// material named "x\nerror: ..." printed a forged error line).
+fn shown_name(name: &str) -> String {
+    name.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
+}
 
 /// Whether any node of `scene` (or below one) holds a mesh.
 fn scene_has_meshes(scene: &gltf::Scene) -> bool {
@@ -1077,7 +1106,7 @@ fn check_texture_total(doc: &Document, buffers: &[Vec<u8>], base_dir: Option<&Pa
             let nearest = info.texture().sampler().mag_filter() == Some(gltf::texture::MagFilter::Nearest);
             let image = info.texture().source();
             keys.insert((image.index(), nearest));
-            let material = m.name().map(str::to_owned).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
+            let material = m.name().map(shown_name).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
             images.entry(image.index()).or_insert((image, material));
         }
     }
@@ -1107,7 +1136,7 @@ fn check_texture_total(doc: &Document, buffers: &[Vec<u8>], base_dir: Option<&Pa
 fn image_bytes(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path>) -> Result<(String, Vec<u8>)> {
     let name = image
         .name()
-        .map(str::to_owned)
+        .map(shown_name)
         .unwrap_or_else(|| format!("image{}", image.index()));
     let bytes = match image.source() {
         gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)?.to_vec(),
@@ -1165,7 +1194,7 @@ fn load_mesh(
 ) -> Result<Mesh> {
     let name = mesh
         .name()
-        .map(str::to_owned)
+        .map(shown_name)
         .unwrap_or_else(|| format!("mesh{}", mesh.index()));
     let mut out = Mesh {
         name: name.clone(),

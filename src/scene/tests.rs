@@ -835,6 +835,12 @@ fn lights_cameras_and_warnings() {
             "camera 'second' ignored",
         ],
     );
+    assert!(!w.contains("aspectRatio") && !w.contains("range"), "{w}");
+    // What a glTF viewer would apply and this renderer does not is said.
+    doc["cameras"][0]["perspective"]["aspectRatio"] = json!(2.0);
+    doc["extensions"]["KHR_lights_punctual"]["lights"][0]["range"] = json!(3.0);
+    let w = load_value(&doc).unwrap().warnings.join("\n");
+    assert_contains(&w, &["camera 'first': aspectRatio 2 ignored", "point light 'bulb': range 3 ignored"]);
 }
 
 /// A PNG (RGBA8) as a base64 data URI.
@@ -987,6 +993,12 @@ fn unused_materials_textures_are_not_read_and_alpha_modes_are_warned_about() {
     assert_contains(&s.warnings.join("\n"), &["1 material(s) with a metallicFactor above 0", "'unused' (1)", "Lambertian"]);
     doc["materials"][1]["pbrMetallicRoughness"]["metallicFactor"] = json!(0.0);
     assert!(!load_value(&doc).unwrap().warnings.join("\n").contains("metallicFactor"));
+    // A name's control characters are shown escaped: a newline in it printed a line of its own
+    // (here a forged error).
+    doc["materials"][1]["name"] = json!("unused\nerror: forged\u{1b}[2J");
+    let w = load_value(&doc).unwrap().warnings;
+    let alpha = w.iter().find(|w| w.contains("alphaMode")).expect("the alpha mode warning");
+    assert!(alpha.contains(r"material 'unused\nerror: forged\u{1b}[2J'") && !alpha.contains('\n') && !alpha.contains('\u{1b}'), "{alpha:?}");
 }
 
 /// A file with several glTF scenes and no default renders scene 0; when that one is empty and
@@ -1953,6 +1965,13 @@ fn degenerate_mesh_transform_is_an_error() {
     doc["nodes"][floor]["scale"] = json!([1e38, 1.0, 1.0]);
     doc["nodes"][floor]["translation"] = json!([3e38, 0.0, 0.0]);
     assert_contains(&load_err(&doc), &["test.gltf: node 'floor' (mesh 'floor')", "non-finite position"]);
+    // A number beyond f32 in the node's own properties is named (it was "non-finite world
+    // matrix, columns [NaN, ...]").
+    for (key, value) in [("translation", json!([1e39, 0.0, 0.0])), ("scale", json!([1.0, -1e39, 1.0])), ("matrix", json!([1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1e40, 0.0, 1.0]))] {
+        let mut doc = cornell_doc();
+        doc["nodes"][floor][key] = value;
+        assert_contains(&load_err(&doc), &["node 'floor'", &format!("its {key} has a value outside the 32-bit float range")]);
+    }
     // Past the mesh box's quick bound but finite at every vertex: loads (the vertices decide).
     let mut doc = cornell_doc();
     doc["nodes"][floor]["translation"] = json!([1e38, 0.0, 0.0]);
