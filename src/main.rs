@@ -385,8 +385,9 @@ enum Command {
         /// Exposure in EV of FLIP's 8-bit mapping (as --exposure of the PNG preview).
         #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
         exposure: f32,
-        /// Skip FLIP (the slow metric).
-        #[arg(long, conflicts_with = "error_image")]
+        /// Skip FLIP (the slow metric); its own flags (--exposure, --ppd, --error-image) are then
+        /// refused, not ignored.
+        #[arg(long, conflicts_with_all = ["error_image", "exposure", "ppd"])]
         no_flip: bool,
         /// FLIP's pixels per degree of visual angle.
         #[arg(long, default_value_t = 67.0)]
@@ -443,11 +444,14 @@ enum Command {
     /// References are cached under OUT/references and resumed when more frames are asked for.
     #[command(allow_negative_numbers = true)]
     Results {
-        /// Output directory (results.md, curves.csv, frame_times.csv, plots/, references/).
-        #[arg(value_parser = Utf8Path, long, default_value = "docs")]
-        out: PathBuf,
+        /// Output directory (results.md, curves.csv, frame_times.csv, plots/, references/)
+        /// [default: docs; with --quick: bench-out/results-quick, so that a smoke test does not
+        /// overwrite the committed results].
+        #[arg(value_parser = Utf8Path, long)]
+        out: Option<PathBuf>,
         /// Image sizes as a fraction of the thesis's (Cornell box 1280×1280, others 1280×720).
-        #[arg(long, default_value_t = 0.25)]
+        /// Not with --quick, which sets its own tiny sizes.
+        #[arg(long, default_value_t = 0.25, conflicts_with = "quick")]
         scale: f64,
         /// Smoke test: tiny images, few frames and VPLs, three modes (seconds on lavapipe).
         #[arg(long)]
@@ -729,8 +733,9 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         // Checked before any reference renders, naming the flag (these were caught late, under
         // another flag's name).
         check_counts(&[("--runs", *runs), ("--pt-frames", *pt_frames), ("--vpl-frames", *vpl_frames)], checkpoints.as_deref())?;
-        restir_vpl::output::prepare_output_dir("--out", out)?;
-        opts.out_dir = out.clone();
+        let out = out.clone().unwrap_or_else(|| PathBuf::from(if *quick { "bench-out/results-quick" } else { "docs" }));
+        restir_vpl::output::prepare_output_dir("--out", &out)?;
+        opts.out_dir = out;
         opts.runs = runs.unwrap_or(opts.runs);
         opts.pt_reference_frames = pt_frames.unwrap_or(opts.pt_reference_frames);
         opts.vpl_reference_frames = vpl_frames.unwrap_or(opts.vpl_reference_frames);
@@ -777,6 +782,17 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 unused.join(", "),
                 uses.iter().map(|u| format!("--{u}")).collect::<Vec<_>>().join(", ")
             );
+        }
+        // Sizes and counts checked before anything runs, as a render's are (`--rays --width 0`
+        // ran its raw dispatches before the first mode refused the size; a size past the frame
+        // targets' limits bound a buffer beyond maxStorageBufferRange).
+        if width.is_some() || height.is_some() {
+            let d = RenderSettings::default();
+            RenderSettings { width: width.unwrap_or(d.width), height: height.unwrap_or(d.height), ..d }.validate()?;
+        }
+        if *frames > MAX_BENCH_FRAMES {
+            // (Warm-up frames are added to it: u32::MAX wrapped to "--frames 0".)
+            bail!("--frames {frames}: a benchmark times at most {MAX_BENCH_FRAMES} frames");
         }
         // Outputs checked before the run, not when it ends.
         if let Some(path) = json {
@@ -1347,6 +1363,9 @@ fn join_signed_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> 
     }
     out
 }
+
+/// The most frames a benchmark times (`bench --frames`).
+const MAX_BENCH_FRAMES: u32 = 1_000_000;
 
 /// `--list-devices` takes only `--trace` (the way of tracing it reports for) and `--verbose`.
 fn list_devices_alone(matches: &clap::ArgMatches) -> Result<()> {

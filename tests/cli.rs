@@ -250,12 +250,22 @@ fn bad_flags() {
         assert_fails(&[&small[..], &["--out", &dump_dir, "--dump-vpls", "/dev/full"]].concat(), &["--dump-vpls /dev/full: writing the file"]);
     }
     assert_fails(&["bench", "--frames", "-1"], &["--frames", "'-1'"]);
+    // Sizes and counts are refused before anything is measured (--rays ran its raw dispatches at a
+    // width of 0; u32::MAX frames plus the warm-up wrapped to "--frames 0").
+    assert_fails(&["bench", "--rays", "--width", "0"], &["--width 0"]);
+    assert_fails(&["bench", "--rays", "--width", "4096", "--height", "8193", "--frames", "1"], &["--width 4096 --height 8193", "buffer limits"]);
+    assert_fails(&["bench", "--frames", "4294967295", "--width", "8", "--height", "8"], &["--frames 4294967295", "at most"]);
     // Counts of `results` and `bench --curves` are checked before any reference renders, under
     // their own names; the "Instead" benches exclude each other.
     let out = std::env::temp_dir().join("restir-vpl-cli-bad-flags").display().to_string();
     assert_fails(&["results", "--quick", "--out", &out, "--pt-frames", "0"], &["--pt-frames 0"]);
     assert_fails(&["results", "--quick", "--out", &out, "--vpl-frames", "0"], &["--vpl-frames 0"]);
     assert_fails(&["results", "--quick", "--out", &out, "--checkpoints", "0"], &["--checkpoints"]);
+    // Flags that would do nothing are refused: --quick sets its own sizes; --no-flip skips the
+    // metric --ppd and --exposure set.
+    assert_fails(&["results", "--quick", "--out", &out, "--scale", "4"], &["--quick", "--scale"]);
+    assert_fails(&["compare", "a.exr", "b.exr", "--no-flip", "--ppd", "5"], &["--no-flip", "--ppd"]);
+    assert_fails(&["compare", "a.exr", "b.exr", "--no-flip", "--exposure", "3"], &["--no-flip", "--exposure"]);
     assert_fails(&["bench", "--curves", "--quick", "--out", &out, "--checkpoints", "5,0"], &["--checkpoints"]);
     assert_fails(&["bench", "--photons", "--modes"], &["--photons", "--modes"]);
     // An unwritable reference path fails before the frames (it failed after rendering them all).

@@ -148,6 +148,9 @@ pub const SMALLEST_MEANINGFUL_PIXELS: u64 = 256 * 256;
 pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, height: u32, dispatches: u32, frames: u32) -> Result<RayRate> {
     anyhow::ensure!(dispatches > 0 && frames > 0, "bench --rays needs at least one timed dispatch and frame");
     ctx.check_launch_size(width, height)?;
+    // The size every mode measured after the raw dispatches must take, checked before them (its
+    // one-word-a-pixel sink stays within the per-pixel limit).
+    crate::passes::FrameTargets::check_size(ctx, width, height)?;
     let scene = Scene::load(scene_path)?;
     let gpu = Arc::new(SceneGpu::new(ctx, &scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES)?);
     let set = DescriptorSet::with_variants(ctx, "ray_rate.scene", gpu.bindings, 1)?;

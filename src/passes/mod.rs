@@ -165,19 +165,10 @@ pub struct FrameTargets {
 }
 
 impl FrameTargets {
-    /// `workgroup`: checked against the device's compute limits here, before any pass is built.
-    pub fn new(ctx: &Arc<Context>, width: u32, height: u32, workgroup: [u32; 2]) -> Result<Self> {
+    /// Refuses an image of more pixels than the device's buffer limits let the per-pixel buffers
+    /// hold (`bench --rays` checks its own size with it before it measures anything).
+    pub fn check_size(ctx: &Context, width: u32, height: u32) -> Result<()> {
         let limits = &ctx.properties.limits;
-        let [x, y] = workgroup;
-        anyhow::ensure!(
-            x <= limits.max_compute_work_group_size[0]
-                && y <= limits.max_compute_work_group_size[1]
-                && x * y <= limits.max_compute_work_group_invocations,
-            "--workgroup {x}x{y}: this device allows at most {}x{} and {} invocations per workgroup",
-            limits.max_compute_work_group_size[0],
-            limits.max_compute_work_group_size[1],
-            limits.max_compute_work_group_invocations
-        );
         let n = width as u64 * height as u64;
         // Per-pixel buffers must fit one descriptor: the G-buffer's two halves (128 bytes a pixel)
         // are texels (2^27 of them on lavapipe: 16.8M pixels), the others storage buffers of up to
@@ -199,6 +190,26 @@ impl FrameTargets {
             limits.max_texel_buffer_elements,
             limits.max_storage_buffer_range
         );
+        Ok(())
+    }
+
+    /// `workgroup`: checked against the device's compute limits here, before any pass is built.
+    pub fn new(ctx: &Arc<Context>, width: u32, height: u32, workgroup: [u32; 2]) -> Result<Self> {
+        let limits = &ctx.properties.limits;
+        let [x, y] = workgroup;
+        anyhow::ensure!(
+            x <= limits.max_compute_work_group_size[0]
+                && y <= limits.max_compute_work_group_size[1]
+                && x * y <= limits.max_compute_work_group_invocations,
+            "--workgroup {x}x{y}: this device allows at most {}x{} and {} invocations per workgroup",
+            limits.max_compute_work_group_size[0],
+            limits.max_compute_work_group_size[1],
+            limits.max_compute_work_group_invocations
+        );
+        Self::check_size(ctx, width, height)?;
+        let n = width as u64 * height as u64;
+        let granule = 16u64;
+        let record = std::mem::size_of::<GpuSurfaceTexels>() as u64;
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER
             | vk::BufferUsageFlags::TRANSFER_SRC
             | vk::BufferUsageFlags::TRANSFER_DST;
