@@ -618,6 +618,9 @@ impl RenderSettings {
                 "moving_candidates" | "moving_neighbours" if self.mode == Mode::Restir && !self.restir.temporal => {
                     "it sets the frames whose temporal reuse has history, and --temporal off has none".to_string()
                 }
+                "moving_candidates" | "moving_neighbours" if self.mode == Mode::Restir && self.progressive && self.camera_path.is_none() => {
+                    "it sets the frames displayed alone (--progressive off or --camera-path), and this run accumulates one still camera's".to_string()
+                }
                 "moving_neighbours" if self.mode == Mode::Restir && !self.reuses_spatially() => {
                     "it sets spatial reuse, which --spatial-passes 0 or --spatial-neighbours 0 turns off".to_string()
                 }
@@ -653,7 +656,7 @@ impl RenderSettings {
                 "vpls_indirect" | "photon_min_bounces" | "photon_max_bounces" if !self.gi => {
                     "it shapes the indirect VPLs, and --no-gi traces none".to_string()
                 }
-                "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" | "candidates" | "candidate_source"
+                "max_bounces" | "attenuation" | "yuksel_radius" | "yuksel_spacings" | "yuksel_knn" | "compensate" | "candidates" | "candidate_source"
                 | "presample" | "grid_candidates" | "grid_cells" | "grid_entries" | "grid_entry_candidates" | "grid_balance" | "temporal" | "mcap" | "spatial_neighbours" | "spatial_radius" | "spatial_passes" | "normal_threshold"
                 | "depth_threshold" | "bias" | "boiling_filter" | "initial_visibility" | "fuse_passes" | "moving_candidates"
                 | "moving_neighbours"
@@ -1101,6 +1104,8 @@ mod tests {
             candidates,
             grid: GridSettings { candidates: grid, ..Default::default() },
             restir: RestirSettings { spatial_neighbours, moving_candidates, moving_neighbours, ..Default::default() },
+            // Frames displayed alone (a still camera accumulating has none).
+            progressive: false,
             ..RenderSettings::default()
         };
         assert_eq!(RenderSettings { mode: Mode::Restir, ..Default::default() }.moving_sampling(), (8, 4));
@@ -1123,6 +1128,10 @@ mod tests {
             s.unused_flags(&["moving_candidates", "moving_neighbours"]).iter().map(|w| w.split(' ').next().unwrap().to_string()).collect()
         };
         assert!(named(&with(32, 0, 8, 16, 4)).is_empty());
+        // A still camera accumulating displays no frame alone (the flags changed nothing, unsaid).
+        let still = RenderSettings { progressive: true, ..with(32, 0, 8, 16, 4) };
+        assert_eq!(named(&still), ["--moving-candidates", "--moving-neighbours"]);
+        assert!(named(&RenderSettings { camera_path: Some("p.json".into()), ..still }).is_empty());
         assert_eq!(named(&RenderSettings { mode: Mode::Ris, ..with(32, 0, 8, 16, 4) }), ["--moving-candidates", "--moving-neighbours"]);
         let no_temporal = with(32, 0, 8, 16, 4);
         let no_temporal = RenderSettings { restir: RestirSettings { temporal: false, ..no_temporal.restir }, ..no_temporal };
@@ -1139,5 +1148,15 @@ mod tests {
         assert!(with(4, 0, 8, 8, 4).bounded_flags(&[]).is_empty());
         assert!(with(32, 0, 8, 16, 4).bounded_flags(&both).is_empty());
         assert!(with(32, 0, 8, 0, 0).bounded_flags(&both).is_empty());
+    }
+
+    /// `--view vpls` draws the VPL set whatever the mode: the path tracer's depth does nothing
+    /// there either (it was not named).
+    #[test]
+    fn max_bounces_is_named_under_view_vpls() {
+        let s = RenderSettings { mode: Mode::Pt, view: View::Vpls, ..Default::default() };
+        let w = s.unused_flags(&["max_bounces"]);
+        assert!(w.len() == 1 && w[0].starts_with("--max-bounces has no effect here: --view vpls"), "{w:?}");
+        assert!(RenderSettings { mode: Mode::Pt, ..Default::default() }.unused_flags(&["max_bounces"]).is_empty());
     }
 }
