@@ -155,6 +155,32 @@ fn remove_earlier_snapshots(dir: &std::path::Path, settings: &RenderSettings) ->
     Ok(removed)
 }
 
+/// An earlier run's outputs in `dir` that this run leaves as they are: `--save-every` snapshots
+/// when it takes none, a `passes/` dump when it dumps none.
+fn earlier_outputs_left(dir: &std::path::Path, settings: &RenderSettings, dumps: bool) -> Vec<String> {
+    let mut out = Vec::new();
+    if settings.save_every == 0 {
+        let snapshots = std::fs::read_dir(dir)
+            .map(|entries| {
+                entries
+                    .filter_map(|e| e.ok())
+                    .filter(|e| e.file_name().to_str().and_then(snapshot_frame).is_some() && crate::output::is_exr_file(&e.path()))
+                    .count()
+            })
+            .unwrap_or(0);
+        if snapshots > 0 {
+            out.push(format!(
+                "--out {}: {snapshots} snapshot(s) accum_NNNN.exr of an earlier run are left there; this run writes none (no --save-every)",
+                dir.display()
+            ));
+        }
+    }
+    if !dumps && dir.join("passes").join("index.html").exists() {
+        out.push(format!("--out {}: passes/ holds an earlier run's pass dumps; this run dumps none (no --dump-passes)", dir.display()));
+    }
+    out
+}
+
 /// Refuses a run whose outputs would overwrite one of its inputs: the scene, the files it reads
 /// (`scene_files`: external buffers and images) or the camera path, under `--out`'s fixed names
 /// (and `--save-every`'s snapshots) or as `--dump-vpls`. Checked once the scene is loaded, before
@@ -266,6 +292,12 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         let removed = remove_earlier_snapshots(dir, settings)?;
         if removed > 0 {
             log::warn!("--out {}: removed {removed} --save-every snapshot(s) of an earlier run", dir.display());
+        }
+        // What an earlier run left that this one neither writes nor removes, said (not removed:
+        // this run did not ask for such files), so that it is not read as this run's.
+        for w in earlier_outputs_left(dir, settings, dump.is_some()) {
+            log::warn!("{w}");
+            warnings.push(w);
         }
     }
     if let Some(path) = &settings.dump_vpls {

@@ -141,6 +141,18 @@ fn save_every_replaces_an_earlier_runs_snapshots() {
     let o = run(&args("2").iter().map(String::as_str).collect::<Vec<_>>());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("removed 3 --save-every snapshot(s)"), "{}", stderr(&o));
+    // A run without --save-every (or --dump-passes) leaves an earlier run's snapshots (and pass
+    // dumps) there, and says so, also in its summary.
+    std::fs::create_dir(dir.path().join("passes")).unwrap();
+    std::fs::write(dir.path().join("passes/index.html"), b"<html>").unwrap();
+    let plain = ["--headless", "--mode", "pt", "--width", "8", "--height", "8", "--frames", "1", "--out", &out];
+    let o = run(&plain);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for said in ["2 snapshot(s) accum_NNNN.exr of an earlier run are left there", "passes/ holds an earlier run's pass dumps"] {
+        assert!(stderr(&o).contains(said), "{said}: {}", stderr(&o));
+        assert!(std::fs::read_to_string(dir.path().join("summary.json")).unwrap().contains(said), "{said}");
+    }
+    std::fs::remove_dir_all(dir.path().join("passes")).unwrap();
     let mut names: Vec<String> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
     names.sort();
     assert_eq!(names, ["accum_.exr", "accum_00001.exr", "accum_0001.exr", "accum_0002.exr", "accum_0007.exr", "final.exr", "final.png", "summary.json"]);
