@@ -683,8 +683,14 @@ fn pipeline_cache_is_saved_checked_and_a_foreign_file_ignored() {
     }
     // RESTIR_VPL_PIPELINE_CACHE=off: nothing read or written.
     let off = tempfile::tempdir().unwrap();
-    let o = bin().args(args).env("RESTIR_VPL_CACHE_DIR", off.path()).env("RESTIR_VPL_PIPELINE_CACHE", "off").output().unwrap();
-    assert!(o.status.success());
+    for value in ["off", "OFF", "0", "false"] {
+        let o = bin().args(args).env("RESTIR_VPL_CACHE_DIR", off.path()).env("RESTIR_VPL_PIPELINE_CACHE", value).output().unwrap();
+        assert!(o.status.success(), "{value}: {}", stderr(&o));
+        assert_eq!(std::fs::read_dir(off.path()).unwrap().count(), 0, "{value}");
+    }
+    // A value that is neither is refused, naming the variable (it wrote the cache).
+    let o = bin().args(args).env("RESTIR_VPL_CACHE_DIR", off.path()).env("RESTIR_VPL_PIPELINE_CACHE", "maybe").output().unwrap();
+    assert!(!o.status.success() && stderr(&o).contains("RESTIR_VPL_PIPELINE_CACHE=\"maybe\""), "{}", stderr(&o));
     assert_eq!(std::fs::read_dir(off.path()).unwrap().count(), 0);
 }
 

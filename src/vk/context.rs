@@ -770,7 +770,7 @@ impl Context {
         let command_pool = unsafe { device.create_command_pool(&pool_info, None) }.context("vkCreateCommandPool")?;
         unwind.command_pool = command_pool;
 
-        let pipeline_cache_file = super::pipeline_cache::cache_path(&properties);
+        let pipeline_cache_file = super::pipeline_cache::cache_path(&properties)?;
         let initial = match &pipeline_cache_file {
             Some(path) => match super::pipeline_cache::load(path, &properties) {
                 Ok(data) => data.unwrap_or_default(),

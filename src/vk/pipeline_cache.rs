@@ -17,10 +17,24 @@ use ash::vk;
 
 /// Where the cache of this device and build is kept, or None when caching is off or there is no
 /// cache directory.
-pub fn cache_path(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
-    if std::env::var("RESTIR_VPL_PIPELINE_CACHE").is_ok_and(|v| v == "off") {
-        return None;
-    }
+/// A `RESTIR_VPL_PIPELINE_CACHE` that is neither on nor off is an error naming it (`OFF`, `0`
+/// and `false` wrote the cache without a word).
+pub fn cache_path(props: &vk::PhysicalDeviceProperties) -> anyhow::Result<Option<PathBuf>> {
+    let on = match std::env::var("RESTIR_VPL_PIPELINE_CACHE") {
+        Err(std::env::VarError::NotPresent) => true,
+        Ok(v) => match v.to_ascii_lowercase().as_str() {
+            "" | "1" | "on" | "true" | "yes" => true,
+            "0" | "off" | "false" | "no" => false,
+            _ => anyhow::bail!("RESTIR_VPL_PIPELINE_CACHE={v:?}: expected on or off (1/0, true/false, yes/no)"),
+        },
+        Err(std::env::VarError::NotUnicode(v)) => {
+            anyhow::bail!("RESTIR_VPL_PIPELINE_CACHE={v:?}: expected on or off (1/0, true/false, yes/no)")
+        }
+    };
+    Ok(on.then(|| cache_dir(props)).flatten())
+}
+
+fn cache_dir(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
     // An empty variable is unset; XDG_CACHE_HOME and HOME count only when absolute (the XDG base
     // directory spec says to ignore a relative one: it put the cache in the working directory).
     let var = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty()).map(PathBuf::from);
