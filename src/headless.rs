@@ -315,6 +315,8 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
             warnings.push(format!("--renderdoc-capture: {}", crate::vk::renderdoc::HOW_TO_CAPTURE));
         }
     }
+    // Frames whose passes ran apart to be captured, where the others run fused.
+    let mut captured_frames = 0u32;
     for f in 0..settings.frames {
         let capture_this = settings.renderdoc_capture == Some(f);
         if capture_this {
@@ -329,6 +331,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         let dump_this = dump.as_ref().is_some_and(|d| d.contains(f, settings.frames));
         if dump_this || settings.check_finite {
             let (stats, captured) = renderer.render_frame_captured(&camera_at(f), preview)?;
+            captured_frames += 1;
             let finite = if settings.check_finite { crate::dump::check_finite(f, settings.width, settings.height, &captured) } else { Ok(()) };
             // With --dump-passes the frame --check-finite stops at is dumped whatever the
             // selection: it is the one to look at (the run stopped with the earlier dumps removed
@@ -367,6 +370,18 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         progress.tick();
     }
     progress.finish();
+    if captured_frames > 0 && settings.fuses_passes() && settings.mode == crate::settings::Mode::Restir {
+        // The summary's settings say fuse_passes (what the other frames do); its pass timings
+        // list these frames' passes apart.
+        let why = if settings.check_finite { "--check-finite" } else { "--dump-passes" };
+        let w = format!(
+            "{why}: {captured_frames} of {} frame(s) ran their passes apart, to copy out each pass's output; the summary's \
+             fuse_passes says what the other frames run",
+            settings.frames
+        );
+        log::warn!("{w}");
+        warnings.push(w);
+    }
     if let (false, Some(dir)) = (dumped.is_empty(), &settings.out_dir) {
         finish_dump(&renderer, &dir.join("passes"), &dumped, &mut outputs)?;
     }
