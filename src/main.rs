@@ -358,7 +358,7 @@ enum Command {
         #[arg(value_parser = Utf8Path, long, default_value = "bench-out")]
         out: PathBuf,
         /// With --curves: checkpoints (accumulated frames), comma separated [default: 1,2,5,10,20,40].
-        #[arg(long, value_delimiter = ',', requires = "curves")]
+        #[arg(long, value_delimiter = ',', requires = "curves", action = clap::ArgAction::Set)]
         checkpoints: Option<Vec<u32>>,
         /// With --curves, --motion or --radius: independent runs averaged [default: 3 for --curves, 2 for
         /// --motion and --radius].
@@ -466,7 +466,7 @@ enum Command {
         #[arg(long)]
         vpl_frames: Option<u32>,
         /// Checkpoints (accumulated frames), comma separated.
-        #[arg(long, value_delimiter = ',')]
+        #[arg(long, value_delimiter = ',', action = clap::ArgAction::Set)]
         checkpoints: Option<Vec<u32>>,
         /// Skip FLIP.
         #[arg(long)]

@@ -490,6 +490,16 @@ fn later_flag_overrides_earlier() {
     let out = dir.path().display().to_string();
     let o = run(&["--headless", "--frames", "0", "--frames", "1", "--width", "8", "--height", "8", "--out", &out]);
     assert!(o.status.success(), "{}", stderr(&o));
+    // A list flag too (its values were appended: "--checkpoints 0 --checkpoints 1" was [0, 1],
+    // refused for the 0). The run stops at the --out after the checkpoints are checked: a file.
+    let file = dir.path().join("a_file");
+    std::fs::write(&file, b"x").unwrap();
+    let file = file.display().to_string();
+    for cmd in [&["results", "--quick"][..], &["bench", "--curves", "--quick"][..]] {
+        let args = [cmd, &["--checkpoints", "0", "--checkpoints", "1,2", "--out", &file]].concat();
+        let o = run(&args);
+        assert!(!o.status.success() && stderr(&o).contains("not a directory") && !stderr(&o).contains("--checkpoints"), "{args:?}: {}", stderr(&o));
+    }
 }
 
 #[test]

@@ -207,6 +207,13 @@ fn cli_merge_references() {
         .unwrap();
     assert!(o.status.success(), "stderr: {}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(read_reference(&deep).unwrap().1.frames, 8);
+    // A directory as --out is named as one (the advice was "pass --overwrite", which then failed).
+    let o = Command::new(bin)
+        .args(["merge-references", &pa.display().to_string(), &pb.display().to_string(), "--out", &dir.path().display().to_string()])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("is a directory") && !err.contains("--overwrite"), "{err}");
 }
 
 /// A part with a NaN or Inf pixel is refused (it would spread into the merge, which `compare`

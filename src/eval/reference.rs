@@ -349,6 +349,10 @@ pub fn run_merge_cli(inputs: &[std::path::PathBuf], out: &Path, overwrite: bool)
     let (img, meta) = merge_labelled(&parts, &labels)?;
     // A reference holds hours of frames: as `reference` does without --resume, never replace one
     // unasked.
+    // (A directory first: "pass --overwrite" was the advice, and with it the write failed.)
+    if out.is_dir() {
+        bail!("--out {}: is a directory; name the merged reference's file (e.g. merged.exr)", out.display());
+    }
     if !overwrite && out.symlink_metadata().is_ok() {
         bail!("--out {}: exists; pass --overwrite to replace it, or write the merge to a new file", out.display());
     }
