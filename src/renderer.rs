@@ -504,7 +504,7 @@ impl Renderer {
             let readback = Buffer::new(
                 &ctx,
                 &format!("frame{i}.counters_readback"),
-                4 * (RAY_SLOTS.len() as u64 + 1),
+                4 * (2 * RAY_SLOTS.len() as u64 + 1),
                 vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             )?;
@@ -1197,7 +1197,7 @@ impl Renderer {
             let mut hook = |cmd, d| record_debug_hang(&ctx, cmd, d, hang);
             self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut hook);
         }
-        let counters_size = 4 * RAY_SLOTS.len() as u64;
+        let counters_size = 2 * 4 * RAY_SLOTS.len() as u64;
         // SAFETY: buffers alive; the barrier after the last pass orders the copies after it.
         unsafe {
             d.cmd_copy_buffer(
@@ -1259,18 +1259,20 @@ impl Renderer {
         slot.pending = None;
         let dispatch_ms = slot.timer.collect()?;
         let n_slots = RAY_SLOTS.len();
-        let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (n_slots + 1))?);
+        let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (2 * n_slots + 1))?);
         // The GPU's count covers the accumulation so far: what this frame added is the difference
         // to the last frame's (frames complete in submission order), or all of it after a reset.
-        let count = counters[n_slots] as u64;
-        let added = if reset { count } else { count.saturating_sub(self.state.nonfinite_samples) };
+        let count = counters[2 * n_slots] as u64;
+        // In 32 bits, as the GPU counts: across a wrap of its counter the difference is still
+        // right (a frame adds at most one per pixel, far below 2^32).
+        let added = if reset { count } else { u64::from((count as u32).wrapping_sub(self.state.nonfinite_samples as u32)) };
         self.nonfinite_total += added;
         self.ctx.add_nonfinite_samples(added);
         self.state.nonfinite_samples = count;
         let primary = if gbuffer_ran { self.parts.targets.pixels() as u64 } else { 0 };
         let mut rays_by_pass = vec![("gbuffer", primary)];
-        for (slot, (name, constant)) in crate::passes::RAY_SLOT_NAMES.iter().enumerate() {
-            let count = if constant.ends_with("_HIGH") { (counters[slot] as u64) << 32 } else { counters[slot] as u64 };
+        for (slot, (name, _)) in crate::passes::RAY_SLOT_NAMES.iter().enumerate() {
+            let count = u64::from(counters[slot]) | u64::from(counters[n_slots + slot]) << 32;
             if count > 0 {
                 match rays_by_pass.iter_mut().find(|(n, _)| n == name) {
                     Some(entry) => entry.1 += count,

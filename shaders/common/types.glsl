@@ -133,9 +133,9 @@ const uint RAYS_BRUTEFORCE = 5u;
 const uint RAYS_COMPENSATE = 6u;
 const uint RAYS_INITIAL_TEMPORAL = 7u;
 const uint RAYS_SPATIAL_SHADE = 8u;
-// The carries of RAYS_BRUTEFORCE: a brute-force frame may trace more than 2^32 rays (up to 2e10
-// pixel × VPL pairs are allowed), so its count is 64-bit, this slot its high word.
-const uint RAYS_BRUTEFORCE_HIGH = 9u;
+// Every count is 64-bit: slot i's high word is at RAYS_HIGH + i (common/ray_count.glsl carries
+// into it; a pass may trace more than 2^32 rays in a frame: passes::RAY_SLOT_NAMES says which).
+const uint RAYS_HIGH = 9u;
 
 const uint RESERVOIR_EMPTY = 0xFFFFFFFFu;
 

@@ -21,6 +21,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_x_id = 0, local_size_y_id 
 layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFACE_TEXELS (4) texels each
 layout(set = 1, binding = 1, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 2, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 
 const uint SALT_PATHTRACE = 0x7074u;
 const int RR_START_BOUNCE = 3;
@@ -88,5 +89,5 @@ void main() {
         albedo = hit_albedo(hit);
     }
     samples[index] = vec4(radiance, 1.0);
-    atomicAdd(ray_count[RAYS_PATHTRACE], rays);
+    count_rays(RAYS_PATHTRACE, rays);
 }

@@ -19,6 +19,7 @@ layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2) uniform utextureBuffer vpl_alias;  // AliasEntry, RG32UI
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 layout(set = 1, binding = 5) uniform utextureBuffer tiles;  // VplCandidate, 2 texels each
 layout(set = 1, binding = 6) uniform utextureBuffer grid_entries;  // GridEntry, 3 texels each
 layout(set = 1, binding = 7, std430) buffer GridCells { uvec4 grid_cells[]; };  // regir_build.comp
@@ -61,6 +62,6 @@ void main() {
     GridPick k = regir_pixel(s, pc.grid, params);
     reservoirs_out[index] = initial_reservoir(pixel, s, params, pc.tiles, vpls, vpl_alias, tiles, pc.grid, k, grid_entries, rays);
     if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_INITIAL], rays);
+        count_rays(RAYS_INITIAL, rays);
     }
 }

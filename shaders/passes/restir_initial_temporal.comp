@@ -25,6 +25,7 @@ layout(set = 1, binding = 3) uniform utextureBuffer tiles;  // VplCandidate, 2 t
 layout(set = 1, binding = 4) uniform utextureBuffer history;  // Reservoir, 1 texel each
 layout(set = 1, binding = 5, std430) writeonly buffer ReservoirOut { Reservoir reservoirs_out[]; };
 layout(set = 1, binding = 6, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 layout(set = 1, binding = 7) uniform utextureBuffer grid_entries;  // GridEntry, 3 texels each
 layout(set = 1, binding = 8, std430) buffer GridCells { uvec4 grid_cells[]; };  // regir_build.comp
 
@@ -69,6 +70,6 @@ void main() {
     }
     reservoirs_out[index] = r;
     if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_INITIAL_TEMPORAL], rays);
+        count_rays(RAYS_INITIAL_TEMPORAL, rays);
     }
 }

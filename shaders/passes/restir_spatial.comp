@@ -25,6 +25,7 @@ layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2) uniform utextureBuffer src;  // Reservoir, 1 texel each
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir dst[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -52,6 +53,6 @@ void main() {
     SpatialReuse sr = SpatialReuse(pc.neighbours, pc.neighbours_without_history, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
     dst[index] = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, UNBIASED, VISIBLE_TARGETS, rays);
     if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_SPATIAL], rays);
+        count_rays(RAYS_SPATIAL, rays);
     }
 }

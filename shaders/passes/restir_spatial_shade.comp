@@ -31,6 +31,7 @@ layout(set = 1, binding = 2) uniform utextureBuffer src;  // Reservoir, 1 texel 
 layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir dst[]; };
 layout(set = 1, binding = 4, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 5, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -65,6 +66,6 @@ void main() {
         samples[index] = vec4(vec3(uintBitsToFloat(0x7fc00000u)), 1.0);
     }
     if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_SPATIAL_SHADE], rays);
+        count_rays(RAYS_SPATIAL_SHADE, rays);
     }
 }

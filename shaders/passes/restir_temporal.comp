@@ -20,6 +20,7 @@ layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2, std430) buffer ReservoirCurrent { Reservoir reservoirs[]; };
 layout(set = 1, binding = 3) uniform utextureBuffer history;  // Reservoir, 1 texel each
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -44,6 +45,6 @@ void main() {
         }
     }
     if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_TEMPORAL], rays);
+        count_rays(RAYS_TEMPORAL, rays);
     }
 }

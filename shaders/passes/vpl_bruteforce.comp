@@ -19,23 +19,13 @@ layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFA
 layout(set = 1, binding = 1, std430) readonly buffer VplBuffer { Vpl vpls[]; };
 layout(set = 1, binding = 2, std430) buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 3, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
     uint first;
     uint count;
 } pc;
-
-// Adds n to the 64-bit ray count (RAYS_BRUTEFORCE and its high word): the add that wraps the low
-// word carries one into the high word.
-void count_rays(uint n) {
-    if (n > 0u) {
-        uint before = atomicAdd(ray_count[RAYS_BRUTEFORCE], n);
-        if (before > 0xFFFFFFFFu - n) {
-            atomicAdd(ray_count[RAYS_BRUTEFORCE_HIGH], 1u);
-        }
-    }
-}
 
 void main() {
     uvec2 pixel = dispatch_pixel();
@@ -44,7 +34,7 @@ void main() {
     }
     uint index = pixel.y * frame.width + pixel.x;
     if (frame.debug_poison == POISON_RAY_CARRY && index == 0u && pc.first == 0u) {
-        count_rays(0xFFFFFF00u);  // tests of the carry only (before any early return)
+        count_rays(RAYS_BRUTEFORCE, 0xFFFFFF00u);  // tests of the carry only (before any early return)
     }
     Surface s = surface_texels(surfaces, surface_slot(index));
     VplParams p = pc.params;
@@ -67,5 +57,5 @@ void main() {
         }
     }
     samples[index] = vec4(radiance, 1.0);
-    count_rays(rays);
+    count_rays(RAYS_BRUTEFORCE, rays);
 }

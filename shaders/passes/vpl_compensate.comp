@@ -30,6 +30,7 @@ layout(set = 1, binding = 0) uniform utextureBuffer surfaces;  // Surface, SURFA
 layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2, std430) buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 3, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -138,6 +139,6 @@ void main() {
     }
     samples[index].rgb += added;
     if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_COMPENSATE], rays);
+        count_rays(RAYS_COMPENSATE, rays);
     }
 }

@@ -18,6 +18,7 @@ layout(set = 1, binding = 1) uniform utextureBuffer vpls;  // Vpl, 3 texels each
 layout(set = 1, binding = 2) uniform utextureBuffer reservoirs;  // Reservoir, 1 texel each
 layout(set = 1, binding = 3, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
+#include "../common/ray_count.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -85,6 +86,6 @@ void main() {
     vec3 radiance = shade_estimate(s, r, p, vpls, rays);
     samples[index] = vec4(radiance, 1.0);
     if (rays > 0u) {
-        atomicAdd(ray_count[RAYS_SHADE], rays);
+        count_rays(RAYS_SHADE, rays);
     }
 }

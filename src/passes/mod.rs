@@ -80,9 +80,12 @@ pub fn all_pass_descs() -> Vec<&'static PassDesc> {
 }
 
 /// Slots of `FrameTargets::ray_counter`: (the pass that traced them, the slot's `RAYS_*` constant
-/// in shaders/common/types.glsl, whose value is the index here). A `_HIGH` slot holds the high word
-/// of its pass's 64-bit count.
-pub const RAY_SLOT_NAMES: [(&str, &str); 10] = [
+/// in shaders/common/types.glsl, whose value is the index here). Every count is 64-bit: slot i's
+/// high word is at `RAYS_HIGH + i` (shaders/common/ray_count.glsl carries into it). A frame may
+/// trace more than 2^32 rays in one pass: brute force (2e10 pixel × VPL pairs allowed), ReSTIR's
+/// spatial passes at the largest image (8.4M pixels × 32 neighbours × 2 rays × 8 passes), the
+/// initial pass with visible targets (1024 candidates a pixel).
+pub const RAY_SLOT_NAMES: [(&str, &str); 9] = [
     (PathtracePass::NAME, "RAYS_PATHTRACE"),
     (RestirInitialPass::NAME, "RAYS_INITIAL"),
     (RestirTemporalPass::NAME, "RAYS_TEMPORAL"),
@@ -92,7 +95,6 @@ pub const RAY_SLOT_NAMES: [(&str, &str); 10] = [
     (VplCompensatePass::NAME, "RAYS_COMPENSATE"),
     (RestirInitialTemporalPass::NAME, "RAYS_INITIAL_TEMPORAL"),
     (RestirSpatialShadePass::NAME, "RAYS_SPATIAL_SHADE"),
-    (VplBruteforcePass::NAME, "RAYS_BRUTEFORCE_HIGH"),
 ];
 
 /// The pass of each slot of `FrameTargets::ray_counter` (from [`RAY_SLOT_NAMES`]).
@@ -110,7 +112,8 @@ pub const RAY_SLOTS: [&str; RAY_SLOT_NAMES.len()] = {
 /// slots.
 pub fn glsl_constants() -> Vec<(&'static str, u32)> {
     let slots = RAY_SLOT_NAMES.iter().enumerate().map(|(i, (_, glsl))| (*glsl, i as u32));
-    GLSL_CONSTANTS.iter().copied().chain(slots).collect()
+    let high = std::iter::once(("RAYS_HIGH", RAY_SLOT_NAMES.len() as u32));
+    GLSL_CONSTANTS.iter().copied().chain(slots).chain(high).collect()
 }
 
 /// The texel format through which passes read records at per-lane addresses (surfaces, VPLs,
@@ -229,7 +232,8 @@ impl FrameTargets {
             accum_deviations: make("accumulate.deviations", n * 16)?,
             mean: make("accumulate.mean", n * 16)?,
             preview: make("tonemap.preview", n * 4)?,
-            ray_counter: make("frame.ray_counter", 4 * RAY_SLOTS.len() as u64)?,
+            // A low and a high word per slot (RAY_SLOT_NAMES).
+            ray_counter: make("frame.ray_counter", 2 * 4 * RAY_SLOTS.len() as u64)?,
             stats: make("frame.stats", 16)?,
         })
     }
