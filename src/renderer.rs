@@ -962,7 +962,13 @@ impl Renderer {
             // On the temporal pass's output: only where temporal reuse runs (fused or not).
             restir_boiling: restir_step(
                 r.boiling_filter > 0.0 && temporal_runs,
-                if r.boiling_filter <= 0.0 { "--boiling-filter 0" } else { "restir_temporal does not run this frame" },
+                if r.boiling_filter <= 0.0 {
+                    "--boiling-filter 0"
+                } else if !r.temporal {
+                    "--temporal off"
+                } else {
+                    "restir_temporal does not run this frame"
+                },
             ),
             restir_spatial: restir_step(
                 r.spatial_passes > 0 && r.spatial_neighbours > 0,

@@ -904,8 +904,11 @@ impl RenderSettings {
             bail!("--moving-candidates {}: at most 1024 (0: as --candidates)", r.moving_candidates);
         }
         if let Some(radius) = r.spatial_radius {
-            if !(radius >= 1.0 && radius.is_finite()) {
-                bail!("--spatial-radius {radius}: must be a finite number of pixels, at least 1");
+            // At most twice the largest image side: a disc that large already reaches every pixel,
+            // and past 2^31 the shader's conversion of its offsets to integers is undefined.
+            let most = 2.0 * MAX_IMAGE_SIDE as f32;
+            if !(1.0..=most).contains(&radius) {
+                bail!("--spatial-radius {radius:?}: must be a number of pixels from 1 to {most}");
             }
         }
         if r.spatial_passes > 8 {

@@ -514,6 +514,7 @@ fn vpl_mode_flag_errors() {
     assert_fails(&with(&["--mode", "ris", "--grid-candidates", "4", "--grid-entry-candidates", "0"]), &["--grid-entry-candidates 0"]);
     assert_fails(&with(&["--mode", "restir", "--spatial-neighbours", "33"]), &["--spatial-neighbours 33"]);
     assert_fails(&with(&["--mode", "restir", "--spatial-radius", "0"]), &["--spatial-radius 0"]);
+    assert_fails(&with(&["--mode", "restir", "--spatial-radius", "1e30"]), &["--spatial-radius 1e30", "from 1 to 32768"]);
     assert_fails(&with(&["--mode", "restir", "--normal-threshold", "2"]), &["--normal-threshold 2"]);
     assert_fails(&with(&["--mode", "restir", "--mcap=-1"]), &["--mcap"]);
     assert_fails(&with(&["--mode", "restir", "--yuksel-radius=-3"]), &["--yuksel-radius -3"]);
