@@ -783,6 +783,27 @@ fn a_1280x720_frame_of_every_mode_stays_within_the_device_limits() {
     }
 }
 
+/// The loader's own complaints are no validation error: a driver manifest whose library is
+/// missing (a container with an NVIDIA manifest and no driver) made the loader report two errors
+/// during vkCreateInstance, which the messenger chained there counted, and every run under
+/// validation failed.
+#[test]
+fn a_stray_driver_manifest_is_no_validation_error() {
+    if !validate() {
+        common::skip("no validation layer installed (CI requires one)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let manifest = dir.path().join("stray_icd.json");
+    std::fs::write(&manifest, r#"{"file_format_version": "1.0.0", "ICD": {"library_path": "/nonexistent/libstray_vulkan.so", "api_version": "1.3.0"}}"#).unwrap();
+    let o = bin()
+        .args(["--headless", "--mode", "pt", "--width", "8", "--height", "8", "--frames", "1", "--out", dir.path().to_str().unwrap()])
+        .env("VK_ADD_DRIVER_FILES", &manifest)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 /// A command's exit status is what the tests' "0 validation errors" rests on for everything run as
 /// a subprocess: with one invalid command recorded (a test-only switch), a headless run and
 /// `reference` under validation exit non-zero naming the error, and without validation the same

@@ -481,8 +481,8 @@ fn messenger_info(counter: &Arc<ValidationCounter>) -> vk::DebugUtilsMessengerCr
         .user_data(Arc::as_ptr(counter) as *mut c_void)
 }
 
-/// Makes the instance; where the loader has VK_EXT_debug_utils and `counter` is given, the
-/// messages of vkCreateInstance and vkDestroyInstance go to it too.
+/// Makes the instance; under the validation layer, where the loader has VK_EXT_debug_utils and
+/// `counter` is given, the layer's messages of vkCreateInstance and vkDestroyInstance go to it too.
 fn create_instance(
     entry: &ash::Entry,
     validate: bool,
@@ -537,7 +537,13 @@ fn create_instance(
     if layer_has_features {
         info = info.push_next(&mut features);
     }
-    let mut instance_messenger = counter.filter(|_| has_debug_utils).map(messenger_info);
+    // Under the validation layer only, and its VALIDATION messages only: the loader reports
+    // through a chained messenger too, while it scans for drivers and layers (a manifest whose
+    // library is missing: GENERAL errors), which are no error of this program's and failed every
+    // run on a machine with a stray manifest.
+    let mut instance_messenger = counter
+        .filter(|_| has_debug_utils && use_validation)
+        .map(|c| messenger_info(c).message_type(vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION));
     if let Some(m) = instance_messenger.as_mut() {
         info = info.push_next(m);
     }
