@@ -331,6 +331,27 @@ fn reference_configs_ignore_settings_the_mode_does_not_use() {
         })
     };
     assert!(same_config(&restir_still(20.0, 0.2), &restir_still(3.0, 0.0)));
+    // Without spatial reuse either, the spatial settings and the thresholds do nothing (a file
+    // made with --spatial-radius 5 was refused for a resume without it).
+    let no_reuse = |radius: Option<f32>, threshold: f32, neighbours: u32| {
+        config(&|s| {
+            s.mode = Mode::Restir;
+            s.restir.temporal = false;
+            s.restir.spatial_passes = 0;
+            s.restir.spatial_radius = radius;
+            s.restir.normal_threshold = threshold;
+            s.restir.spatial_neighbours = neighbours;
+        })
+    };
+    let plain = no_reuse(None, 0.9, 4);
+    assert!(same_config(&plain, &no_reuse(Some(5.0), 0.5, 8)));
+    for (a, b) in [(&plain, &restir_still(20.0, 0.2)), (&no_reuse(None, 0.9, 4), &config(&|s| {
+        s.mode = Mode::Restir;
+        s.restir.temporal = false;
+        s.restir.spatial_radius = Some(5.0);
+    }))] {
+        assert!(!same_config(a, b), "spatial reuse on or off differs");
+    }
 
     // The ReGIR grid: no key unless RIS or ReSTIR take candidates from it, so references written
     // before it existed still match; with grid candidates the config differs.

@@ -449,11 +449,29 @@ fn strip_unused(obj: &mut serde_json::Map<String, serde_json::Value>, mode: Mode
             obj.remove(k);
         }
     }
-    // ReSTIR's temporal settings, with --temporal off (the only ReSTIR a reference takes).
+    // ReSTIR's temporal settings, with --temporal off (the only ReSTIR a reference takes); the
+    // spatial ones without spatial reuse; the thresholds with neither (as unused_flags says; the
+    // motion view, which reads them, is no reference's).
     if let Some(restir) = obj.get_mut("restir").and_then(|r| r.as_object_mut()) {
-        if restir.get("temporal").and_then(|t| t.as_bool()) == Some(false) {
+        let temporal = restir.get("temporal").and_then(|t| t.as_bool()) != Some(false);
+        let passes = restir.get("spatial_passes").and_then(|v| v.as_u64());
+        let spatial = passes != Some(0) && restir.get("spatial_neighbours").and_then(|v| v.as_u64()) != Some(0);
+        if !temporal {
             restir.remove("mcap");
             restir.remove("boiling_filter");
+        }
+        if !spatial {
+            // Which of the two turned it off stays: the other and the radius go.
+            if passes == Some(0) {
+                restir.remove("spatial_neighbours");
+            } else {
+                restir.remove("spatial_passes");
+            }
+            restir.remove("spatial_radius");
+        }
+        if !temporal && !spatial {
+            restir.remove("normal_threshold");
+            restir.remove("depth_threshold");
         }
     }
     // The ReGIR grid shapes only RIS and ReSTIR images, and only with grid candidates: without
@@ -531,7 +549,7 @@ pub fn reference_mode_ok(settings: &RenderSettings) -> Result<()> {
         // normalisation: a part starting at --first-frame k began with an empty grid, and its
         // merge differed from one long run (RMSE 2e-2 at 32², 4 frames; 6e-8 without the grid).
         bail!(
-            "--grid-candidates {}: the ReGIR grid carries state from frame to frame, and a reference needs independent              frames; use --grid-candidates 0 (RIS estimates the same answer without the grid)",
+            "--grid-candidates {}: the ReGIR grid carries state from frame to frame, and a reference needs independent frames; use --grid-candidates 0 (RIS estimates the same answer without the grid)",
             settings.grid.candidates
         );
     }

@@ -168,11 +168,8 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                     let yfov = p.yfov();
                     if crate::camera::fov_ok(yfov.to_degrees()) {
                         check_camera_transform(world, &node_name, &name)?;
-                        if let Some(aspect) = p.aspect_ratio() {
-                            warnings.push(format!(
-                                "camera '{name}': aspectRatio {aspect} ignored; the image's --width and --height set it (yfov is kept)"
-                            ));
-                        }
+                        // (Its aspectRatio is the image's --width/--height, as glTF viewers do with
+                        // the viewport's; exporters write it always, so it is not warned about.)
                         camera = Some(Camera {
                             name,
                             transform: *world,
@@ -1089,9 +1086,9 @@ fn load_textures(
     Ok(textures)
 }
 
-/// Most texels of all textures together (4 GiB of RGBA8): all of them are one storage buffer
-/// binding, and no device's maxStorageBufferRange (a u32) reaches past it.
-const MAX_TOTAL_TEXELS: u64 = 1 << 30;
+/// Most texels of all textures together: all of them are one storage buffer binding of 4 bytes a
+/// texel, and no device's maxStorageBufferRange (a u32) reaches 2^32 bytes.
+const MAX_TOTAL_TEXELS: u64 = (u32::MAX / 4) as u64;
 
 /// Refuses, before any image is decoded, textures that together hold more than
 /// [`MAX_TOTAL_TEXELS`] (from their headers; an image sampled two ways counts twice, as it is

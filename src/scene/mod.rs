@@ -254,8 +254,8 @@ impl Scene {
 
     /// World-space AABB `(min, max)` of all instanced vertices with finite world positions;
     /// `(ZERO, ZERO)` if there are none. An instance whose transform only scales along the axes
-    /// and moves takes its mesh's box, as exact as its vertices' (each coordinate maps on its own,
-    /// monotonically, rounding included); others transform every vertex (10,000 instances of a
+    /// and moves takes its mesh's box, as exact as its vertices' up to the sign of a zero (each
+    /// coordinate maps on its own, monotonically, rounding included); others transform every vertex (10,000 instances of a
     /// mesh of 1M vertices took half a minute that way).
     pub fn world_bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);

@@ -593,6 +593,7 @@ impl Context {
             None => tracing_from_env()?,
         };
         let gpu_timeout = gpu_timeout_from_env()?;
+        let cache_enabled = super::pipeline_cache::enabled_from_env()?;
         let entry = load_entry()?;
         // Made before the instance and dropped after it (declared before `unwind`, and a field
         // of the context): the messengers read it as their user data until the instance is gone.
@@ -776,7 +777,7 @@ impl Context {
         let command_pool = unsafe { device.create_command_pool(&pool_info, None) }.context("vkCreateCommandPool")?;
         unwind.command_pool = command_pool;
 
-        let pipeline_cache_file = super::pipeline_cache::cache_path(&properties)?;
+        let pipeline_cache_file = cache_enabled.then(|| super::pipeline_cache::cache_path(&properties)).flatten();
         let initial = match &pipeline_cache_file {
             Some(path) => match super::pipeline_cache::load(path, &properties) {
                 Ok(data) => data.unwrap_or_default(),

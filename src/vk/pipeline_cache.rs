@@ -15,40 +15,43 @@ use std::path::{Path, PathBuf};
 
 use ash::vk;
 
-/// Where the cache of this device and build is kept, or None when caching is off or there is no
-/// cache directory.
-/// A `RESTIR_VPL_PIPELINE_CACHE` that is neither on nor off is an error naming it (`OFF`, `0`
-/// and `false` wrote the cache without a word).
-pub fn cache_path(props: &vk::PhysicalDeviceProperties) -> anyhow::Result<Option<PathBuf>> {
-    let on = match std::env::var("RESTIR_VPL_PIPELINE_CACHE") {
-        Err(std::env::VarError::NotPresent) => true,
+/// Whether the cache is on: `RESTIR_VPL_PIPELINE_CACHE` unset, or on/off (1/0, true/false,
+/// yes/no). Any other value is an error naming it (`OFF`, `0` and `false` wrote the cache without
+/// a word). Read before the context makes anything, as `RESTIR_VPL_GPU_TIMEOUT_S` is.
+pub fn enabled_from_env() -> anyhow::Result<bool> {
+    let refused = |v: &dyn std::fmt::Debug| anyhow::anyhow!("RESTIR_VPL_PIPELINE_CACHE={v:?}: expected on or off (1/0, true/false, yes/no)");
+    match std::env::var("RESTIR_VPL_PIPELINE_CACHE") {
+        Err(std::env::VarError::NotPresent) => Ok(true),
         Ok(v) => match v.to_ascii_lowercase().as_str() {
-            "" | "1" | "on" | "true" | "yes" => true,
-            "0" | "off" | "false" | "no" => false,
-            _ => anyhow::bail!("RESTIR_VPL_PIPELINE_CACHE={v:?}: expected on or off (1/0, true/false, yes/no)"),
+            "" | "1" | "on" | "true" | "yes" => Ok(true),
+            "0" | "off" | "false" | "no" => Ok(false),
+            _ => Err(refused(&v)),
         },
-        Err(std::env::VarError::NotUnicode(v)) => {
-            anyhow::bail!("RESTIR_VPL_PIPELINE_CACHE={v:?}: expected on or off (1/0, true/false, yes/no)")
-        }
-    };
-    Ok(on.then(|| cache_dir(props)).flatten())
+        Err(std::env::VarError::NotUnicode(v)) => Err(refused(&v)),
+    }
 }
 
-fn cache_dir(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
+/// Where the cache of this device and build is kept, or None when there is no cache directory.
+pub fn cache_path(props: &vk::PhysicalDeviceProperties) -> Option<PathBuf> {
     // An empty variable is unset; XDG_CACHE_HOME and HOME count only when absolute (the XDG base
     // directory spec says to ignore a relative one: it put the cache in the working directory).
     let var = |name: &str| std::env::var_os(name).filter(|v| !v.is_empty()).map(PathBuf::from);
     let dir = var("RESTIR_VPL_CACHE_DIR")
         .or_else(|| var("XDG_CACHE_HOME").filter(|d| d.is_absolute()).map(|d| d.join("restir-vpl")))
         .or_else(|| var("HOME").filter(|h| h.is_absolute()).map(|h| h.join(".cache").join("restir-vpl")))?;
+    Some(dir.join(file_name(props)))
+}
+
+/// The cache file's name for this device and build ([`is_cache_file_name`] takes it).
+fn file_name(props: &vk::PhysicalDeviceProperties) -> String {
     let uuid: String = props.pipeline_cache_uuid.iter().map(|b| format!("{b:02x}")).collect();
-    Some(dir.join(format!(
+    format!(
         "pipelines-v2-{:04x}-{:04x}-{:x}-{uuid}-{:016x}.bin",
         props.vendor_id,
         props.device_id,
         props.driver_version,
         crate::shaders::SPIRV_HASH
-    )))
+    )
 }
 
 /// The first bytes of every cache file this program writes ("v2" in the file name).
@@ -121,8 +124,9 @@ pub fn save(path: &Path, data: &[u8]) -> anyhow::Result<()> {
     let framed = frame(data);
     crate::output::write_replacing(path, |partial| Ok(std::fs::write(partial, framed)?))?;
     for old in stale(path) {
-        if let Err(e) = std::fs::remove_file(&old) {
-            log::debug!("pipeline cache: cannot remove {}: {e}", old.display());
+        match std::fs::remove_file(&old) {
+            Ok(()) => log::info!("pipeline cache: removed another build's {}", old.display()),
+            Err(e) => log::debug!("pipeline cache: cannot remove {}: {e}", old.display()),
         }
     }
     Ok(())
@@ -135,9 +139,20 @@ pub const KEEP_OTHERS: usize = 8;
 /// Files older than this are removed whatever their number.
 pub const KEEP_DAYS: u64 = 30;
 
+/// Whether `name` is shaped as this program names its cache files, now or before "v2":
+/// `pipelines-[v2-]VENDOR-DEVICE-DRIVER-UUID-SPIRVHASH.bin`, in hex, the UUID of 32 digits and the
+/// hash of 16 (so another program's `pipelines-*.bin` in a shared directory is never taken).
+fn is_cache_file_name(name: &str) -> bool {
+    let Some(rest) = name.strip_prefix("pipelines-").and_then(|r| r.strip_suffix(".bin")) else { return false };
+    let rest = rest.strip_prefix("v2-").unwrap_or(rest);
+    let parts: Vec<&str> = rest.split('-').collect();
+    let hex = |p: &str| !p.is_empty() && p.bytes().all(|b| b.is_ascii_hexdigit());
+    parts.len() == 5 && parts.iter().all(|p| hex(p)) && parts[3].len() == 32 && parts[4].len() == 16
+}
+
 /// The cache files beside `current` to remove: every build writes its own (the shader hash is in
 /// the name), and on a GPU each holds megabytes of compiled pipelines that no later build reads.
-/// Only this program's file names count (`pipelines-*.bin`, any version), never `current`
+/// Only this program's file names count ([`is_cache_file_name`], any version), never `current`
 /// itself: those unmodified for [`KEEP_DAYS`], and all but the [`KEEP_OTHERS`] newest of the rest.
 pub fn stale(current: &Path) -> Vec<PathBuf> {
     let Some(dir) = current.parent() else { return Vec::new() };
@@ -146,11 +161,7 @@ pub fn stale(current: &Path) -> Vec<PathBuf> {
     let max_age = std::time::Duration::from_secs(KEEP_DAYS * 24 * 3600);
     let mut others: Vec<(std::time::SystemTime, PathBuf)> = entries
         .flatten()
-        .filter(|e| {
-            let name = e.file_name();
-            let name = name.to_string_lossy();
-            name.starts_with("pipelines-") && name.ends_with(".bin") && e.path() != current
-        })
+        .filter(|e| e.file_name().to_str().is_some_and(is_cache_file_name) && e.path() != current)
         // Plain files only (not a link, whose target could be anything).
         .filter_map(|e| {
             let meta = std::fs::symlink_metadata(e.path()).ok().filter(|m| m.is_file())?;
@@ -216,6 +227,7 @@ mod tests {
     /// [`KEEP_DAYS`]; it keeps its own file, other names and links.
     #[test]
     fn saving_removes_old_builds_files_only() {
+        assert!(is_cache_file_name(&file_name(&props())), "{}", file_name(&props()));
         let dir = tempfile::tempdir().unwrap();
         let day = std::time::Duration::from_secs(24 * 3600);
         let now = std::time::SystemTime::now();
@@ -228,13 +240,16 @@ mod tests {
         };
         // Ten recent files of other builds (1..10 days old), one of an earlier naming, one 40
         // days old, and files this program did not name.
-        let recent: Vec<_> = (1..=10).map(|d| made(&format!("pipelines-v2-{d:02}.bin"), d)).collect();
-        let ancient = made("pipelines-v2-ancient.bin", 40);
-        let older_version = made("pipelines-10005-0000-1-aa-bb.bin", 2);
-        let foreign = [made("notes.txt", 400), made("pipelines-v2-x.bin.keep", 400), made("other.bin", 400)];
-        let link = dir.path().join("pipelines-v2-link.bin");
+        let uuid = "32352e302e372d327e62706f31322b31";
+        let named = |version: &str, hash: u32| format!("pipelines-{version}10005-0000-1-{uuid}-{hash:016x}.bin");
+        let recent: Vec<_> = (1..=10).map(|d| made(&named("v2-", d), d)).collect();
+        let ancient = made(&named("v2-", 99), 40);
+        let older_version = made(&named("", 7), 2);
+        // Another program's names, however old: "pipelines-*.bin" that is not shaped as ours too.
+        let foreign = [made("notes.txt", 400), made(&format!("{}.keep", named("v2-", 5)), 400), made("other.bin", 400), made("pipelines-foo.bin", 400)];
+        let link = dir.path().join(named("v2-", 77));
         std::os::unix::fs::symlink(&foreign[0], &link).unwrap();
-        let current = dir.path().join("pipelines-v2-current.bin");
+        let current = dir.path().join(named("v2-", 0xc0ffee));
         save(&current, &driver_data(10)).unwrap();
         assert!(current.exists());
         // Newest first: days 1 and 2 (two files) and 3..=7 make KEEP_OTHERS = 8; 8, 9, 10 and
