@@ -169,7 +169,7 @@ pub fn stale(current: &Path) -> Vec<PathBuf> {
         })
         .collect();
     // Newest first; a file "modified" in the future (a clock set back) counts as new.
-    others.sort_by(|a, b| b.0.cmp(&a.0));
+    others.sort_by_key(|(modified, _)| std::cmp::Reverse(*modified));
     others
         .into_iter()
         .enumerate()
