@@ -83,6 +83,11 @@ pub const INSTANCE_MIRRORED: u32 = 1;
 /// `GpuInstance::flags`: the transform is exactly the identity, so hit reconstruction skips both
 /// matrices (their loads are most of a hit's memory reads on lavapipe).
 pub const INSTANCE_IDENTITY: u32 = 2;
+/// The triangle-material words (set 0's `triangle_materials`) hold the material index below this
+/// bit and, from it, the triangle's flat edges ([`crate::scene::Mesh::flat_edges`]): bit k for the
+/// edge opposite vertex k, shared with one coplanar triangle. `triangle_point` keeps its edge
+/// margin only off the others.
+pub const TRIANGLE_FLAT_EDGES_SHIFT: u32 = 29;
 
 gpu_struct! {
     /// One TLAS instance (its `instanceCustomIndex` is its index here).
@@ -464,6 +469,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     TEXTURE_NEAREST,
     INSTANCE_MIRRORED,
     INSTANCE_IDENTITY,
+    TRIANGLE_FLAT_EDGES_SHIFT,
     FRAME_AA,
     VPL_DIRECT_AREA,
     VPL_DIRECT_POINT,

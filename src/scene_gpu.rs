@@ -127,6 +127,13 @@ impl SceneGpu {
         let merged_scene = merge.then(|| scene.merged());
         let traced = merged_scene.as_ref().unwrap_or(scene);
         let merged_instances = if merge { scene.instances.len() } else { 0 };
+        anyhow::ensure!(
+            (scene.materials.len() as u64) < 1 << TRIANGLE_FLAT_EDGES_SHIFT,
+            "{}: {} materials, more than the renderer indexes ({})",
+            scene.path.display(),
+            scene.materials.len(),
+            1u32 << TRIANGLE_FLAT_EDGES_SHIFT
+        );
         let mut vertices: Vec<GpuVertex> = Vec::new();
         let mut indices: Vec<u32> = Vec::new();
         let mut triangle_materials: Vec<u32> = Vec::new();
@@ -155,10 +162,12 @@ impl SceneGpu {
             let bounds: Vec<Aabb> = (0..mesh.triangle_count())
                 .map(|t| mesh.triangle(t).map_or(Aabb::EMPTY, |p| Aabb::of_points(&p)))
                 .collect();
+            // Each word: the material, and from TRIANGLE_FLAT_EDGES_SHIFT the flat edges.
+            let flat = mesh.flat_edges();
             for t in leaf_order::midpoint_split_order(&bounds) {
                 let t = t as usize;
                 indices.extend_from_slice(&mesh.indices[3 * t..3 * t + 3]);
-                triangle_materials.push(mesh.triangle_materials[t]);
+                triangle_materials.push(mesh.triangle_materials[t] | u32::from(flat[t]) << TRIANGLE_FLAT_EDGES_SHIFT);
             }
             mesh_bounds.push(bounds.into_iter().fold(Aabb::EMPTY, Aabb::grow));
             ranges.push((mesh.name.clone(), range));

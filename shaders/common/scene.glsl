@@ -107,8 +107,9 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
         p2 = (m * vec4(p2, 1.0)).xyz;
     }
     Hit h;
+    uint material_word = word_texel(triangle_materials, header.z + prim);
     h.offset_scale = triangle_offset_scale(p0, p1, p2);
-    h.position = triangle_point(b, p0, p1, p2, h.offset_scale);
+    h.position = triangle_point(b, p0, p1, p2, h.offset_scale, material_word >> TRIANGLE_FLAT_EDGES_SHIFT);
     vec3 ng = triangle_normal(p0, p1, p2);
     if ((flags & INSTANCE_MIRRORED) != 0u) {
         ng = -ng;
@@ -136,7 +137,7 @@ Hit fetch_hit(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     }
     h.geometric_normal = ng;
     h.shading_normal = ns;
-    h.material = word_texel(triangle_materials, header.z + prim);
+    h.material = material_word & ((1u << TRIANGLE_FLAT_EDGES_SHIFT) - 1u);
     h.instance = inst;
     h.triangle = prim;
 #ifdef SCENE_TEXTURES

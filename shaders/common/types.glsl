@@ -10,6 +10,9 @@ const uint LIGHT_POINT = 2u;
 const uint TEXTURE_NEAREST = 1u;
 const uint INSTANCE_MIRRORED = 1u;
 const uint INSTANCE_IDENTITY = 2u;
+// A triangle-material word: the material index below this bit, the triangle's flat edges from it
+// (bit k: the edge opposite vertex k is shared with one coplanar triangle).
+const uint TRIANGLE_FLAT_EDGES_SHIFT = 29u;
 const uint FRAME_AA = 1u;
 
 struct Vertex {

@@ -141,13 +141,18 @@ const float EDGE_MARGIN = 1.0 / 131072.0;
 // to the one that puts the point that far from the opposite edge (then renormalised), so only
 // points that close to an edge move, across it: a large triangle's interior stays where it was.
 // (The G-buffer's position moves with them: a plane's reprojection is exact to the margin.)
-vec3 triangle_point(vec3 b, vec3 p0, vec3 p1, vec3 p2, float scale) {
+// `flat_edges` bit i: the edge opposite vertex i goes on into a coplanar neighbour (the loader's
+// Mesh::flat_edges), where a hit past it is a hit on that neighbour: no margin there (on a large
+// quad the margin moved every hit along its diagonal, 0.76 units on a 2e5-unit plane).
+vec3 triangle_point(vec3 b, vec3 p0, vec3 p1, vec3 p2, float scale, uint flat_edges) {
     // In units of `scale`, whose squares cannot overflow.
     vec3 q0 = p0 / scale, q1 = p1 / scale, q2 = p2 / scale;
     float twice_area = length(cross(q1 - q0, q2 - q0));
     // The barycentric of vertex i at distance d from the opposite edge is d × |edge| / (2 × area).
     vec3 edges = vec3(length(q2 - q1), length(q0 - q2), length(q1 - q0));
     vec3 least = twice_area > 0.0 ? EDGE_MARGIN * edges / twice_area : vec3(0.0);
+    bvec3 flat_edge = bvec3((flat_edges & 1u) != 0u, (flat_edges & 2u) != 0u, (flat_edges & 4u) != 0u);
+    least = mix(least, vec3(0.0), flat_edge);
     if (least.x + least.y + least.z >= 1.0) {
         // A triangle too small to keep that margin: its centroid.
         return (p0 + p1 + p2) * (1.0 / 3.0);

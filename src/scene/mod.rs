@@ -177,6 +177,56 @@ impl Mesh {
     }
 
     /// Object-space vertices of triangle `t`, or `None` if `t` or its indices are out of range.
+    /// Per triangle, its flat edges: bit k is set when the edge opposite vertex k (matched by its
+    /// end points' positions) is shared with exactly one other triangle, which lies in the same
+    /// plane (within 1e-6 rad), faces the same way and lies across the edge: there the surface
+    /// goes on flat, and a hit a few ulps past the edge is a hit on that neighbour. The GPU's
+    /// `triangle_point` keeps hits a margin inside every other edge (an inside corner needs it: a
+    /// hit past the edge is behind the other wall), not these: on a large plane split into two
+    /// triangles the margin moved every hit near the diagonal (by 0.76 units on a 2e5-unit quad).
+    pub fn flat_edges(&self) -> Vec<u8> {
+        let n = self.triangle_count();
+        let tri = |t: usize| self.triangle(t).filter(|p| p.iter().all(|v| v.is_finite())).map(|p| p.map(|v| v.as_dvec3()));
+        // Vertices at one position (by bits) share an id: meshes repeat vertices per face.
+        let mut first_at = std::collections::HashMap::with_capacity(self.positions.len());
+        let id: Vec<u32> = (0..self.positions.len() as u32)
+            .map(|v| *first_at.entry(self.positions[v as usize].to_array().map(f32::to_bits)).or_insert(v))
+            .collect();
+        // (the edge's two position ids, the triangle and the vertex opposite it), sorted by edge.
+        let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * n);
+        for t in 0..n {
+            let Some(i) = self.indices.get(3 * t..3 * t + 3).filter(|_| self.triangle(t).is_some_and(|p| p.iter().all(|v| v.is_finite())))
+            else {
+                continue;
+            };
+            for k in 0..3 {
+                let (a, b) = (id[i[(k + 1) % 3] as usize], id[i[(k + 2) % 3] as usize]);
+                edges.push(((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), (3 * t + k) as u32));
+            }
+        }
+        edges.sort_unstable_by_key(|e| e.0);
+        let mut flat = vec![0u8; n];
+        for sharing in edges.chunk_by(|x, y| x.0 == y.0).filter(|s| s.len() == 2) {
+            let [(t, k), (u, l)] = [sharing[0].1, sharing[1].1].map(|tk| (tk as usize / 3, tk as usize % 3));
+            if t == u {
+                continue;
+            }
+            let (p, q) = (tri(t).expect("kept above"), tri(u).expect("kept above"));
+            let (a, b) = (p[(k + 1) % 3], p[(k + 2) % 3]);
+            let (nt, nu) = ((p[1] - p[0]).cross(p[2] - p[0]), (q[1] - q[0]).cross(q[2] - q[0]));
+            let (Some(nt), Some(nu)) = (nt.try_normalize(), nu.try_normalize()) else { continue };
+            // The other triangle's far vertex on this one's plane, on the other side of the edge.
+            let (mine, theirs) = (p[k] - a, q[l] - a);
+            let across = (b - a).cross(nt);
+            let coplanar = nt.dot(theirs).abs() <= 1e-6 * theirs.length();
+            if coplanar && nt.dot(nu) > 0.0 && across.dot(mine) * across.dot(theirs) < 0.0 {
+                flat[t] |= 1 << k;
+                flat[u] |= 1 << l;
+            }
+        }
+        flat
+    }
+
     pub fn triangle(&self, t: usize) -> Option<[Vec3; 3]> {
         let i = self.indices.get(3 * t..3 * t + 3)?;
         Some([

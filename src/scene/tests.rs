@@ -2242,3 +2242,39 @@ fn world_bounds_from_mesh_boxes_equal_every_vertex_transformed() {
     }
     assert_eq!(s.world_bounds(), (lo, hi));
 }
+
+/// A triangle's edge is flat where exactly one other triangle shares it in the same plane,
+/// facing the same way, across it: a quad's diagonal is; a box's edges (90°), a fold back onto
+/// itself, a shared edge of three triangles and a lone triangle's edges are not.
+#[test]
+fn flat_edges_are_the_coplanar_shared_ones() {
+    let mesh = |positions: &[[f32; 3]], indices: &[u32]| Mesh {
+        name: "m".into(),
+        positions: positions.iter().map(|p| Vec3::from(*p)).collect(),
+        normals: vec![Vec3::ZERO; positions.len()],
+        uvs: vec![Vec2::ZERO; positions.len()],
+        indices: indices.to_vec(),
+        triangle_materials: vec![0; indices.len() / 3],
+    };
+    // A quad: triangles (0, 1, 2) and (0, 2, 3); their shared edge 0-2 lies opposite vertex 1 of
+    // the first and vertex 2 (index 3) of the second. Positions repeated, not shared, also match.
+    let quad = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+    assert_eq!(mesh(&quad, &[0, 1, 2, 0, 2, 3]).flat_edges(), [0b010, 0b100]);
+    let apart = [quad[0], quad[1], quad[2], quad[0], quad[2], quad[3]];
+    assert_eq!(mesh(&apart, &[0, 1, 2, 3, 4, 5]).flat_edges(), [0b010, 0b100]);
+    // A large one (the plane of the GPU test) and a slightly bent one (1e-3 rad: not flat).
+    let big = quad.map(|p| [p[0] * 2e5 - 1e5, p[1] * 2e5 - 1e5, 0.0]);
+    assert_eq!(mesh(&big, &[0, 1, 2, 0, 2, 3]).flat_edges(), [0b010, 0b100]);
+    let bent = [quad[0], quad[1], quad[2], [0.0, 1.0, 1e-3]];
+    assert_eq!(mesh(&bent, &[0, 1, 2, 0, 2, 3]).flat_edges(), [0, 0]);
+    // A corner of two walls at 90 degrees.
+    let corner = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    assert_eq!(mesh(&corner, &[0, 1, 2, 0, 3, 1]).flat_edges(), [0, 0]);
+    // Folded back onto itself (the second on the same side, facing the other way).
+    let fold = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.5, 0.5, 0.0]];
+    assert_eq!(mesh(&fold, &[0, 1, 2, 1, 0, 3]).flat_edges(), [0, 0]);
+    // Three triangles on one edge (0-2): none of them flat there.
+    let fan = [quad[0], quad[1], quad[2], quad[3], [0.0, 0.0, 1.0]];
+    assert_eq!(mesh(&fan, &[0, 1, 2, 0, 2, 3, 0, 4, 2]).flat_edges(), [0, 0, 0]);
+    assert_eq!(mesh(&quad[..3], &[0, 1, 2]).flat_edges(), [0]);
+}
