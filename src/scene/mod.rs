@@ -176,7 +176,6 @@ impl Mesh {
         self.indices.len() / 3
     }
 
-    /// Object-space vertices of triangle `t`, or `None` if `t` or its indices are out of range.
     /// Per triangle, its flat edges: bit k is set when the edge opposite vertex k (matched by its
     /// end points' positions) is shared with exactly one other triangle, which lies in the same
     /// plane (within 1e-6 rad), faces the same way and lies across the edge: there the surface
@@ -227,6 +226,7 @@ impl Mesh {
         flat
     }
 
+    /// Object-space vertices of triangle `t`, or `None` if `t` or its indices are out of range.
     pub fn triangle(&self, t: usize) -> Option<[Vec3; 3]> {
         let i = self.indices.get(3 * t..3 * t + 3)?;
         Some([
