@@ -204,12 +204,26 @@ pub fn build_scene(
     })
 }
 
+/// The most instances a TLAS of this renderer holds: the device's maxInstanceCount, and 2^24,
+/// since an instance's custom index (the shaders' instance record) is 24 bits (past it
+/// `Packed24_8` cut the index, and hits read another instance's record).
+pub fn check_instance_count(instances: usize, max_instance_count: u64) -> Result<()> {
+    let most = max_instance_count.min(1 << 24);
+    anyhow::ensure!(
+        instances as u64 <= most,
+        "the scene has {instances} instances (after merging), more than a TLAS here holds ({most}: the device's \
+         maxInstanceCount {max_instance_count} and the 24-bit custom index); merge meshes in the scene"
+    );
+    Ok(())
+}
+
 /// Builds the TLAS over (BLAS, custom index, row-major 3×4 transform) instances.
 fn build_tlas(
     ctx: &Arc<Context>,
     blases: &[AccelerationStructure],
     instances: &[(usize, u32, [f32; 12])],
 ) -> Result<(AccelerationStructure, Buffer)> {
+    check_instance_count(instances.len(), ctx.as_properties.max_instance_count)?;
     let raw: Vec<vk::AccelerationStructureInstanceKHR> = instances
         .iter()
         .map(|&(blas, custom_index, transform)| vk::AccelerationStructureInstanceKHR {
@@ -252,4 +266,17 @@ fn build_tlas(
         .flags(vk::GeometryFlagsKHR::OPAQUE);
     let tlas = build(ctx, "tlas", vk::AccelerationStructureTypeKHR::TOP_LEVEL, geometry, instances.len() as u32)?;
     Ok((tlas, instance_buffer))
+}
+
+#[cfg(test)]
+mod tests {
+    /// A TLAS holds at most the device's maxInstanceCount instances, and 2^24 whatever the device
+    /// says (the custom index is 24 bits); the error names both.
+    #[test]
+    fn instance_counts_past_the_custom_index_are_refused() {
+        assert!(super::check_instance_count(1 << 24, u64::MAX).is_ok());
+        let e = super::check_instance_count((1 << 24) + 1, u64::MAX).unwrap_err().to_string();
+        assert!(e.contains("16777217 instances") && e.contains("(16777216:"), "{e}");
+        assert!(super::check_instance_count(1000, 999).unwrap_err().to_string().contains("maxInstanceCount 999"));
+    }
 }

@@ -255,6 +255,8 @@ pub struct Context {
 #[derive(Clone, Copy, Debug)]
 pub struct AccelProperties {
     pub min_scratch_offset_alignment: u32,
+    /// maxInstanceCount: the most instances a TLAS holds.
+    pub max_instance_count: u64,
 }
 
 /// What the ray-tracing-pipeline implementation needs of `VK_KHR_ray_tracing_pipeline`.
@@ -696,7 +698,10 @@ impl Context {
         // SAFETY: the device exposes VK_KHR_acceleration_structure (it qualified).
         unsafe { instance.get_physical_device_properties2(physical_device, &mut p2) };
         let as_properties =
-            AccelProperties { min_scratch_offset_alignment: asp.min_acceleration_structure_scratch_offset_alignment };
+            AccelProperties {
+                min_scratch_offset_alignment: asp.min_acceleration_structure_scratch_offset_alignment,
+                max_instance_count: asp.max_instance_count,
+            };
         let subgroup_arithmetic = subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
             && subgroup
                 .supported_operations
