@@ -762,6 +762,12 @@ fn load_buffers(
         .map(|buffer| {
             let i = buffer.index();
             let data = match buffer.source() {
+                // Only buffer 0 may be the binary chunk (glTF 2.0, GLB): a later buffer without a
+                // URI took it when buffer 0 had one, and one after buffer 0 was told the file had
+                // no binary chunk.
+                gltf::buffer::Source::Bin if i > 0 => {
+                    bail!("buffer {i} has no \"uri\": only a .glb file's first buffer may omit it (it is then the binary chunk)")
+                }
                 gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                     anyhow!("buffer {i} has no \"uri\": only a .glb file's first buffer may omit it (it is then the binary chunk), and this file has no binary chunk")
                 })?,

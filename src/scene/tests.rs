@@ -1117,12 +1117,16 @@ fn to_glb(mut doc: Value) -> (Vec<u8>, usize) {
     let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_owned();
     let bin = base64::decode(uri.split_once(";base64,").unwrap().1).unwrap();
     doc["buffers"][0].as_object_mut().unwrap().remove("uri");
+    glb_of(&doc, &bin)
+}
 
+/// A GLB of `doc` (as written) with `bin` as its binary chunk; returns it and the JSON chunk length.
+fn glb_of(doc: &Value, bin: &[u8]) -> (Vec<u8>, usize) {
     let mut json = doc.to_string().into_bytes();
     while !json.len().is_multiple_of(4) {
         json.push(b' ');
     }
-    let mut bin_padded = bin.clone();
+    let mut bin_padded = bin.to_vec();
     while !bin_padded.len().is_multiple_of(4) {
         bin_padded.push(0);
     }
@@ -1174,6 +1178,21 @@ fn glb_round_trip() {
     let mut bin_first = glb.clone();
     bin_first[16..20].copy_from_slice(b"BIN\0");
     assert_contains(&chunk_err(&bin_first), &["GLB chunk 0 is \"BIN\"", "must be JSON"]);
+
+    // Only buffer 0 may be the binary chunk: a later buffer without a URI took it (buffer 0 with
+    // its own data URI), and after a buffer 0 that took it was told there was no binary chunk.
+    let doc = triangle_doc();
+    let uri = doc["buffers"][0]["uri"].as_str().unwrap().to_owned();
+    let bin = base64::decode(uri.split_once(";base64,").unwrap().1).unwrap();
+    let mut later = doc.clone();
+    later["buffers"].as_array_mut().unwrap().push(json!({ "byteLength": bin.len() }));
+    let (glb, _) = glb_of(&later, &bin);
+    assert_contains(&chunk_err(&glb), &["buffer 1 has no \"uri\"", "only a .glb file's first buffer may omit it"]);
+    let mut both = later.clone();
+    both["buffers"][0].as_object_mut().unwrap().remove("uri");
+    let (glb, _) = glb_of(&both, &bin);
+    let e = chunk_err(&glb);
+    assert!(e.contains("buffer 1 has no \"uri\"") && !e.contains("this file has no binary chunk"), "{e}");
 }
 
 #[test]
