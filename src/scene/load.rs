@@ -260,12 +260,30 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
     })
 }
 
+/// The most emissive triangles (over all instances) a scene may have: each is a light of the
+/// light set (its record, alias entry and host copy, ~130 bytes).
+const MAX_EMISSIVE_TRIANGLES: u64 = 1 << 24;
+
 /// The checks of a whole loaded scene: triangles to draw, emitters whose area and power a 32-bit
 /// float holds. Adds a warning for emitters too small to keep.
 fn check_scene(mut scene: Scene) -> Result<Scene> {
     let label = scene.path.display().to_string();
     if scene.triangle_count() == 0 {
         bail!("no triangles in scene");
+    }
+    // Counted per mesh before any is made: every instance of an emissive mesh is its own lights
+    // (200 instances of a 1M-triangle emissive grid took all 24 GB of memory and were killed).
+    let emissive_per_mesh: Vec<u64> = scene
+        .meshes
+        .iter()
+        .map(|m| m.triangle_materials.iter().filter(|&&mat| scene.materials.get(mat as usize).is_some_and(|x| x.is_emissive())).count() as u64)
+        .collect();
+    let emissive: u64 = scene.instances.iter().map(|i| emissive_per_mesh.get(i.mesh).copied().unwrap_or(0)).sum();
+    if emissive > MAX_EMISSIVE_TRIANGLES {
+        bail!(
+            "its instances hold {emissive} emissive triangles, more than the renderer's light set takes ({MAX_EMISSIVE_TRIANGLES}); \
+             make fewer triangles (or instances) emissive"
+        );
     }
     let (emitters, tiny) = scene.emissive_triangles_and_tiny();
     check_emitter_areas(&scene, &emitters)?;

@@ -281,10 +281,21 @@ impl Scene {
     /// Total world-space area of all instanced triangles (one side each).
     pub fn surface_area(&self) -> f64 {
         let mut area = 0.0f64;
+        // Each mesh's own area, once: an instance whose transform is a rotation and a uniform
+        // scale s (and a move) has s² times it (10,000 instances of a large mesh transformed every
+        // triangle of each); any other transforms its triangles.
+        let mut own: Vec<Option<f64>> = vec![None; self.meshes.len()];
         for inst in &self.instances {
             let Some(mesh) = self.meshes.get(inst.mesh) else {
                 continue;
             };
+            if let Some(s2) = similarity_scale_squared(&inst.transform) {
+                let a = *own[inst.mesh].get_or_insert_with(|| {
+                    (0..mesh.triangle_count()).filter_map(|t| mesh.triangle(t)).map(|p| area_and_normal(p).0).filter(|x| x.is_finite()).sum()
+                });
+                area += s2 * a;
+                continue;
+            }
             for t in 0..mesh.triangle_count() {
                 if let Some([a, b, c]) = mesh.triangle(t) {
                     let (a, b, c) = (
@@ -400,6 +411,23 @@ impl Scene {
         }
         (out, tiny)
     }
+}
+
+/// s² when the affine `m`'s linear part is a rotation (or reflection) times a uniform scale s,
+/// within 1e-6 relative (its columns orthogonal and of one length: an f32 rotation is orthogonal
+/// to ~1e-7, and areas then scale by s² to about that); None otherwise, or where it is
+/// not finite. Areas scale by it.
+fn similarity_scale_squared(m: &Mat4) -> Option<f64> {
+    let m = m.as_dmat4();
+    if m.row(3) != glam::DVec4::W {
+        return None;
+    }
+    let c = [m.x_axis.truncate(), m.y_axis.truncate(), m.z_axis.truncate()];
+    let s2 = (c[0].length_squared() + c[1].length_squared() + c[2].length_squared()) / 3.0;
+    let tol = 1e-6 * s2;
+    let uniform = c.iter().all(|v| (v.length_squared() - s2).abs() <= tol);
+    let orthogonal = c[0].dot(c[1]).abs() <= tol && c[1].dot(c[2]).abs() <= tol && c[0].dot(c[2]).abs() <= tol;
+    (s2 > 0.0 && s2.is_finite() && uniform && orthogonal).then_some(s2)
 }
 
 /// Area and unit normal (counter-clockwise winding) of the triangle `p`, computed in f64: in f32
