@@ -143,6 +143,9 @@ pub enum ViewProblem {
     /// and in the parallel test; 1e18 leaves room, far beyond any scene.
     Distance(f64),
     UpParallel,
+    /// The eye (false) or the target (true) lies farther than [`MAX_CAMERA_COORDINATE`] from the
+    /// origin on some axis (checked last).
+    FarFromOrigin { target: bool },
 }
 
 /// The narrowest vertical field of view taken, in degrees. Narrower, tan(fov / 2) approaches the
@@ -169,7 +172,11 @@ pub fn view_problem(eye: Vec3, target: Vec3, up: Vec3) -> Option<ViewProblem> {
     };
     // On the unit up: its squared length over- or underflows f32 for |up| beyond ~1e19 or below
     // ~1e-19 (an up of [0, 1e20, 0] was refused as parallel).
-    unit(up).is_none_or(|u| f.cross(u).length_squared() <= 1e-12).then_some(ViewProblem::UpParallel)
+    if unit(up).is_none_or(|u| f.cross(u).length_squared() <= 1e-12) {
+        return Some(ViewProblem::UpParallel);
+    }
+    let far = |p: Vec3| p.abs().max_element() > MAX_CAMERA_COORDINATE;
+    (far(eye) || far(target)).then_some(ViewProblem::FarFromOrigin { target: !far(eye) })
 }
 
 /// One keyframe of a camera path (`--camera-path FILE.json`), and the format `O` saves the window's
@@ -217,10 +224,10 @@ impl Keyframe {
                 return Err(format!("eye and target are {d:.3e} apart; the distance must be between 1e-18 and 1e18"))
             }
             Some(ViewProblem::UpParallel) => return Err("up is parallel to the view direction (or zero)".into()),
+            Some(ViewProblem::FarFromOrigin { .. }) => {
+                return Err(format!("eye and target must be within {MAX_CAMERA_COORDINATE:e} of the origin"))
+            }
             None => {}
-        }
-        if eye.abs().max_element() > MAX_CAMERA_COORDINATE || target.abs().max_element() > MAX_CAMERA_COORDINATE {
-            return Err(format!("eye and target must be within {MAX_CAMERA_COORDINATE:e} of the origin"));
         }
         Ok(())
     }

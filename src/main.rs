@@ -1211,15 +1211,7 @@ fn check_counts(counts: &[(&str, Option<u32>)], checkpoints: Option<&[u32]>) -> 
 /// Unset or empty, 0, false, no or off: off; 1, true, yes or on: on; anything else is refused by
 /// name (`true` was taken for off without a word).
 fn env_validate() -> Result<bool> {
-    match std::env::var("RESTIR_VPL_VALIDATE") {
-        Err(std::env::VarError::NotPresent) => Ok(false),
-        Err(std::env::VarError::NotUnicode(v)) => bail!("RESTIR_VPL_VALIDATE={v:?}: expected 1 or 0 (true/false, yes/no, on/off)"),
-        Ok(v) => match v.to_ascii_lowercase().as_str() {
-            "" | "0" | "false" | "no" | "off" => Ok(false),
-            "1" | "true" | "yes" | "on" => Ok(true),
-            _ => bail!("RESTIR_VPL_VALIDATE={v:?}: expected 1 or 0 (true/false, yes/no, on/off)"),
-        },
-    }
+    restir_vpl::settings::env_switch("RESTIR_VPL_VALIDATE", false)
 }
 
 /// The context of the benchmarks that take one (under the validation layer with

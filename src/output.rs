@@ -159,29 +159,26 @@ fn follow_links(path: &Path) -> PathBuf {
 /// regular file or a pipe is refused: `/dev/zero` as a scene would otherwise be read until the
 /// out-of-memory killer ends the process, with no message.
 pub fn read_input(path: &Path) -> Result<Vec<u8>> {
-    let meta = std::fs::metadata(path).with_context(|| format!("cannot read '{}'", path.display()))?;
-    let pipe = {
-        #[cfg(unix)]
-        {
-            std::os::unix::fs::FileTypeExt::is_fifo(&meta.file_type())
-        }
-        #[cfg(not(unix))]
-        {
-            false
-        }
-    };
-    anyhow::ensure!(!meta.is_dir(), "cannot read '{}': it is a directory", path.display());
-    anyhow::ensure!(meta.is_file() || pipe, "cannot read '{}': not a regular file", path.display());
-    std::fs::read(path).with_context(|| format!("cannot read '{}'", path.display()))
+    read_file(path, true, None)
 }
 
 /// Reads a file a scene names (a buffer or an image): a regular file only (a pipe there, which
 /// the scene file itself may be, blocked the load for ever), at most `at_most` bytes of it where
 /// given (a buffer's byteLength: a 3 GB file behind a 48-byte buffer was read whole).
 pub fn read_referenced(path: &Path, at_most: Option<u64>) -> Result<Vec<u8>> {
+    read_file(path, false, at_most)
+}
+
+/// [`read_input`] and [`read_referenced`]: a directory or a device is refused (a pipe where
+/// `pipe_ok`), then up to `at_most` bytes are read.
+fn read_file(path: &Path, pipe_ok: bool, at_most: Option<u64>) -> Result<Vec<u8>> {
     let meta = std::fs::metadata(path).with_context(|| format!("cannot read '{}'", path.display()))?;
+    #[cfg(unix)]
+    let pipe = std::os::unix::fs::FileTypeExt::is_fifo(&meta.file_type());
+    #[cfg(not(unix))]
+    let pipe = false;
     anyhow::ensure!(!meta.is_dir(), "cannot read '{}': it is a directory", path.display());
-    anyhow::ensure!(meta.is_file(), "cannot read '{}': not a regular file", path.display());
+    anyhow::ensure!(meta.is_file() || (pipe_ok && pipe), "cannot read '{}': not a regular file", path.display());
     let file = std::fs::File::open(path).with_context(|| format!("cannot read '{}'", path.display()))?;
     let limit = at_most.unwrap_or(u64::MAX);
     let mut data = Vec::with_capacity(meta.len().min(limit) as usize);

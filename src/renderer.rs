@@ -22,7 +22,7 @@ use crate::gpu_types::{
 use crate::output::TimingStats;
 use crate::passes::{
     FramePlan, FrameTargets, GridBuffers, Passes, PhotonEmitPass, PhotonStats, RegirBuildPass, Reservoirs, RestirBoilingPass, RestirInitialPass, RestirInitialTemporalPass,
-    RestirSpatialPass, RestirSpatialShadePass, RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_SLOTS,
+    RestirSpatialPass, RestirSpatialShadePass, RestirTemporalPass, Step, VplBruteforcePass, VplCompensatePass, VplFrame, VplInputs, VplPresamplePass, VplShadePass, VplViewPass, RAY_COUNTER_WORDS, RAY_SLOTS,
 };
 use crate::lights::{LightSet, PointEmitter};
 use crate::scene_gpu::{LightBuffers, SceneGpu};
@@ -504,7 +504,8 @@ impl Renderer {
             let readback = Buffer::new(
                 &ctx,
                 &format!("frame{i}.counters_readback"),
-                4 * (2 * RAY_SLOTS.len() as u64 + 1),
+                // The ray counter, then the non-finite count.
+                4 * (RAY_COUNTER_WORDS as u64 + 1),
                 vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             )?;
@@ -1203,7 +1204,7 @@ impl Renderer {
             let mut hook = |cmd, d| record_debug_hang(&ctx, cmd, d, hang);
             self.parts.passes.record_frame(&ctx, slot.cmd, &mut slot.timer, self.scene_set.variants[i], &self.parts.targets, &plan, &mut hook);
         }
-        let counters_size = 2 * 4 * RAY_SLOTS.len() as u64;
+        let counters_size = 4 * RAY_COUNTER_WORDS as u64;
         // SAFETY: buffers alive; the barrier after the last pass orders the copies after it.
         unsafe {
             d.cmd_copy_buffer(
@@ -1265,10 +1266,10 @@ impl Renderer {
         slot.pending = None;
         let dispatch_ms = slot.timer.collect()?;
         let n_slots = RAY_SLOTS.len();
-        let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (2 * n_slots + 1))?);
+        let counters: Vec<u32> = bytemuck::pod_collect_to_vec(&slot.readback.read(0, 4 * (RAY_COUNTER_WORDS + 1))?);
         // The GPU's count covers the accumulation so far: what this frame added is the difference
         // to the last frame's (frames complete in submission order), or all of it after a reset.
-        let count = counters[2 * n_slots] as u64;
+        let count = counters[RAY_COUNTER_WORDS] as u64;
         // In 32 bits, as the GPU counts: across a wrap of its counter the difference is still
         // right (a frame adds at most one per pixel, far below 2^32).
         let added = if reset { count } else { u64::from((count as u32).wrapping_sub(self.state.nonfinite_samples as u32)) };

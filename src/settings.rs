@@ -574,6 +574,24 @@ pub const MAX_IMAGE_SIDE: u32 = 16384;
 /// The most bounces a photon path may make (`--photon-max-bounces`).
 pub const MAX_PHOTON_BOUNCES: u32 = 1024;
 
+/// An on/off environment variable: 1, true, yes or on; 0, false, no or off (any case); unset or
+/// empty, `default`. Any other value is an error naming the variable (`true` was once taken for
+/// off, and `OFF` left the pipeline cache on, without a word). `RESTIR_VPL_VALIDATE` and
+/// `RESTIR_VPL_PIPELINE_CACHE` are read through it.
+pub fn env_switch(name: &str, default: bool) -> anyhow::Result<bool> {
+    let refused = |v: &dyn std::fmt::Debug| anyhow::anyhow!("{name}={v:?}: expected 1 or 0 (true/false, yes/no, on/off)");
+    match std::env::var(name) {
+        Err(std::env::VarError::NotPresent) => Ok(default),
+        Err(std::env::VarError::NotUnicode(v)) => Err(refused(&v)),
+        Ok(v) => match v.to_ascii_lowercase().as_str() {
+            "" => Ok(default),
+            "1" | "true" | "yes" | "on" => Ok(true),
+            "0" | "false" | "no" | "off" => Ok(false),
+            _ => Err(refused(&v)),
+        },
+    }
+}
+
 impl RenderSettings {
     /// Whether ReSTIR's passes are fused: `--fuse-passes on|off`, fused when not given (None).
     pub fn fuses_passes(&self) -> bool {
@@ -979,14 +997,18 @@ impl RenderSettings {
                 Some(ViewProblem::UpParallel) => {
                     bail!("--up {}: must be non-zero and not parallel to the view direction (--target minus --eye)", c.up)
                 }
-                None => {}
-            }
-            // As a camera path's keyframes (--eye 3e38,0,0 rendered black).
-            let far = crate::camera::MAX_CAMERA_COORDINATE;
-            for (flag, p) in [("--eye", c.eye), ("--target", c.target)] {
-                if p.abs().max_element() > far {
-                    bail!("{flag} {:?},{:?},{:?}: must be within {far:e} of the origin (32-bit floats)", p.x, p.y, p.z);
+                // (--eye 3e38,0,0 rendered black.)
+                Some(ViewProblem::FarFromOrigin { target }) => {
+                    let (flag, p) = if target { ("--target", c.target) } else { ("--eye", c.eye) };
+                    bail!(
+                        "{flag} {:?},{:?},{:?}: must be within {:e} of the origin (32-bit floats)",
+                        p.x,
+                        p.y,
+                        p.z,
+                        crate::camera::MAX_CAMERA_COORDINATE
+                    );
                 }
+                None => {}
             }
         }
         Ok(())

@@ -97,6 +97,10 @@ pub const RAY_SLOT_NAMES: [(&str, &str); 9] = [
     (RestirSpatialShadePass::NAME, "RAYS_SPATIAL_SHADE"),
 ];
 
+/// Words of `FrameTargets::ray_counter`: a low and a high word per slot (the high words from
+/// `RAYS_HIGH`, [`RAY_SLOT_NAMES`]' length).
+pub const RAY_COUNTER_WORDS: usize = 2 * RAY_SLOT_NAMES.len();
+
 /// The pass of each slot of `FrameTargets::ray_counter` (from [`RAY_SLOT_NAMES`]).
 pub const RAY_SLOTS: [&str; RAY_SLOT_NAMES.len()] = {
     let mut out = [""; RAY_SLOT_NAMES.len()];
@@ -232,8 +236,7 @@ impl FrameTargets {
             accum_deviations: make("accumulate.deviations", n * 16)?,
             mean: make("accumulate.mean", n * 16)?,
             preview: make("tonemap.preview", n * 4)?,
-            // A low and a high word per slot (RAY_SLOT_NAMES).
-            ray_counter: make("frame.ray_counter", 2 * 4 * RAY_SLOTS.len() as u64)?,
+            ray_counter: make("frame.ray_counter", 4 * RAY_COUNTER_WORDS as u64)?,
             stats: make("frame.stats", 16)?,
         })
     }

@@ -941,11 +941,13 @@ fn traverse<'a>(
     Ok(out)
 }
 
+/// The material's name (shown as [`shown_name`] shows it), or `material{index}`.
+fn material_label(m: &gltf::Material) -> String {
+    m.name().map(shown_name).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)))
+}
+
 fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Material> {
-    let name = m
-        .name()
-        .map(shown_name)
-        .unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
+    let name = material_label(m);
     let pbr = m.pbr_metallic_roughness();
     // glTF 2.0 restricts each component to [0, 1]; outside it the albedo gives negative or
     // amplified (up to non-finite) radiance.
@@ -1045,9 +1047,8 @@ fn load_textures(
     materials: &mut [Material],
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Texture>> {
-    if decode {
-        check_texture_total(doc, buffers, base_dir, used)?;
-    }
+    // Each used image read once, its size from its header; the total checked before any decode.
+    let mut encoded = if decode { read_texture_images(doc, buffers, base_dir, used)? } else { BTreeMap::new() };
     let mut textures = Vec::new();
     let mut by_image: BTreeMap<(usize, bool), usize> = BTreeMap::new();
     for (m, material) in doc.materials().zip(materials.iter_mut()) {
@@ -1095,7 +1096,7 @@ fn load_textures(
                     Some((_, &t)) => Texture { nearest, ..textures[t].clone() },
                     None => Texture {
                         nearest,
-                        ..decode_image(&image, buffers, base_dir).with_context(|| {
+                        ..decode_image(encoded.remove(&image.index()).expect("read_texture_images reads every image decoded here")).with_context(|| {
                             format!("material '{name}': base colour texture image {}", image.index())
                         })?
                     },
@@ -1114,11 +1115,24 @@ fn load_textures(
 /// texel, and no device's maxStorageBufferRange (a u32) reaches 2^32 bytes.
 const MAX_TOTAL_TEXELS: u64 = (u32::MAX / 4) as u64;
 
-/// Refuses, before any image is decoded, textures that together hold more than
-/// [`MAX_TOTAL_TEXELS`] (from their headers; an image sampled two ways counts twice, as it is
-/// uploaded twice): twelve 8192² images (200 KB files) took 6.4 GB and 10 s to decode before the
-/// upload refused them.
-fn check_texture_total(doc: &Document, buffers: &[Vec<u8>], base_dir: Option<&Path>, used: &std::collections::BTreeSet<usize>) -> Result<()> {
+/// An image read but not yet decoded: its name, its bytes and its size from its header.
+struct EncodedImage {
+    name: String,
+    bytes: Vec<u8>,
+    width: u32,
+    height: u32,
+}
+
+/// Reads every image a used material samples (once each; [`load_textures`] decodes them) and
+/// refuses, before any is decoded, textures that together hold more than [`MAX_TOTAL_TEXELS`]
+/// (from their headers; an image sampled two ways counts twice, as it is uploaded twice): twelve
+/// 8192² images (200 KB files) took 6.4 GB and 10 s to decode before the upload refused them.
+fn read_texture_images(
+    doc: &Document,
+    buffers: &[Vec<u8>],
+    base_dir: Option<&Path>,
+    used: &std::collections::BTreeSet<usize>,
+) -> Result<BTreeMap<usize, EncodedImage>> {
     let mut keys = std::collections::BTreeSet::new();
     // Each image with the first material that samples it (named in its errors, as load_textures does).
     let mut images: BTreeMap<usize, (gltf::Image, String)> = BTreeMap::new();
@@ -1127,22 +1141,22 @@ fn check_texture_total(doc: &Document, buffers: &[Vec<u8>], base_dir: Option<&Pa
             let nearest = info.texture().sampler().mag_filter() == Some(gltf::texture::MagFilter::Nearest);
             let image = info.texture().source();
             keys.insert((image.index(), nearest));
-            let material = m.name().map(shown_name).unwrap_or_else(|| format!("material{}", m.index().unwrap_or(0)));
-            images.entry(image.index()).or_insert((image, material));
+            images.entry(image.index()).or_insert((image, material_label(&m)));
         }
     }
-    let mut sizes: BTreeMap<usize, (String, u32, u32)> = BTreeMap::new();
+    let mut read = BTreeMap::new();
     for (index, (image, material)) in &images {
         let what = || format!("material '{material}': base colour texture image {index}");
         let (name, bytes) = image_bytes(image, buffers, base_dir).with_context(what)?;
-        let (w, h) = image_dimensions(&name, &bytes).with_context(what)?;
-        sizes.insert(*index, (name, w, h));
+        let (width, height) = image_dimensions(&name, &bytes).with_context(what)?;
+        read.insert(*index, EncodedImage { name, bytes, width, height });
     }
-    let total: u64 = keys.iter().filter_map(|(i, _)| sizes.get(i)).map(|(_, w, h)| u64::from(*w) * u64::from(*h)).sum();
+    let texels = |e: &EncodedImage| u64::from(e.width) * u64::from(e.height);
+    let total: u64 = keys.iter().filter_map(|(i, _)| read.get(i)).map(texels).sum();
     if total > MAX_TOTAL_TEXELS {
-        let mut largest: Vec<&(String, u32, u32)> = sizes.values().collect();
-        largest.sort_by_key(|(_, w, h)| std::cmp::Reverse(u64::from(*w) * u64::from(*h)));
-        let names: Vec<String> = largest.iter().take(3).map(|(n, w, h)| format!("'{n}' {w}x{h}")).collect();
+        let mut largest: Vec<&EncodedImage> = read.values().collect();
+        largest.sort_by_key(|e| std::cmp::Reverse(texels(e)));
+        let names: Vec<String> = largest.iter().take(3).map(|e| format!("'{}' {}x{}", e.name, e.width, e.height)).collect();
         bail!(
             "its base colour textures hold {total} texels ({:.1} GiB of RGBA8), more than any device reads through one \
              buffer ({MAX_TOTAL_TEXELS} texels); render with --textures off, or scale down the largest ({})",
@@ -1150,7 +1164,7 @@ fn check_texture_total(doc: &Document, buffers: &[Vec<u8>], base_dir: Option<&Pa
             names.join(", ")
         );
     }
-    Ok(())
+    Ok(read)
 }
 
 /// An image's name (or `image{index}`) and its encoded bytes.
@@ -1180,9 +1194,9 @@ fn image_dimensions(name: &str, bytes: &[u8]) -> Result<(u32, u32)> {
     Ok((w, h))
 }
 
-fn decode_image(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path>) -> Result<Texture> {
-    let (name, bytes) = image_bytes(image, buffers, base_dir)?;
-    let (w, h) = image_dimensions(&name, &bytes)?;
+/// Decodes an image [`read_texture_images`] read.
+fn decode_image(image: EncodedImage) -> Result<Texture> {
+    let EncodedImage { name, bytes, width: w, height: h } = image;
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| anyhow!("'{name}': cannot decode (PNG and JPEG are supported): {e}"))?
         .to_rgba8();

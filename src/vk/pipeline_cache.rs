@@ -15,20 +15,11 @@ use std::path::{Path, PathBuf};
 
 use ash::vk;
 
-/// Whether the cache is on: `RESTIR_VPL_PIPELINE_CACHE` unset, or on/off (1/0, true/false,
-/// yes/no). Any other value is an error naming it (`OFF`, `0` and `false` wrote the cache without
-/// a word). Read before the context makes anything, as `RESTIR_VPL_GPU_TIMEOUT_S` is.
+/// Whether the cache is on: `RESTIR_VPL_PIPELINE_CACHE` unset, or on/off as
+/// [`crate::settings::env_switch`] reads it (`OFF`, `0` and `false` wrote the cache without a
+/// word). Read before the context makes anything, as `RESTIR_VPL_GPU_TIMEOUT_S` is.
 pub fn enabled_from_env() -> anyhow::Result<bool> {
-    let refused = |v: &dyn std::fmt::Debug| anyhow::anyhow!("RESTIR_VPL_PIPELINE_CACHE={v:?}: expected on or off (1/0, true/false, yes/no)");
-    match std::env::var("RESTIR_VPL_PIPELINE_CACHE") {
-        Err(std::env::VarError::NotPresent) => Ok(true),
-        Ok(v) => match v.to_ascii_lowercase().as_str() {
-            "" | "1" | "on" | "true" | "yes" => Ok(true),
-            "0" | "off" | "false" | "no" => Ok(false),
-            _ => Err(refused(&v)),
-        },
-        Err(std::env::VarError::NotUnicode(v)) => Err(refused(&v)),
-    }
+    crate::settings::env_switch("RESTIR_VPL_PIPELINE_CACHE", true)
 }
 
 /// Where the cache of this device and build is kept, or None when there is no cache directory.
