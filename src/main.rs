@@ -1396,17 +1396,34 @@ fn main() -> ExitCode {
     if cli.render.trace.is_some() {
         std::env::remove_var("RESTIR_VPL_TRACE");
     }
-    match real_main(cli, &given) {
-        Ok(()) => ExitCode::SUCCESS,
+    let code = match real_main(cli, &given) {
+        Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e:#}");
             if e.downcast_ref::<NoTracingDevice>().is_some() || e.downcast_ref::<restir_vpl::eval::compare::BadArgument>().is_some() {
-                ExitCode::from(2)
+                2
             } else if e.downcast_ref::<restir_vpl::eval::compare::NonFiniteInput>().is_some() {
-                ExitCode::from(3)
+                3
             } else {
-                ExitCode::FAILURE
+                1
             }
         }
+    };
+    if restir_vpl::vk::context::a_device_hung() {
+        // The device may still run the submission that passed the limit, and NVIDIA's driver
+        // waits for it in its exit handlers for ever (docs/gpu.md, stop 51): end without them.
+        eprintln!("warning: the process ends without the Vulkan driver's exit handlers, since a submission did not finish");
+        use std::io::Write as _;
+        let _ = std::io::stdout().flush();
+        let _ = std::io::stderr().flush();
+        // SAFETY: _exit ends the process at once; every file this run writes was written and
+        // closed (flushed above for the standard streams) before real_main returned.
+        #[cfg(unix)]
+        unsafe {
+            libc::_exit(code)
+        }
+        #[cfg(not(unix))]
+        std::process::exit(code);
     }
+    ExitCode::from(code as u8)
 }

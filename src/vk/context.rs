@@ -105,6 +105,19 @@ pub(crate) fn pipeline_creation_guard() -> std::sync::RwLockReadGuard<'static, (
     DEVICE_LIFETIME.read().unwrap_or_else(std::sync::PoisonError::into_inner)
 }
 
+/// Set when any context of the process is marked hung ([`Context::is_hung`]); read by
+/// [`a_device_hung`].
+static A_DEVICE_HUNG: AtomicBool = AtomicBool::new(false);
+
+/// Whether a submission of any context of this process ran past the time limit. Such a process
+/// must end without the driver's exit handlers: on an NVIDIA H100 (driver 580.159, stop 51) the
+/// CLI printed its error, dropped everything and then spun for ever inside `exit()`, in the
+/// driver's handlers (eu-stack: the main thread in `exit` under the driver's frames, running), so
+/// the timeout never ended the process. The CLI ends such a process with `_exit`.
+pub fn a_device_hung() -> bool {
+    A_DEVICE_HUNG.load(Ordering::SeqCst)
+}
+
 /// `RESTIR_VPL_GPU_TIMEOUT_S`: how long one submission may run before [`Context::wait_fence`]
 /// gives up on it, in seconds (fractions allowed); unset or 0: no limit. No limit by default,
 /// because one legitimate submission can be long: a brute-force frame is one dispatch, accepted up
@@ -1105,6 +1118,7 @@ impl Context {
             let waited = start.elapsed();
             if let Some(limit) = self.gpu_timeout.filter(|&limit| waited >= limit) {
                 self.hung.store(true, Ordering::SeqCst);
+                A_DEVICE_HUNG.store(true, Ordering::SeqCst);
                 bail!(
                     "{} did not finish in {:.0} s on {} (RESTIR_VPL_GPU_TIMEOUT_S sets the limit, 0 for none){}",
                     what(),
