@@ -126,27 +126,37 @@ pub fn snapshot_frame(name: &str) -> Option<u32> {
     (snapshot_file(frame) == name).then_some(frame)
 }
 
+/// The `--save-every` snapshots in `dir`, as an earlier run may have left them: entries named
+/// exactly as the program names them ([`snapshot_frame`]) that are OpenEXR files, or directories
+/// (`true`) in such a place. An unlisted directory has none.
+fn snapshots_in(dir: &std::path::Path) -> Result<Vec<(std::path::PathBuf, u32, bool)>> {
+    let entries = std::fs::read_dir(dir).with_context(|| format!("--out {}: cannot list the directory", dir.display()))?;
+    Ok(entries
+        .filter_map(|e| e.ok())
+        .filter_map(|entry| {
+            let frame = entry.file_name().to_str().and_then(snapshot_frame)?;
+            let path = entry.path();
+            let is_dir = std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir());
+            (is_dir || crate::output::is_exr_file(&path)).then_some((path, frame, is_dir))
+        })
+        .collect())
+}
+
 /// Before a run with `--save-every`: removes an earlier run's snapshots from `dir` (a series that
 /// mixed two runs, accum_0003 and accum_0004 of a longer one beside this run's, misled a script
 /// reading them all): files named as the program names them that are OpenEXR files; anything else
 /// is left. Refuses a directory in the place of a snapshot this run writes (found only when that
 /// frame was reached). Returns the files removed.
 fn remove_earlier_snapshots(dir: &std::path::Path, settings: &RenderSettings) -> Result<usize> {
-    let mut removed = 0;
     if settings.save_every == 0 {
         return Ok(0);
     }
-    let entries = std::fs::read_dir(dir).with_context(|| format!("--out {}: cannot list the directory", dir.display()))?;
-    for entry in entries.filter_map(|e| e.ok()) {
-        let name = entry.file_name();
-        let Some(frame) = name.to_str().and_then(snapshot_frame) else { continue };
-        let path = entry.path();
-        if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir()) {
+    let mut removed = 0;
+    for (path, frame, is_dir) in snapshots_in(dir)? {
+        if is_dir {
             let written = frame > 0 && frame <= settings.frames && frame % settings.save_every == 0;
-            anyhow::ensure!(!written, "--out {}: {} is a directory, where --save-every writes frame {frame}'s snapshot", dir.display(), name.to_string_lossy());
-            continue;
-        }
-        if !crate::output::is_exr_file(&path) {
+            let name = path.file_name().unwrap_or_default().to_string_lossy();
+            anyhow::ensure!(!written, "--out {}: {name} is a directory, where --save-every writes frame {frame}'s snapshot", dir.display());
             continue;
         }
         std::fs::remove_file(&path).with_context(|| format!("--out {}: removing an earlier run's snapshot {}", dir.display(), path.display()))?;
@@ -160,14 +170,7 @@ fn remove_earlier_snapshots(dir: &std::path::Path, settings: &RenderSettings) ->
 fn earlier_outputs_left(dir: &std::path::Path, settings: &RenderSettings, dumps: bool) -> Vec<String> {
     let mut out = Vec::new();
     if settings.save_every == 0 {
-        let snapshots = std::fs::read_dir(dir)
-            .map(|entries| {
-                entries
-                    .filter_map(|e| e.ok())
-                    .filter(|e| e.file_name().to_str().and_then(snapshot_frame).is_some() && crate::output::is_exr_file(&e.path()))
-                    .count()
-            })
-            .unwrap_or(0);
+        let snapshots = snapshots_in(dir).map(|s| s.iter().filter(|(_, _, is_dir)| !is_dir).count()).unwrap_or(0);
         if snapshots > 0 {
             out.push(format!(
                 "--out {}: {snapshots} snapshot(s) accum_NNNN.exr of an earlier run are left there; this run writes none (no --save-every)",
@@ -245,14 +248,18 @@ pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
     run_with(ctx, scene, settings, start)
 }
 
+/// Prints a warning now and keeps it for the summary's `warnings`.
+fn warn_and_keep(warnings: &mut Vec<String>, w: String) {
+    log::warn!("{w}");
+    warnings.push(w);
+}
+
 /// As [`run`], with a context and an uploaded scene the caller already has.
 pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettings, start: Instant) -> Result<RunOutput> {
     check_outputs_spare_inputs(settings, &scene.info.files)?;
     let mut warnings = scene.info.warnings.clone();
     if !scene.has_emitters() {
-        let w = format!("{}: the scene has no emitters; the image will be black", scene.info.path.display());
-        log::warn!("{w}");
-        warnings.push(w);
+        warn_and_keep(&mut warnings, format!("{}: the scene has no emitters; the image will be black", scene.info.path.display()));
     }
     if let Some(dir) = &settings.out_dir {
         crate::output::prepare_output_dir("--out", dir)?;
@@ -296,8 +303,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
         // What an earlier run left that this one neither writes nor removes, said (not removed:
         // this run did not ask for such files), so that it is not read as this run's.
         for w in earlier_outputs_left(dir, settings, dump.is_some()) {
-            log::warn!("{w}");
-            warnings.push(w);
+            warn_and_keep(&mut warnings, w);
         }
     }
     if let Some(path) = &settings.dump_vpls {
@@ -311,8 +317,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     let mut renderdoc = settings.renderdoc_capture.map(|_| crate::vk::renderdoc::Capturer::attach(&ctx));
     if let Some(rd) = &renderdoc {
         if !rd.attached() {
-            log::warn!("--renderdoc-capture: {}", crate::vk::renderdoc::HOW_TO_CAPTURE);
-            warnings.push(format!("--renderdoc-capture: {}", crate::vk::renderdoc::HOW_TO_CAPTURE));
+            warn_and_keep(&mut warnings, format!("--renderdoc-capture: {}", crate::vk::renderdoc::HOW_TO_CAPTURE));
         }
     }
     // Frames whose passes ran apart to be captured, where the others run fused.
@@ -379,8 +384,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
              fuse_passes says what the other frames run",
             settings.frames
         );
-        log::warn!("{w}");
-        warnings.push(w);
+        warn_and_keep(&mut warnings, w);
     }
     if let (false, Some(dir)) = (dumped.is_empty(), &settings.out_dir) {
         finish_dump(&renderer, &dir.join("passes"), &dumped, &mut outputs)?;

@@ -740,7 +740,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         opts.pt_reference_frames = pt_frames.unwrap_or(opts.pt_reference_frames);
         opts.vpl_reference_frames = vpl_frames.unwrap_or(opts.vpl_reference_frames);
         if let Some(c) = checkpoints {
-            opts.checkpoints = c.clone();
+            opts.checkpoints = restir_vpl::eval::results::sorted_checkpoints(c);
         }
         opts.flip = !*no_flip;
         if *no_motion {
@@ -889,7 +889,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             opts.motion = None;
             opts.device_index = *device;
             if let Some(c) = checkpoints {
-                opts.checkpoints = c.clone();
+                opts.checkpoints = restir_vpl::eval::results::sorted_checkpoints(c);
             }
             opts.runs = runs.unwrap_or(opts.runs);
             opts.command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
@@ -1267,18 +1267,21 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
 /// The render flags given on the command line (clap ids, as `RenderSettings::unused_flags` takes
 /// them), of the main command or of `reference`; `bench`'s own flags for `bench`; none for the
 /// other subcommands.
+/// The ids of the arguments given on the command line (not defaults, not the environment). The
+/// derive's argument groups ("Cli", "RenderArgs", "Bench") are among a match's ids: their names
+/// start with a capital, the arguments' never do.
+fn flags_on_command_line(matches: &clap::ArgMatches) -> impl Iterator<Item = &str> {
+    matches
+        .ids()
+        .map(|id| id.as_str())
+        .filter(|id| id.starts_with(|c: char| c.is_ascii_lowercase()))
+        .filter(|id| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
+}
+
 fn given_render_flags(matches: &clap::ArgMatches) -> Vec<String> {
     let m = match matches.subcommand() {
         Some(("reference", sub)) => sub,
-        Some(("bench", sub)) => {
-            return sub
-                .ids()
-                .map(|id| id.as_str().to_string())
-                // The derive's argument group ("Bench") is among the ids.
-                .filter(|id| id.starts_with(|c: char| c.is_ascii_lowercase()))
-                .filter(|id| sub.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
-                .collect()
-        }
+        Some(("bench", sub)) => return flags_on_command_line(sub).map(str::to_string).collect(),
         Some(_) => return Vec::new(),
         None => matches,
     };
@@ -1361,12 +1364,8 @@ const MAX_BENCH_FRAMES: u32 = 1_000_000;
 
 /// `--list-devices` takes only `--trace` (the way of tracing it reports for) and `--verbose`.
 fn list_devices_alone(matches: &clap::ArgMatches) -> Result<()> {
-    let others: Vec<String> = matches
-        .ids()
-        .map(|id| id.as_str())
-        // (The derive's argument groups, "Cli" and "RenderArgs", are among the ids.)
-        .filter(|id| id.starts_with(|c: char| c.is_ascii_lowercase()) && !["list_devices", "trace", "verbose"].contains(id))
-        .filter(|id| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
+    let others: Vec<String> = flags_on_command_line(matches)
+        .filter(|id| !["list_devices", "trace", "verbose"].contains(id))
         .map(|id| format!("--{}", id.replace('_', "-")))
         .collect();
     anyhow::ensure!(

@@ -797,8 +797,7 @@ fn a_1280x720_frame_of_every_mode_stays_within_the_device_limits() {
 /// validation failed.
 #[test]
 fn a_stray_driver_manifest_is_no_validation_error() {
-    if !validate() {
-        common::skip("no validation layer installed (CI requires one)");
+    if !common::validation_or_skip() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -818,8 +817,7 @@ fn a_stray_driver_manifest_is_no_validation_error() {
 /// runs succeed (the switch does nothing else).
 #[test]
 fn a_validation_error_fails_headless_and_reference_runs() {
-    if !validate() {
-        common::skip("no validation layer installed (CI requires one)");
+    if !common::validation_or_skip() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -12,11 +12,7 @@ use restir_vpl::vk::Buffer;
 /// A context under the validation layer, or None (said) where the layer is not installed (CI
 /// requires it: `common::validate`).
 fn validated_context() -> Option<std::sync::Arc<restir_vpl::vk::Context>> {
-    if !validate() {
-        common::skip("no validation layer installed (CI requires one)");
-        return None;
-    }
-    Some(context())
+    validation_or_skip().then(context)
 }
 
 #[test]

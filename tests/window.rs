@@ -265,8 +265,7 @@ fn start_window(display: &str, args: &[&str], env: &[(&str, &str)], title: &str)
 /// tests read "0 validation errors" only from summaries written before their last frames.
 #[test]
 fn a_validation_error_fails_a_window_closed_by_its_user() {
-    if !common::validate() {
-        common::skip("no validation layer installed (CI requires one)");
+    if !common::validation_or_skip() {
         return;
     }
     let Some(x) = xvfb() else { return };

@@ -61,7 +61,5 @@ void main() {
     }
     GridPick k = regir_pixel(s, pc.grid, params);
     reservoirs_out[index] = initial_reservoir(pixel, s, params, pc.tiles, vpls, vpl_alias, tiles, pc.grid, k, grid_entries, rays);
-    if (rays > 0u) {
-        count_rays(RAYS_INITIAL, rays);
-    }
+    count_rays(RAYS_INITIAL, rays);
 }

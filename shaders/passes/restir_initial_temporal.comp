@@ -69,7 +69,5 @@ void main() {
         r = temporal_merge_history(pixel, s, r, rh, sp, pc.params, t, vpls, rays);
     }
     reservoirs_out[index] = r;
-    if (rays > 0u) {
-        count_rays(RAYS_INITIAL_TEMPORAL, rays);
-    }
+    count_rays(RAYS_INITIAL_TEMPORAL, rays);
 }

@@ -52,7 +52,5 @@ void main() {
     uint rays = 0u;
     SpatialReuse sr = SpatialReuse(pc.neighbours, pc.neighbours_without_history, pc.radius, pc.normal_threshold, pc.depth_threshold, pc.pass_index);
     dst[index] = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, UNBIASED, VISIBLE_TARGETS, rays);
-    if (rays > 0u) {
-        count_rays(RAYS_SPATIAL, rays);
-    }
+    count_rays(RAYS_SPATIAL, rays);
 }

@@ -32,6 +32,7 @@ layout(set = 1, binding = 3, std430) writeonly buffer ReservoirOut { Reservoir d
 layout(set = 1, binding = 4, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 5, std430) buffer RayCounter { uint ray_count[]; };
 #include "../common/ray_count.glsl"
+#include "../common/poison.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -61,11 +62,8 @@ void main() {
     Reservoir r = spatial_merge(pixel, s, rc, pc.params, sr, surfaces, vpls, src, UNBIASED, VISIBLE_TARGETS, rays);
     dst[index] = r;
     samples[index] = vec4(shade_estimate(s, r, pc.params, vpls, rays), 1.0);
-    if (frame.debug_poison == POISON_VPL_SHADE && pixel == uvec2(1u, 1u)) {
-        // Tests of --check-finite only: vpl_shade's NaN, also where vpl_shade runs fused here.
-        samples[index] = vec4(vec3(uintBitsToFloat(0x7fc00000u)), 1.0);
+    if (shade_poisoned(frame.debug_poison, pixel)) {
+        samples[index] = poison_sample();
     }
-    if (rays > 0u) {
-        count_rays(RAYS_SPATIAL_SHADE, rays);
-    }
+    count_rays(RAYS_SPATIAL_SHADE, rays);
 }

@@ -44,7 +44,5 @@ void main() {
             reservoirs[index] = r;
         }
     }
-    if (rays > 0u) {
-        count_rays(RAYS_TEMPORAL, rays);
-    }
+    count_rays(RAYS_TEMPORAL, rays);
 }

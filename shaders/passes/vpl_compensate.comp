@@ -138,7 +138,5 @@ void main() {
         carry = COMPENSATE_EMISSION | COMPENSATE_VPLS;
     }
     samples[index].rgb += added;
-    if (rays > 0u) {
-        count_rays(RAYS_COMPENSATE, rays);
-    }
+    count_rays(RAYS_COMPENSATE, rays);
 }

@@ -19,6 +19,7 @@ layout(set = 1, binding = 2) uniform utextureBuffer reservoirs;  // Reservoir, 1
 layout(set = 1, binding = 3, std430) writeonly buffer SampleBuffer { vec4 samples[]; };
 layout(set = 1, binding = 4, std430) buffer RayCounter { uint ray_count[]; };
 #include "../common/ray_count.glsl"
+#include "../common/poison.glsl"
 
 layout(push_constant) uniform Push {
     VplParams params;
@@ -49,8 +50,8 @@ void main() {
         return;
     }
     uint index = pixel.y * frame.width + pixel.x;
-    if (frame.debug_poison == POISON_VPL_SHADE && pixel == uvec2(1u, 1u)) {
-        samples[index] = vec4(vec3(uintBitsToFloat(0x7fc00000u)), 1.0);  // tests of --check-finite only
+    if (shade_poisoned(frame.debug_poison, pixel)) {
+        samples[index] = poison_sample();
         return;
     }
     Surface s = surface_texels(surfaces, surface_slot(index));
@@ -85,7 +86,5 @@ void main() {
     uint rays = 0u;
     vec3 radiance = shade_estimate(s, r, p, vpls, rays);
     samples[index] = vec4(radiance, 1.0);
-    if (rays > 0u) {
-        count_rays(RAYS_SHADE, rays);
-    }
+    count_rays(RAYS_SHADE, rays);
 }

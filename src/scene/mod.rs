@@ -194,10 +194,7 @@ impl Mesh {
         // (the edge's two position ids, the triangle and the vertex opposite it), sorted by edge.
         let mut edges: Vec<(u64, u32)> = Vec::with_capacity(3 * n);
         for t in 0..n {
-            let Some(i) = self.indices.get(3 * t..3 * t + 3).filter(|_| self.triangle(t).is_some_and(|p| p.iter().all(|v| v.is_finite())))
-            else {
-                continue;
-            };
+            let Some(i) = self.indices.get(3 * t..3 * t + 3).filter(|_| tri(t).is_some()) else { continue };
             for k in 0..3 {
                 let (a, b) = (id[i[(k + 1) % 3] as usize], id[i[(k + 2) % 3] as usize]);
                 edges.push(((u64::from(a.min(b)) << 32) | u64::from(a.max(b)), (3 * t + k) as u32));

@@ -41,6 +41,15 @@ pub fn validate() -> bool {
 /// so a skipped test looked like a pass) and into `test-skips.txt` under cargo's target tmp
 /// directory, which `scripts/test.sh` empties before the run and prints after it. Under CI a
 /// missing prerequisite is a failure instead (each caller asserts that first).
+/// [`validate`] for a test that checks the validation layer itself: false, with the test's skip
+/// said, where no layer is installed (the caller returns).
+pub fn validation_or_skip() -> bool {
+    validate() || {
+        skip("no validation layer installed (CI requires one)");
+        false
+    }
+}
+
 pub fn skip(msg: &str) {
     use std::io::Write;
     let test = std::thread::current().name().unwrap_or("?").to_string();
