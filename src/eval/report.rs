@@ -161,8 +161,12 @@ pub fn fmt_sig3(v: f64) -> String {
     }
     let mut decimals = (2 - e).max(0) as usize;
     let mut s = format!("{v:.decimals$}");
-    // Rounding up to the next power of ten (0.9996 → "1.000") would give a 4th digit.
-    if decimals > 0 && s.trim_start_matches('-').parse::<f64>().unwrap_or(0.0) >= 10f64.powi(e + 1) {
+    // Rounding up to the next power of ten (0.9996 → "1.000") would give a 4th digit; at the top
+    // of the range (99999.6 → "100000") a sixth, where the exponent form takes over.
+    if s.trim_start_matches('-').parse::<f64>().unwrap_or(0.0) >= 10f64.powi(e + 1) {
+        if decimals == 0 {
+            return if e + 1 >= 5 { format!("{v:.2e}") } else { s };
+        }
         decimals -= 1;
         s = format!("{v:.decimals$}");
     }
@@ -1174,6 +1178,28 @@ pub fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<
 #[cfg(test)]
 mod tests {
     use super::civil_from_days;
+
+    /// Three significant digits: decimals as needed below 1000, whole numbers up to 99999, the
+    /// exponent form outside; a value that rounds up to the next power of ten keeps three digits
+    /// (99999.6 printed "100000").
+    #[test]
+    fn three_significant_digits() {
+        let cases = [
+            (0.00123456, "0.00123"),
+            (0.99996, "1.00"),
+            (1.2345, "1.23"),
+            (999.6, "1000"),
+            (12345.0, "12345"),
+            (99999.6, "1.00e5"),
+            (123456.0, "1.23e5"),
+            (0.0001234, "1.23e-4"),
+            (-0.99996, "-1.00"),
+            (0.0, "0"),
+        ];
+        for (v, want) in cases {
+            assert_eq!(super::fmt_sig3(v), want, "{v}");
+        }
+    }
 
     /// Against dates computed elsewhere (Python's datetime): the epoch, the day before it, a leap
     /// day, the day after it, a century that is not a leap year, and a day of this project.

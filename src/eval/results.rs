@@ -470,6 +470,15 @@ fn mse_standard_error(a: &RgbImage, b: &RgbImage) -> f64 {
     d.standard_error().unwrap_or(f64::INFINITY)
 }
 
+/// `--checkpoints` as the curves take them: ascending, each once (the report listed `5,2,2` as
+/// given, beside tables of 2 and 5).
+pub fn sorted_checkpoints(given: &[u32]) -> Vec<u32> {
+    let mut c = given.to_vec();
+    c.sort_unstable();
+    c.dedup();
+    c
+}
+
 /// Renders (or reuses) the references, measures the curves of every scene and writes the Markdown
 /// report, the CSVs and the plots under `opts.out_dir`.
 pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String)) -> Result<ResultsOutput> {
