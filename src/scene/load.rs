@@ -285,7 +285,7 @@ fn check_scene(mut scene: Scene) -> Result<Scene> {
              make fewer triangles (or instances) emissive"
         );
     }
-    let (emitters, tiny) = scene.emissive_triangles_and_tiny();
+    let (emitters, tiny, degenerate) = scene.emissive_triangles_and_tiny();
     check_emitter_areas(&scene, &emitters)?;
     if tiny > 0 {
         // Dropped from the light set; said, since in a tiny scene they can be all its light.
@@ -294,6 +294,16 @@ fn check_scene(mut scene: Scene) -> Result<Scene> {
              left out of the lights (in a scene this small, scale it up)",
             label,
             if tiny == 1 { " has" } else { "s have" }
+        ));
+    }
+    if emitters.is_empty() && degenerate > 0 {
+        // Else the only message was "no emitters", beside an emissive material the file plainly has
+        // (a node's scale of 0 along one axis, which would flatten them, is refused above).
+        scene.warnings.push(format!(
+            "{}: its {degenerate} emissive triangle{} zero area (degenerate: {} vertices in a line or at one point), so the scene has no light",
+            label,
+            if degenerate == 1 { " has" } else { "s have" },
+            if degenerate == 1 { "its" } else { "their" }
         ));
     }
     check_light_power(&scene, &emitters)?;

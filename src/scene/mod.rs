@@ -365,10 +365,11 @@ impl Scene {
 
     /// [`Scene::emissive_triangles`], and how many emissive triangles it leaves out for an area
     /// that is positive but too small for f32 (under ~1.4e-45 in the scene's units squared: a
-    /// scene at 1e-30 scale), which the loader names in a warning.
-    pub fn emissive_triangles_and_tiny(&self) -> (Vec<EmissiveTriangle>, usize) {
+    /// scene at 1e-30 scale) and for an area of zero (degenerate, or flattened by a node's scale
+    /// of 0), which the loader names in warnings.
+    pub fn emissive_triangles_and_tiny(&self) -> (Vec<EmissiveTriangle>, usize, usize) {
         let mut out = Vec::new();
-        let mut tiny = 0;
+        let (mut tiny, mut degenerate) = (0, 0);
         for (ii, inst) in self.instances.iter().enumerate() {
             let Some(mesh) = self.meshes.get(inst.mesh) else {
                 continue;
@@ -389,6 +390,7 @@ impl Scene {
                 let area = area64 as f32;
                 if !(area > 0.0) {
                     tiny += usize::from(area64 > 0.0);
+                    degenerate += usize::from(area64 == 0.0);
                     continue;
                 }
                 // A mirroring instance turns the mesh's counter-clockwise order clockwise: reversed,
@@ -406,7 +408,7 @@ impl Scene {
                 });
             }
         }
-        (out, tiny)
+        (out, tiny, degenerate)
     }
 }
 

@@ -712,6 +712,21 @@ fn degenerate_triangles_not_emissive() {
     let tris = s.emissive_triangles();
     assert_eq!(tris.len(), 1);
     assert_eq!(tris[0].triangle, 1);
+    // One of two left: no warning (meshes hold degenerate triangles).
+    assert!(!s.warnings.join("\n").contains("zero area"), "{:?}", s.warnings);
+}
+
+/// Emissive triangles all of zero area (their vertices in a line) are named: the only message
+/// was "no emitters", beside the file's emissive material.
+#[test]
+fn emitters_of_zero_area_are_named() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("glow", [0.5; 3], [2.0; 3], false);
+    let mesh = b.mesh("line", &[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], None, &[0, 1, 2], m);
+    b.node("line", mesh, [0.0; 3]);
+    let s = load_str(&b.to_json_string()).unwrap();
+    assert_eq!(s.emissive_triangles_and_tiny().2, 1);
+    assert_contains(&s.warnings.join("\n"), &["its 1 emissive triangle has zero area (degenerate: its vertices in a line or at one point)"]);
 }
 
 #[test]
@@ -2223,9 +2238,9 @@ fn emitters_too_small_for_f32_are_named() {
     let mesh = b.mesh("tiny", &[[0.0, 0.0, 0.0], [1e-30, 0.0, 0.0], [0.0, 1e-30, 0.0]], None, &[0, 1, 2], m);
     b.node("tiny", mesh, [0.0; 3]);
     let s = load_str(&b.to_json_string()).unwrap();
-    let (lights, tiny) = s.emissive_triangles_and_tiny();
+    let (lights, tiny, degenerate) = s.emissive_triangles_and_tiny();
     assert!(lights.is_empty() && s.emissive_triangles().is_empty());
-    assert_eq!(tiny, 1);
+    assert_eq!((tiny, degenerate), (1, 0));
     assert_contains(&s.warnings.join("\n"), &["1 emissive triangle has an area under 32-bit floats' smallest"]);
     // A plain triangle says nothing.
     assert!(load_value(&triangle_doc()).unwrap().warnings.is_empty());
