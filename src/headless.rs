@@ -185,14 +185,16 @@ fn earlier_outputs_left(dir: &std::path::Path, settings: &RenderSettings, dumps:
 }
 
 /// Refuses a run whose outputs would overwrite one of its inputs: the scene, the files it reads
-/// (`scene_files`: external buffers and images) or the camera path, under `--out`'s fixed names
+/// (`scene_files`: external buffers and images), the camera path or the window's `--reference`, under `--out`'s fixed names
 /// (and `--save-every`'s snapshots) or as `--dump-vpls`. Checked once the scene is loaded, before
 /// any frame (`RenderSettings::validate` checks `--dump-vpls` against the scene and the camera path
 /// before anything is read).
-pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std::path::PathBuf]) -> Result<()> {
+pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std::path::PathBuf], reference: Option<&std::path::Path>) -> Result<()> {
     let mut inputs: Vec<(&str, &std::path::Path)> = vec![("the scene", settings.scene.as_path())];
     inputs.extend(scene_files.iter().map(|p| ("a file the scene reads", p.as_path())));
     inputs.extend(settings.camera_path.as_deref().map(|p| ("the --camera-path", p)));
+    // The window's split-screen reference (--reference out/final.exr was overwritten by Enter).
+    inputs.extend(reference.map(|p| ("the --reference", p)));
     for (what, input) in inputs {
         if let Some(dir) = &settings.out_dir {
             // Every fixed name, not only the input's own: out/final.png as a link to the scene
@@ -256,7 +258,7 @@ fn warn_and_keep(warnings: &mut Vec<String>, w: String) {
 
 /// As [`run`], with a context and an uploaded scene the caller already has.
 pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettings, start: Instant) -> Result<RunOutput> {
-    check_outputs_spare_inputs(settings, &scene.info.files)?;
+    check_outputs_spare_inputs(settings, &scene.info.files, None)?;
     let mut warnings = scene.info.warnings.clone();
     if !scene.has_emitters() {
         warn_and_keep(&mut warnings, format!("{}: the scene has no emitters; the image will be black", scene.info.path.display()));

@@ -1020,6 +1020,19 @@ fn the_window_refuses_a_reference_of_another_scene() {
     let o = bin().args(["--reference", exr.to_str().unwrap()]).env_remove("DISPLAY").env_remove("WAYLAND_DISPLAY").output().unwrap();
     let err = stderr(&o);
     assert!(!o.status.success() && !err.contains("another scene") && !err.contains("panicked"), "{err}");
+    // Nor may the run's outputs overwrite it: a reference at OUT/final.exr was replaced by Enter
+    // (or --frames), without its scene's name, and then accepted for any scene.
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::copy(&exr, out.join("final.exr")).unwrap();
+    let o = bin()
+        .args(["--reference", out.join("final.exr").to_str().unwrap(), "--out", out.to_str().unwrap()])
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap();
+    let err = stderr(&o);
+    assert!(!o.status.success() && err.contains("the run writes final.exr there, which is the --reference") && !err.contains("panicked"), "{err}");
 }
 
 /// One textured, emitting triangle in `dir/scene.gltf`: positions, UVs and indices in the external

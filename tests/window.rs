@@ -288,8 +288,9 @@ fn a_validation_error_fails_a_window_closed_by_its_user() {
     assert!(stdout.contains("4 frames of 32x32") && stdout.contains("summary.json"), "the summary is printed before the error: {stdout}");
 }
 
-/// A window destroyed by another program (xdotool's windowclose is XDestroyWindow, as `xkill -id`
-/// does) ends the run as a close does: exit 0 with a warning saying so. It panicked inside winit
+/// A window destroyed by another program (xdotool's windowclose is XDestroyWindow; `xkill -id` is
+/// XKillClient, which cuts the X connection instead, and Xlib exits 1) ends the run as a close
+/// does: exit 0 with a warning saying so. It panicked inside winit
 /// (exit 101): the next frame asked the gone window its size.
 #[test]
 fn a_window_destroyed_by_another_program_closes_cleanly() {
@@ -625,4 +626,39 @@ fn a_covered_window_pauses_frames_displayed_alone_but_accumulates() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!err.contains("[vulkan") && !err.contains("panicked"), "stderr: {err}");
     common::assert_clean_summary(&summary(&out), "windowed run");
+}
+
+/// A key already down when the window gains focus does nothing: winit reports such keys as
+/// presses on X11 (`is_synthetic`), and they ran their actions (an Esc that closed a dialog over
+/// the window quit the renderer; a workspace switch's digit changed the mode). Here 2 (mode ris)
+/// is held while another window has the focus and released after the renderer has it: the mode
+/// stays uniform; then 2 pressed in the window does switch it (so the check can fail).
+#[test]
+fn a_key_held_when_the_window_gains_focus_does_nothing() {
+    let Some(x) = xvfb() else { return };
+    if !have("xmessage") {
+        let msg = "this test takes the focus with xmessage (x11-utils; bash scripts/test.sh installs it)";
+        assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "{msg}");
+        return common::skip(msg);
+    }
+    let d = x.display.as_str();
+    let args = [&SCENE_ARGS[..], &["--mode", "uniform", "--width", "64", "--height", "48"]].concat();
+    let (child, wid, _) = start_window(d, &args, &[], "uniform ·");
+    let mut other = Command::new("xmessage").args(["-title", "focus-thief", "-geometry", "120x60+300+300", "other"]).env("DISPLAY", d).stderr(Stdio::null()).spawn().expect("start xmessage");
+    let other_id = String::from_utf8_lossy(&xdotool(d, &["search", "--sync", "--name", "focus-thief"]).stdout).trim().lines().next().expect("xmessage's window").to_string();
+    xdotool(d, &["windowfocus", "--sync", &other_id]);
+    xdotool(d, &["keydown", "2"]);
+    xdotool(d, &["windowfocus", "--sync", &wid]);
+    // Released at once: held past the X server's auto-repeat delay (660 ms), the key's repeats
+    // come to the renderer as presses of its own, as a real keyboard's would.
+    xdotool(d, &["keyup", "2"]);
+    std::thread::sleep(Duration::from_secs(3));
+    let title = String::from_utf8_lossy(&xdotool(d, &["getwindowname", &wid]).stdout).trim().to_string();
+    other.kill().unwrap();
+    other.wait().unwrap();
+    assert!(title.contains("uniform ·") && !title.contains("mode ris"), "the held key changed the mode: '{title}'");
+    press_until_title(d, &wid, "2", "ris ·", Duration::from_secs(60));
+    let o = quit(d, child, &wid);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("[vulkan") && !err.contains("panicked"), "stderr: {err}");
 }

@@ -65,7 +65,7 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     settings.validate()?;
     let start = Instant::now();
     let scene = Scene::load_for(&settings.scene, settings.textures)?;
-    crate::headless::check_outputs_spare_inputs(&settings, &scene.files)?;
+    crate::headless::check_outputs_spare_inputs(&settings, &scene.files, opts.reference.as_deref())?;
     let reference = opts.reference.as_deref().map(|p| overlay::Reference::load(p, &settings)).transpose()?;
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
     let event_loop = EventLoop::new().map_err(|e| NoDisplay(display_error_text(&e.to_string())))?;
@@ -366,7 +366,7 @@ impl App {
                 }
                 r.hidden = hidden;
             }
-            WindowEvent::KeyboardInput { event, .. } => {
+            WindowEvent::KeyboardInput { event, is_synthetic, .. } => {
                 let PhysicalKey::Code(code) = event.physical_key else { return Ok(()) };
                 let down = event.state == ElementState::Pressed;
                 let t = r.clock.elapsed().as_secs_f64();
@@ -388,7 +388,11 @@ impl App {
                     }
                     (None, KeyCode::ShiftLeft | KeyCode::ShiftRight) => r.controller.set_fast(down),
                     (None, _) => {
-                        if down && !event.repeat {
+                        // Not the presses winit makes up, on X11, for keys already down when the
+                        // window gains focus: Esc held to close a dialog over the window quit the
+                        // renderer, a held Return wrote its outputs, a workspace switch's digit
+                        // changed the mode. (Held movement keys above still count.)
+                        if down && !event.repeat && !is_synthetic {
                             if let Some(action) = actions::action_for(code) {
                                 self.act(event_loop, action)?;
                             }
@@ -449,10 +453,12 @@ impl App {
         match action {
             Action::SetMode(mode) => self.change(&format!("mode {}", mode.name()), |s| {
                 s.mode = mode;
-                if !mode.uses_reservoirs() && s.view.shows_reservoirs() || mode == Mode::Pt && s.view != View::Vpls {
-                    s.view = View::Final;
-                }
+                fit_view_to_mode(s);
             })?,
+            Action::ToggleGi if !reads_gi(r.renderer.settings()) => {
+                // A change would restart the accumulation for a setting the path tracer never reads.
+                r.message = "global illumination: the path tracer reads no VPLs (only its view vpls shows them)".to_string();
+            }
             Action::ToggleGi => {
                 let gi = !r.renderer.settings().gi;
                 self.change(&format!("global illumination {}", if gi { "on" } else { "off" }), |s| s.gi = gi)?
@@ -503,7 +509,7 @@ impl App {
             // window stays, as a refused setting does.
             Action::SaveImage => {
                 let outputs = Vec::new();
-                let displayed = r.displayed(self.opts.present_mode);
+                let displayed = r.displayed(r.swapchain.mode);
                 r.message = match finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start, displayed) {
                     Ok(summary) => {
                         r.saved |= self.settings.out_dir.is_some();
@@ -772,7 +778,7 @@ impl App {
             r.refresh = true;
         }
         if self.opts.frames == Some(r.frames) {
-            let displayed = r.displayed(self.opts.present_mode);
+            let displayed = r.displayed(r.swapchain.mode);
             let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, Vec::new(), Vec::new(), self.start, displayed)?;
             self.summary = Some(summary);
             event_loop.exit();
@@ -801,12 +807,11 @@ impl Running {
         let timing = if self.frozen() {
             "frozen (F2 resumes, F3 renders one frame)".to_string()
         } else {
-            format!(
-                "{:.1} ms/frame ({:.0} fps, GPU {:.1} ms)",
-                self.smoothed_ms,
-                1e3 / self.smoothed_ms.max(1e-3),
-                self.renderer.last_stats().gpu_ms()
-            )
+            // No timed frame since a settings change: "–", as the overlay shows (the empty sum
+            // printed "GPU -0.0 ms").
+            let stats = self.renderer.last_stats();
+            let gpu = if stats.dispatch_ms.is_empty() { "–".to_string() } else { format!("{:.1}", stats.gpu_ms()) };
+            format!("{:.1} ms/frame ({:.0} fps, GPU {gpu} ms)", self.smoothed_ms, 1e3 / self.smoothed_ms.max(1e-3))
         };
         let view = if s.view != View::Final && !self.message.contains(&format!("view {}", s.view.name())) {
             format!(" · view {}", s.view.name())
@@ -1103,6 +1108,20 @@ impl Drop for Presenter {
 /// the larger `MAX_BRUTEFORCE_PAIRS`.
 pub const WINDOW_BRUTEFORCE_PAIRS_CPU: u64 = 100_000_000;
 pub const WINDOW_BRUTEFORCE_PAIRS_GPU: u64 = 2_000_000_000;
+
+/// After a change of mode, the view falls back to the final image where the mode has no such
+/// view: the reservoir views outside RIS and ReSTIR, all but the VPLs' in the path tracer (key 1-5
+/// and the overlay's mode box alike; the box refused what the key did).
+pub(crate) fn fit_view_to_mode(s: &mut RenderSettings) {
+    if !s.mode.uses_reservoirs() && s.view.shows_reservoirs() || s.mode == Mode::Pt && s.view != View::Vpls {
+        s.view = View::Final;
+    }
+}
+
+/// Whether the indirect VPLs (G) change the image: not in the path tracer, except its VPL view.
+pub(crate) fn reads_gi(s: &RenderSettings) -> bool {
+    s.mode != Mode::Pt || s.view == View::Vpls
+}
 
 /// Why the window refuses brute force for `s` (None: it does not). Pressing 5 at 320×240 with the
 /// default 200k VPLs froze the window for ~14 minutes a frame on lavapipe.

@@ -511,8 +511,11 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
         });
         egui::CollapsingHeader::new("settings").default_open(true).show(ui, |ui| {
             combo(ui, "mode", &mut edited.mode, &mut what);
+            if edited.mode != s.mode {
+                super::fit_view_to_mode(&mut edited);
+            }
             combo(ui, "view", &mut edited.view, &mut what);
-            if ui.checkbox(&mut edited.gi, "indirect VPLs (G)").changed() {
+            if super::reads_gi(&edited) && ui.checkbox(&mut edited.gi, "indirect VPLs (G)").changed() {
                 what = Some("indirect VPLs".into());
             }
             if ui.checkbox(&mut edited.progressive, "progressive (P)").changed() {

@@ -29,7 +29,9 @@ pub struct Swapchain {
     pub extent: vk::Extent2D,
     pub images: Vec<vk::Image>,
     pub views: Vec<vk::ImageView>,
-    pub present_mode: vk::PresentModeKHR,
+    /// The present mode it uses: the one asked for, or fifo where the surface lacks it (the
+    /// summary's `displayed.present_mode` says this one, not the request).
+    pub mode: PresentMode,
     /// Signalled when presentation is done with image i (one per image, so a semaphore is never
     /// reused while a present still waits on it).
     pub render_finished: Vec<vk::Semaphore>,
@@ -57,12 +59,13 @@ impl Swapchain {
             .find_map(|f| formats.iter().find(|s| s.format == *f).copied())
             .or_else(|| formats.first().copied())
             .context("the surface offers no formats")?;
-        let present_mode = if modes.contains(&vk_present_mode(mode)) {
-            vk_present_mode(mode)
+        let mode = if modes.contains(&vk_present_mode(mode)) {
+            mode
         } else {
             log::warn!("--present-mode {}: not offered by this surface; using fifo", mode.name());
-            vk::PresentModeKHR::FIFO
+            PresentMode::Fifo
         };
+        let present_mode = vk_present_mode(mode);
         let extent = if caps.current_extent.width != u32::MAX {
             caps.current_extent
         } else {
@@ -116,7 +119,7 @@ impl Swapchain {
         ctx.set_name(raw, "swapchain");
         // Owned from here, so that a failure below destroys what was made (Drop): a leaked
         // swapchain outlived its surface, which vkDestroySurfaceKHR forbids.
-        let mut made = Self { ctx: ctx.clone(), raw, format, extent, images: Vec::new(), views: Vec::new(), present_mode, render_finished: Vec::new() };
+        let mut made = Self { ctx: ctx.clone(), raw, format, extent, images: Vec::new(), views: Vec::new(), mode, render_finished: Vec::new() };
         // SAFETY: the swapchain was just created.
         made.images = unsafe { p.swapchain_loader.get_swapchain_images(raw) }?;
         let images = made.images.clone();
