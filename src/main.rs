@@ -581,7 +581,9 @@ impl clap::builder::TypedValueParser for Utf8Path {
         match value.to_str() {
             Some("") => {
                 let name = arg.map_or_else(|| "a path".to_string(), ToString::to_string);
-                let message = format!("{name}: an empty path; name a file or directory ('.' for the working directory)\n");
+                // (No "'.' for the working directory": most path flags take a file, and
+                // --dump-vpls '.' was then refused as a directory.)
+                let message = format!("{name}: an empty path; name a file or directory\n");
                 Err(clap::Error::raw(clap::error::ErrorKind::InvalidValue, message).with_cmd(cmd))
             }
             Some(s) => Ok(PathBuf::from(s)),
