@@ -166,6 +166,48 @@ fn photons_reflect_what_the_shading_normal_receives() {
     }
 }
 
+/// A point light lying in a surface (a bulb placed on a floor, exactly at its height): the path
+/// tracer sees it at cos 0 from that surface, so the photons must leave from the light's own
+/// point past the floor's plane, not meet the floor at distance ~0. They met it: the upward half
+/// hit it from behind, left VPLs facing below the floor and bounced out of the room (the VPL
+/// modes read 1.13× the path tracer on the Cornell box). Here a floor at y = 0 and a ceiling at
+/// y = 1 facing it, the bulb in the floor: every VPL below mid-height must face up (the floor's
+/// lit side) and the upward photons must reach the ceiling (about half the paths' first hits).
+#[test]
+fn a_point_light_in_a_floor_sends_its_photons_past_it() {
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let floor = b.mesh("floor", &[[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], None, &[0, 1, 2, 0, 2, 3], grey);
+    b.node("floor", floor, [0.0; 3]);
+    let ceiling = b.mesh("ceiling", &[[-1.0, 1.0, -1.0], [1.0, 1.0, -1.0], [1.0, 1.0, 1.0], [-1.0, 1.0, 1.0]], None, &[0, 1, 2, 0, 2, 3], grey);
+    b.node("ceiling", ceiling, [0.0; 3]);
+    b.point_light("bulb", [0.3, 0.0, -0.2], [1.0; 3], 1.0);
+    b.camera("cam", [0.0, 0.5, 3.0], [0.0, 0.5, 0.0], [0.0, 1.0, 0.0], 0.8);
+    let scene = load_json(&b.to_json_string(), "bulb_in_the_floor");
+    let settings = RenderSettings { vpls_direct: 1000, vpls_indirect: 20_000, photon_max_bounces: 1, ..small(8, 8, 1) };
+    let (v, stats) = vpls(&scene, settings);
+    let indirect: Vec<&GpuVpl> = v.iter().filter(|x| x.kind == VPL_INDIRECT).collect();
+    let facing_down_low = indirect.iter().filter(|x| x.position[1] < 0.5 && x.normal[1] < 0.0).count();
+    assert_eq!(facing_down_low, 0, "{facing_down_low} of {} indirect VPLs at the floor face below it", indirect.len());
+    // One bounce: a path's first hit is its only VPL, on the ceiling with probability Ω / 4π, Ω
+    // the ceiling's solid angle from the bulb (∫ cos / d² dA = ∫ 1 / d³ dA at height 1, on a grid).
+    let n = 1000;
+    let cell = 2.0 / n as f64;
+    let mut omega = 0.0;
+    for i in 0..n {
+        for k in 0..n {
+            let (x, z) = (-1.0 + (i as f64 + 0.5) * cell - 0.3, -1.0 + (k as f64 + 0.5) * cell + 0.2);
+            omega += (x * x + 1.0 + z * z).powf(-1.5) * cell * cell;
+        }
+    }
+    let p = omega / (4.0 * std::f64::consts::PI);
+    let paths = stats.paths as f64;
+    let on_ceiling = indirect.iter().filter(|x| x.position[1] > 0.5).count() as f64;
+    // 4 standard errors of the binomial count.
+    let se = (paths * p * (1.0 - p)).sqrt();
+    assert!((on_ceiling - p * paths).abs() < 4.0 * se, "{on_ceiling} ceiling VPLs of {paths} paths, expected {:.0} ± {se:.0}", p * paths);
+}
+
 /// A closed box of albedo ρ (the emitter quad inside it too), lit by one emitter of power Φ.
 fn closed_box_scene(rho: f32) -> Scene {
     let mut b = GltfBuilder::new();
