@@ -62,6 +62,70 @@ fn point_light_over_a_plane_matches_the_closed_form() {
 /// Point lights spawned in the window (L) are held to the loader's limit on the lights' power:
 /// each press added a quarter of the scene's, and past 1e30 W the 32-bit fluxes overflow. A light
 /// that keeps the total under it is taken, one that passes it is refused and the lights stay.
+/// A point light lying in a surface (a bulb placed on a floor, exactly at its height) lights a
+/// wall behind it as the closed form says, every pixel: the shadow rays toward it met the floor
+/// at the light's own point (t ~ their length, rounded either way), and speckles of the wall went
+/// black (the Cornell box's direct light read 16 % dark). One bounce: the wall's direct light
+/// alone, L = (ρ/π)·I·cos θ / d² with cos θ = (z_light − z_wall) / d.
+#[test]
+fn a_point_light_lying_in_a_floor_lights_the_wall_behind_it() {
+    let (rho, intensity) = (0.5f32, 2.0f32);
+    let light = Vec3::new(0.1, 0.0, 0.2);
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [rho; 3], [0.0; 3], false);
+    let floor = b.quad("floor", [[-5.0, 0.0, -1.0], [-5.0, 0.0, 5.0], [5.0, 0.0, 5.0], [5.0, 0.0, -1.0]], grey);
+    b.node("floor", floor, [0.0; 3]);
+    let wall = b.quad("wall", [[-5.0, 0.0, -1.0], [5.0, 0.0, -1.0], [5.0, 5.0, -1.0], [-5.0, 5.0, -1.0]], grey);
+    b.node("wall", wall, [0.0; 3]);
+    b.point_light("bulb", light.to_array(), [1.0, 1.0, 1.0], intensity);
+    let scene = load_json(&b.to_json_string(), "bulb_in_the_floor");
+    let (w, hgt) = (48u32, 48u32);
+    let cam = CameraOverride { eye: Vec3::new(0.0, 1.0, 3.0), target: Vec3::new(0.0, 1.0, -1.0), up: Vec3::Y, yfov_degrees: 60.0 };
+    // The path tracer's light sampling, and the VPL shading's shadow rays to the light's direct
+    // VPLs (all at the light: brute force over them is the same sum, with 1/d²).
+    let pt = RenderSettings { camera: Some(cam), max_bounces: 1, ..small(w, hgt, 2) };
+    let vpls = RenderSettings {
+        mode: restir_vpl::settings::Mode::Bruteforce,
+        view: restir_vpl::settings::View::Direct,
+        attenuation: restir_vpl::settings::Attenuation::InverseSquare,
+        vpls_direct: 64,
+        vpls_indirect: 64,
+        ..pt.clone()
+    };
+    for settings in [pt, vpls] {
+        wall_matches_the_closed_form(&scene, &settings, light, rho, intensity);
+    }
+}
+
+fn wall_matches_the_closed_form(scene: &restir_vpl::scene::Scene, settings: &RenderSettings, light: Vec3, rho: f32, intensity: f32) {
+    let (w, hgt) = (settings.width, settings.height);
+    let cam = settings.camera.expect("the test's camera");
+    let out = render(scene, settings);
+    let c = Camera::look_at(cam.eye, cam.target, cam.up, cam.yfov_degrees.to_radians(), "test");
+    let tan = (c.yfov * 0.5).tan();
+    let (mut checked, mut black) = (0, 0);
+    for py in 0..hgt {
+        for px in 0..w {
+            let ndc_x = 2.0 * (px as f32 + 0.5) / w as f32 - 1.0;
+            let ndc_y = 1.0 - 2.0 * (py as f32 + 0.5) / hgt as f32;
+            let dir = (c.forward + ndc_x * tan * c.right + ndc_y * tan * c.up).normalize();
+            let x = c.position + (-1.0 - c.position.z) / dir.z * dir;
+            if x.y < 0.05 || x.y > 4.9 || x.x.abs() > 4.9 {
+                continue;
+            }
+            let d = (light - x).length();
+            let expected = rho / std::f32::consts::PI * intensity * ((light.z - x.z) / d) / (d * d);
+            let got = out.mean[(py * w + px) as usize];
+            black += usize::from(got[0] == 0.0);
+            for ch in got {
+                assert!((ch - expected).abs() <= 1e-3 * expected, "{:?}: pixel ({px},{py}) of the wall: {ch} vs {expected} ({black} black so far)", settings.mode);
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 1000, "{checked} wall pixels");
+}
+
 #[test]
 fn spawned_lights_are_held_to_the_power_limit() {
     use restir_vpl::lights::PointEmitter;

@@ -39,7 +39,7 @@ vec3 next_event(vec3 x, vec3 ng, vec3 ns, float x_scale, vec3 rho, float residua
         // (d2 × pdf underflowing to 0 made the sample infinite.)
         if (cos_x > 0.0 && dot(ng, wi) > 0.0 && d2 * l.pdf > 0.0 && weight > 0.0) {
             rays += 1u;
-            if (segment_visible(offset_ray(x, ng, x_scale), l.p0)) {
+            if (segment_visible_to_point(offset_ray(x, ng, x_scale), l.p0)) {
                 return lambert_brdf(rho) * l.emission * (weight * cos_x / (d2 * l.pdf));
             }
         }

@@ -9,9 +9,11 @@
 #include "../restir/vpl.glsl"
 
 // Shadow ray from the surface (offset along its geometric normal) to the VPL (already offset off
-// its own surface by the photon pass).
+// its own surface by the photon pass; a point light's VPL sits at the light, which may lie in a
+// surface: segment_visible_to_point).
 bool vpl_visible(Surface s, Vpl v) {
-    return segment_visible(offset_ray(s.position, s.geometric_normal, s.offset_scale), v.position);
+    vec3 from = offset_ray(s.position, s.geometric_normal, s.offset_scale);
+    return v.kind == VPL_DIRECT_POINT ? segment_visible_to_point(from, v.position) : segment_visible(from, v.position);
 }
 
 vec3 surface_vpl_contribution(Surface s, Vpl v, VplParams p) {
