@@ -109,6 +109,17 @@ fn restir_vpl(display: Option<&str>, args: &[&str]) -> Command {
     c
 }
 
+/// Whether xmessage (x11-utils) is installed for a test that `does` something with it; CI requires
+/// it, elsewhere the test says it skips.
+fn xmessage_or_skip(does: &str) -> bool {
+    have("xmessage") || {
+        let msg = format!("this test {does} with xmessage (x11-utils; bash scripts/test.sh installs it)");
+        assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "{msg}");
+        common::skip(&msg);
+        false
+    }
+}
+
 fn xdotool(display: &str, args: &[&str]) -> Output {
     Command::new("xdotool").args(args).env("DISPLAY", display).output().expect("run xdotool")
 }
@@ -568,10 +579,8 @@ fn frozen_window_still_answers_and_home_replays_the_camera_path() {
 #[test]
 fn a_covered_window_pauses_frames_displayed_alone_but_accumulates() {
     let Some(x) = xvfb() else { return };
-    if !have("xmessage") {
-        let msg = "this test covers the window with xmessage (x11-utils; bash scripts/test.sh installs it)";
-        assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "{msg}");
-        return common::skip(msg);
+    if !xmessage_or_skip("covers the window") {
+        return;
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
@@ -636,10 +645,8 @@ fn a_covered_window_pauses_frames_displayed_alone_but_accumulates() {
 #[test]
 fn a_key_held_when_the_window_gains_focus_does_nothing() {
     let Some(x) = xvfb() else { return };
-    if !have("xmessage") {
-        let msg = "this test takes the focus with xmessage (x11-utils; bash scripts/test.sh installs it)";
-        assert!(!std::env::var("CI").is_ok_and(|v| v == "true"), "{msg}");
-        return common::skip(msg);
+    if !xmessage_or_skip("takes the focus") {
+        return;
     }
     let d = x.display.as_str();
     let args = [&SCENE_ARGS[..], &["--mode", "uniform", "--width", "64", "--height", "48"]].concat();
