@@ -1266,9 +1266,6 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
     Ok(())
 }
 
-/// The render flags given on the command line (clap ids, as `RenderSettings::unused_flags` takes
-/// them), of the main command or of `reference`; `bench`'s own flags for `bench`; none for the
-/// other subcommands.
 /// The ids of the arguments given on the command line (not defaults, not the environment). The
 /// derive's argument groups ("Cli", "RenderArgs", "Bench") are among a match's ids: their names
 /// start with a capital, the arguments' never do.
@@ -1280,6 +1277,9 @@ fn flags_on_command_line(matches: &clap::ArgMatches) -> impl Iterator<Item = &st
         .filter(|id| matches.value_source(id) == Some(clap::parser::ValueSource::CommandLine))
 }
 
+/// The render flags given on the command line (clap ids, as `RenderSettings::unused_flags` takes
+/// them), of the main command or of `reference`; `bench`'s own flags for `bench`; none for the
+/// other subcommands.
 fn given_render_flags(matches: &clap::ArgMatches) -> Vec<String> {
     let m = match matches.subcommand() {
         Some(("reference", sub)) => sub,

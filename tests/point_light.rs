@@ -66,7 +66,8 @@ fn point_light_over_a_plane_matches_the_closed_form() {
 /// wall behind it as the closed form says, every pixel: the shadow rays toward it met the floor
 /// at the light's own point (t ~ their length, rounded either way), and speckles of the wall went
 /// black (the Cornell box's direct light read 16 % dark). One bounce: the wall's direct light
-/// alone, L = (ρ/π)·I·cos θ / d² with cos θ = (z_light − z_wall) / d.
+/// alone, L = (ρ/π)·I·cos θ / d² with cos θ = (z_light − z_wall) / d. And one just under the
+/// floor lights nothing above it.
 #[test]
 fn a_point_light_lying_in_a_floor_lights_the_wall_behind_it() {
     let (rho, intensity) = (0.5f32, 2.0f32);
@@ -92,8 +93,24 @@ fn a_point_light_lying_in_a_floor_lights_the_wall_behind_it() {
         vpls_indirect: 64,
         ..pt.clone()
     };
-    for settings in [pt, vpls] {
+    for settings in [pt.clone(), vpls.clone()] {
         wall_matches_the_closed_form(&scene, &settings, light, rho, intensity);
+    }
+    // A bulb just under the floor (1e-5: ~20 ulps of the scene's largest coordinate, so not in
+    // it) is behind it: the wall stays black in both. (Shadow rays that stopped a margin short of
+    // the light, 2^-16 of their length, let it through for wall points above ~0.3.)
+    let mut b = GltfBuilder::new();
+    let grey = b.material("grey", [rho; 3], [0.0; 3], false);
+    let floor = b.quad("floor", [[-5.0, 0.0, -1.0], [-5.0, 0.0, 5.0], [5.0, 0.0, 5.0], [5.0, 0.0, -1.0]], grey);
+    b.node("floor", floor, [0.0; 3]);
+    let wall = b.quad("wall", [[-5.0, 0.0, -1.0], [5.0, 0.0, -1.0], [5.0, 5.0, -1.0], [-5.0, 5.0, -1.0]], grey);
+    b.node("wall", wall, [0.0; 3]);
+    b.point_light("bulb", [light.x, -1e-5, light.z], [1.0, 1.0, 1.0], intensity);
+    let under = load_json(&b.to_json_string(), "bulb_under_the_floor");
+    for settings in [pt, vpls] {
+        let out = render(&under, &settings);
+        let lit = out.mean.iter().filter(|p| p.iter().any(|&c| c != 0.0)).count();
+        assert_eq!(lit, 0, "{:?}: {lit} pixels lit by a light under the floor", settings.mode);
     }
 }
 

@@ -81,8 +81,8 @@ bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t)
     return true;
 }
 
-// Shadow ray: true when nothing blocks the segment from `from` to `to` (to a point: see below).
-bool segment_visible_short(vec3 from, vec3 to, bool to_point) {
+// Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
+bool segment_visible(vec3 from, vec3 to) {
     vec3 d = to - from;
     float len = length(d);
     // A ray's origin, direction and t range must be finite (undefined otherwise: lavapipe
@@ -91,27 +91,36 @@ bool segment_visible_short(vec3 from, vec3 to, bool to_point) {
     if (!is_finite(len) || !is_finite(from)) {
         return false;
     }
-    // A point (a point light, its direct VPLs) is never offset, and it may lie in a surface (a
-    // bulb placed on a floor): the ray met that surface at t ~ len, rounded either way, and
-    // speckles of pixels went black (the Cornell box's direct light 16 % dark). It stops 2^-16 of
-    // its length (or of the point's largest coordinate) short; an occluder that close to a point
-    // light is not one.
-    vec3 a = abs(to);
-    float short_by = to_point ? max(len, max(a.x, max(a.y, a.z))) * (1.0 / 65536.0) : 0.0;
-    if (len <= short_by) {
+    if (len <= 0.0) {
         return true;
     }
-    return !trace_hits(from, d / len, len - short_by, true);
+    return !trace_hits(from, d / len, len, true);
 }
 
-// Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
-bool segment_visible(vec3 from, vec3 to) {
-    return segment_visible_short(from, to, false);
+// Whether `p` lies in the plane of `hit`'s triangle: within 4 ulps of the triangle's largest
+// coordinate, the rounding of a hit at distance 0 (a point light placed on a floor). Such a
+// surface neither blocks nor is lit by a light at p (the path tracer sees it at cos 0).
+bool lies_in_hit_plane(vec3 p, Hit hit) {
+    return abs(dot(p - hit.position, hit.geometric_normal)) <= hit.offset_scale * (1.0 / 2097152.0);
 }
 
-// Shadow ray to a point that is not offset (a point light, its direct VPLs): see above.
+// Shadow ray to a point that is not offset (a point light, its direct VPLs), which may lie in a
+// surface: toward a bulb placed on a floor the ray met the floor at the light's own point, rounded
+// either way, and speckles went black (the Cornell box's direct light 16 % dark). The closest hit
+// decides: none, or the plane the point lies in, is visible; anything else blocks. (A margin off
+// the ray's end let light through a floor 1e-6 thick, where the photons stopped.)
 bool segment_visible_to_point(vec3 from, vec3 point) {
-    return segment_visible_short(from, point, true);
+    vec3 d = point - from;
+    float len = length(d);
+    if (!is_finite(len) || !is_finite(from)) {
+        return false;
+    }
+    if (len <= 0.0) {
+        return true;
+    }
+    Hit hit;
+    float t;
+    return !trace_closest(from, d / len, len, hit, t) || lies_in_hit_plane(point, hit);
 }
 
 #endif

@@ -168,15 +168,14 @@ bool trace_segment(inout PhotonPath path) {
     }
     if (path.from_point) {
         path.from_point = false;
-        // A point light that lies in a surface (its first hit's distance from the plane under half
-        // an ulp of the triangle's largest coordinate: the rounding of a hit at distance 0): half
-        // its photons met that surface from behind, left VPLs facing away from the light and
+        // A point light that lies in a surface (lies_in_hit_plane: within 4 ulps of its plane):
+        // half its photons met that surface from behind, left VPLs facing away from the light and
         // bounced out of the room (a bulb placed on the Cornell box's floor: the VPL modes read
-        // 1.13x the path tracer). The path tracer sees such a light at cos 0 from the
-        // surface, which it does not light: the photon goes on past the plane, on its own side
-        // (upward ones into the room, downward ones out through the floor). A light 1e-7 above
-        // the floor (1.7 ulps there) is not in it: its downward photons light the spot under it.
-        if (dist * abs(dot(path.dir, hit.geometric_normal)) <= hit.offset_scale * (1.0 / 16777216.0)) {
+        // 1.13x the path tracer). The path tracer sees such a light at cos 0 from the surface,
+        // which it does not light, and its shadow rays pass it (segment_visible_to_point): the
+        // photon goes on past the plane, on its own side (upward ones into the room, downward
+        // ones out through the floor).
+        if (lies_in_hit_plane(path.origin, hit)) {
             path.origin = offset_ray(hit.position, -hit.geometric_normal, hit.offset_scale);
             return true;  // the same segment again, from past the plane
         }

@@ -296,7 +296,7 @@ fn check_scene(mut scene: Scene) -> Result<Scene> {
             if tiny == 1 { " has" } else { "s have" }
         ));
     }
-    if emitters.is_empty() && degenerate > 0 {
+    if emitters.is_empty() && scene.point_lights.is_empty() && degenerate > 0 {
         // Else the only message was "no emitters", beside an emissive material the file plainly has
         // (a node's scale of 0 along one axis, which would flatten them, is refused above).
         scene.warnings.push(format!(

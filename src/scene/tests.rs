@@ -727,6 +727,10 @@ fn emitters_of_zero_area_are_named() {
     let s = load_str(&b.to_json_string()).unwrap();
     assert_eq!(s.emissive_triangles_and_tiny().2, 1);
     assert_contains(&s.warnings.join("\n"), &["its 1 emissive triangle has zero area (degenerate: its vertices in a line or at one point)"]);
+    // With a point light the scene has light: no such warning.
+    b.point_light("bulb", [0.0, 1.0, 0.0], [1.0; 3], 1.0);
+    let s = load_str(&b.to_json_string()).unwrap();
+    assert!(!s.warnings.join("\n").contains("zero area"), "{:?}", s.warnings);
 }
 
 #[test]

@@ -36,11 +36,6 @@ pub fn validate() -> bool {
     available
 }
 
-/// Says that a test (or a part of it) was skipped, where it cannot be missed: straight to the
-/// process's stderr (the test harness captures `eprintln!` and shows it only for failing tests,
-/// so a skipped test looked like a pass) and into `test-skips.txt` under cargo's target tmp
-/// directory, which `scripts/test.sh` empties before the run and prints after it. Under CI a
-/// missing prerequisite is a failure instead (each caller asserts that first).
 /// [`validate`] for a test that checks the validation layer itself: false, with the test's skip
 /// said, where no layer is installed (the caller returns).
 pub fn validation_or_skip() -> bool {
@@ -50,6 +45,11 @@ pub fn validation_or_skip() -> bool {
     }
 }
 
+/// Says that a test (or a part of it) was skipped, where it cannot be missed: straight to the
+/// process's stderr (the test harness captures `eprintln!` and shows it only for failing tests,
+/// so a skipped test looked like a pass) and into `test-skips.txt` under cargo's target tmp
+/// directory, which `scripts/test.sh` empties before the run and prints after it. Under CI a
+/// missing prerequisite is a failure instead (each caller asserts that first).
 pub fn skip(msg: &str) {
     use std::io::Write;
     let test = std::thread::current().name().unwrap_or("?").to_string();
