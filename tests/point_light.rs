@@ -72,14 +72,7 @@ fn point_light_over_a_plane_matches_the_closed_form() {
 fn a_point_light_lying_in_a_floor_lights_the_wall_behind_it() {
     let (rho, intensity) = (0.5f32, 2.0f32);
     let light = Vec3::new(0.1, 0.0, 0.2);
-    let mut b = GltfBuilder::new();
-    let grey = b.material("grey", [rho; 3], [0.0; 3], false);
-    let floor = b.quad("floor", [[-5.0, 0.0, -1.0], [-5.0, 0.0, 5.0], [5.0, 0.0, 5.0], [5.0, 0.0, -1.0]], grey);
-    b.node("floor", floor, [0.0; 3]);
-    let wall = b.quad("wall", [[-5.0, 0.0, -1.0], [5.0, 0.0, -1.0], [5.0, 5.0, -1.0], [-5.0, 5.0, -1.0]], grey);
-    b.node("wall", wall, [0.0; 3]);
-    b.point_light("bulb", light.to_array(), [1.0, 1.0, 1.0], intensity);
-    let scene = load_json(&b.to_json_string(), "bulb_in_the_floor");
+    let scene = floor_and_wall(rho, light, intensity, "bulb_in_the_floor");
     let (w, hgt) = (48u32, 48u32);
     let cam = CameraOverride { eye: Vec3::new(0.0, 1.0, 3.0), target: Vec3::new(0.0, 1.0, -1.0), up: Vec3::Y, yfov_degrees: 60.0 };
     // The path tracer's light sampling, and the VPL shading's shadow rays to the light's direct
@@ -99,19 +92,25 @@ fn a_point_light_lying_in_a_floor_lights_the_wall_behind_it() {
     // A bulb just under the floor (1e-5: ~20 ulps of the scene's largest coordinate, so not in
     // it) is behind it: the wall stays black in both. (Shadow rays that stopped a margin short of
     // the light, 2^-16 of their length, let it through for wall points above ~0.3.)
+    let under = floor_and_wall(rho, Vec3::new(light.x, -1e-5, light.z), intensity, "bulb_under_the_floor");
+    for settings in [pt, vpls] {
+        let out = render(&under, &settings);
+        let lit = out.mean.iter().filter(|p| p.iter().any(|&c| c != 0.0)).count();
+        assert_eq!(lit, 0, "{:?}: {lit} pixels lit by a light under the floor", settings.mode);
+    }
+}
+
+/// A 10 × 6 floor (y = 0, facing up) meeting a 10 × 5 wall at z = -1 (facing +z), albedo ρ, and a
+/// white point light of `intensity` at `light`.
+fn floor_and_wall(rho: f32, light: Vec3, intensity: f32, name: &str) -> restir_vpl::scene::Scene {
     let mut b = GltfBuilder::new();
     let grey = b.material("grey", [rho; 3], [0.0; 3], false);
     let floor = b.quad("floor", [[-5.0, 0.0, -1.0], [-5.0, 0.0, 5.0], [5.0, 0.0, 5.0], [5.0, 0.0, -1.0]], grey);
     b.node("floor", floor, [0.0; 3]);
     let wall = b.quad("wall", [[-5.0, 0.0, -1.0], [5.0, 0.0, -1.0], [5.0, 5.0, -1.0], [-5.0, 5.0, -1.0]], grey);
     b.node("wall", wall, [0.0; 3]);
-    b.point_light("bulb", [light.x, -1e-5, light.z], [1.0, 1.0, 1.0], intensity);
-    let under = load_json(&b.to_json_string(), "bulb_under_the_floor");
-    for settings in [pt, vpls] {
-        let out = render(&under, &settings);
-        let lit = out.mean.iter().filter(|p| p.iter().any(|&c| c != 0.0)).count();
-        assert_eq!(lit, 0, "{:?}: {lit} pixels lit by a light under the floor", settings.mode);
-    }
+    b.point_light("bulb", light.to_array(), [1.0, 1.0, 1.0], intensity);
+    load_json(&b.to_json_string(), name)
 }
 
 fn wall_matches_the_closed_form(scene: &restir_vpl::scene::Scene, settings: &RenderSettings, light: Vec3, rho: f32, intensity: f32) {
