@@ -81,20 +81,25 @@ bool trace_closest(vec3 origin, vec3 dir, float t_max, out Hit hit, out float t)
     return true;
 }
 
+// The segment from `from` to `to` as a ray: its length and, where that is positive, its
+// direction. False where it cannot be traced: a ray's origin, direction and t range must be
+// finite (undefined otherwise: lavapipe forgives it, hardware traversal need not), so endpoints
+// ~1e19 apart (len overflows) or not finite are taken as blocked, and they add nothing.
+bool segment_ray(vec3 from, vec3 to, out vec3 dir, out float len) {
+    vec3 d = to - from;
+    len = length(d);
+    dir = len > 0.0 ? d / len : vec3(0.0);
+    return is_finite(len) && is_finite(from);
+}
+
 // Shadow ray: true when nothing blocks the segment from `from` to `to` (both already offset).
 bool segment_visible(vec3 from, vec3 to) {
-    vec3 d = to - from;
-    float len = length(d);
-    // A ray's origin, direction and t range must be finite (undefined otherwise: lavapipe
-    // forgives it, hardware traversal need not): endpoints ~1e19 apart (len overflows) or not
-    // finite are taken as blocked, so they add nothing.
-    if (!is_finite(len) || !is_finite(from)) {
+    vec3 dir;
+    float len;
+    if (!segment_ray(from, to, dir, len)) {
         return false;
     }
-    if (len <= 0.0) {
-        return true;
-    }
-    return !trace_hits(from, d / len, len, true);
+    return len <= 0.0 || !trace_hits(from, dir, len, true);
 }
 
 // Whether `p` lies in the plane of `hit`'s triangle: within 4 ulps of the triangle's largest
@@ -110,17 +115,14 @@ bool lies_in_hit_plane(vec3 p, Hit hit) {
 // decides: none, or the plane the point lies in, is visible; anything else blocks. (A margin off
 // the ray's end let light through a floor 1e-6 thick, where the photons stopped.)
 bool segment_visible_to_point(vec3 from, vec3 point) {
-    vec3 d = point - from;
-    float len = length(d);
-    if (!is_finite(len) || !is_finite(from)) {
+    vec3 dir;
+    float len;
+    if (!segment_ray(from, point, dir, len)) {
         return false;
-    }
-    if (len <= 0.0) {
-        return true;
     }
     Hit hit;
     float t;
-    return !trace_closest(from, d / len, len, hit, t) || lies_in_hit_plane(point, hit);
+    return len <= 0.0 || !trace_closest(from, dir, len, hit, t) || lies_in_hit_plane(point, hit);
 }
 
 #endif
