@@ -18,9 +18,13 @@ trap 'rm -rf "$out"' EXIT
 for round in $(seq 1 "$ROUNDS"); do
   for cores in "0 1" "1 0"; do
     read -r ca cb <<<"$cores"
-    LP_NUM_THREADS=1 taskset -c "$ca" "$A" "$@" >"$out/a" 2>&1 &
-    LP_NUM_THREADS=1 taskset -c "$cb" "$B" "$@" >"$out/b" 2>&1 &
-    wait
+    LP_NUM_THREADS=1 taskset -c "$ca" "$A" "$@" >"$out/a" 2>&1 & pa=$!
+    LP_NUM_THREADS=1 taskset -c "$cb" "$B" "$@" >"$out/b" 2>&1 & pb=$!
+    # A failed run leaves no rows, or misaligned pairs: stop with its log's end instead.
+    for run in "a $pa $A" "b $pb $B"; do
+      read -r which pid bin <<<"$run"
+      wait "$pid" || { echo "ab-pinned.sh: $bin $* failed:" >&2; tail -5 "$out/$which" >&2; exit 1; }
+    done
     paste -d'\n' <(grep -E "$PATTERN" "$out/a") <(grep -E "$PATTERN" "$out/b") |
       awk -F'|' -v col="$COLUMN" -v r="$round" -v ca="$ca" -v cb="$cb" '
         NR % 2 == 1 { a = $col; name = $2; next }

@@ -19,9 +19,14 @@ tests=("$@")
 cargo build --release --all-targets
 rm -rf .dev/debs .dev/bin .dev/tests
 mkdir -p .dev/debs .dev/bin .dev/tests
-(cd .dev/debs && apt-get download -q libvulkan1 vulkan-validationlayers vulkan-tools libx11-6 libxcb1 libxau6 \
-    libxdmcp6 libbsd0 libmd0 libwayland-client0 elfutils libdw1 libelf1 \
-    libglvnd0 libglx0 libgl1 libegl1 libopengl0 libgles2 2>&1 | grep -v "^W: Download is performed unsandboxed" || true)
+debs=(libvulkan1 vulkan-validationlayers vulkan-tools libx11-6 libxcb1 libxau6 libxdmcp6 libbsd0 libmd0
+    libwayland-client0 elfutils libdw1 libelf1 libglvnd0 libglx0 libgl1 libegl1 libopengl0 libgles2)
+# A package that fails to download here would only show on the lent machine, in its scarce time:
+# stop now, naming it. (apt's warning about unsandboxed downloads as root is noise.)
+(cd .dev/debs && apt-get download -q "${debs[@]}" 2>&1 | grep -v "^W: Download is performed unsandboxed" || true)
+for d in "${debs[@]}"; do
+    compgen -G ".dev/debs/${d}_*.deb" >/dev/null || { echo "gpu-pack.sh: apt-get download $d failed" >&2; exit 2; }
+done
 strip -o .dev/bin/restir-vpl target/release/restir-vpl
 for t in "${tests[@]}"; do
     bin=$(ls -t target/release/deps/"$t"-* 2>/dev/null | grep -v '\.d$' | head -1 || true)

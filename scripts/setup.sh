@@ -33,8 +33,9 @@ apt_install() {
   fi
   log "apt-get install $*"
   # A first install sometimes fails with "cannot access archive"; retry once.
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$@" >/dev/null \
-    || { sleep 3; DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "$@" >/dev/null; }
+  # (env inside sudo: sudo's env_reset drops a variable set before it.)
+  $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$@" >/dev/null \
+    || { sleep 3; $SUDO env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$@" >/dev/null; }
 }
 
 if ! command -v dpkg-query >/dev/null 2>&1; then
@@ -76,7 +77,8 @@ if [ -n "$mesa_ver" ] && dpkg --compare-versions "$mesa_ver" ge 24.1; then mesa_
 if [ "$mesa_ok" = 0 ] && [ "$vendor_icd" = 0 ]; then
   . /etc/os-release
   if [ "${VERSION_CODENAME:-}" = bookworm ]; then
-    if ! grep -rqs "bookworm-backports" /etc/apt/sources.list /etc/apt/sources.list.d/; then
+    # (A commented-out line does not count: apt would not know the release.)
+    if ! grep -rqsE '^[^#]*bookworm-backports' /etc/apt/sources.list /etc/apt/sources.list.d/; then
       log "adding bookworm-backports (for Mesa >= 24.1 with VK_KHR_ray_query)"
       echo 'deb http://deb.debian.org/debian bookworm-backports main' | $SUDO tee /etc/apt/sources.list.d/backports.list >/dev/null
       apt_updated=0

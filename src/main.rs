@@ -319,7 +319,7 @@ enum Command {
         /// Instead: error against frames and time on this scene (uniform, RIS, ReSTIR and the
         /// unbiased ReSTIR variants) against a path-traced and a converged VPL reference, both
         /// rendered first (cached in --out/references). Writes --out/curves.md, curves.csv,
-        /// frame_times.csv and plots/*.svg. Default size 320×320 (--width/--height to change).
+        /// frame_times.csv and plots/*.svg. Default size 320×320, 64×64 with --quick (--width/--height to change).
         #[arg(long, conflicts_with_all = ["modes", "photons"])]
         curves: bool,
         /// Instead: the real-time measurement. A camera moves along the path committed beside each
@@ -1310,7 +1310,7 @@ fn headless_only_flags(settings: &RenderSettings) -> Vec<&'static str> {
 
 fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
     let given: Vec<&str> = given.iter().map(String::as_str).collect();
-    for w in settings.unused_flags(&given).into_iter().chain(settings.bounded_flags(&given)) {
+    for w in settings.unused_flags(&given).into_iter().chain(settings.bounded_flags(&given)).chain(settings.bias_warnings()) {
         log::warn!("{w}");
     }
     if let Some(dir) = settings.out_dir.as_deref().filter(|d| d.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("png"))) {

@@ -693,7 +693,18 @@ impl Renderer {
         stats: &PhotonStats,
     ) -> Result<VplViewPass> {
         let (lo, hi) = scene.info.bounds;
-        let radius = settings.vpl_radius.unwrap_or(0.0025 * (hi - lo).length().max(1e-6));
+        let diagonal = (hi - lo).length().max(1e-6);
+        let radius = settings.vpl_radius.unwrap_or(0.0025 * diagonal);
+        if radius > 0.02 * diagonal {
+            // Each sphere is splatted over at most VPL_VIEW_MAX_FOOTPRINT pixels either side of its
+            // centre, and one that holds the camera is skipped (vpl_view.comp).
+            log::warn!(
+                "--vpl-radius {radius} is {:.1}% of the scene's diagonal: spheres that hold the camera are not drawn, \
+                 and a sphere wider than {} px on screen is cut to a square",
+                100.0 * radius / diagonal,
+                2 * crate::passes::vpl_view::VPL_VIEW_MAX_FOOTPRINT + 1
+            );
+        }
         VplViewPass::new(ctx, scene_layout, targets, &pass.vpls, PhotonEmitPass::vpl_count(stats), radius)
     }
 
@@ -1367,7 +1378,8 @@ impl Renderer {
 
     /// Traces the VPL set again (the photon pass only; `bench --photons` times it) and rebuilds
     /// what depends on it: the VPL passes, their alias table and radius. The accumulation and the
-    /// ReSTIR history restart. Returns the new photon statistics.
+    /// ReSTIR history restart. Returns the new photon statistics. After an error the VPL passes
+    /// may be half rebuilt: drop the renderer (its one caller, `bench --photons`, does).
     pub fn retrace_photons(&mut self) -> Result<PhotonStats> {
         self.complete_all()?;
         let Some((pass, stats)) = &mut self.parts.photons else {

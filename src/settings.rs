@@ -735,6 +735,21 @@ impl RenderSettings {
         out
     }
 
+    /// Warnings for settings that make a run biased although its reuse is unbiased: the boiling
+    /// filter drops reservoirs (their light goes), whatever `--bias` says.
+    pub fn bias_warnings(&self) -> Vec<String> {
+        let filters = self.mode == Mode::Restir && self.restir.temporal && self.view != View::Vpls && self.restir.boiling_filter > 0.0;
+        if filters && self.restir.bias == Bias::Unbiased {
+            vec![format!(
+                "--boiling-filter {}: the filter drops reservoirs, so this run is biased (darker where it acts) \
+                 although --bias unbiased keeps the reuse itself unbiased",
+                self.restir.boiling_filter
+            )]
+        } else {
+            Vec::new()
+        }
+    }
+
     /// Whether ReSTIR's settings ask for spatial reuse (passes and neighbours both above 0).
     pub fn reuses_spatially(&self) -> bool {
         self.restir.spatial_passes > 0 && self.restir.spatial_neighbours > 0
@@ -1024,6 +1039,22 @@ mod tests {
         let with = |fuse_passes| RenderSettings { fuse_passes, ..RenderSettings::default() };
         assert_eq!(RenderSettings::default().fuse_passes, None, "not given is the default");
         assert_eq!([with(None), with(Some(true)), with(Some(false))].map(|s| s.fuses_passes()), [true, true, false]);
+    }
+
+    /// The boiling filter with unbiased reuse is said to bias the run; with biased reuse, or off,
+    /// or where it never runs (no temporal reuse), nothing is said.
+    #[test]
+    fn the_boiling_filter_is_said_to_bias_an_unbiased_run() {
+        let with = |bias, boiling_filter, temporal| RenderSettings {
+            mode: Mode::Restir,
+            restir: RestirSettings { bias, boiling_filter, temporal, ..Default::default() },
+            ..RenderSettings::default()
+        };
+        let w = with(Bias::Unbiased, 0.5, true).bias_warnings();
+        assert!(w.len() == 1 && w[0].starts_with("--boiling-filter 0.5:") && w[0].contains("biased"), "{w:?}");
+        for quiet in [with(Bias::Biased, 0.5, true), with(Bias::Unbiased, 0.0, true), with(Bias::Unbiased, 0.5, false)] {
+            assert!(quiet.bias_warnings().is_empty());
+        }
     }
 
     #[test]

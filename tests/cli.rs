@@ -331,6 +331,29 @@ fn flags_the_mode_never_reads_are_warned_about() {
     assert!(err.contains("--max-bounces has no effect here") && !err.contains("--spatial-neighbours has no effect"), "{err}");
 }
 
+/// A `--vpl-radius` that is large against the scene warns that some spheres are not drawn (or are
+/// cut to a square); the default radius (0.25 % of the diagonal) does not.
+#[test]
+fn a_vpl_radius_beyond_the_scene_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let view = |extra: &[&str]| {
+        let mut args = vec![
+            "--headless", "--view", "vpls", "--frames", "1", "--width", "16", "--height", "16", "--vpls-direct", "200",
+            "--vpls-indirect", "200",
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&[&args[..], &["--out", &out.display().to_string()]].concat());
+        let err = stderr(&o);
+        assert!(o.status.success(), "{extra:?}: {err}");
+        err
+    };
+    let err = view(&["--vpl-radius", "100"]);
+    assert!(err.contains("--vpl-radius 100 is") && err.contains("spheres that hold the camera are not drawn"), "{err}");
+    let err = view(&[]);
+    assert!(!err.contains("--vpl-radius"), "default radius: {err}");
+}
+
 #[test]
 fn scene_without_emitters_renders_black_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();

@@ -482,7 +482,7 @@ fn overlay_with_a_reference_split_screen_along_a_camera_path() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("--reference"), "{}", String::from_utf8_lossy(&o.stderr));
 }
 
-/// Brute force that would freeze the window (its frame is one dispatch, and the window answers
+/// Brute force that would freeze the window (its frame is one submission, and the window answers
 /// only between frames) is refused at start-up and when a resize would make its frame too large,
 /// as it is on the key press: the window switches to ReSTIR and says why. (Grown from 24×16 to
 /// 200×150 it started a frame of about 30 minutes on lavapipe.) The limits are per device kind

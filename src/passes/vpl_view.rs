@@ -26,6 +26,10 @@ push_constants! {
     }
 }
 
+/// Largest splat half-width in pixels: a sphere's image is cut to a square this many pixels either
+/// side of its centre, so that one VPL near the camera costs at most (2 × 48 + 1)² pixel tests.
+pub const VPL_VIEW_MAX_FOOTPRINT: u32 = 48;
+
 pub struct VplViewPass {
     pipeline: ComputePipeline,
     _sphere_t: Buffer,
@@ -71,7 +75,7 @@ impl VplViewPass {
             if i > 0 {
                 compute_barrier(&self.ctx, cmd);
             }
-            let push = Push { mode, vpl_count: self.vpl_count, radius: self.radius, max_footprint: 48 };
+            let push = Push { mode, vpl_count: self.vpl_count, radius: self.radius, max_footprint: VPL_VIEW_MAX_FOOTPRINT };
             self.pipeline.dispatch_1d(cmd, scene_set, bytemuck::bytes_of(&push), items);
         }
     }

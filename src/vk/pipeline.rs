@@ -696,7 +696,12 @@ pub fn grid_1d(groups: u32, max_x: u32) -> [u32; 3] {
 pub fn submission_start_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
     let stages = ctx.pass_pipeline_stages() | vk::PipelineStageFlags::TRANSFER | vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR;
     let writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR;
-    let reads = vk::AccessFlags::SHADER_READ | vk::AccessFlags::TRANSFER_READ | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR;
+    // UNIFORM_READ apart: SHADER_READ does not cover it (a uniform buffer filled by a copy in an
+    // earlier submission: `bench --rays`'s frame constants).
+    let reads = vk::AccessFlags::SHADER_READ
+        | vk::AccessFlags::UNIFORM_READ
+        | vk::AccessFlags::TRANSFER_READ
+        | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR;
     memory_barrier(ctx, cmd, (stages, writes), (stages, reads | writes));
 }
 

@@ -886,13 +886,18 @@ fn spawned_light(camera: &crate::camera::Camera, scene: &SceneGpu) -> PointEmitt
     PointEmitter { position: camera.position + camera.forward * 0.02 * size, intensity: glam::Vec3::splat(intensity) }
 }
 
+/// Whether `s` can show `view` (the settings' checks pass with it): what V and the overlay's view
+/// box offer, so that neither asks for a view only to be refused in terms of command-line flags.
+pub(crate) fn can_show(s: &RenderSettings, view: View) -> bool {
+    RenderSettings { view, ..s.clone() }.validate().is_ok()
+}
+
 /// The next (or previous) `--view` the current mode can show.
 fn next_valid_view(s: &RenderSettings, forward: bool) -> View {
     let mut v = s.view;
     for _ in 0..View::ALL.len() {
         v = if forward { v.next() } else { v.previous() };
-        let candidate = RenderSettings { view: v, ..s.clone() };
-        if candidate.validate().is_ok() {
+        if can_show(s, v) {
             return v;
         }
     }
@@ -1164,7 +1169,23 @@ const FOLLOWS_PATH: &str = "the camera follows --camera-path: movement keys and 
 
 #[cfg(test)]
 mod tests {
-    use super::display_error_text;
+    use super::{can_show, display_error_text, next_valid_view};
+    use crate::settings::{Mode, NamedEnum, RenderSettings, View};
+
+    /// The views V cycles through and the overlay's view box lists: the path tracer has its
+    /// estimate and the VPL view, no reservoir view; ReSTIR has every view.
+    #[test]
+    fn only_the_views_a_mode_can_show_are_offered() {
+        let pt = RenderSettings { mode: Mode::Pt, ..Default::default() };
+        let offered: Vec<&str> = View::ALL.iter().filter(|&&v| can_show(&pt, v)).map(|v| v.name()).collect();
+        assert!(offered.contains(&"final") && offered.contains(&"vpls"), "{offered:?}");
+        assert!(!offered.contains(&"reservoir-w") && !offered.contains(&"motion"), "{offered:?}");
+        let restir = RenderSettings { mode: Mode::Restir, ..Default::default() };
+        assert!(View::ALL.iter().all(|&v| can_show(&restir, v)));
+        // V from the last view the path tracer shows wraps to one it shows.
+        let last = *View::ALL.iter().rev().find(|&&v| can_show(&pt, v)).unwrap();
+        assert!(can_show(&pt, next_valid_view(&RenderSettings { view: last, ..pt.clone() }, true)));
+    }
 
     /// winit's source location goes; its reason and any other text stay as they are.
     #[test]

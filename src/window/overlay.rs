@@ -15,7 +15,7 @@ use winit::window::Window;
 use crate::eval::compare::{compare, to_srgb8, CompareOptions};
 use crate::output::RgbImage;
 use crate::renderer::Renderer;
-use crate::settings::{Attenuation, Mode, NamedEnum, RenderSettings};
+use crate::settings::{Attenuation, Mode, NamedEnum, RenderSettings, View};
 use crate::vk::Context;
 
 use super::actions;
@@ -128,7 +128,6 @@ pub struct Edit {
 }
 
 pub struct Overlay {
-    ctx: Arc<Context>,
     egui: egui::Context,
     state: egui_winit::State,
     /// egui's clock (its input's `time`).
@@ -149,6 +148,9 @@ pub struct Overlay {
     primitives: Vec<egui::ClippedPrimitive>,
     pixels_per_point: f32,
     repaint_soon: bool,
+    /// Last: fields drop in order, and the egui renderer's allocations must go back to the
+    /// allocator before the context (if this is its last holder) destroys the device.
+    ctx: Arc<Context>,
 }
 
 impl Overlay {
@@ -514,7 +516,10 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
             if edited.mode != s.mode {
                 super::fit_view_to_mode(&mut edited);
             }
-            combo(ui, "view", &mut edited.view, &mut what);
+            // Only the views this mode can show (others were listed, then refused with a
+            // message that named command-line flags).
+            let views: Vec<View> = View::ALL.iter().copied().filter(|&v| v == edited.view || super::can_show(&edited, v)).collect();
+            combo_of(ui, "view", &mut edited.view, &views, &mut what);
             if super::reads_gi(&edited) && ui.checkbox(&mut edited.gi, "indirect VPLs (G)").changed() {
                 what = Some("indirect VPLs".into());
             }
@@ -524,7 +529,10 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
             if ui.add(egui::Slider::new(&mut edited.exposure, -24.0..=24.0).text("exposure (EV)")).changed() {
                 what = Some("exposure".into());
             }
-            combo(ui, "attenuation", &mut edited.attenuation, &mut what);
+            // Not in the path tracer, which reads no VPLs (a change would only restart it).
+            if s.mode.uses_vpls() {
+                combo(ui, "attenuation", &mut edited.attenuation, &mut what);
+            }
             if edited.attenuation == Attenuation::InverseSquare {
                 edited.compensate = false; // nothing to compensate (and refused by validation)
             }
@@ -590,8 +598,13 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
 
 /// A combo box over a named enum's values.
 fn combo<T: NamedEnum + Copy + PartialEq + 'static>(ui: &mut egui::Ui, label: &str, value: &mut T, what: &mut Option<String>) {
+    combo_of(ui, label, value, T::ALL, what)
+}
+
+/// A combo box over some of a named enum's values.
+fn combo_of<T: NamedEnum + Copy + PartialEq + 'static>(ui: &mut egui::Ui, label: &str, value: &mut T, values: &[T], what: &mut Option<String>) {
     egui::ComboBox::from_label(label).selected_text(value.name()).show_ui(ui, |ui| {
-        for v in T::ALL {
+        for v in values {
             if ui.selectable_value(value, *v, v.name()).changed() {
                 *what = Some(format!("{label} {}", v.name()));
             }
