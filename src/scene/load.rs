@@ -176,7 +176,13 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                             yfov,
                         });
                     } else {
-                        warnings.push(format!("camera '{name}' has invalid yfov {yfov}, ignored"));
+                        // An error, as --fov's is: ignored, the automatic camera took its place
+                        // (a black image when it looked at the back of a wall) after a warning.
+                        bail!(
+                            "camera '{name}' (node '{node_name}'): yfov {yfov} rad ({}°) must be in [{}, 180) degrees, as --fov",
+                            yfov.to_degrees(),
+                            crate::camera::MIN_FOV_DEGREES
+                        );
                     }
                 }
                 gltf::camera::Projection::Perspective(_) => warnings.push(format!(
@@ -271,6 +277,7 @@ fn check_scene(mut scene: Scene) -> Result<Scene> {
     if scene.triangle_count() == 0 {
         bail!("no triangles in scene");
     }
+    check_scene_reach(&scene)?;
     // Counted per mesh before any is made: every instance of an emissive mesh is its own lights
     // (200 instances of a 1M-triangle emissive grid took all 24 GB of memory and were killed).
     let emissive_per_mesh: Vec<u64> = scene
@@ -539,6 +546,37 @@ fn check_mesh_transform(world: &Mat4, mesh: &Mesh, boxed: Option<(Vec3, Vec3)>, 
     Ok(())
 }
 
+/// Geometry, point lights and the camera within [`MAX_CAMERA_COORDINATE`](crate::camera::MAX_CAMERA_COORDINATE)
+/// (1e18) of the origin, as `--eye` and `--target` must be: rays are traced in 32-bit floats, and a
+/// shadow ray between points ~1e19 apart has a length that overflows, so it reads as blocked
+/// (trace.glsl's `segment_ray`). A Cornell box scaled to 5e19 rendered 3,600× too dark, without a
+/// word.
+fn check_scene_reach(scene: &Scene) -> Result<()> {
+    let most = crate::camera::MAX_CAMERA_COORDINATE;
+    let far = |p: Vec3| p.abs().max_element() > most;
+    let (lo, hi) = scene.world_bounds();
+    let beyond = |what: String, p: Vec3| {
+        anyhow!(
+            "{what} lies at [{:.3e}, {:.3e}, {:.3e}], more than {most:e} from the origin along an axis: rays are traced in \
+             32-bit floats; scale the scene down",
+            p.x,
+            p.y,
+            p.z
+        )
+    };
+    if far(lo) || far(hi) {
+        let p = if far(lo) { lo } else { hi };
+        return Err(beyond("its geometry (bounding box corner)".into(), p));
+    }
+    if let Some(l) = scene.point_lights.iter().find(|l| far(l.position)) {
+        return Err(beyond(format!("point light '{}'", l.name), l.position));
+    }
+    if let Some(c) = scene.camera.as_ref().filter(|c| far(c.transform.w_axis.truncate())) {
+        return Err(beyond(format!("camera '{}'", c.name), c.transform.w_axis.truncate()));
+    }
+    Ok(())
+}
+
 /// Every emissive triangle's world-space area must fit f32 (`EmissiveTriangle::area`), else the
 /// light would be dropped from the light set without a word.
 fn check_emitter_areas(scene: &Scene, emitters: &[super::EmissiveTriangle]) -> Result<()> {
@@ -603,6 +641,18 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
         }
         check_glb_chunks(&bytes[..declared])?;
     }
+    // A byte-order mark opening a GLB's JSON chunk, ignored as the .gltf one is (load_slice): three
+    // spaces in its place, JSON white space, keep every length and offset.
+    let unmarked;
+    let bytes = match bytes.get(20..23) {
+        Some(b"\xEF\xBB\xBF") if bytes.starts_with(b"glTF") => {
+            let mut copy = bytes.to_vec();
+            copy[20..23].copy_from_slice(b"   ");
+            unmarked = copy;
+            &unmarked[..]
+        }
+        _ => bytes,
+    };
     let parsed = gltf::Gltf::from_slice_without_validation(bytes).or_else(|e| with_scene_nodes_defaulted(bytes).ok_or(e));
     let gltf = match parsed {
         Ok(gltf) => gltf,
@@ -968,12 +1018,22 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
             fmt_floats(&base_color)
         );
     }
-    let mut emission = Vec3::from_array(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
-    if !emission.is_finite() || emission.min_element() < 0.0 {
-        warnings.push(format!(
-            "material '{name}': invalid emission {emission}, set to zero"
-        ));
-        emission = Vec3::ZERO;
+    // Errors, as baseColorFactor's are (a negative or infinite emission was set to zero after a
+    // warning, which in a one-light scene rendered black).
+    let factor = m.emissive_factor();
+    if !factor.iter().all(|c| c.is_finite() && *c >= 0.0) {
+        bail!("material '{name}': emissiveFactor {} must be finite and not negative", fmt_floats(&factor));
+    }
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    if !(strength.is_finite() && strength >= 0.0) {
+        bail!("material '{name}': KHR_materials_emissive_strength {strength} must be finite and not negative");
+    }
+    let emission = Vec3::from_array(factor) * strength;
+    if !emission.is_finite() {
+        bail!(
+            "material '{name}': emissiveFactor {} × emissive strength {strength} overflows 32-bit floats",
+            fmt_floats(&factor)
+        );
     }
     if m.emissive_texture().is_some() && emission.max_element() > 0.0 {
         warnings.push(format!(
@@ -1183,15 +1243,23 @@ fn image_bytes(image: &gltf::Image, buffers: &[Vec<u8>], base_dir: Option<&Path>
         .name()
         .map(shown_name)
         .unwrap_or_else(|| format!("image{}", image.index()));
-    let bytes = match image.source() {
-        gltf::image::Source::View { view, .. } => view_bytes(&view, buffers)?.to_vec(),
-        gltf::image::Source::Uri { uri, .. } => read_uri(uri, base_dir, None)?,
+    let (name, bytes) = match image.source() {
+        gltf::image::Source::View { view, .. } => (name, view_bytes(&view, buffers)?.to_vec()),
+        // The file read is named too: the image's name alone did not say which it was.
+        gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => {
+            let shown: String = uri.chars().take(200).collect();
+            (format!("{name}' from '{shown}"), read_uri(uri, base_dir, None)?)
+        }
+        gltf::image::Source::Uri { uri, .. } => (name, read_uri(uri, base_dir, None)?),
     };
     Ok((name, bytes))
 }
 
 /// An encoded image's size from its header, within 1..=[`MAX_TEXELS`] texels.
 fn image_dimensions(name: &str, bytes: &[u8]) -> Result<(u32, u32)> {
+    if bytes.is_empty() {
+        bail!("'{name}': empty (0 bytes)");
+    }
     let reader = image::ImageReader::new(std::io::Cursor::new(bytes))
         .with_guessed_format()
         .map_err(|e| anyhow!("'{name}': {e}"))?;

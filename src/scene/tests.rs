@@ -802,6 +802,50 @@ fn light_power_beyond_32_bit_fluxes_is_an_error() {
     assert_contains(&load_err(&doc), &["point light 'bulb'", "intensity -2"]);
 }
 
+/// Geometry, point lights and cameras farther than 1e18 from the origin are refused, each named
+/// (a Cornell box scaled to 5e19 rendered 3,600× too dark: shadow rays between points ~1e19 apart
+/// read as blocked); 1e17 loads.
+#[test]
+fn a_scene_beyond_the_reach_of_32_bit_rays_is_an_error() {
+    let scene = |offset: f32, light: f32, camera: f32| {
+        let mut b = GltfBuilder::new();
+        let m = b.material("m", [0.5; 3], [0.0; 3], false);
+        let floor = b.quad("floor", [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]], m);
+        b.node("floor", floor, [offset, 0.0, 0.0]);
+        b.point_light("bulb", [light, 0.5, 0.5], [1.0; 3], 1.0);
+        b.camera("cam", [camera, 0.0, 5.0], [camera, 0.0, 0.0], [0.0, 1.0, 0.0], 0.8);
+        serde_json::from_str::<Value>(&b.to_json_string()).unwrap()
+    };
+    assert!(load_value(&scene(1e17, 1e17, 1e17)).is_ok());
+    assert_contains(&load_err(&scene(2e18, 0.0, 0.0)), &["its geometry", "more than 1e18 from the origin", "scale the scene down"]);
+    assert_contains(&load_err(&scene(0.0, 2e18, 0.0)), &["point light 'bulb' lies at", "more than 1e18"]);
+    assert_contains(&load_err(&scene(0.0, 0.0, -2e18)), &["camera 'cam' lies at", "more than 1e18"]);
+}
+
+/// A camera's yfov outside (0, π) and an emission that is negative or not finite are errors, as
+/// --fov's and baseColorFactor's are: each was set aside with a warning, which rendered black
+/// (the automatic camera behind a wall; the one light zeroed).
+#[test]
+fn a_bad_yfov_or_emission_is_an_error() {
+    for yfov in [0.0, -0.5, 4.0] {
+        let mut doc = cornell_doc();
+        doc["cameras"][0]["perspective"]["yfov"] = json!(yfov);
+        assert_contains(&load_err(&doc), &["test.gltf: camera", &format!("yfov {yfov} rad"), "[0.01, 180) degrees"]);
+    }
+    let mut doc = triangle_doc();
+    doc["materials"][0]["emissiveFactor"] = json!([-1.0, 0.5, 0.5]);
+    assert_contains(&load_err(&doc), &["material 'glow': emissiveFactor [-1, 0.5, 0.5]", "not negative"]);
+    for strength in [json!(-5.0), json!(1e39)] {
+        let mut doc = triangle_doc();
+        doc["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": strength } });
+        assert_contains(&load_err(&doc), &["material 'glow': KHR_materials_emissive_strength", "finite and not negative"]);
+    }
+    let mut doc = triangle_doc();
+    doc["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": 1e38 } });
+    doc["materials"][0]["emissiveFactor"] = json!([10.0, 1.0, 1.0]);
+    assert_contains(&load_err(&doc), &["material 'glow'", "overflows 32-bit floats"]);
+}
+
 #[test]
 fn lights_cameras_and_warnings() {
     let mut b = GltfBuilder::new();
@@ -1197,6 +1241,17 @@ fn glb_round_trip() {
     let mut bin_first = glb.clone();
     bin_first[16..20].copy_from_slice(b"BIN\0");
     assert_contains(&chunk_err(&bin_first), &["GLB chunk 0 is \"BIN\"", "must be JSON"]);
+    // A byte-order mark opening the JSON chunk is ignored, as a .gltf's is ("expected value at
+    // line 1 column 1" before): the JSON chunk again, with the mark and 4-byte padding.
+    let json = std::str::from_utf8(&glb[20..20 + json_len]).unwrap().trim_end();
+    let mut marked_json = [&b"\xEF\xBB\xBF"[..], json.as_bytes()].concat();
+    while !marked_json.len().is_multiple_of(4) {
+        marked_json.push(b' ');
+    }
+    let bin_chunk = &glb[bin_at..];
+    let total = 12 + 8 + marked_json.len() + bin_chunk.len();
+    let marked = [&b"glTF"[..], &2u32.to_le_bytes(), &(total as u32).to_le_bytes(), &(marked_json.len() as u32).to_le_bytes(), b"JSON", &marked_json, bin_chunk].concat();
+    assert_eq!(Scene::from_gltf_slice(&marked, None, "bom.glb").unwrap().triangle_count(), 1);
 
     // Only buffer 0 may be the binary chunk: a later buffer without a URI took it (buffer 0 with
     // its own data URI), and after a buffer 0 that took it was told there was no binary chunk.
@@ -2011,10 +2066,10 @@ fn degenerate_mesh_transform_is_an_error() {
         doc["nodes"][floor][key] = value;
         assert_contains(&load_err(&doc), &["node 'floor'", &format!("its {key} has a value outside the 32-bit float range")]);
     }
-    // Past the mesh box's quick bound but finite at every vertex: loads (the vertices decide).
+    // Past the mesh box's quick bound but finite at every vertex: beyond the 1e18 rays reach.
     let mut doc = cornell_doc();
     doc["nodes"][floor]["translation"] = json!([1e38, 0.0, 0.0]);
-    assert!(load_value(&doc).is_ok());
+    assert_contains(&load_err(&doc), &["test.gltf: its geometry", "more than 1e18 from the origin"]);
 
     // A triangle with a NaN vertex goes (in one BLAS its NaN bounds blacked out the whole
     // scene), the primitive's other triangle stays, and no non-finite position is left behind
@@ -2128,14 +2183,15 @@ fn large_scale_scenes_keep_their_lights() {
     doc["nodes"][light]["scale"] = json!([1e21, 1e21, 1e21]);
     assert_contains(&load_err(&doc), &["test.gltf: node 'light' (mesh 'light')", "degenerate transform", "huge scale"]);
 
-    // An emitter whose vertices are huge in the file: its area does not fit f32.
+    // An emitter whose vertices are huge in the file (its area would not fit f32): beyond the
+    // 1e18 that rays reach, which refuses it first.
     let mut b = GltfBuilder::new();
     let m = b.material("hot", [0.5; 3], [1e-30; 3], false);
     let mesh = b.mesh("huge", &[[0.0; 3], [1e20, 0.0, 0.0], [0.0, 1e20, 0.0]], None, &[0, 1, 2], m);
     b.node("huge_node", mesh, [0.0; 3]);
     assert_contains(
         &load_err(&serde_json::from_str(&b.to_json_string()).unwrap()),
-        &["test.gltf: mesh 'huge' (node 'huge_node'): emissive triangle 0 has a world-space area of 5.000e39", "32-bit float"],
+        &["test.gltf: its geometry (bounding box corner) lies at", "more than 1e18"],
     );
 }
 
