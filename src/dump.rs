@@ -212,7 +212,7 @@ pub struct DumpedFrame {
 }
 
 /// One output's values as the page embeds them, as 32-bit words: one float per pixel for a grey
-/// output (its three channels are equal), three otherwise; for a false-colour ids output the ids
+/// output whose three channels are equal, three otherwise (the variance, grey-scaled per channel); for a false-colour ids output the ids
 /// themselves (the G-buffer's instance and triangle, a reservoir's VPL index; `u32::MAX`: none).
 /// Row-major, row 0 at the top.
 pub struct PixelValues {
@@ -274,7 +274,7 @@ impl ReadoutBudget {
         }
         values.clear();
         Some(format!(
-            "per-pixel readout off for this frame: the page embeds at most {}M values and earlier frames took {}M of them (read the EXR files)",
+            "per-pixel readout off for this frame: the page embeds at most {}M values and earlier frames took {:.1}M of them (read the EXR files)",
             READOUT_BUDGET_VALUES >> 20,
             (READOUT_BUDGET_VALUES - self.left) as f64 / (1 << 20) as f64
         ))
@@ -480,7 +480,10 @@ pub fn write_frame(
                                     None => continue,
                                 }
                             } else {
-                                let channels = if d.look == "grey" { 1 } else { 3 };
+                                // One channel for a grey output whose three are equal (W, M, the
+                                // target); the variance is grey-scaled but per channel.
+                                let equal = d.image.pixels.iter().all(|p| p[0].to_bits() == p[1].to_bits() && p[1].to_bits() == p[2].to_bits());
+                                let channels = if d.look == "grey" && equal { 1 } else { 3 };
                                 (channels, false, d.image.pixels.iter().flat_map(|p| p[..channels].iter().map(|v| v.to_bits())).collect())
                             };
                             values.push(PixelValues { file, channels, ids, words });
@@ -500,7 +503,8 @@ pub fn write_frame(
         passes,
     };
     let path = fdir.join("manifest.json");
-    std::fs::write(&path, serde_json::to_string_pretty(&manifest)?).with_context(|| format!("writing {}", path.display()))?;
+    let json = serde_json::to_string_pretty(&manifest)?;
+    crate::output::write_replacing(&path, |partial| Ok(std::fs::write(partial, &json)?)).with_context(|| format!("writing {}", path.display()))?;
     let readout_off = if readout { budget.take(&mut values) } else { Some("per-pixel readout off above 256×256 pixels (read the EXR files)".to_string()) };
     Ok(DumpedFrame { manifest, values, readout_off })
 }
@@ -632,7 +636,7 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
     html.push_str(INSPECTOR_SCRIPT);
     html.push_str("</script></body></html>\n");
     let path = dir.join("index.html");
-    std::fs::write(&path, html).with_context(|| format!("writing {}", path.display()))?;
+    crate::output::write_replacing(&path, |partial| Ok(std::fs::write(partial, &html)?)).with_context(|| format!("writing {}", path.display()))?;
     Ok(path)
 }
 

@@ -103,7 +103,8 @@ pub struct SceneSummary {
 pub struct RunOutput {
     pub width: u32,
     pub height: u32,
-    /// Mean over all frames, row 0 at the top.
+    /// Mean over the frames of the last accumulation (all of them unless the camera or a setting
+    /// changed, or frames are displayed alone), row 0 at the top.
     pub mean: Vec<[f32; 3]>,
     /// Per-pixel sample variance over the frames.
     pub variance: Vec<[f32; 3]>,
@@ -226,7 +227,7 @@ pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std:
 fn finish_dump(renderer: &Renderer, dir: &std::path::Path, dumped: &[crate::dump::DumpedFrame], outputs: &mut Vec<String>) -> Result<std::path::PathBuf> {
     if let Some(vpls) = renderer.read_vpls()? {
         let ply = dir.join("vpls.ply");
-        crate::ply::write_vpls(&ply, &vpls)?;
+        crate::ply::write_vpls(&ply, &vpls).context("--dump-passes: the VPLs beside the pass inspector")?;
         outputs.push(ply.display().to_string());
     }
     let page = crate::dump::write_inspector(dir, dumped)?;
@@ -246,7 +247,7 @@ pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
         tracing: settings.tracing,
         ..Default::default()
     })?);
-    let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas).context("uploading the scene")?);
+    let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas).with_context(|| format!("uploading the scene {}", scene.path.display()))?);
     run_with(ctx, scene, settings, start)
 }
 
@@ -310,7 +311,7 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
     }
     if let Some(path) = &settings.dump_vpls {
         let vpls = renderer.read_vpls()?.unwrap_or_default();
-        crate::ply::write_vpls(path, &vpls)?;
+        crate::ply::write_vpls(path, &vpls).context("--dump-vpls")?;
         outputs.push(path.display().to_string());
     }
     let progress = Progress::new(settings.progress, settings.frames as u64);
@@ -344,19 +345,31 @@ pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettin
             // selection: it is the one to look at (the run stopped with the earlier dumps removed
             // and nothing in their place).
             let dump_failed = finite.is_err() && dump.is_some();
-            if let (true, Some(dir)) = (dump_this || dump_failed, &settings.out_dir) {
-                let plan = renderer.last_plan().context("a frame was just recorded")?.clone();
-                let variance = Some(renderer.read_variance()?);
-                let dir = dir.join("passes");
-                dumped.push(crate::dump::write_frame(&dir, f, settings.width, settings.height, settings, &plan, &stats, &captured, variance, renderer.log(), &mut readout_budget)?);
-            }
+            let mut dump_frame = || -> Result<()> {
+                if let (true, Some(dir)) = (dump_this || dump_failed, &settings.out_dir) {
+                    let plan = renderer.last_plan().context("a frame was just recorded")?.clone();
+                    let variance = Some(renderer.read_variance()?);
+                    let dir = dir.join("passes");
+                    dumped.push(crate::dump::write_frame(&dir, f, settings.width, settings.height, settings, &plan, &stats, &captured, variance, renderer.log(), &mut readout_budget)?);
+                }
+                Ok(())
+            };
+            let dumped_ok = dump_frame();
             if let Err(e) = finite {
+                // The non-finite values are what the user needs to read: a failed dump write (a
+                // full disk) is said after them, not instead of them.
+                if let Err(w) = dumped_ok {
+                    return Err(e.context(format!("dumping frame {f} failed too ({w:#})")));
+                }
                 if let (true, Some(dir)) = (dump_failed, &settings.out_dir) {
-                    let page = finish_dump(&renderer, &dir.join("passes"), &dumped, &mut Vec::new())?;
-                    return Err(e.context(format!("frame {f} is dumped in {}", page.display())));
+                    return match finish_dump(&renderer, &dir.join("passes"), &dumped, &mut Vec::new()) {
+                        Ok(page) => Err(e.context(format!("frame {f} is dumped in {}", page.display()))),
+                        Err(w) => Err(e.context(format!("writing the pass inspector failed too ({w:#})"))),
+                    };
                 }
                 return Err(e);
             }
+            dumped_ok?;
         } else {
             renderer.render_frame(&camera_at(f), preview)?;
         }

@@ -20,7 +20,8 @@ impl log::Log for StderrLogger {
                 Level::Debug => "debug",
                 Level::Trace => "trace",
             };
-            eprintln!("{tag}: {}", record.args());
+            // (Not eprintln!, which panics when stderr is closed or full.)
+            crate::errln!("{tag}: {}", record.args());
         }
     }
 

@@ -817,7 +817,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
                 restir_vpl::eval::scaling::ScalingOptions::full(&root)
             };
             let ctx = bench_context(*device)?;
-            let points = restir_vpl::eval::scaling::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            let points = restir_vpl::eval::scaling::run(&ctx, &opts, &mut |line| restir_vpl::errln!("{line}"))?;
             let md = write_report(out, "scaling.md", "How cost grows with the work (`bench --scaling`)", &restir_vpl::eval::scaling::markdown(&opts, &points, &ctx.report.name))?;
             let csv = out.join("scaling.csv");
             restir_vpl::eval::scaling::write_csv(&csv, &points)?;
@@ -839,7 +839,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             opts.out_dir = out.clone();
             opts.runs = runs.unwrap_or(opts.runs);
             let ctx = bench_context(*device)?;
-            let rows = restir_vpl::eval::radius::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            let rows = restir_vpl::eval::radius::run(&ctx, &opts, &mut |line| restir_vpl::errln!("{line}"))?;
             ctx.ensure_clean_report()?;
             let md = write_report(out, "radius.md", "The Yuksel radius as a trade-off (`bench --radius`)", &restir_vpl::eval::radius::markdown(&opts, &rows))?;
             let csv = out.join("radius.csv");
@@ -857,7 +857,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             opts.out_dir = out.clone();
             opts.runs = runs.unwrap_or(opts.runs);
             let ctx = bench_context(*device)?;
-            let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| eprintln!("{line}"))?;
+            let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| restir_vpl::errln!("{line}"))?;
             ctx.ensure_clean_report()?;
             let files = restir_vpl::eval::motion::write_outputs(out, &points)?;
             let md = write_report(out, "motion.md", "Moving camera: error of every displayed frame", &restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots))?;
@@ -906,7 +906,7 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let (w, h) = (width.unwrap_or(1280), height.unwrap_or(720));
             let mut rows = Vec::new();
             for spec in restir_vpl::eval::results::thesis_scenes(&root, 1.0) {
-                eprintln!("bench --rays: {}", spec.path.display());
+                restir_vpl::errln!("bench --rays: {}", spec.path.display());
                 rows.push(restir_vpl::eval::rays::measure(&ctx, &spec.path, w, h, *frames, *frames)?);
             }
             ctx.ensure_clean()?;
@@ -1178,11 +1178,11 @@ fn reference_main(settings: &RenderSettings, out: &std::path::Path, first_frame:
     let started = std::time::Instant::now();
     let made = make_reference(&ctx, &scene, settings, out, target, &mut |done, total| {
         if done >= next_report || done == total {
-            eprint!("\r{done}/{total} frames, {:.0} s", started.elapsed().as_secs_f64());
+            restir_vpl::err!("\r{done}/{total} frames, {:.0} s", started.elapsed().as_secs_f64());
             next_report = done + (total / 20).max(1);
         }
     })?;
-    eprintln!();
+    restir_vpl::errln!();
     ctx.ensure_clean_report().map_err(|e| anyhow::anyhow!("{}: written, but {e:#}", out.display()))?;
     let meta = &made.meta;
     restir_vpl::outln!("{}: {} {}x{} of {}", out.display(), meta.mode, meta.width, meta.height, meta.scene);
@@ -1254,7 +1254,7 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
         device_index: opts.device_index,
         ..Default::default()
     })?);
-    let out = restir_vpl::eval::results::run(&ctx, opts, &mut |line| eprintln!("{line}"))?;
+    let out = restir_vpl::eval::results::run(&ctx, opts, &mut |line| restir_vpl::errln!("{line}"))?;
     // (results::run has written its files by now.)
     ctx.ensure_clean_report().map_err(|e| anyhow::anyhow!("{}: written, but {e:#}", out.markdown.display()))?;
     restir_vpl::outln!("{}", out.markdown.display());
@@ -1327,16 +1327,28 @@ fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
     }
 }
 
-/// Flags whose values may start with a minus sign without being plain numbers ("-1,0,0", "-.5",
-/// "-inf", "-8x8"): clap's `allow_negative_numbers` takes only plain numbers and reads the rest
-/// as unknown flags ("unexpected argument '-1' found", not naming the flag), and
-/// `allow_hyphen_values` would also take a following flag as the value (`--eye --target …`).
-const SIGNED_VALUE_FLAGS: [&str; 5] = ["--eye", "--target", "--up", "--exposure", "--workgroup"];
+/// The long flags (`--name`) of `cmd` and its subcommands that take a value. Their values may
+/// start with a minus sign without being plain numbers ("-1,0,0", "-.5", "-inf", "-8x8"): clap's
+/// `allow_negative_numbers` takes only plain numbers and reads the rest as unknown flags
+/// ("unexpected argument '-.' found", not naming the flag: `--normal-threshold -.5`, a value in
+/// its range, was refused so), and `allow_hyphen_values` would also take a following flag as the
+/// value (`--eye --target …`).
+fn value_flags(cmd: &clap::Command) -> std::collections::BTreeSet<String> {
+    let mut out: std::collections::BTreeSet<String> = cmd
+        .get_arguments()
+        .filter(|a| a.get_action().takes_values())
+        .filter_map(|a| a.get_long().map(|l| format!("--{l}")))
+        .collect();
+    for sub in cmd.get_subcommands() {
+        out.extend(value_flags(sub));
+    }
+    out
+}
 
-/// `--eye -1,0,0` becomes `--eye=-1,0,0` for the flags above when the value looks like a signed
-/// value (a minus sign, then a digit, '.', or the start of inf/nan), so the flag's own parser
-/// judges it; anything after `--` is left alone.
-fn join_signed_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> {
+/// `--eye -1,0,0` becomes `--eye=-1,0,0` for the flags in `flags` (those that take a value) when
+/// the value looks like a signed value (a minus sign, then a digit, '.', or the start of inf/nan),
+/// so the flag's own parser judges it; anything after `--` is left alone.
+fn join_signed_values(args: Vec<std::ffi::OsString>, flags: &std::collections::BTreeSet<String>) -> Vec<std::ffi::OsString> {
     let mut out = Vec::with_capacity(args.len());
     let mut it = args.into_iter().peekable();
     while let Some(a) = it.next() {
@@ -1349,7 +1361,7 @@ fn join_signed_values(args: Vec<std::ffi::OsString>) -> Vec<std::ffi::OsString> 
             n.strip_prefix('-').and_then(|r| r.chars().next()).is_some_and(|c| c.is_ascii_digit() || ".iInN".contains(c))
         });
         match a.to_str() {
-            Some(flag) if signed_next && SIGNED_VALUE_FLAGS.contains(&flag) => {
+            Some(flag) if signed_next && flags.contains(flag) => {
                 let value = it.next().expect("peeked");
                 let mut joined = std::ffi::OsString::from(format!("{flag}="));
                 joined.push(value);
@@ -1379,7 +1391,9 @@ fn list_devices_alone(matches: &clap::ArgMatches) -> Result<()> {
 }
 
 fn main() -> ExitCode {
-    let matches = Cli::command().get_matches_from(join_signed_values(std::env::args_os().collect()));
+    let command = Cli::command();
+    let flags = value_flags(&command);
+    let matches = command.get_matches_from(join_signed_values(std::env::args_os().collect(), &flags));
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     let given = given_render_flags(&matches);
     restir_vpl::logger::init(cli.render.verbose);
@@ -1387,7 +1401,7 @@ fn main() -> ExitCode {
         // It lists and exits: any other flag was silently ignored (even a missing scene or a bad
         // size passed). Clap refuses it with a command.
         if let Err(e) = list_devices_alone(&matches) {
-            eprintln!("error: {e:#}");
+            restir_vpl::errln!("error: {e:#}");
             return ExitCode::from(2);
         }
     }
@@ -1400,7 +1414,7 @@ fn main() -> ExitCode {
     let code = match real_main(cli, &given) {
         Ok(()) => 0,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            restir_vpl::errln!("error: {e:#}");
             if e.downcast_ref::<NoTracingDevice>().is_some() || e.downcast_ref::<restir_vpl::eval::compare::BadArgument>().is_some() {
                 2
             } else if e.downcast_ref::<restir_vpl::eval::compare::NonFiniteInput>().is_some() {
@@ -1413,7 +1427,7 @@ fn main() -> ExitCode {
     if restir_vpl::vk::context::a_device_hung() {
         // The device may still run the submission that passed the limit, and NVIDIA's driver
         // waits for it in its exit handlers for ever (docs/gpu.md, stop 51): end without them.
-        eprintln!("warning: the process ends without the Vulkan driver's exit handlers, since a submission did not finish");
+        restir_vpl::errln!("warning: the process ends without the Vulkan driver's exit handlers, since a submission did not finish");
         use std::io::Write as _;
         let _ = std::io::stdout().flush();
         let _ = std::io::stderr().flush();

@@ -16,9 +16,37 @@ pub fn stdout_write(args: std::fmt::Arguments) {
         if e.kind() == std::io::ErrorKind::BrokenPipe {
             std::process::exit(141);
         }
-        eprintln!("error: writing to stdout: {e}");
+        crate::errln!("error: writing to stdout: {e}");
         std::process::exit(1);
     }
+}
+
+/// Writes `args` to stderr (what [`errln!`](crate::errln) and [`err!`](crate::err) print), or
+/// nothing when stderr is closed or full: `eprintln!` panicked there (`2>/dev/full`, a pipe whose
+/// reader left), turning a warning or an error's message into a panic and exit status 101.
+pub fn stderr_write(args: std::fmt::Arguments) {
+    use std::io::Write as _;
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(args).and_then(|()| err.flush());
+}
+
+/// `eprintln!` through [`stderr_write`].
+#[macro_export]
+macro_rules! errln {
+    () => {
+        $crate::output::stderr_write(format_args!("\n"))
+    };
+    ($($arg:tt)*) => {
+        $crate::output::stderr_write(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
+/// `eprint!` through [`stderr_write`].
+#[macro_export]
+macro_rules! err {
+    ($($arg:tt)*) => {
+        $crate::output::stderr_write(format_args!($($arg)*))
+    };
 }
 
 /// `println!` through [`stdout_write`].
@@ -377,6 +405,11 @@ pub fn read_exr(path: &Path) -> Result<RgbImage> {
 pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage, Option<exr::meta::attribute::AttributeValue>)> {
     use exr::meta::attribute::Text;
     use exr::prelude::*;
+    // The file is opened more than once (magic, header, pixels): a pipe (`<(cat a.exr)`) lost its
+    // first bytes to the first read ("file identifier missing"), and a FIFO blocked.
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir()) {
+        anyhow::bail!("reading {}: not a regular file (a pipe or a device): EXR images are read from files", path.display());
+    }
     // Another kind of file (a PNG, a scene) gets a plain answer, not the parser's "file identifier
     // missing".
     match first_four_bytes(path) {
@@ -402,10 +435,12 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
             h.layer_size.height()
         );
     }
-    let has = |h: &exr::meta::header::Header, name: &str| h.channels.list.iter().any(|c| c.name.eq_case_insensitive(name));
+    // Exactly "R", "G", "B", as the reader below matches them (a file with r, g, b passed a
+    // case-blind check here, then failed there with the crate's generic message).
+    let has = |h: &exr::meta::header::Header, name: &str| h.channels.list.iter().any(|c| c.name.to_string() == name);
     if !meta.headers.iter().any(|h| ["R", "G", "B"].iter().all(|n| has(h, n))) {
         let found: Vec<String> = meta.headers.iter().flat_map(|h| h.channels.list.iter().map(|c| c.name.to_string())).collect();
-        anyhow::bail!("reading {}: no layer has R, G and B channels (found: {})", path.display(), found.join(", "));
+        anyhow::bail!("reading {}: no layer has R, G and B channels, named so in capitals (found: {})", path.display(), found.join(", "));
     }
     let image = read_first_rgba_layer_from_file(
         path,
@@ -616,6 +651,21 @@ mod tests {
         Image::from_channels((2, 2), channels).write().to_file(&path).unwrap();
         let err = format!("{:#}", read_exr(&path).unwrap_err());
         assert!(err.contains("depth.exr") && err.contains("R, G and B") && err.contains("found: Z"), "{err}");
+        // Lower-case names are not the reader's: said here too, not by the crate's message.
+        let lower = dir.path().join("lower.exr");
+        let channels = SpecificChannels::build().with_channel("r").with_channel("g").with_channel("b").with_pixel_fn(|_: Vec2<usize>| (1.0f32, 1.0f32, 1.0f32));
+        Image::from_channels((2, 2), channels).write().to_file(&lower).unwrap();
+        let err = format!("{:#}", read_exr(&lower).unwrap_err());
+        assert!(err.contains("lower.exr") && err.contains("in capitals") && err.contains("found: b, g, r"), "{err}");
+    }
+
+    /// A pipe or a device is refused by name: the reader opens the file three times, and a pipe
+    /// lost its first bytes to the first ("file identifier missing" on a valid image).
+    #[cfg(unix)]
+    #[test]
+    fn an_exr_that_is_not_a_regular_file_is_refused() {
+        let err = format!("{:#}", read_exr(Path::new("/dev/null")).unwrap_err());
+        assert!(err.contains("/dev/null") && err.contains("not a regular file"), "{err}");
     }
 
     /// A reader polling the file while it is rewritten sees only whole versions (the window test

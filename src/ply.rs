@@ -25,14 +25,13 @@ const PROPERTIES: [(&str, &str); 13] = [
     ("uchar", "blue"),
 ];
 
-/// Writes the VPLs to `path`.
+/// Writes the VPLs to `path` (replacing it whole: a failed write leaves the earlier file). Errors
+/// name the file; the caller names the flag (`--dump-vpls`, or `--dump-passes`' `passes/vpls.ply`).
 pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
     // As --out: a missing directory is created.
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("--dump-vpls {}: cannot create the directory {}", path.display(), dir.display()))?;
+        std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the directory {}", path.display(), dir.display()))?;
     }
-    let file = std::fs::File::create(path).with_context(|| format!("--dump-vpls {}: cannot create the file", path.display()))?;
-    let mut w = std::io::BufWriter::new(file);
     let mut header = format!(
         "ply\nformat binary_little_endian 1.0\ncomment restir-vpl virtual point lights: flux in W; kind 0 direct area, 1 direct point, 2 indirect\nelement vertex {}\n",
         vpls.len()
@@ -41,20 +40,24 @@ pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
         header += &format!("property {ty} {name}\n");
     }
     header += "end_header\n";
-    let written = (|| -> std::io::Result<()> {
-        w.write_all(header.as_bytes())?;
-        for v in vpls {
-            for f in v.position.iter().chain(&v.normal).chain(&v.flux) {
-                w.write_all(&f.to_le_bytes())?;
+    crate::output::write_replacing(path, |partial| {
+        let file = std::fs::File::create(partial).with_context(|| format!("{}: cannot create the file", path.display()))?;
+        let mut w = std::io::BufWriter::new(file);
+        let written = (|| -> std::io::Result<()> {
+            w.write_all(header.as_bytes())?;
+            for v in vpls {
+                for f in v.position.iter().chain(&v.normal).chain(&v.flux) {
+                    w.write_all(&f.to_le_bytes())?;
+                }
+                let colour: [u8; 3] = if v.kind == VPL_INDIRECT { [230, 40, 30] } else { [30, 80, 240] };
+                w.write_all(&[v.kind as u8])?;
+                w.write_all(&colour)?;
             }
-            let colour: [u8; 3] = if v.kind == VPL_INDIRECT { [230, 40, 30] } else { [30, 80, 240] };
-            w.write_all(&[v.kind as u8])?;
-            w.write_all(&colour)?;
-        }
-        w.flush()
-    })();
-    // A full disk said only "No space left on device": the file and the flag are named.
-    written.with_context(|| format!("--dump-vpls {}: writing the file", path.display()))
+            w.flush()
+        })();
+        // A full disk said only "No space left on device": the file is named.
+        written.with_context(|| format!("{}: writing the file", path.display()))
+    })
 }
 
 /// Reads a PLY written by [`write_vpls`] back (used by tests; checks the header strictly).

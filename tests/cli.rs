@@ -259,7 +259,7 @@ fn bad_flags() {
     // A failed write names the flag and the file (a full disk said only "No space left on device").
     if Path::new("/dev/full").exists() {
         let small = ["--headless", "--mode", "ris", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "500", "--vpls-indirect", "500"];
-        assert_fails(&[&small[..], &["--out", &dump_dir, "--dump-vpls", "/dev/full"]].concat(), &["--dump-vpls /dev/full: writing the file"]);
+        assert_fails(&[&small[..], &["--out", &dump_dir, "--dump-vpls", "/dev/full"]].concat(), &["--dump-vpls: writing /dev/full"]);
     }
     assert_fails(&["bench", "--frames", "-1"], &["--frames", "'-1'"]);
     // Sizes and counts are refused before anything is measured (--rays ran its raw dispatches at a
@@ -329,6 +329,27 @@ fn flags_the_mode_never_reads_are_warned_about() {
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("--max-bounces has no effect here") && !err.contains("--spatial-neighbours has no effect"), "{err}");
+}
+
+/// A stderr that cannot be written (full: /dev/full) loses the messages, not the run: a warning
+/// panicked there (exit 101) and an error's message turned its status 1 into 101.
+#[cfg(unix)]
+#[test]
+fn a_full_stderr_changes_no_exit_status() {
+    let dir = tempfile::tempdir().unwrap();
+    let full = || std::fs::OpenOptions::new().write(true).open("/dev/full").expect("/dev/full");
+    let out = dir.path().join("out");
+    // --candidates in --mode pt: a warning.
+    let o = bin()
+        .args(["--headless", "--mode", "pt", "--candidates", "4", "--frames", "1", "--width", "8", "--height", "8", "--out"])
+        .arg(&out)
+        .stderr(full())
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(0), "a warning into a full stderr");
+    assert!(out.join("final.exr").exists());
+    let o = bin().args(["--headless", "--scene", "no/such/scene.gltf"]).stderr(full()).output().unwrap();
+    assert_eq!(o.status.code(), Some(1), "an error into a full stderr");
 }
 
 /// A `--vpl-radius` that is large against the scene warns that some spheres are not drawn (or are
@@ -513,6 +534,13 @@ fn negative_vectors_are_accepted_as_values() {
     assert!(o.status.success(), "stderr: {}", stderr(&o));
     let summary = std::fs::read_to_string(dir.path().join("summary.json")).unwrap();
     assert!(summary.contains("-0.2") && summary.contains("command line"), "{summary}");
+    // Every flag that takes a value, in every subcommand: "-.5" is a value (in --normal-threshold's
+    // range; clap read it as an unknown flag '-.'), "-inf" one its own check refuses by name.
+    let restir = ["--mode", "restir", "--vpls-direct", "300", "--vpls-indirect", "300"];
+    let o = run(&[&args[..], &restir[..], &["--normal-threshold", "-.5"]].concat());
+    assert!(o.status.success(), "stderr: {}", stderr(&o));
+    assert_fails(&[&args[..], &restir[..], &["--mcap", "-.5"]].concat(), &["--mcap -0.5"]);
+    assert_fails(&["compare", "a.exr", "b.exr", "--ppd", "-inf"], &["--ppd", "not -inf"]);
 }
 
 #[test]
@@ -1152,7 +1180,10 @@ fn textures_off_does_not_decode_the_images() {
     let (scene, _) = textured_triangle(d, "albedo.png");
     let out = d.join("out");
     let args = ["--headless", "--mode", "pt", "--width", "8", "--height", "8", "--frames", "1", "--eye", "0.3,0.3,1", "--target", "0.3,0.3,0", "--scene", &scene, "--out", out.to_str().unwrap()];
-    assert_fails(&args, &["scene.gltf", "image 0", "cannot decode"]);
+    // The file read is named beside the image (the message said only 'image0').
+    assert_fails(&args, &["scene.gltf", "image 0", "from 'albedo.png'", "cannot decode"]);
+    std::fs::write(d.join("albedo.png"), "").unwrap();
+    assert_fails(&args, &["scene.gltf", "from 'albedo.png'", "empty (0 bytes)"]);
     let o = run(&[&args[..], &["--textures", "off"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(out.join("final.exr").exists());

@@ -260,6 +260,12 @@ fn reference_configs_ignore_settings_the_mode_does_not_use() {
         s.candidates = 3;
     });
     assert!(same_config(&pt, &pt_other_restir));
+    // A setting at its default None matches a file written before it existed (null = absent).
+    let mut with_null: serde_json::Value = serde_json::from_str(&pt).unwrap();
+    with_null["a_later_setting"] = serde_json::Value::Null;
+    assert!(same_config(&pt, &with_null.to_string()));
+    with_null["a_later_setting"] = serde_json::json!(3);
+    assert!(!same_config(&pt, &with_null.to_string()));
     // Debugging, output and speed-only flags never change the image. (A workgroup in the config
     // made every reference written before --workgroup existed unusable by `results`; so did the
     // way of tracing, whose images are bit-identical both ways, for references before --trace.)

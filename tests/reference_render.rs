@@ -113,6 +113,15 @@ fn cli_reference_resumes_and_refuses_mismatches() {
     assert_eq!(ma.config, mb.config);
     let d = max_rel_diff(&a.pixels, &b.pixels);
     assert!(d < 1e-4, "resumed reference differs from one run by {d}");
+    // A resume past 2^32 frames is refused in --resume's terms (it named --first-frame, which
+    // goes with it only to be refused).
+    let near = dir.path().join("near.exr");
+    let end = u64::from(u32::MAX) - 1;
+    let meta = restir_vpl::eval::reference::ReferenceMeta { first_frame: end - 5, ranges: vec![(end - 5, end)], ..ma.clone() };
+    restir_vpl::eval::reference::write_reference(&near, &a, &meta).unwrap();
+    let o = run(&["--frames", "2", "--resume", "--out", near.to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && e.contains("--resume") && e.contains(&format!("end at {end}")) && !e.contains("--first-frame"), "{e}");
     // Temporal ReSTIR frames depend on each other: not a reference mode.
     let o = cli(&["reference", "--mode", "restir", "--frames", "1", "--out", dir.path().join("x.exr").to_str().unwrap()]);
     assert!(!o.status.success());

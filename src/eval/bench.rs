@@ -513,7 +513,7 @@ pub fn modes_section(scene_path: &std::path::Path, size: (u32, u32), frames: u32
     let (ctx, scene) = upload(&loaded, device)?;
     let mut rows = Vec::new();
     for moving in [false, true] {
-        eprintln!("bench --modes: {} {}", scene_path.display(), if moving { "moving" } else { "still" });
+        crate::errln!("bench --modes: {} {}", scene_path.display(), if moving { "moving" } else { "still" });
         rows.extend(modes_on(&ctx, &scene, scene_path, &[size], 100_000, 100_000, frames, moving, false, false)?);
     }
     let section = ModesSection { scene: scene_path.to_path_buf(), triangles: loaded.triangle_count(), rows };

@@ -422,7 +422,7 @@ pub fn run_cli(
         let mut files = Vec::new();
         for (nf, path, which) in [(&cmp.non_finite_a, a_path, "test image"), (&cmp.non_finite_b, b_path, "reference")] {
             if nf.count() > 0 {
-                eprintln!("{which} {}: {}", path.display(), nf.describe());
+                crate::errln!("{which} {}: {}", path.display(), nf.describe());
                 files.push(format!("{} ({})", path.display(), nf.count()));
             }
         }

@@ -483,9 +483,18 @@ fn strip_unused(obj: &mut serde_json::Map<String, serde_json::Value>, mode: Mode
     }
 }
 
+/// Drops every null-valued key, at any depth: a setting left at its default (`None`) reads the
+/// same whether a config writes it as null or, written before the setting existed, lacks it.
+fn drop_nulls(v: &mut serde_json::Value) {
+    if let Some(obj) = v.as_object_mut() {
+        obj.retain(|_, x| !x.is_null());
+        obj.values_mut().for_each(drop_nulls);
+    }
+}
+
 /// Whether two references' configs ([`reference_config`]) describe the same image: equal once the
 /// settings their mode does not use are dropped (files written before a key was dropped still
-/// match). A config that is not JSON matches only itself.
+/// match), and null-valued keys with them. A config that is not JSON matches only itself.
 pub fn same_config(a: &str, b: &str) -> bool {
     if a == b {
         return true;
@@ -495,6 +504,7 @@ pub fn same_config(a: &str, b: &str) -> bool {
         let obj = v.as_object_mut()?;
         let mode: Mode = serde_json::from_value(obj.get("mode")?.clone()).ok()?;
         strip_unused(obj, mode);
+        drop_nulls(&mut v);
         Some(v)
     };
     match (parse(a), parse(b)) {
@@ -511,7 +521,8 @@ fn config_differences(a: &str, b: &str) -> String {
         let mode: Mode = serde_json::from_value(v.get("mode")?.clone()).ok()?;
         let obj = v.as_object_mut()?;
         strip_unused(obj, mode);
-        Some(obj.clone())
+        drop_nulls(&mut v);
+        Some(v.as_object()?.clone())
     };
     let (Some(x), Some(y)) = (parse(a), parse(b)) else {
         return format!("settings '{a}' vs '{b}'");
@@ -520,6 +531,7 @@ fn config_differences(a: &str, b: &str) -> String {
     let null = serde_json::Value::Null;
     let shown: Vec<String> = keys
         .into_iter()
+        // (Null-valued keys are dropped: "yuksel_knn null vs null" was listed as a difference.)
         .filter(|k| x.get(*k) != y.get(*k))
         .map(|k| format!("{k} {} vs {}", x.get(k).unwrap_or(&null), y.get(k).unwrap_or(&null)))
         .collect();
@@ -690,6 +702,14 @@ pub fn make_reference(
         ReferenceTarget::Extend { frames } => {
             let (image, meta) = read_matching()?;
             let end = meta.ranges.iter().map(|r| r.1).max().unwrap_or(0);
+            // Said here in --resume's terms (render_reference would name --first-frame, which
+            // the user did not give).
+            if end.checked_add(u64::from(frames)).is_none_or(|e| e > u64::from(u32::MAX)) {
+                bail!(
+                    "--resume {}: its frames end at {end}; {end} + --frames {frames} must stay below 2^32",
+                    path.display()
+                );
+            }
             (Some((image, meta)), end, frames)
         }
         ReferenceTarget::AtLeast { frames } if path.exists() => {

@@ -255,7 +255,7 @@ impl App {
             tracing: s.tracing,
         })?);
         let scene_cpu = self.scene.take().context("the scene was already uploaded")?;
-        let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures, s.merge_blas).context("uploading the scene")?);
+        let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures, s.merge_blas).with_context(|| format!("uploading the scene {}", scene_cpu.path.display()))?);
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, None)?;
         // The render size follows the window.
@@ -872,6 +872,11 @@ impl Running {
         let ongoing = |since: Option<Instant>| since.map_or(std::time::Duration::ZERO, |since| self.timed_span(since, last));
         let frozen = self.frozen_total + ongoing(self.frozen_since) + ongoing(self.paused_since);
         let ms = (last - from).saturating_sub(frozen).as_secs_f64() * 1e3 / frames as f64;
+        // All of the span frozen (F2 before the third frame, then F3 steps): no rate to give
+        // (1e3 / 0 went into summary.json as null).
+        if !(ms > 0.0) {
+            return None;
+        }
         Some(crate::headless::DisplayedFrames { present_mode: mode.name().to_string(), frames, ms_per_frame: ms, fps: 1e3 / ms })
     }
 }
