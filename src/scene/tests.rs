@@ -1079,7 +1079,7 @@ fn an_empty_first_scene_without_a_default_names_the_scene_with_meshes() {
 
 /// A few kilobytes of glTF (one accessor without a buffer view, 3 × 2^24 vertices, read by 16
 /// primitives) asked the loader for tens of gigabytes and aborted; the accessors' counts are now
-/// checked against what a GPU's storage buffer holds before any is read.
+/// checked against what a GPU's texel buffer holds before any is read.
 #[test]
 fn geometry_beyond_a_storage_buffer_is_refused_before_it_is_read() {
     let mut doc = triangle_doc();
@@ -1092,16 +1092,16 @@ fn geometry_beyond_a_storage_buffer_is_refused_before_it_is_read() {
     let prim = json!({ "attributes": { "POSITION": last } });
     doc["meshes"][0]["primitives"] = json!(vec![prim; 16]);
     let e = load_err(&doc);
-    assert_contains(&e, &["805306368 vertices", "more than a GPU's storage buffer holds"]);
-    // Three vertices, and 2^29 triangles of indices: refused on the triangles.
+    assert_contains(&e, &["805306368 vertices", "more than a GPU's texel buffer holds"]);
+    // Three vertices, and 2^26 triangles of indices: refused on the triangles.
     let mut doc = triangle_doc();
     doc["accessors"].as_array_mut().unwrap().push(json!({
-        "componentType": 5125, "count": 3u64 << 29, "type": "SCALAR",
+        "componentType": 5125, "count": 3u64 << 26, "type": "SCALAR",
         "sparse": { "count": 1, "indices": { "bufferView": 0, "componentType": 5125 }, "values": { "bufferView": 0 } },
     }));
     let last = doc["accessors"].as_array().unwrap().len() - 1;
     doc["meshes"][0]["primitives"][0]["indices"] = json!(last);
-    assert_contains(&load_err(&doc), &["3 vertices and 536870912 triangles", "357913941 triangles)"]);
+    assert_contains(&load_err(&doc), &["3 vertices and 67108864 triangles", "44739242 triangles)"]);
     // Counts near 2^64 over several primitives saturate instead of wrapping past the check (or
     // overflowing, a panic where overflow is checked).
     let mut doc = triangle_doc();
@@ -1112,7 +1112,7 @@ fn geometry_beyond_a_storage_buffer_is_refused_before_it_is_read() {
     let last = doc["accessors"].as_array().unwrap().len() - 1;
     let prim = json!({ "attributes": { "POSITION": last }, "indices": 1 });
     doc["meshes"][0]["primitives"] = json!(vec![prim; 4]);
-    assert_contains(&load_err(&doc), &["18446744073709551615 vertices", "more than a GPU's storage buffer holds"]);
+    assert_contains(&load_err(&doc), &["18446744073709551615 vertices", "more than a GPU's texel buffer holds"]);
 }
 
 /// A NORMAL, TEXCOORD_0 or COLOR_0 whose count differs from POSITION's is refused before it is
