@@ -238,6 +238,12 @@ fn finish_dump(renderer: &Renderer, dir: &std::path::Path, dumped: &[crate::dump
 /// Loads and uploads the scene, renders `settings.frames` frames and writes the outputs to
 /// `settings.out_dir` (when set).
 pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
+    run_noting(settings, Vec::new())
+}
+
+/// [`run`], with warnings the caller has already printed (the command line's: flags the mode
+/// never reads) kept in the summary's `warnings` ahead of the run's own.
+pub fn run_noting(settings: &RenderSettings, noted: Vec<String>) -> Result<RunOutput> {
     settings.validate()?;
     let start = Instant::now();
     let scene = Scene::load_for(&settings.scene, settings.textures)?;
@@ -248,7 +254,7 @@ pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
         ..Default::default()
     })?);
     let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas).with_context(|| format!("uploading the scene {}", scene.path.display()))?);
-    run_with(ctx, scene, settings, start)
+    run_with_noting(ctx, scene, settings, start, noted)
 }
 
 /// Prints a warning now and keeps it for the summary's `warnings`.
@@ -259,8 +265,14 @@ fn warn_and_keep(warnings: &mut Vec<String>, w: String) {
 
 /// As [`run`], with a context and an uploaded scene the caller already has.
 pub fn run_with(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettings, start: Instant) -> Result<RunOutput> {
+    run_with_noting(ctx, scene, settings, start, Vec::new())
+}
+
+/// [`run_with`], keeping `noted` as [`run_noting`] does.
+fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSettings, start: Instant, noted: Vec<String>) -> Result<RunOutput> {
     check_outputs_spare_inputs(settings, &scene.info.files, None)?;
-    let mut warnings = scene.info.warnings.clone();
+    let mut warnings = noted;
+    warnings.extend(scene.info.warnings.iter().cloned());
     if !scene.has_emitters() {
         warn_and_keep(&mut warnings, format!("{}: the scene has no emitters; the image will be black", scene.info.path.display()));
     }

@@ -713,7 +713,8 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             );
         }
         settings.validate()?;
-        warn_unused_flags(&settings, given);
+        // (A reference writes no summary: the warnings are printed only.)
+        let _ = warn_unused_flags(&settings, given);
         // The EXR holds radiance; the exposure sets only the PNG preview, which a reference does not write.
         if given.iter().any(|g| g == "exposure") {
             log::warn!("--exposure: a reference writes radiance to an EXR and no preview, so the exposure changes nothing (give it to `compare`)");
@@ -1038,8 +1039,8 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         );
     }
     let summary = if cli.headless {
-        warn_unused_flags(&settings, given);
-        restir_vpl::run(&settings)?.summary
+        let noted = warn_unused_flags(&settings, given);
+        restir_vpl::headless::run_noting(&settings, noted)?.summary
     } else {
         let opts = restir_vpl::window::WindowOptions {
             present_mode: cli.present_mode.unwrap_or_default(),
@@ -1308,23 +1309,27 @@ fn headless_only_flags(settings: &RenderSettings) -> Vec<&'static str> {
     .collect()
 }
 
-fn warn_unused_flags(settings: &RenderSettings, given: &[String]) {
+/// Prints the warnings about the command line (flags the run never reads or reads in part,
+/// settings that bias it or leave it black) and returns them, for the summary's `warnings`.
+fn warn_unused_flags(settings: &RenderSettings, given: &[String]) -> Vec<String> {
     let given: Vec<&str> = given.iter().map(String::as_str).collect();
-    for w in settings.unused_flags(&given).into_iter().chain(settings.bounded_flags(&given)).chain(settings.bias_warnings()) {
-        log::warn!("{w}");
-    }
+    let mut out: Vec<String> = settings.unused_flags(&given).into_iter().chain(settings.bounded_flags(&given)).chain(settings.bias_warnings()).collect();
     if let Some(dir) = settings.out_dir.as_deref().filter(|d| d.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr") || e.eq_ignore_ascii_case("png"))) {
-        log::warn!("--out {}: names the directory the run writes final.exr, final.png and summary.json into, not an image file", dir.display());
+        out.push(format!("--out {}: names the directory the run writes final.exr, final.png and summary.json into, not an image file", dir.display()));
     }
     if settings.save_every > settings.frames {
-        log::warn!("--save-every {} is more than --frames {}: no snapshot is written", settings.save_every, settings.frames);
+        out.push(format!("--save-every {} is more than --frames {}: no snapshot is written", settings.save_every, settings.frames));
     }
     if settings.view == restir_vpl::settings::View::Indirect && !settings.gi {
-        log::warn!("--view indirect with --no-gi: the image is black (--no-gi traces no indirect VPLs)");
+        out.push("--view indirect with --no-gi: the image is black (--no-gi traces no indirect VPLs)".to_string());
     }
     if settings.mode.uses_vpls() && settings.view != restir_vpl::settings::View::Vpls && !settings.gi && settings.vpls_direct == 0 {
-        log::warn!("--vpls-direct 0 with --no-gi: the VPL set is empty, so nothing is lit; only emitters seen directly show");
+        out.push("--vpls-direct 0 with --no-gi: the VPL set is empty, so nothing is lit; only emitters seen directly show".to_string());
     }
+    for w in &out {
+        log::warn!("{w}");
+    }
+    out
 }
 
 /// The long flags (`--name`) of `cmd` and its subcommands that take a value. Their values may

@@ -322,6 +322,10 @@ fn flags_the_mode_never_reads_are_warned_about() {
         assert!(err.contains(&format!("{f} has no effect here")), "{f}: {err}");
     }
     assert!(!err.contains("--max-bounces has no effect"), "pt reads --max-bounces: {err}");
+    // Kept in summary.json's warnings too (they reached stderr only).
+    let summary: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let kept: Vec<&str> = summary["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
+    assert!(kept.iter().any(|w| w.starts_with("--candidates has no effect here")), "{kept:?}");
     let o = run(&[
         "--headless", "--mode", "restir", "--frames", "1", "--width", "16", "--height", "16", "--vpls-direct", "500",
         "--vpls-indirect", "500", "--spatial-neighbours", "4", "--max-bounces", "2", "--out", &out.display().to_string(),
