@@ -20,12 +20,20 @@ for_tests=0
 log() { echo "[setup] $*" >&2; }
 SUDO=""
 if [ "$(id -u)" != 0 ]; then SUDO="sudo"; fi
+need_sudo() {
+  # Called before the first install: a user without sudo got "sudo: command not found" (127).
+  if [ -n "$SUDO" ] && ! command -v sudo >/dev/null 2>&1; then
+    log "installing packages needs root: run this script as root, or install sudo"
+    exit 1
+  fi
+}
 
 have_pkg() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "ok installed"; }
 
 apt_updated=0
 apt_install() {
   # apt_install [apt-get options...] pkgs...
+  need_sudo
   if [ "$apt_updated" = 0 ]; then
     log "apt-get update"
     $SUDO apt-get update -qq >/dev/null || { sleep 3; $SUDO apt-get update -qq >/dev/null; }
@@ -80,6 +88,7 @@ if [ "$mesa_ok" = 0 ] && [ "$vendor_icd" = 0 ]; then
     # (A commented-out line does not count: apt would not know the release.)
     if ! grep -rqsE '^[^#]*bookworm-backports' /etc/apt/sources.list /etc/apt/sources.list.d/; then
       log "adding bookworm-backports (for Mesa >= 24.1 with VK_KHR_ray_query)"
+      need_sudo
       echo 'deb http://deb.debian.org/debian bookworm-backports main' | $SUDO tee /etc/apt/sources.list.d/backports.list >/dev/null
       apt_updated=0
     fi

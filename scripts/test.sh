@@ -12,6 +12,8 @@ export PATH="$HOME/.cargo/bin:$PATH"
 ulimit -c unlimited 2>/dev/null || true
 rm -f core core.[0-9]*
 # lavapipe runs its own worker threads; two test threads keep the 2-core machine from thrashing.
+# Arguments go to the test harness, after `--`: a name filter (`scripts/test.sh reservoir`), not
+# cargo's options (`--test layout` is refused there; run cargo test itself for those).
 rc=0
 # Tests that skip a check (no validation layer, no Xvfb, a device the check does not apply to)
 # append a line here (tests/common/mod.rs, `skip`); it is printed at the end, since the harness
