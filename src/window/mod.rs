@@ -268,6 +268,18 @@ impl App {
             message = format!("refused: {why}; started in mode restir");
             log::warn!("{message}");
         }
+        // A reference of another size is compared only once the window has its size: said here
+        // and in the title (the overlay's line that said it is folded away in a small window).
+        if let Some(r) = self.reference.as_ref().filter(|r| (r.image.width, r.image.height) != (self.settings.width, self.settings.height)) {
+            let note = format!(
+                "--reference is {}×{} and the window {}×{}: resize the window to compare",
+                r.image.width, r.image.height, self.settings.width, self.settings.height
+            );
+            log::warn!("{note}");
+            if message.is_empty() {
+                message = note;
+            }
+        }
         let renderer = Renderer::new(ctx.clone(), scene.clone(), self.settings.clone())?;
         let presenter = Presenter::new(&ctx, &swapchain)?;
         let ui = Overlay::new(&ctx, &window, &swapchain, PRESENT_SLOTS, self.reference.take())?;
@@ -436,9 +448,12 @@ impl App {
         }
         match r.renderer.apply_settings(s.clone()) {
             Ok(()) => {
+                r.message = match view_hint(&s) {
+                    Some(hint) => format!("{what} ({hint})"),
+                    None => what.to_string(),
+                };
                 self.settings = s;
-                r.message = what.to_string();
-                log::info!("{what}");
+                log::info!("{}", r.message);
             }
             Err(e) => {
                 r.message = format!("refused: {e:#}");
@@ -1018,63 +1033,81 @@ impl Presenter {
             Err(vk::Result::TIMEOUT | vk::Result::NOT_READY) => return Ok(Shown::NotReady),
             Err(e) => return Err(e).context("vkAcquireNextImageKHR"),
         };
-        // No camera: the preview of the last frame (complete: frozen) is shown again.
-        if let Some(camera) = camera {
-            renderer.submit_frame(camera, true)?;
-        }
-        let cmd = self.cmds[f];
-        let image = swapchain.images[image_index as usize];
-        let (w, h) = (renderer.settings().width, renderer.settings().height);
-        // SAFETY: the slot's previous submission completed (fence waited); every object used is
-        // alive until this slot's fence is waited on again.
-        unsafe {
-            d.reset_fences(&[self.fences[f]])?;
-            d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())?;
-            d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
-            ctx.begin_label(cmd, "present");
-            // The renderer's tonemap wrote the preview with compute shaders in an earlier submission.
-            crate::vk::pipeline::submission_start_barrier(ctx, cmd);
-            transition(ctx, cmd, self.staging.raw, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
-            let copy = [vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
-                .image_extent(vk::Extent3D { width: w.min(self.staging.extent.width), height: h.min(self.staging.extent.height), depth: 1 })
-                .buffer_row_length(w)];
-            d.cmd_copy_buffer_to_image(cmd, renderer.preview_buffer().raw, self.staging.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &copy);
-            transition(ctx, cmd, self.staging.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
-            transition(ctx, cmd, image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
-            let sub = vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1);
-            let corner = |e: vk::Extent2D| vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 };
-            let blit = [vk::ImageBlit::default()
-                .src_subresource(sub)
-                .src_offsets([vk::Offset3D::default(), corner(self.staging.extent)])
-                .dst_subresource(sub)
-                .dst_offsets([vk::Offset3D::default(), corner(swapchain.extent)])];
-            d.cmd_blit_image(
-                cmd,
-                self.staging.raw,
-                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                image,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &blit,
-                vk::Filter::NEAREST,
-            );
-            match overlay {
-                // Its render pass ends in the present layout.
-                Some(o) => o.record(cmd, image_index as usize)?,
-                None => transition(ctx, cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR),
+        // From the acquire to the submit, an error leaves the slot's semaphore signalled with no
+        // wait submitted and, after the fence reset, its fence unsignalled: the next use of the
+        // slot (or its destruction at the window's end) then broke Vulkan's rules. They are
+        // released below before the error goes on.
+        let mut fence_reset = false;
+        let record_and_submit = || -> Result<()> {
+            // No camera: the preview of the last frame (complete: frozen) is shown again.
+            if let Some(camera) = camera {
+                renderer.submit_frame(camera, true)?;
             }
-            ctx.end_label(cmd);
-            d.end_command_buffer(cmd)?;
-            let waits = [self.acquired[f]];
-            let stages = [vk::PipelineStageFlags::TRANSFER];
+            let cmd = self.cmds[f];
+            let image = swapchain.images[image_index as usize];
+            let (w, h) = (renderer.settings().width, renderer.settings().height);
+            // SAFETY: the slot's previous submission completed (fence waited); every object used is
+            // alive until this slot's fence is waited on again.
+            unsafe {
+                d.reset_fences(&[self.fences[f]])?;
+                fence_reset = true;
+                d.reset_command_buffer(cmd, vk::CommandBufferResetFlags::empty())?;
+                d.begin_command_buffer(cmd, &vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT))?;
+                ctx.begin_label(cmd, "present");
+                // The renderer's tonemap wrote the preview with compute shaders in an earlier submission.
+                crate::vk::pipeline::submission_start_barrier(ctx, cmd);
+                transition(ctx, cmd, self.staging.raw, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+                let copy = [vk::BufferImageCopy::default()
+                    .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1))
+                    .image_extent(vk::Extent3D { width: w.min(self.staging.extent.width), height: h.min(self.staging.extent.height), depth: 1 })
+                    .buffer_row_length(w)];
+                d.cmd_copy_buffer_to_image(cmd, renderer.preview_buffer().raw, self.staging.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &copy);
+                transition(ctx, cmd, self.staging.raw, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::TRANSFER_SRC_OPTIMAL);
+                transition(ctx, cmd, image, vk::ImageLayout::UNDEFINED, vk::ImageLayout::TRANSFER_DST_OPTIMAL);
+                let sub = vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).layer_count(1);
+                let corner = |e: vk::Extent2D| vk::Offset3D { x: e.width as i32, y: e.height as i32, z: 1 };
+                let blit = [vk::ImageBlit::default()
+                    .src_subresource(sub)
+                    .src_offsets([vk::Offset3D::default(), corner(self.staging.extent)])
+                    .dst_subresource(sub)
+                    .dst_offsets([vk::Offset3D::default(), corner(swapchain.extent)])];
+                d.cmd_blit_image(
+                    cmd,
+                    self.staging.raw,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &blit,
+                    vk::Filter::NEAREST,
+                );
+                match overlay {
+                    // Its render pass ends in the present layout.
+                    Some(o) => o.record(cmd, image_index as usize)?,
+                    None => transition(ctx, cmd, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, vk::ImageLayout::PRESENT_SRC_KHR),
+                }
+                ctx.end_label(cmd);
+                d.end_command_buffer(cmd)?;
+                let waits = [self.acquired[f]];
+                let stages = [vk::PipelineStageFlags::TRANSFER];
+                let signals = [swapchain.render_finished[image_index as usize]];
+                let cmds = [cmd];
+                let submit = [vk::SubmitInfo::default()
+                    .wait_semaphores(&waits)
+                    .wait_dst_stage_mask(&stages)
+                    .command_buffers(&cmds)
+                    .signal_semaphores(&signals)];
+                d.queue_submit(ctx.queue, &submit, self.fences[f]).context("vkQueueSubmit (present)")?;
+                Ok(())
+            }
+        };
+        let submitted = record_and_submit();
+        if let Err(e) = submitted {
+            self.release_acquired(ctx, f, fence_reset);
+            return Err(e);
+        }
+        // SAFETY: the submission above signals render_finished[image_index].
+        unsafe {
             let signals = [swapchain.render_finished[image_index as usize]];
-            let cmds = [cmd];
-            let submit = [vk::SubmitInfo::default()
-                .wait_semaphores(&waits)
-                .wait_dst_stage_mask(&stages)
-                .command_buffers(&cmds)
-                .signal_semaphores(&signals)];
-            d.queue_submit(ctx.queue, &submit, self.fences[f]).context("vkQueueSubmit (present)")?;
             let swapchains = [swapchain.raw];
             let indices = [image_index];
             let present = vk::PresentInfoKHR::default().wait_semaphores(&signals).swapchains(&swapchains).image_indices(&indices);
@@ -1086,6 +1119,25 @@ impl Presenter {
                 Err(e) => Err(e).context("vkQueuePresentKHR"),
             }
         }
+    }
+}
+
+impl Presenter {
+    /// After an error between the acquire and the submit in [`Self::show`]: an empty submission
+    /// waits on slot `f`'s acquire semaphore (unsignalling it) and, when the fence was reset,
+    /// signals the fence, so that the slot is as a frame leaves it. Best effort: where it fails
+    /// too (a lost device), nothing more is done.
+    fn release_acquired(&self, ctx: &Context, f: usize, fence_reset: bool) {
+        if ctx.is_hung() {
+            return;
+        }
+        let waits = [self.acquired[f]];
+        let stages = [vk::PipelineStageFlags::ALL_COMMANDS];
+        let submit = [vk::SubmitInfo::default().wait_semaphores(&waits).wait_dst_stage_mask(&stages)];
+        let fence = if fence_reset { self.fences[f] } else { vk::Fence::null() };
+        // SAFETY: the acquire signals the semaphore and no submitted batch waits on it; the fence,
+        // when given, was reset and no submission signals it.
+        let _ = unsafe { ctx.device.queue_submit(ctx.queue, &submit, fence) };
     }
 }
 
@@ -1125,6 +1177,16 @@ pub const WINDOW_BRUTEFORCE_PAIRS_GPU: u64 = 2_000_000_000;
 pub(crate) fn fit_view_to_mode(s: &mut RenderSettings) {
     if !s.mode.uses_reservoirs() && s.view.shows_reservoirs() || s.mode == Mode::Pt && s.view != View::Vpls {
         s.view = View::Final;
+    }
+}
+
+/// Why the view `s` shows may look empty, where it can: the indirect view without indirect VPLs
+/// is black (it was, without a word), and W and M are grey levels that 0 EV shows white.
+pub(crate) fn view_hint(s: &RenderSettings) -> Option<&'static str> {
+    match s.view {
+        View::Indirect if !s.gi => Some("black: the indirect VPLs are off, G turns them on"),
+        View::ReservoirW | View::ReservoirM if s.exposure >= 0.0 => Some("raw values as grey, white from 1 up at 0 EV: lower the overlay's exposure"),
+        _ => None,
     }
 }
 
@@ -1176,6 +1238,18 @@ const FOLLOWS_PATH: &str = "the camera follows --camera-path: movement keys and 
 mod tests {
     use super::{can_show, display_error_text, next_valid_view};
     use crate::settings::{Mode, NamedEnum, RenderSettings, View};
+
+    /// A view that may look empty says why: indirect without indirect VPLs, W and M at 0 EV.
+    #[test]
+    fn a_view_that_may_look_empty_says_why() {
+        use super::view_hint;
+        let s = |view, gi, exposure| RenderSettings { mode: Mode::Restir, view, gi, exposure, ..Default::default() };
+        assert!(view_hint(&s(View::Indirect, false, 0.0)).unwrap().contains("G turns them on"));
+        assert!(view_hint(&s(View::ReservoirW, true, 0.0)).unwrap().contains("exposure"));
+        for quiet in [s(View::Indirect, true, 0.0), s(View::ReservoirM, true, -8.0), s(View::Final, false, 0.0)] {
+            assert_eq!(view_hint(&quiet), None);
+        }
+    }
 
     /// The views V cycles through and the overlay's view box lists: the path tracer has its
     /// estimate and the VPL view, no reservoir view; ReSTIR has every view.
