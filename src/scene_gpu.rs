@@ -248,8 +248,11 @@ impl SceneGpu {
         let mut buffers = vec![(1, vb), (2, ib), (3, tm), (4, mb), (5, inb)];
         let (mut texture_count, mut texel_bytes) = (0, 0);
         if textured {
+            // Checked from the sizes before the texels are gathered into one more copy.
+            let total: u64 = scene.textures.iter().map(|t| t.rgba8.len() as u64).sum();
+            check_texel_range(scene, total, u64::from(ctx.properties.limits.max_storage_buffer_range))?;
             let mut table = Vec::with_capacity(scene.textures.len());
-            let mut texels: Vec<u8> = Vec::new();
+            let mut texels: Vec<u8> = Vec::with_capacity(total as usize);
             for t in &scene.textures {
                 let flags = if t.nearest { crate::gpu_types::TEXTURE_NEAREST } else { 0 };
                 table.push(GpuTexture { offset: (texels.len() / 4) as u32, width: t.width, height: t.height, flags });
@@ -261,7 +264,6 @@ impl SceneGpu {
                 scene.path.display(),
                 texels.len() / 4
             );
-            check_texel_range(scene, texels.len() as u64, u64::from(ctx.properties.limits.max_storage_buffer_range))?;
             let tb = Buffer::with_data(ctx, "scene.textures", bytemuck::cast_slice(&table), storage_usage())?;
             let xb = Buffer::with_data(ctx, "scene.texels", &texels, storage_usage())?;
             texture_count = table.len();
