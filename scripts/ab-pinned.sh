@@ -23,7 +23,8 @@ for round in $(seq 1 "$ROUNDS"); do
     # A failed run leaves no rows, or misaligned pairs: stop with its log's end instead.
     for run in "a $pa $A" "b $pb $B"; do
       read -r which pid bin <<<"$run"
-      wait "$pid" || { echo "ab-pinned.sh: $bin $* failed:" >&2; tail -5 "$out/$which" >&2; exit 1; }
+      # (The other run stopped first: the trap removes its output directory.)
+      wait "$pid" || { echo "ab-pinned.sh: $bin $* failed:" >&2; tail -5 "$out/$which" >&2; kill "$pa" "$pb" 2>/dev/null; wait 2>/dev/null; exit 1; }
     done
     paste -d'\n' <(grep -E "$PATTERN" "$out/a") <(grep -E "$PATTERN" "$out/b") |
       awk -F'|' -v col="$COLUMN" -v r="$round" -v ca="$ca" -v cb="$cb" '

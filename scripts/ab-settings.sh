@@ -31,7 +31,7 @@ for round in $(seq 1 "$ROUNDS"); do
     run "$cb" "$B" "$out/b" & pb=$!
     # (wait on both apart: `wait A B` returns B's status only; a failed A would leave the previous
     # round's summary to be read as this round's.)
-    wait "$pa" || exit 1
+    wait "$pa" || { kill "$pb" 2>/dev/null; wait "$pb" 2>/dev/null; exit 1; }
     wait "$pb" || exit 1
     a=$(medians "$out/a/summary.json") b=$(medians "$out/b/summary.json")
     python3 -c "import sys; a, b = sys.argv[1], sys.argv[2]; print('round $round (A on cpu $ca, B on cpu $cb): A %s | B %s | frame B/A %.3f' % (a, b, float(b.split()[0]) / float(a.split()[0])))" "$a" "$b"

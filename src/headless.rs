@@ -253,7 +253,7 @@ pub fn run_noting(settings: &RenderSettings, noted: Vec<String>) -> Result<RunOu
         tracing: settings.tracing,
         ..Default::default()
     })?);
-    let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas).with_context(|| format!("uploading the scene {}", scene.path.display()))?);
+    let scene = Arc::new(SceneGpu::new(&ctx, &scene, settings.textures, settings.merge_blas).context("uploading the scene")?);
     run_with_noting(ctx, scene, settings, start, noted)
 }
 
@@ -275,6 +275,9 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     warnings.extend(scene.info.warnings.iter().cloned());
     if !scene.has_emitters() {
         warn_and_keep(&mut warnings, format!("{}: the scene has no emitters; the image will be black", scene.info.path.display()));
+    }
+    if let Some(w) = Renderer::vpl_radius_warning(settings, &scene).filter(|_| settings.view == crate::settings::View::Vpls) {
+        warn_and_keep(&mut warnings, w);
     }
     if let Some(dir) = &settings.out_dir {
         crate::output::prepare_output_dir("--out", dir)?;

@@ -41,7 +41,8 @@ pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
     }
     header += "end_header\n";
     crate::output::write_replacing(path, |partial| {
-        let file = std::fs::File::create(partial).with_context(|| format!("{}: cannot create the file", path.display()))?;
+        // (write_replacing names the file in its errors: "writing PATH: ...".)
+        let file = std::fs::File::create(partial)?;
         let mut w = std::io::BufWriter::new(file);
         let written = (|| -> std::io::Result<()> {
             w.write_all(header.as_bytes())?;
@@ -55,8 +56,7 @@ pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
             }
             w.flush()
         })();
-        // A full disk said only "No space left on device": the file is named.
-        written.with_context(|| format!("{}: writing the file", path.display()))
+        Ok(written?)
     })
 }
 

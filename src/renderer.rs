@@ -648,6 +648,23 @@ impl Renderer {
         Ok(Parts { textured, targets, passes, photons, vpl })
     }
 
+    /// The warning a `--vpl-radius` large against the scene deserves (None below 2 % of its
+    /// diagonal): each sphere is splatted over at most VPL_VIEW_MAX_FOOTPRINT pixels either side of
+    /// its centre, and one that holds the camera is skipped (vpl_view.comp). Said once by the
+    /// caller (a headless run keeps it in the summary; the window at its start), not at every
+    /// rebuild of the pass.
+    pub fn vpl_radius_warning(settings: &RenderSettings, scene: &SceneGpu) -> Option<String> {
+        let (lo, hi) = scene.info.bounds;
+        let diagonal = (hi - lo).length().max(1e-6);
+        let radius = settings.vpl_radius.filter(|&r| r > 0.02 * diagonal)?;
+        Some(format!(
+            "--vpl-radius {radius} is {:.1}% of the scene's diagonal: spheres that hold the camera are not drawn, and a \
+             sphere wider than {} px on screen is cut to a square",
+            100.0 * radius / diagonal,
+            2 * crate::passes::vpl_view::VPL_VIEW_MAX_FOOTPRINT + 1
+        ))
+    }
+
     /// Switches to `settings` without re-uploading the scene: rebuilds the passes, the frame
     /// targets when the size changed and the VPL set when its settings changed (see
     /// [`Renderer::build`]). The accumulation, the ReSTIR history and the log restart. Waits for the
@@ -693,18 +710,7 @@ impl Renderer {
         stats: &PhotonStats,
     ) -> Result<VplViewPass> {
         let (lo, hi) = scene.info.bounds;
-        let diagonal = (hi - lo).length().max(1e-6);
-        let radius = settings.vpl_radius.unwrap_or(0.0025 * diagonal);
-        if radius > 0.02 * diagonal {
-            // Each sphere is splatted over at most VPL_VIEW_MAX_FOOTPRINT pixels either side of its
-            // centre, and one that holds the camera is skipped (vpl_view.comp).
-            log::warn!(
-                "--vpl-radius {radius} is {:.1}% of the scene's diagonal: spheres that hold the camera are not drawn, \
-                 and a sphere wider than {} px on screen is cut to a square",
-                100.0 * radius / diagonal,
-                2 * crate::passes::vpl_view::VPL_VIEW_MAX_FOOTPRINT + 1
-            );
-        }
+        let radius = settings.vpl_radius.unwrap_or(0.0025 * (hi - lo).length().max(1e-6));
         VplViewPass::new(ctx, scene_layout, targets, &pass.vpls, PhotonEmitPass::vpl_count(stats), radius)
     }
 

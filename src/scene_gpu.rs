@@ -120,17 +120,35 @@ impl SceneGpu {
     /// [`Scene::merged`]); every mesh's triangles and the TLAS's instances are handed to the builds
     /// in [`leaf_order::midpoint_split_order`].
     pub fn new(ctx: &Arc<Context>, scene: &Scene, textures: bool, merge_blas: u32) -> Result<Self> {
+        // Every error names the scene, once (some said it, a buffer's device limit did not).
+        Self::upload(ctx, scene, textures, merge_blas).with_context(|| scene.path.display().to_string())
+    }
+
+    fn upload(ctx: &Arc<Context>, scene: &Scene, textures: bool, merge_blas: u32) -> Result<Self> {
         let textured = textures && scene.materials.iter().any(|m| m.base_color_texture.is_some());
         let start = std::time::Instant::now();
         // What the rays see: a small scene's instances merged into one world-space mesh.
         let merge = scene.instances.len() > 1 && scene.triangle_count() <= merge_blas as usize;
+        // The vertex buffer's texels (its meshes', and the merged copy of every instance's beside
+        // them), checked before either is built: a few triangles over 2^26 vertices (a file's
+        // accessor without a buffer view) were copied twice, 11 GB, before the buffer refused them.
+        let mesh_vertices = |m: &crate::scene::Mesh| m.positions.len() as u64;
+        let own: u64 = scene.meshes.iter().map(mesh_vertices).sum();
+        let copied: u64 = if merge { scene.instances.iter().filter_map(|i| scene.meshes.get(i.mesh)).map(mesh_vertices).sum() } else { 0 };
+        let texels = (own + copied) * (std::mem::size_of::<GpuVertex>() as u64 / RECORD_TEXELS.bytes);
+        let limit = u64::from(ctx.properties.limits.max_texel_buffer_elements);
+        anyhow::ensure!(
+            texels <= limit,
+            "{} vertices{} take {texels} texels, more than this device's maxTexelBufferElements ({limit})",
+            own + copied,
+            if merge { format!(" (with the merged copy of its {} instances: --merge-blas 0 leaves it out)", scene.instances.len()) } else { String::new() }
+        );
         let merged_scene = merge.then(|| scene.merged());
         let traced = merged_scene.as_ref().unwrap_or(scene);
         let merged_instances = if merge { scene.instances.len() } else { 0 };
         anyhow::ensure!(
             (scene.materials.len() as u64) < 1 << TRIANGLE_FLAT_EDGES_SHIFT,
-            "{}: {} materials, more than the renderer indexes ({})",
-            scene.path.display(),
+            "{} materials, more than the renderer indexes ({})",
             scene.materials.len(),
             1u32 << TRIANGLE_FLAT_EDGES_SHIFT
         );
@@ -260,8 +278,7 @@ impl SceneGpu {
             }
             anyhow::ensure!(
                 texels.len() / 4 <= u32::MAX as usize,
-                "{}: textures hold {} texels, more than a 32-bit index reaches",
-                scene.path.display(),
+                "textures hold {} texels, more than a 32-bit index reaches",
                 texels.len() / 4
             );
             let tb = Buffer::with_data(ctx, "scene.textures", bytemuck::cast_slice(&table), storage_usage())?;
@@ -344,8 +361,8 @@ impl LightBuffers {
 /// Refuses textures whose texels (`texel_bytes` of RGBA8 in one buffer) exceed a device's
 /// maxStorageBufferRange (`range`): all texels are one storage-buffer binding, which a shader can
 /// only read as far as that range (128 MiB on lavapipe, ~4 GiB on desktop GPUs); past it, reads are
-/// undefined (VUID-VkWriteDescriptorSet-descriptorType-00333). The error names the scene, the sizes,
-/// the largest textures and the way out.
+/// undefined (VUID-VkWriteDescriptorSet-descriptorType-00333). The error names the sizes, the
+/// largest textures and the way out ([`SceneGpu::new`] names the scene before it).
 pub fn check_texel_range(scene: &Scene, texel_bytes: u64, range: u64) -> Result<()> {
     if texel_bytes <= range {
         return Ok(());
@@ -354,10 +371,9 @@ pub fn check_texel_range(scene: &Scene, texel_bytes: u64, range: u64) -> Result<
     largest.sort_by_key(|t| std::cmp::Reverse(u64::from(t.width) * u64::from(t.height)));
     let names: Vec<String> = largest.iter().take(3).map(|t| format!("'{}' {}x{}", t.name, t.width, t.height)).collect();
     anyhow::bail!(
-        "{}: its {} textures hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
+        "its {} textures hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
          one buffer (maxStorageBufferRange: {:.1} MiB); render with --textures off, or scale down the largest \
          ({})",
-        scene.path.display(),
         scene.textures.len(),
         texel_bytes as f64 / 1048576.0,
         range as f64 / 1048576.0,

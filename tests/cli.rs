@@ -375,6 +375,9 @@ fn a_vpl_radius_beyond_the_scene_is_warned_about() {
     };
     let err = view(&["--vpl-radius", "100"]);
     assert!(err.contains("--vpl-radius 100 is") && err.contains("spheres that hold the camera are not drawn"), "{err}");
+    assert_eq!(err.matches("--vpl-radius 100 is").count(), 1, "said once: {err}");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("--vpl-radius 100 is"), "kept in the summary: {summary}");
     let err = view(&[]);
     assert!(!err.contains("--vpl-radius"), "default radius: {err}");
 }

@@ -193,7 +193,7 @@ fn textures_over_the_storage_buffer_range_are_refused_by_name() {
     let mut small_scene = load_json(&wall_scene(1.0), "wall.gltf");
     small_scene.textures[0] = small;
     let err = format!("{:#}", restir_vpl::scene_gpu::check_texel_range(&small_scene, 8192, 4096).unwrap_err());
-    for part in ["wall.gltf", "maxStorageBufferRange", "--textures off", "'huge' 1024x2"] {
+    for part in ["maxStorageBufferRange", "--textures off", "'huge' 1024x2"] {
         assert!(err.contains(part), "{part:?} missing from: {err}");
     }
     assert!(restir_vpl::scene_gpu::check_texel_range(&small_scene, 8192, 8192).is_ok());

@@ -358,7 +358,7 @@ impl Scene {
     }
 
     /// Every instanced triangle with an emissive material and positive world-space area (+Inf where
-    /// the area does not fit f32: the loader refuses such a scene, `check_emitter_areas`).
+    /// the area does not fit f32: the loader refuses such a scene, `check_scene_reach`).
     pub fn emissive_triangles(&self) -> Vec<EmissiveTriangle> {
         self.emissive_triangles_and_tiny().0
     }

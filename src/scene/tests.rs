@@ -822,7 +822,7 @@ fn a_scene_beyond_the_reach_of_32_bit_rays_is_an_error() {
     assert_contains(&load_err(&scene(0.0, 0.0, -2e18)), &["camera 'cam' lies at", "more than 1e18"]);
 }
 
-/// A camera's yfov outside (0, π) and an emission that is negative or not finite are errors, as
+/// A camera's yfov outside [0.01°, 180°) and an emission that is negative or not finite are errors, as
 /// --fov's and baseColorFactor's are: each was set aside with a warning, which rendered black
 /// (the automatic camera behind a wall; the one light zeroed).
 #[test]

@@ -255,7 +255,7 @@ impl App {
             tracing: s.tracing,
         })?);
         let scene_cpu = self.scene.take().context("the scene was already uploaded")?;
-        let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures, s.merge_blas).with_context(|| format!("uploading the scene {}", scene_cpu.path.display()))?);
+        let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures, s.merge_blas).context("uploading the scene")?);
         let size = window.inner_size();
         let swapchain = Swapchain::new(&ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, None)?;
         // The render size follows the window.
@@ -279,6 +279,10 @@ impl App {
             if message.is_empty() {
                 message = note;
             }
+        }
+        // (Whatever the view: V reaches the VPL view later.)
+        if let Some(w) = Renderer::vpl_radius_warning(&self.settings, &scene) {
+            log::warn!("{w}");
         }
         let renderer = Renderer::new(ctx.clone(), scene.clone(), self.settings.clone())?;
         let presenter = Presenter::new(&ctx, &swapchain)?;
