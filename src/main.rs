@@ -819,7 +819,14 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             };
             let ctx = bench_context(*device)?;
             let points = restir_vpl::eval::scaling::run(&ctx, &opts, &mut |line| restir_vpl::errln!("{line}"))?;
-            let md = write_report(out, "scaling.md", "How cost grows with the work (`bench --scaling`)", &restir_vpl::eval::scaling::markdown(&opts, &points, &ctx.report.name))?;
+            let md = write_report(
+                out,
+                "scaling.md",
+                "How cost grows with the work (`bench --scaling`)",
+                &restir_vpl::eval::scaling::markdown(&opts, &points, &ctx.report.name),
+                &ctx.report.name,
+                quick.then_some(" (two sizes a sweep: an exponent without its standard error)"),
+            )?;
             let csv = out.join("scaling.csv");
             restir_vpl::eval::scaling::write_csv(&csv, &points)?;
             let plots = restir_vpl::eval::scaling::write_plots(out, &points)?;
@@ -842,7 +849,14 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let ctx = bench_context(*device)?;
             let rows = restir_vpl::eval::radius::run(&ctx, &opts, &mut |line| restir_vpl::errln!("{line}"))?;
             ctx.ensure_clean_report()?;
-            let md = write_report(out, "radius.md", "The Yuksel radius as a trade-off (`bench --radius`)", &restir_vpl::eval::radius::markdown(&opts, &rows))?;
+            let md = write_report(
+                out,
+                "radius.md",
+                "The Yuksel radius as a trade-off (`bench --radius`)",
+                &restir_vpl::eval::radius::markdown(&opts, &rows),
+                &ctx.report.name,
+                quick.then_some(" (FLIP not computed)"),
+            )?;
             let csv = out.join("radius.csv");
             restir_vpl::eval::radius::write_csv(&csv, &rows)?;
             restir_vpl::outln!("{}\n{}", md.display(), csv.display());
@@ -861,7 +875,14 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let points = restir_vpl::eval::motion::run(&ctx, &opts, &mut |line| restir_vpl::errln!("{line}"))?;
             ctx.ensure_clean_report()?;
             let files = restir_vpl::eval::motion::write_outputs(out, &points)?;
-            let md = write_report(out, "motion.md", "Moving camera: error of every displayed frame", &restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots))?;
+            let md = write_report(
+                out,
+                "motion.md",
+                "Moving camera: error of every displayed frame",
+                &restir_vpl::eval::motion::section_markdown(&opts, &points, &files.plots),
+                &ctx.report.name,
+                quick.then_some(" (FLIP not computed)"),
+            )?;
             restir_vpl::outln!("{}\n{}", md.display(), files.csv.display());
             for p in &files.plots {
                 restir_vpl::outln!("{}", p.display());
@@ -957,7 +978,10 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let args: Vec<String> = std::env::args().skip(1).collect();
             let command = format!("restir-vpl {}", args.join(" "));
             let body = restir_vpl::eval::bench::modes_report(&sections, *frames, &device_name, &command);
-            let md = write_report(out, "modes.md", "VPL modes: frame cost (`restir-vpl bench --modes`)", &body)?;
+            // (The body says how it was made, date included.)
+            std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
+            let md = out.join("modes.md");
+            write_markdown(&md, &format!("# VPL modes: frame cost (`restir-vpl bench --modes`)\n\n{body}"))?;
             if let Some(path) = json {
                 let rows: Vec<_> = sections.iter().flat_map(|s| s.rows.iter()).collect();
                 std::fs::write(path, serde_json::to_string_pretty(&rows)?).map_err(|e| anyhow::anyhow!("--json {}: {e}", path.display()))?;
@@ -1229,11 +1253,24 @@ fn bench_context(device: Option<usize>) -> Result<std::sync::Arc<restir_vpl::vk:
 }
 
 /// Writes `OUT/name` as a Markdown page titled `title` around `body` (creating OUT); its path.
-fn write_report(out: &std::path::Path, name: &str, title: &str, body: &str) -> Result<PathBuf> {
+/// Writes a benchmark's report `OUT/name`: its title, then how it was made (the command, the date,
+/// the device; a `--quick` run says it is a smoke test, `quick_skips` what it leaves out), then
+/// `body`. (A quick report read like the measurement itself, and no report had a date.)
+fn write_report(out: &std::path::Path, name: &str, title: &str, body: &str, device: &str, quick: Option<&str>) -> Result<PathBuf> {
     std::fs::create_dir_all(out).map_err(|e| anyhow::anyhow!("--out {}: {e}", out.display()))?;
     let md = out.join(name);
-    std::fs::write(&md, format!("# {title}\n\n{body}")).map_err(|e| anyhow::anyhow!("writing {}: {e}", md.display()))?;
+    let command = std::iter::once("restir-vpl".to_string()).chain(std::env::args().skip(1)).collect::<Vec<_>>().join(" ");
+    let mut made = format!("_Generated by `{command}` on {} (UTC) on **{device}**._", restir_vpl::eval::report::utc_date());
+    if let Some(skips) = quick {
+        made += &format!(" **Quick run** (`--quick`): a smoke test of the pipeline at tiny sizes and counts{skips}, not a measurement.");
+    }
+    write_markdown(&md, &format!("# {title}\n\n{made}\n\n{body}"))?;
     Ok(md)
+}
+
+/// Writes `text` to `md` whole (or leaves the earlier file).
+fn write_markdown(md: &std::path::Path, text: &str) -> Result<()> {
+    restir_vpl::output::write_replacing(md, |partial| Ok(std::fs::write(partial, text)?)).map_err(|e| anyhow::anyhow!("{e:#}"))
 }
 
 /// A context for `settings` (validation, device) with the scene loaded and uploaded to it.

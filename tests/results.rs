@@ -87,6 +87,11 @@ fn bench_curves_quick_writes_csv_tables_and_plots() {
 fn results_quick_covers_the_three_scenes() {
     let dir = quick_run(&["results"]);
     let md = non_empty(&dir.path().join("results.md"));
+    // A quick report says so, and when it was made (it read like the measurement itself): a
+    // YYYY-MM-DD date before "(UTC)".
+    let date = md.split(" (UTC)").next().and_then(|head| head.get(head.len().saturating_sub(10)..)).unwrap_or("");
+    let dated = date.len() == 10 && date.char_indices().all(|(i, c)| if i == 4 || i == 7 { c == '-' } else { c.is_ascii_digit() });
+    assert!(md.contains("**Quick run**") && dated, "{date:?}: {md}");
     for scene in ["cornell_box", "living_room", "open_box_figure"] {
         assert!(md.contains(&format!("## {scene}")), "results.md lacks {scene}");
         // The VPL model's mean ratio over other VPL sets (2 in the quick run), finite.
@@ -162,6 +167,7 @@ fn bench_rays_reports_raw_rates_and_every_tracing_pass() {
 fn bench_radius_quick_writes_the_table_and_csv() {
     let dir = quick_run(&["bench", "--radius", "--runs", "2"]);
     let md = non_empty(&dir.path().join("radius.md"));
+    assert!(md.contains("**Quick run**") && md.contains("(FLIP not computed)") && md.contains("(UTC) on **"), "{md}");
     let csv = non_empty(&dir.path().join("radius.csv"));
     use restir_vpl::eval::radius::{COMPENSATED_MULTIPLES, KNN_MULTIPLES, SPACING_MULTIPLES};
     let rules = SPACING_MULTIPLES.len() + 1 + COMPENSATED_MULTIPLES.len() + KNN_MULTIPLES.len();

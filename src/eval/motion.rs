@@ -452,8 +452,8 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
     let _ = writeln!(
         s,
         "A camera moves along the path committed beside each scene (`scenes/<name>.path.json`); every displayed frame \
-         (progressive accumulation off: the image is that frame alone) is compared with a {}-frame path-traced reference \
-         of that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames (the path's frames after its first \
+         (progressive accumulation off: the image is that frame alone) is compared with a path-traced reference of {} frames \
+         at that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames (the path's frames after its first \
          keyframe, each moved since the one before) after {WARMUP_FRAMES} still warm-up frames at its first keyframe, {} run(s) \
          averaged, each with its own VPL set and pixel noise, shared by its modes (RMSE: the root of their mean squared error; ± the standard error over the runs of \
          each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \

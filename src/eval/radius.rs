@@ -259,7 +259,7 @@ pub fn markdown(opts: &RadiusOptions, rows: &[RadiusRow]) -> String {
     let sizes: Vec<String> = opts.scenes.iter().map(|s| format!("{} {}×{}", s.label(), s.width, s.height)).collect();
     let _ = writeln!(
         s,
-        "ReSTIR (unbiased, default settings) with each Yuksel radius rule against a {}-frame path-traced reference \
+        "ReSTIR (unbiased, default settings) with each Yuksel radius rule against a path-traced reference of {} frames \
          (8 bounces; the photons' 7 give the VPL images the same light paths). Scenes: {}. VPLs: {} direct + {} indirect (the mean VPL \
          spacing is √(A/(πN))). {} run(s) averaged, each with its own seed, so its own VPL set and pixel noise; run k has the same VPL set \
          under every rule, so differences between rows are paired (RMSE: the root of the runs' mean squared error); t = 1 is the first frame, t = {} the \

@@ -1133,8 +1133,10 @@ pub fn observations(points: &[CurvePoint], scene: &str, reference: &str) -> Vec<
         }
         if let Some((m, e)) = best {
             out.push(format!(
-                "At equal wall time ({:.0} ms, the time the fastest-finishing mode needed for t = {last_t}) the lowest RMSE is {} ({}).",
-                budget,
+                // (The budget to three figures: rounded to whole ms it read as the table's column of
+                // that name, whose values are at another budget.)
+                "At equal wall time ({} ms, the time the fastest-finishing mode needed for t = {last_t}) the lowest RMSE is {} ({}).",
+                fmt_sig3(budget),
                 mode_display_name(&m),
                 fmt_sig3(e)
             ));

@@ -261,8 +261,14 @@ pub fn write_plots(dir: &Path, points: &[ScalingPoint]) -> Result<Vec<PathBuf>> 
 /// plot ([`write_plots`]).
 pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) -> String {
     let mut s = format!(
-        "Device: {device}. GPU ms per frame (median of {} timed frames per mode after 2 warm-up frames, modes interleaved) of uniform, RIS (32 candidates) and ReSTIR (unbiased defaults); photon_emit: median GPU ms of {} re-traces; BLAS/TLAS: wall ms of the build submission. Exponent: least-squares slope of log ms against log size, ± its standard error from the fit's residuals (the sizes are timed one after another, so the machine's drift enters it); ✗ where it departs from the expected one by more than 0.1 and more than two standard errors; expected: what the algorithm predicts. The image sizes share one aspect ratio (16:9). VPL and triangle sweeps at {}×{}, pixel and triangle sweeps with {} VPLs. The triangle sweep is a room with a tessellated bumpy sphere (`bench::dense_scene`), seen from its camera.\n\n",
-        opts.frames, opts.photon_runs, opts.size.0, opts.size.1, opts.vpls
+        "Device: {device}. GPU ms per frame (median of {} timed frame{} per mode after 2 warm-up frames, modes interleaved) of uniform, RIS (32 candidates) and ReSTIR (unbiased defaults); photon_emit: median GPU ms of {} re-trace{}; BLAS/TLAS: wall ms of the build submission. Exponent: least-squares slope of log ms against log size, ± its standard error from the fit's residuals (the sizes are timed one after another, so the machine's drift enters it); ✗ where it departs from the expected one by more than 0.1 and more than two standard errors; expected: what the algorithm predicts. The image sizes share one aspect ratio (16:9). VPL and triangle sweeps at {}×{}, pixel and triangle sweeps with {} VPLs. The triangle sweep is a room with a tessellated bumpy sphere (`bench::dense_scene`), seen from its camera.\n\n",
+        opts.frames,
+        if opts.frames == 1 { "" } else { "s" },
+        opts.photon_runs,
+        if opts.photon_runs == 1 { "" } else { "s" },
+        opts.size.0,
+        opts.size.1,
+        opts.vpls
     );
     for (sweep, title, unit) in SWEEPS {
         let sel: Vec<&ScalingPoint> = points.iter().filter(|p| p.sweep == sweep).collect();
