@@ -1298,6 +1298,10 @@ fn results_main(opts: &restir_vpl::eval::results::ResultsOptions) -> Result<()> 
     restir_vpl::outln!("{}", out.markdown.display());
     restir_vpl::outln!("{}", out.csv.display());
     restir_vpl::outln!("{}", out.frame_times_csv.display());
+    // (It was written and cited, and not listed.)
+    if let Some(csv) = &out.motion_csv {
+        restir_vpl::outln!("{}", csv.display());
+    }
     for p in &out.plots {
         restir_vpl::outln!("{}", p.display());
     }

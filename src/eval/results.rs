@@ -385,6 +385,8 @@ pub struct ResultsOutput {
     pub markdown: PathBuf,
     pub csv: PathBuf,
     pub frame_times_csv: PathBuf,
+    /// The moving-camera section's numbers, when it ran.
+    pub motion_csv: Option<PathBuf>,
     pub plots: Vec<PathBuf>,
     pub points: Vec<CurvePoint>,
     pub frame_times: Vec<FrameTimeRow>,
@@ -557,6 +559,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         }
     }
     let mut motion_section = None;
+    let mut motion_csv = None;
     if let Some(m) = &opts.motion {
         let m = crate::eval::motion::MotionOptions {
             out_dir: opts.out_dir.clone(),
@@ -568,6 +571,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         let points = crate::eval::motion::run(ctx, &m, log)?;
         let files = crate::eval::motion::write_outputs(&opts.out_dir, &points)?;
         motion_section = Some(crate::eval::motion::section_markdown(&m, &points, &files.plots));
+        motion_csv = Some(files.csv);
         plots.extend(files.plots);
     }
     let markdown = opts.out_dir.join(&opts.markdown_name);
@@ -577,8 +581,8 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         text.push_str(&section);
         text.push_str("\nRaw numbers: `motion.csv` (scene, mode, path frame, GPU ms, RMSE, relMSE, FLIP).\n");
     }
-    std::fs::write(&markdown, text).with_context(|| format!("writing {}", markdown.display()))?;
-    Ok(ResultsOutput { markdown, csv, frame_times_csv, plots, points: all_points, frame_times: all_rows })
+    crate::output::write_replacing(&markdown, |partial| Ok(std::fs::write(partial, &text)?)).with_context(|| format!("writing {}", markdown.display()))?;
+    Ok(ResultsOutput { markdown, csv, frame_times_csv, motion_csv, plots, points: all_points, frame_times: all_rows })
 }
 
 fn write_frame_times_csv(path: &Path, rows: &[FrameTimeRow]) -> Result<()> {
