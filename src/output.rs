@@ -369,7 +369,13 @@ pub fn stage_exr(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]]) -> R
 /// An `exr` error as one message: its I/O variant prints the OS error and also hands it on as the
 /// source, so a `{:#}` chain printed "No such file or directory (os error 2)" twice.
 pub fn exr_error(e: exr::error::Error) -> anyhow::Error {
-    anyhow::anyhow!("{e}")
+    match e {
+        // What the crate makes of an unexpected end of file.
+        exr::error::Error::Invalid(m) if m == "reference to missing bytes" => {
+            anyhow::anyhow!("the file ends early (truncated? the EXR reader: {m})")
+        }
+        e => anyhow::anyhow!("{e}"),
+    }
 }
 
 /// An RGB float image read from disk.
@@ -638,6 +644,14 @@ mod tests {
         std::fs::write(&cut, EXR_MAGIC).unwrap();
         let err = format!("{:#}", read_exr(&cut).unwrap_err());
         assert!(err.contains("cut.exr") && !err.contains("not an OpenEXR"), "{err}");
+        // A whole image cut short is said to end early (the crate says "reference to missing bytes").
+        let whole = dir.path().join("whole.exr");
+        write_exr(&whole, 4, 4, &[[0.5; 3]; 16]).unwrap();
+        let bytes = std::fs::read(&whole).unwrap();
+        let truncated = dir.path().join("truncated.exr");
+        std::fs::write(&truncated, &bytes[..bytes.len() - 8]).unwrap();
+        let err = format!("{:#}", read_exr(&truncated).unwrap_err());
+        assert!(err.contains("truncated.exr") && err.contains("ends early"), "{err}");
     }
 
     /// An EXR without R, G and B channels is an error that says so and lists what it has (the exr

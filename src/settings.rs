@@ -671,6 +671,9 @@ impl RenderSettings {
                     "it shapes the ReGIR grid, and --grid-candidates 0 uses none".to_string()
                 }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
+                "progressive" if self.frames == 1 => {
+                    "it sets whether frames accumulate, and --frames 1 renders one either way".to_string()
+                }
                 "vpls_indirect" | "photon_min_bounces" | "photon_max_bounces" if !self.gi => {
                     "it shapes the indirect VPLs, and --no-gi traces none".to_string()
                 }
@@ -1083,6 +1086,9 @@ mod tests {
             named(&no_gi, &["no_gi", "vpls_direct", "vpls_indirect", "photon_min_bounces", "photon_max_bounces"]),
             ["--vpls-indirect", "--photon-min-bounces", "--photon-max-bounces"]
         );
+        // One frame is the same accumulated or not.
+        assert_eq!(named(&RenderSettings { frames: 1, ..restir.clone() }, &["progressive"]), ["--progressive"]);
+        assert!(named(&RenderSettings { frames: 2, ..restir.clone() }, &["progressive"]).is_empty());
         let view = RenderSettings { view: View::Vpls, ..restir.clone() };
         assert_eq!(named(&view, &["mcap", "candidates", "compensate", "vpl_radius", "vpls_direct"]), ["--mcap", "--candidates", "--compensate"]);
         assert!(view.unused_flags(&["mcap"])[0].contains("--view vpls draws the VPLs"));
