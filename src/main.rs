@@ -73,7 +73,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = DEFAULTS.max_bounces, allow_negative_numbers = true)]
     max_bounces: i32,
     /// Exposure of the PNG preview in EV.
-    #[arg(long, default_value_t = DEFAULTS.exposure, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_f32, default_value_t = DEFAULTS.exposure, allow_negative_numbers = true)]
     exposure: f32,
     /// Camera position "x,y,z" (overrides the scene camera; needs --target).
     #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
@@ -85,7 +85,7 @@ struct RenderArgs {
     #[arg(long, value_parser = parse_vec3, allow_negative_numbers = true)]
     up: Option<Vec3>,
     /// Vertical field of view in degrees (with --eye/--target; default 45, or the scene camera's).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_f32)]
     fov: Option<f32>,
     /// Camera path: {"keyframes": [{"frame": 0, "eye": [x,y,z], "target": [x,y,z], "up": [0,1,0],
     /// "fov": 40}, ...]} (fov vertical in degrees; linear interpolation; frames past the last
@@ -131,7 +131,7 @@ struct RenderArgs {
     #[arg(long, value_parser = named::<View>(), default_value_t = DEFAULTS.view)]
     view: View,
     /// Sphere radius of `--view vpls` in scene units (default: 0.25% of the scene's diagonal).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_f32)]
     vpl_radius: Option<f32>,
     /// RIS candidates per pixel (ris and restir).
     #[arg(long, default_value_t = DEFAULTS.candidates)]
@@ -178,14 +178,14 @@ struct RenderArgs {
     #[arg(long, value_enum, default_value_t = Toggle::from(DEFAULTS.restir.temporal))]
     temporal: Toggle,
     /// Temporal history confidence cap, in multiples of the current frame's.
-    #[arg(long, default_value_t = DEFAULTS.restir.mcap)]
+    #[arg(long, value_parser = parse_f32, default_value_t = DEFAULTS.restir.mcap)]
     mcap: f32,
     /// ReSTIR spatial neighbours per pass (at most 32).
     #[arg(long, default_value_t = DEFAULTS.restir.spatial_neighbours)]
     spatial_neighbours: u32,
     /// Radius of the disc spatial neighbours are drawn from (pixels) [default: 20 per 1280 px of
     /// image width, at least 4].
-    #[arg(long)]
+    #[arg(long, value_parser = parse_f32)]
     spatial_radius: Option<f32>,
     /// Spatial reuse passes per frame.
     #[arg(long, default_value_t = DEFAULTS.restir.spatial_passes)]
@@ -200,10 +200,10 @@ struct RenderArgs {
     #[arg(long, default_value_t = DEFAULTS.restir.moving_neighbours)]
     moving_neighbours: u32,
     /// Reject spatial neighbours whose shading normals' dot product is below this.
-    #[arg(long, default_value_t = DEFAULTS.restir.normal_threshold, allow_negative_numbers = true)]
+    #[arg(long, value_parser = parse_f32, default_value_t = DEFAULTS.restir.normal_threshold, allow_negative_numbers = true)]
     normal_threshold: f32,
     /// Reject spatial neighbours whose view depth differs by more than this fraction.
-    #[arg(long, default_value_t = DEFAULTS.restir.depth_threshold)]
+    #[arg(long, value_parser = parse_f32, default_value_t = DEFAULTS.restir.depth_threshold)]
     depth_threshold: f32,
     /// ReSTIR reuse: unbiased (pairwise MIS; converges to the brute-force sum) or biased
     /// (confidence weights as in the thesis: a few percent dark, fireflies).
@@ -211,7 +211,7 @@ struct RenderArgs {
     bias: Bias,
     /// RTXDI's boiling filter after temporal reuse (pass restir_boiling), strength in [0, 1] (0:
     /// off; 0.2 drops reservoirs 41× over their 8×8 neighbourhood's mean weight). Biased.
-    #[arg(long, default_value_t = DEFAULTS.restir.boiling_filter)]
+    #[arg(long, value_parser = parse_f32, default_value_t = DEFAULTS.restir.boiling_filter)]
     boiling_filter: f32,
     /// Shadow-test the initial ReSTIR sample, so that the targets include visibility (default off:
     /// unbiased either way; on costs two shadow rays per spatial neighbour).
@@ -222,11 +222,11 @@ struct RenderArgs {
     attenuation: Attenuation,
     /// Yuksel's r in scene units (default: 8 × the mean VPL spacing sqrt(scene area / (pi * VPLs)),
     /// chosen by `bench --radius`).
-    #[arg(long)]
+    #[arg(long, value_parser = parse_f32)]
     yuksel_radius: Option<f32>,
     /// The multiple M of the automatic Yuksel radius (default 8): M × the mean VPL spacing, or with
     /// --yuksel-knn M × each VPL's local spacing.
-    #[arg(long)]
+    #[arg(long, value_parser = parse_f32)]
     yuksel_spacings: Option<f32>,
     /// A Yuksel radius per VPL from its K nearest VPLs: M × d_K / sqrt(K), its local spacing
     /// (d_K: distance to the K-th nearest), instead of one radius from the mean spacing.
@@ -383,14 +383,14 @@ enum Command {
         #[arg(value_parser = Utf8Path, value_name = "B.exr")]
         reference: PathBuf,
         /// Exposure in EV of FLIP's 8-bit mapping (as --exposure of the PNG preview).
-        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        #[arg(long, value_parser = parse_f32, default_value_t = 0.0, allow_negative_numbers = true)]
         exposure: f32,
         /// Skip FLIP (the slow metric); its own flags (--exposure, --ppd, --error-image) are then
         /// refused, not ignored.
         #[arg(long, conflicts_with_all = ["error_image", "exposure", "ppd"])]
         no_flip: bool,
         /// FLIP's pixels per degree of visual angle.
-        #[arg(long, default_value_t = 67.0)]
+        #[arg(long, value_parser = parse_f32, default_value_t = 67.0)]
         ppd: f32,
         /// Write FLIP's error map as a false-colour PNG (magma: black = no error).
         #[arg(value_parser = Utf8Path, long, value_name = "OUT.png")]
@@ -1371,6 +1371,17 @@ fn warn_unused_flags(settings: &RenderSettings, given: &[String]) -> Vec<String>
         log::warn!("{w}");
     }
     out
+}
+
+/// A 32-bit float flag's value, read as f64 first: a finite value beyond f32 ("--mcap 1e39") is
+/// refused as such (it became inf, and the flag's own check then quoted "inf", not what was
+/// typed). NaN and the infinities pass, for each flag's own range check to name.
+fn parse_f32(s: &str) -> Result<f32, String> {
+    let v: f64 = s.trim().parse().map_err(|_| format!("'{s}' is not a number"))?;
+    if v.is_finite() && v.abs() > f64::from(f32::MAX) {
+        return Err(format!("{s} is beyond 32-bit floats (at most ±{:e})", f32::MAX));
+    }
+    Ok(v as f32)
 }
 
 /// The long flags (`--name`) of `cmd` and its subcommands that take a value. Their values may

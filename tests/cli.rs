@@ -235,6 +235,9 @@ fn bad_flags() {
     // (they were "unexpected argument '-1' found", naming no flag).
     assert_fails(&["--headless", "--eye", "-1,0", "--target", "0,0,0"], &["--eye", "-1,0"]);
     assert_fails(&["--headless", "--exposure", "-inf"], &["--exposure", "finite"]);
+    // A finite value beyond f32 is refused as typed (it became inf, and the message quoted "inf").
+    assert_fails(&["--headless", "--mcap", "1e39"], &["--mcap", "1e39 is beyond 32-bit floats"]);
+    assert_fails(&["compare", "a.exr", "b.exr", "--ppd", "-1e40"], &["--ppd", "-1e40 is beyond 32-bit floats"]);
     assert_fails(&["--headless", "--workgroup", "-8x8"], &["--workgroup", "-8"]);
     assert_fails(&["--headless", "--eye", "--target", "0,0,0"], &["--eye"]);
     // --dump-vpls over the scene or over a file the run writes to --out.
