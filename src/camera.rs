@@ -158,6 +158,24 @@ pub fn fov_ok(degrees: f32) -> bool {
     (MIN_FOV_DEGREES..180.0).contains(&degrees)
 }
 
+/// Why a run with `camera` (the command line's, if any) and `path_given` (`--camera-path`) cannot
+/// start from the scene's own camera: a yfov outside [`MIN_FOV_DEGREES`], 180) degrees, as
+/// `--fov` must be. None where the scene's camera is fine, absent, or replaced.
+pub fn scene_camera_problem(scene: &SceneInfo, camera: Option<&CameraOverride>, path_given: bool) -> Option<String> {
+    if camera.is_some() || path_given {
+        return None;
+    }
+    let (_, yfov) = scene.camera?;
+    (!fov_ok(yfov.to_degrees())).then(|| {
+        format!(
+            "{}: its camera's yfov {yfov} rad ({}°) must be in [{MIN_FOV_DEGREES}, 180) degrees, as --fov; fix the file, or \
+             give the camera with --eye/--target (and --fov)",
+            scene.path.display(),
+            yfov.to_degrees()
+        )
+    })
+}
+
 /// The farthest from the origin an eye or target may be (a camera path's and `--eye`'s).
 pub const MAX_CAMERA_COORDINATE: f32 = 1e18;
 
@@ -640,6 +658,32 @@ mod tests {
         // The direction turns over where the interpolated one crosses zero (at frame 2/3).
         assert!((p.at(0.5).forward - Vec3::X).length() < 1e-5, "{:?}", p.at(0.5));
         assert!((p.at(1.0).forward + Vec3::X).length() < 1e-5, "{:?}", p.at(1.0));
+    }
+
+    /// A scene camera whose yfov --fov would refuse stops a run that looks through it, naming the
+    /// file and the way round; one that --eye/--target or --camera-path replace goes on.
+    #[test]
+    fn a_scene_camera_with_a_bad_yfov_is_refused_unless_replaced() {
+        let info = |yfov: Option<f32>| crate::scene_gpu::SceneInfo {
+            path: "bad.gltf".into(),
+            meshes: 0,
+            materials: 0,
+            textured_materials: 0,
+            bounds: (Vec3::ZERO, Vec3::ONE),
+            surface_area: 0.0,
+            camera: yfov.map(|y| (glam::Mat4::IDENTITY, y)),
+            warnings: Vec::new(),
+            files: Vec::new(),
+        };
+        for bad in [0.0, -0.5, 4.0, f32::NAN] {
+            let why = scene_camera_problem(&info(Some(bad)), None, false).expect("refused");
+            assert!(why.starts_with("bad.gltf: its camera's yfov") && why.contains("--eye/--target"), "{why}");
+            let replaced = CameraOverride { eye: Vec3::Z, target: Vec3::ZERO, up: Vec3::Y, yfov_degrees: 40.0 };
+            assert_eq!(scene_camera_problem(&info(Some(bad)), Some(&replaced), false), None);
+            assert_eq!(scene_camera_problem(&info(Some(bad)), None, true), None);
+        }
+        assert_eq!(scene_camera_problem(&info(Some(0.7)), None, false), None);
+        assert_eq!(scene_camera_problem(&info(None), None, false), None);
     }
 
     /// The automatic camera frames bounds whose diagonal overflows f32 (and a scene of one point).

@@ -484,6 +484,9 @@ impl Renderer {
     /// targets, the passes the settings use and, when they need VPLs, the photon pass's VPL set.
     pub fn new(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: RenderSettings) -> Result<Self> {
         let settings = settings_for_device(&ctx, settings)?;
+        if let Some(why) = crate::camera::scene_camera_problem(&scene.info, settings.camera.as_ref(), settings.camera_path.is_some()) {
+            anyhow::bail!(why);
+        }
         // Tests only: a fault to plant (record_invalid_command, POISON_VPL_SHADE, debug_hang).
         let poison = std::env::var("RESTIR_VPL_DEBUG_POISON").ok();
         if poison.as_deref() == Some("validation") {

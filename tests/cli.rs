@@ -385,6 +385,28 @@ fn a_vpl_radius_beyond_the_scene_is_warned_about() {
     assert!(!err.contains("--vpl-radius"), "default radius: {err}");
 }
 
+/// A scene camera whose yfov is no field of view is refused by a run that would look through it,
+/// naming the file; --eye/--target replace it and the run renders (an error at load stopped that
+/// run too; before that, the camera was dropped with a warning and the automatic one saw black).
+#[test]
+fn a_scene_camera_with_a_bad_yfov_stops_only_the_runs_that_use_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = restir_vpl::scene::generate::GltfBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let lamp = b.material("lamp", [0.5; 3], [5.0; 3], false);
+    let floor = b.quad("floor", [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], grey);
+    let panel = b.quad("panel", [[-0.2, 1.0, -0.2], [0.2, 1.0, -0.2], [0.2, 1.0, 0.2], [-0.2, 1.0, 0.2]], lamp);
+    b.node("floor", floor, [0.0; 3]);
+    b.node("panel", panel, [0.0; 3]);
+    b.camera("cam", [0.0, 0.5, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 0.0);
+    let p = write(dir.path(), "narrow.gltf", &b.to_json_string());
+    let out = dir.path().join("out").display().to_string();
+    let small = ["--headless", "--mode", "pt", "--frames", "1", "--width", "8", "--height", "8", "--scene", &p, "--out", &out];
+    assert_fails(&small, &["narrow.gltf: its camera's yfov 0 rad", "--eye/--target"]);
+    let o = run(&[&small[..], &["--eye", "0,0.5,2", "--target", "0,0,0"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
 #[test]
 fn scene_without_emitters_renders_black_with_a_warning() {
     let dir = tempfile::tempdir().unwrap();

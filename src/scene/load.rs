@@ -165,25 +165,18 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                 .unwrap_or_else(|| node_name.clone());
             match cam.projection() {
                 gltf::camera::Projection::Perspective(p) if camera.is_none() => {
-                    let yfov = p.yfov();
-                    if crate::camera::fov_ok(yfov.to_degrees()) {
-                        check_camera_transform(world, &node_name, &name)?;
-                        // (Its aspectRatio is the image's --width/--height, as glTF viewers do with
-                        // the viewport's; exporters write it always, so it is not warned about.)
-                        camera = Some(Camera {
-                            name,
-                            transform: *world,
-                            yfov,
-                        });
-                    } else {
-                        // An error, as --fov's is: ignored, the automatic camera took its place
-                        // (a black image when it looked at the back of a wall) after a warning.
-                        bail!(
-                            "camera '{name}' (node '{node_name}'): yfov {yfov} rad ({}°) must be in [{}, 180) degrees, as --fov",
-                            yfov.to_degrees(),
-                            crate::camera::MIN_FOV_DEGREES
-                        );
-                    }
+                    // Kept whatever its yfov: one outside --fov's range is refused when a run would
+                    // look through it, not when --eye/--target or --camera-path replace it
+                    // (camera::scene_camera_problem). Ignored with a warning, the automatic camera
+                    // took its place: a black image where it looked at the back of a wall.
+                    check_camera_transform(world, &node_name, &name)?;
+                    // (Its aspectRatio is the image's --width/--height, as glTF viewers do with
+                    // the viewport's; exporters write it always, so it is not warned about.)
+                    camera = Some(Camera {
+                        name,
+                        transform: *world,
+                        yfov: p.yfov(),
+                    });
                 }
                 gltf::camera::Projection::Perspective(_) => warnings.push(format!(
                     "camera '{name}' ignored (only the first perspective camera is used)"
