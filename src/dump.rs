@@ -503,8 +503,7 @@ pub fn write_frame(
         passes,
     };
     let path = fdir.join("manifest.json");
-    let json = serde_json::to_string_pretty(&manifest)?;
-    crate::output::write_replacing(&path, |partial| Ok(std::fs::write(partial, &json)?)).with_context(|| format!("writing {}", path.display()))?;
+    crate::output::write_text(&path, &serde_json::to_string_pretty(&manifest)?)?;
     let readout_off = if readout { budget.take(&mut values) } else { Some("per-pixel readout off above 256×256 pixels (read the EXR files)".to_string()) };
     Ok(DumpedFrame { manifest, values, readout_off })
 }
@@ -636,7 +635,7 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
     html.push_str(INSPECTOR_SCRIPT);
     html.push_str("</script></body></html>\n");
     let path = dir.join("index.html");
-    crate::output::write_replacing(&path, |partial| Ok(std::fs::write(partial, &html)?)).with_context(|| format!("writing {}", path.display()))?;
+    crate::output::write_text(&path, &html)?;
     Ok(path)
 }
 

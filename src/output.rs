@@ -471,6 +471,12 @@ pub fn read_exr_with_attribute(path: &Path, attribute: &str) -> Result<(RgbImage
     Ok((image.layer_data.channel_data.pixels, value))
 }
 
+/// Writes `text` to `path` as [`write_replacing`] does (whole, or the earlier file left); errors
+/// name the file.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    write_replacing(path, |partial| Ok(std::fs::write(partial, text)?))
+}
+
 /// Writes an RGBA8 buffer as PNG.
 pub fn write_png(path: &Path, width: u32, height: u32, rgba: &[u8]) -> Result<()> {
     stage_png(path, width, height, rgba)?.commit()

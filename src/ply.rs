@@ -42,21 +42,18 @@ pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
     header += "end_header\n";
     crate::output::write_replacing(path, |partial| {
         // (write_replacing names the file in its errors: "writing PATH: ...".)
-        let file = std::fs::File::create(partial)?;
-        let mut w = std::io::BufWriter::new(file);
-        let written = (|| -> std::io::Result<()> {
-            w.write_all(header.as_bytes())?;
-            for v in vpls {
-                for f in v.position.iter().chain(&v.normal).chain(&v.flux) {
-                    w.write_all(&f.to_le_bytes())?;
-                }
-                let colour: [u8; 3] = if v.kind == VPL_INDIRECT { [230, 40, 30] } else { [30, 80, 240] };
-                w.write_all(&[v.kind as u8])?;
-                w.write_all(&colour)?;
+        let mut w = std::io::BufWriter::new(std::fs::File::create(partial)?);
+        w.write_all(header.as_bytes())?;
+        for v in vpls {
+            for f in v.position.iter().chain(&v.normal).chain(&v.flux) {
+                w.write_all(&f.to_le_bytes())?;
             }
-            w.flush()
-        })();
-        Ok(written?)
+            let colour: [u8; 3] = if v.kind == VPL_INDIRECT { [230, 40, 30] } else { [30, 80, 240] };
+            w.write_all(&[v.kind as u8])?;
+            w.write_all(&colour)?;
+        }
+        w.flush()?;
+        Ok(())
     })
 }
 

@@ -492,6 +492,21 @@ fn drop_nulls(v: &mut serde_json::Value) {
     }
 }
 
+/// A reference config ([`reference_config`]) as [`same_config`] and [`config_differences`] compare
+/// it: its JSON object without the settings its mode does not use, nor null-valued keys; None when
+/// it is not such an object.
+fn comparable_config(s: &str) -> Option<serde_json::Map<String, serde_json::Value>> {
+    let mut v: serde_json::Value = serde_json::from_str(s).ok()?;
+    let obj = v.as_object_mut()?;
+    let mode: Mode = serde_json::from_value(obj.get("mode")?.clone()).ok()?;
+    strip_unused(obj, mode);
+    drop_nulls(&mut v);
+    match v {
+        serde_json::Value::Object(obj) => Some(obj),
+        _ => None,
+    }
+}
+
 /// Whether two references' configs ([`reference_config`]) describe the same image: equal once the
 /// settings their mode does not use are dropped (files written before a key was dropped still
 /// match), and null-valued keys with them. A config that is not JSON matches only itself.
@@ -499,15 +514,7 @@ pub fn same_config(a: &str, b: &str) -> bool {
     if a == b {
         return true;
     }
-    let parse = |s: &str| -> Option<serde_json::Value> {
-        let mut v: serde_json::Value = serde_json::from_str(s).ok()?;
-        let obj = v.as_object_mut()?;
-        let mode: Mode = serde_json::from_value(obj.get("mode")?.clone()).ok()?;
-        strip_unused(obj, mode);
-        drop_nulls(&mut v);
-        Some(v)
-    };
-    match (parse(a), parse(b)) {
+    match (comparable_config(a), comparable_config(b)) {
         (Some(x), Some(y)) => x == y,
         _ => false,
     }
@@ -516,15 +523,7 @@ pub fn same_config(a: &str, b: &str) -> bool {
 /// The settings two reference configs differ in, key by key ("max_bounces 8 vs 2"), or both
 /// whole when either does not parse.
 fn config_differences(a: &str, b: &str) -> String {
-    let parse = |s: &str| -> Option<serde_json::Map<String, serde_json::Value>> {
-        let mut v: serde_json::Value = serde_json::from_str(s).ok()?;
-        let mode: Mode = serde_json::from_value(v.get("mode")?.clone()).ok()?;
-        let obj = v.as_object_mut()?;
-        strip_unused(obj, mode);
-        drop_nulls(&mut v);
-        Some(v.as_object()?.clone())
-    };
-    let (Some(x), Some(y)) = (parse(a), parse(b)) else {
+    let (Some(x), Some(y)) = (comparable_config(a), comparable_config(b)) else {
         return format!("settings '{a}' vs '{b}'");
     };
     let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();

@@ -581,7 +581,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         text.push_str(&section);
         text.push_str("\nRaw numbers: `motion.csv` (scene, mode, path frame, GPU ms, RMSE, relMSE, FLIP).\n");
     }
-    crate::output::write_replacing(&markdown, |partial| Ok(std::fs::write(partial, &text)?)).with_context(|| format!("writing {}", markdown.display()))?;
+    crate::output::write_text(&markdown, &text)?;
     Ok(ResultsOutput { markdown, csv, frame_times_csv, motion_csv, plots, points: all_points, frame_times: all_rows })
 }
 

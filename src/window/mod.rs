@@ -1124,9 +1124,7 @@ impl Presenter {
             }
         }
     }
-}
 
-impl Presenter {
     /// After an error between the acquire and the submit in [`Self::show`]: an empty submission
     /// waits on slot `f`'s acquire semaphore (unsignalling it) and, when the fence was reset,
     /// signals the fence, so that the slot is as a frame leaves it. Best effort: where it fails
