@@ -46,6 +46,14 @@ impl Camera {
         Self { position, forward, right, up, yfov, source }
     }
 
+    /// Eye, view direction, up and field of view on one line, in the command line's terms
+    /// (`--eye`, `--fov` in degrees), for logs.
+    pub fn describe(&self) -> String {
+        // (+ 0.0: -0 prints as 0.)
+        let v = |v: Vec3| format!("[{}, {}, {}]", v.x + 0.0, v.y + 0.0, v.z + 0.0);
+        format!("eye {}, forward {}, up {}, fov {:.2}°", v(self.position), v(self.forward), v(self.up), self.yfov.to_degrees())
+    }
+
     /// Whether every number of the camera is finite (what the renderer requires of a frame's camera).
     pub fn is_finite(&self) -> bool {
         self.position.is_finite() && self.forward.is_finite() && self.right.is_finite() && self.up.is_finite() && self.yfov.is_finite()

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context as _, Result};
 use serde::Serialize;
 
-use crate::gpu_types::{GpuReservoir, GpuSurface, GpuSurfaceTexels, RESERVOIR_EMPTY};
+use crate::gpu_types::{oct_decode, GpuReservoir, GpuSurface, GpuSurfaceTexels, GpuVplCandidate, CANDIDATE_INDEX_BITS, PRESAMPLE_TILE_SIZE, RESERVOIR_EMPTY};
 use crate::output::{write_exr, write_png, RgbImage};
 use crate::passes::{all_pass_descs, FramePlan, Step};
 use crate::renderer::{CaptureKind, Captured, FrameStats};
@@ -79,9 +79,11 @@ pub fn decode_surfaces(bytes: &[u8]) -> Vec<GpuSurface> {
     packed.iter().map(GpuSurfaceTexels::decode).collect()
 }
 
-/// The images a captured output decodes into.
-pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
-    let n = (width * height) as usize;
+/// The images a captured output decodes into, of its shape (the frame's size, or a tile
+/// capture's entries × tiles).
+pub fn decode(c: &Captured) -> Vec<Decoded> {
+    let [width, height] = c.shape;
+    let n = c.records();
     let img = |pixels: Vec<[f32; 3]>| RgbImage { width, height, pixels };
     match c.kind {
         CaptureKind::Surfaces => {
@@ -116,6 +118,19 @@ pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
                 Decoded { what: "target", look: "grey", image: img(r.iter().map(|r| [r.target; 3]).collect()) },
             ]
         }
+        CaptureKind::Candidates => {
+            let t: Vec<GpuVplCandidate> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuVplCandidate>()]);
+            let layout = TileLayout::of(c);
+            let tiles = |f: &dyn Fn(&GpuVplCandidate) -> [f32; 3]| layout.image(&t.iter().map(f).collect::<Vec<_>>());
+            vec![
+                Decoded { what: "vpl", look: "ids", image: tiles(&|t| hash_colour(candidate_index(t))) },
+                Decoded { what: "position", look: "signed", image: tiles(&|t| t.position) },
+                Decoded { what: "normal", look: "signed", image: tiles(&|t| oct_decode(t.normal_oct)) },
+                // Grey (per channel, white at the 99th percentile): a VPL's flux is a small share
+                // of the light's power, black in an image shown at exposure 0.
+                Decoded { what: "flux", look: "grey", image: tiles(&|t| t.flux) },
+            ]
+        }
         CaptureKind::Rgba8 => {
             let decode = |b: u8| {
                 let c = b as f32 / 255.0;
@@ -130,17 +145,60 @@ pub fn decode(c: &Captured, width: u32, height: u32) -> Vec<Decoded> {
     }
 }
 
-/// Pixels (row-major indices) where a captured output holds a non-finite float in any field.
-pub fn nonfinite_pixels(c: &Captured, pixels: usize) -> Vec<usize> {
-    let bpp = c.kind.bytes_per_pixel() as usize;
+/// How a tile capture is shown: each tile of [`PRESAMPLE_TILE_SIZE`] entries as a square of
+/// `side`² pixels (entry `e` at column `e % side`, row `e / side`), the tiles in a grid of
+/// `columns` squares per row, row-major (tile `t` in square row `t / columns`); squares past the
+/// last tile are black. The page's readout inverts it.
+pub struct TileLayout {
+    pub side: u32,
+    pub columns: u32,
+    pub rows: u32,
+}
+
+impl TileLayout {
+    pub fn of(c: &Captured) -> Self {
+        let [entries, tiles] = c.shape;
+        let side = (entries as f64).sqrt().ceil() as u32;
+        let columns = (tiles as f64).sqrt().ceil().max(1.0) as u32;
+        Self { side, columns, rows: tiles.div_ceil(columns).max(1) }
+    }
+
+    /// The image of per-entry values `v` (tile-major, as captured).
+    fn image(&self, v: &[[f32; 3]]) -> RgbImage {
+        let (width, height) = (self.columns * self.side, self.rows * self.side);
+        let entries = (self.side * self.side) as usize;
+        let mut pixels = vec![[0.0; 3]; (width * height) as usize];
+        for (i, value) in v.iter().enumerate() {
+            let (t, e) = ((i / entries) as u32, (i % entries) as u32);
+            let x = (t % self.columns) * self.side + e % self.side;
+            let y = (t / self.columns) * self.side + e / self.side;
+            pixels[(y * width + x) as usize] = *value;
+        }
+        RgbImage { width, height, pixels }
+    }
+}
+
+// The page's readout inverts TileLayout with squares of 32 × 32 entries.
+const _: () = assert!(PRESAMPLE_TILE_SIZE == 32 * 32);
+
+/// A presampled candidate's VPL index (the kind sits above it).
+fn candidate_index(t: &GpuVplCandidate) -> u32 {
+    t.vpl_kind & ((1 << CANDIDATE_INDEX_BITS) - 1)
+}
+
+/// Records (row-major indices: pixels, or a tile capture's entries) where a captured output holds
+/// a non-finite float in any field.
+pub fn nonfinite_records(c: &Captured) -> Vec<usize> {
+    let bpp = c.kind.bytes_per_record() as usize;
     // Which 4-byte words of a pixel's record are floats (the rest are ids).
     let float_word = |w: usize| match c.kind {
         CaptureKind::Surfaces => GpuSurfaceTexels::is_float_word(w),
         CaptureKind::Reservoirs => w != 0,                  // vpl index
         CaptureKind::Rgba => true,
         CaptureKind::Rgba8 => false,
+        CaptureKind::Candidates => !matches!(w, 3 | 7), // vpl_kind, normal_oct
     };
-    (0..pixels)
+    (0..c.records())
         .filter(|&p| {
             let rec = &c.bytes[p * bpp..(p + 1) * bpp];
             rec.chunks_exact(4).enumerate().any(|(w, b)| float_word(w) && !f32::from_le_bytes(b.try_into().expect("4 bytes")).is_finite())
@@ -150,13 +208,18 @@ pub fn nonfinite_pixels(c: &Captured, pixels: usize) -> Vec<usize> {
 
 /// Stops at the first non-finite value of a frame's captured outputs: names the frame, the pass,
 /// the buffer and the first pixels.
-pub fn check_finite(frame: u32, width: u32, height: u32, captured: &[Captured]) -> Result<()> {
+pub fn check_finite(frame: u32, captured: &[Captured]) -> Result<()> {
     for c in captured {
-        let bad = nonfinite_pixels(c, (width * height) as usize);
+        let bad = nonfinite_records(c);
         if !bad.is_empty() {
-            let first: Vec<String> = bad.iter().take(5).map(|&p| format!("({}, {})", p as u32 % width, p as u32 / width)).collect();
+            let width = c.shape[0] as usize;
+            let (unit, first): (&str, Vec<String>) = if c.kind.per_pixel() {
+                ("pixel(s)", bad.iter().take(5).map(|&p| format!("({}, {})", p % width, p / width)).collect())
+            } else {
+                (if bad.len() == 1 { "entry" } else { "entries" }, bad.iter().take(5).map(|&p| format!("tile {} entry {}", p / width, p % width)).collect())
+            };
             bail!(
-                "--check-finite: frame {frame}: pass '{}'{} wrote non-finite values to '{}' at {} pixel(s), first at {}",
+                "--check-finite: frame {frame}: pass '{}'{} wrote non-finite values to '{}' at {} {unit}, first at {}",
                 c.pass,
                 if c.repeat > 0 { format!(" (dispatch {})", c.repeat + 1) } else { String::new() },
                 c.buffer,
@@ -178,6 +241,12 @@ pub struct OutputStats {
     pub min: f64,
     pub max: f64,
     pub mean: f64,
+    /// The image's [width, height]: the frame's, or for `vpl_presample`'s tiles a grid of
+    /// squares, one per tile ([`TileLayout`]).
+    pub size: [u32; 2],
+    /// `vpl_presample`'s tiles: how many (the image shows each as a square of its entries).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tiles: Option<u32>,
     /// Pixels with a non-finite value in any channel.
     pub nonfinite: u64,
     /// The value the thumbnail shows white (`grey` images; their brighter pixels clip), else 0.
@@ -199,7 +268,7 @@ fn stats(file: String, buffer: &'static str, d: &Decoded, white: Option<f32>) ->
     }
     let finite_or_zero = |v: f64| if v.is_finite() { v } else { 0.0 };
     let white = white.map_or(0.0, f64::from);
-    OutputStats { file, buffer, what: d.what, look: d.look, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad, white }
+    OutputStats { file, buffer, what: d.what, look: d.look, size: [d.image.width, d.image.height], tiles: None, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad, white }
 }
 
 /// A dumped frame: its manifest and the values its page embeds for the per-pixel readout.
@@ -240,7 +309,8 @@ fn raw_ids(c: &Captured, pixels: usize) -> Option<(usize, Vec<u32>)> {
             let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..pixels * std::mem::size_of::<GpuReservoir>()]);
             Some((1, r.iter().map(|r| r.vpl).collect()))
         }
-        CaptureKind::Rgba | CaptureKind::Rgba8 => None,
+        // (Not per pixel: the page has no readout for the tiles.)
+        CaptureKind::Rgba | CaptureKind::Rgba8 | CaptureKind::Candidates => None,
     }
 }
 
@@ -423,26 +493,15 @@ pub fn write_frame(
         let captures = captured.iter().filter(|c| c.pass == name).count();
         match step {
             Step::Skip(why) => passes.push(common(None, 0, "skipped", Some(*why))),
-            // A pass without a per-pixel output (vpl_presample writes VPL tiles, regir_build grid
-            // entries): listed as run,
-            // with its time and why there is no image.
+            // A pass without a captured output (regir_build writes the grid's entries, of cells
+            // built or not): listed as run, with its time and why there is no image.
             Step::Run if captures == 0 => {
-                let why = if name == crate::passes::RegirBuildPass::NAME {
-                    "no per-pixel output (it writes the ReGIR grid's entries)"
-                } else {
-                    "no per-pixel output (it writes the frame's presampled VPL tiles)"
-                };
-                let mut e = common(Some(next_dispatch), 0, "run", Some(why));
+                let mut e = common(Some(next_dispatch), 0, "run", Some("no captured output (it writes the ReGIR grid's entries)"));
                 next_dispatch += 1;
                 if name == crate::passes::RegirBuildPass::NAME {
                     // One workgroup per cell.
                     let n = settings.grid.cells;
                     e.workgroups = Some([n, n, n]);
-                }
-                if name == crate::passes::VplPresamplePass::NAME {
-                    // One invocation per tile entry.
-                    let entries = crate::passes::VplPresamplePass::tile_count(width, height) * crate::gpu_types::PRESAMPLE_TILE_SIZE;
-                    e.workgroups = desc.map(|d| [entries.div_ceil(d.local_size_with(settings.workgroup)[0]), 1, 1]);
                 }
                 e.gpu_ms = dispatch_ms(0);
                 passes.push(e);
@@ -452,14 +511,18 @@ pub fn write_frame(
                     let position = next_dispatch;
                     next_dispatch += 1;
                     let mut e = common(Some(position), c.repeat, "run", None);
-                    e.workgroups = desc.map(|d| workgroups(d.local_size_with(settings.workgroup), width, height));
+                    e.workgroups = desc.map(|d| {
+                        let local = d.local_size_with(settings.workgroup);
+                        // vpl_presample: one invocation per tile entry.
+                        if c.kind.per_pixel() { workgroups(local, width, height) } else { [(c.records() as u32).div_ceil(local[0]), 1, 1] }
+                    });
                     // This dispatch's own time; rays are counted per pass, so a pass dispatched
                     // several times (restir_spatial ×P) has its rays only in the frame's total.
                     e.gpu_ms = dispatch_ms(c.repeat);
                     if captures == 1 {
                         e.rays_per_pixel = stats_of_frame.rays_by_pass.iter().find(|(n, _)| *n == name).map(|p| p.1 as f64 / pixels);
                     }
-                    let mut decoded = decode(c, width, height);
+                    let mut decoded = decode(c);
                     if c.buffer == "mean" {
                         if let Some(v) = &variance {
                             decoded.push(Decoded { what: "variance", look: "grey", image: RgbImage { width, height, pixels: v.clone() } });
@@ -467,13 +530,15 @@ pub fn write_frame(
                     }
                     for d in &decoded {
                         let file = format!("{position:02}_{}__{}.exr", dump_name(c), d.what);
-                        write_exr(&fdir.join(&file), width, height, &d.image.pixels)?;
+                        let (w, h) = (d.image.width, d.image.height);
+                        write_exr(&fdir.join(&file), w, h, &d.image.pixels)?;
                         let (png, white) = thumbnail(d);
-                        write_png(&fdir.join(file.replace(".exr", ".png")), width, height, &png)?;
-                        e.outputs.push(stats(file.clone(), c.buffer, d, white));
+                        write_png(&fdir.join(file.replace(".exr", ".png")), w, h, &png)?;
+                        e.outputs.push(OutputStats { tiles: (!c.kind.per_pixel()).then_some(c.shape[1]), ..stats(file.clone(), c.buffer, d, white) });
                         // (Kept only for a page that shows them: at 1280×720 every frame's were
-                        // held to the end of the run, 167 MB a ReSTIR frame.)
-                        if readout {
+                        // held to the end of the run, 167 MB a ReSTIR frame. The tiles are not
+                        // pixels: the page reads their entries out of the EXR files.)
+                        if readout && c.kind.per_pixel() {
                             let (channels, ids, words) = if d.look == "ids" {
                                 match raw_ids(c, (width * height) as usize) {
                                     Some((channels, words)) => (channels, true, words),
@@ -607,11 +672,14 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                 let png = format!("frame_{:04}/{}", m.frame, o.file.replace(".exr", ".png"));
                 let _ = write!(
                     html,
-                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" onclick=\"big(this)\"><figcaption>{} <b>{}</b><br>min {:.3e} max {:.3e}<br>mean {:.3e}{}{}</figcaption></figure>",
+                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" data-w=\"{}\" data-h=\"{}\" onclick=\"big(this)\"><figcaption>{} <b>{}</b>{}<br>min {:.3e} max {:.3e}<br>mean {:.3e}{}{}</figcaption></figure>",
                     m.frame,
                     o.file,
+                    o.size[0],
+                    o.size[1],
                     o.buffer,
                     o.what,
+                    if o.size != [m.width, m.height] { format!("<br>{} tiles × {} entries", o.tiles.unwrap_or(0), PRESAMPLE_TILE_SIZE) } else { String::new() },
                     o.min,
                     o.max,
                     o.mean,
@@ -661,18 +729,22 @@ figure img{display:block;width:128px;height:128px;object-fit:contain;background:
 const INSPECTOR_SCRIPT: &str = r#"
 function big(img){
   const z=document.getElementById('zoom'), zi=document.getElementById('zimg');
-  zi.src=img.src; zi.dataset.frame=img.dataset.frame; z.style.display='block';
-  // Enlarged to fill the view (a 64-px image too), in whole pixels' proportions.
-  const f=FRAMES.find(f=>String(f.frame)===img.dataset.frame);
-  if(f){const s=Math.min(innerWidth*0.7/f.w, innerHeight*0.85/f.h); zi.style.width=(f.w*s)+'px'; zi.style.height=(f.h*s)+'px';}
+  zi.src=img.src; zi.dataset.frame=img.dataset.frame; zi.dataset.file=img.dataset.file; z.style.display='block';
+  // Enlarged to fill the view (a 64-px image too), in whole pixels' proportions; an image of
+  // another size than the frame (vpl_presample's tiles) by its own.
+  const w=Number(img.dataset.w), h=Number(img.dataset.h);
+  zi.dataset.w=w; zi.dataset.h=h;
+  const s=Math.min(innerWidth*0.7/w, innerHeight*0.85/h); zi.style.width=(w*s)+'px'; zi.style.height=(h*s)+'px';
   document.getElementById('readout').textContent=img.dataset.file;
 }
 document.getElementById('zimg').addEventListener('mousemove',e=>{
   const zi=e.target, f=FRAMES.find(f=>String(f.frame)===zi.dataset.frame); if(!f)return;
-  const r=zi.getBoundingClientRect();
-  const x=Math.floor((e.clientX-r.left)/r.width*f.w), y=Math.floor((e.clientY-r.top)/r.height*f.h);
-  if(x<0||y<0||x>=f.w||y>=f.h)return;
-  document.getElementById('readout').textContent=readout(f,x,y);
+  const r=zi.getBoundingClientRect(), w=Number(zi.dataset.w), h=Number(zi.dataset.h);
+  const x=Math.floor((e.clientX-r.left)/r.width*w), y=Math.floor((e.clientY-r.top)/r.height*h);
+  if(x<0||y<0||x>=w||y>=h)return;
+  // vpl_presample's tiles: squares of 32×32 entries (dump.rs's TileLayout), in rows of w/32.
+  const tile=Math.floor(y/32)*(w/32)+Math.floor(x/32), entry=(y%32)*32+x%32;
+  document.getElementById('readout').textContent=(w===f.w&&h===f.h)?readout(f,x,y):`${zi.dataset.file}\ntile ${tile}, entry ${entry} (no readout for the tiles: read the EXR file)`;
 });
 // Each output's values (float32, or u32 ids), decoded from base64 on first use.
 function words(v){

@@ -375,6 +375,9 @@ pub const POISON_VPL_SHADE: u32 = 1;
 /// `GpuFrame::debug_poison`: `vpl_bruteforce` counts 2^32 − 256 rays more at pixel (0, 0), so that
 /// a small frame carries into its counter's high word (tests of the 64-bit count).
 pub const POISON_RAY_CARRY: u32 = 2;
+/// `GpuFrame::debug_poison`: `vpl_presample` writes a NaN flux into entry 1 of tile 0 (tests of
+/// `--check-finite` on the tiles).
+pub const POISON_VPL_PRESAMPLE: u32 = 3;
 
 /// `vpl_view`'s `mode` push constant: clear the sphere buffers (per pixel), splat the nearest
 /// sphere depth (per VPL), record the VPL at that depth (per VPL), draw (per pixel).
@@ -492,6 +495,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     COMPENSATE_VPLS,
     POISON_VPL_SHADE,
     POISON_RAY_CARRY,
+    POISON_VPL_PRESAMPLE,
     VPL_VIEW_CLEAR,
     VPL_VIEW_DEPTH,
     VPL_VIEW_ID,

@@ -297,9 +297,10 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         None => Camera::initial(&scene.info, settings.camera.as_ref()),
     };
     let camera = camera_at(0);
+    // (The device was logged when it was chosen.)
+    log::info!("camera ({}): {}", camera.source, camera.describe());
     log::info!(
-        "device: {}\ncamera: {camera:?}\nscene: {} triangles, {} instances ({} merged into one mesh, {} BLASes), {} lights, built in {:.1} ms",
-        ctx.report,
+        "scene: {} triangles, {} instances ({} merged into one mesh, {} BLASes), {} lights, built in {:.1} ms",
         scene.triangle_count,
         scene.instance_count,
         scene.merged_instances,
@@ -355,7 +356,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         if dump_this || settings.check_finite {
             let (stats, captured) = renderer.render_frame_captured(&camera_at(f), preview)?;
             captured_frames += 1;
-            let finite = if settings.check_finite { crate::dump::check_finite(f, settings.width, settings.height, &captured) } else { Ok(()) };
+            let finite = if settings.check_finite { crate::dump::check_finite(f, &captured) } else { Ok(()) };
             // With --dump-passes the frame --check-finite stops at is dumped whatever the
             // selection: it is the one to look at (the run stopped with the earlier dumps removed
             // and nothing in their place).
@@ -419,7 +420,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     if let (false, Some(dir)) = (dumped.is_empty(), &settings.out_dir) {
         finish_dump(&renderer, &dir.join("passes"), &dumped, &mut outputs)?;
     }
-    let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, outputs, warnings, start, None)?;
+    let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, Some(settings.frames), outputs, warnings, start, None)?;
     let mean = renderer.read_mean()?;
     let variance = renderer.read_variance()?;
     Ok(RunOutput { width: settings.width, height: settings.height, mean, variance, summary })
@@ -427,20 +428,24 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
 
 /// What every run ends with, headless or windowed: final.exr and final.png (when the settings have
 /// an output directory; the last frame must have been rendered with a preview), and the summary,
-/// written as summary.json beside them. `frames`: frames rendered in the run.
+/// written as summary.json beside them. `frames`: frames rendered in the run; `asked`: the frames
+/// it was set to render, None for a window without `--frames` (it renders until closed), whose
+/// summary then gives `settings.frames` as the frames rendered, not the flag's headless default.
 #[allow(clippy::too_many_arguments)]
 pub fn finish_run(
     ctx: &Context,
     scene: &SceneGpu,
     renderer: &mut Renderer,
     frames: u32,
+    asked: Option<u32>,
     mut outputs: Vec<String>,
     mut warnings: Vec<String>,
     start: Instant,
     displayed: Option<DisplayedFrames>,
 ) -> Result<Summary> {
     renderer.complete_all()?;
-    let settings = renderer.settings().clone();
+    let mut settings = renderer.settings().clone();
+    settings.frames = asked.unwrap_or(frames);
     // The three files are staged and put in place together at the end: a write that fails (a full
     // disk) leaves an earlier run's set whole, not its summary beside this run's EXR.
     let mut staged = Vec::new();

@@ -367,7 +367,8 @@ fn record_invalid_command(ctx: &Arc<Context>) -> Result<()> {
     ctx.one_shot(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, buffer.raw, 0, 256, 0) })
 }
 
-/// What a captured pass output holds, per pixel.
+/// What a captured pass output holds: a record per pixel, or per entry of a buffer that is not an
+/// image (`vpl_presample`'s tiles).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CaptureKind {
     /// `GpuSurfaceTexels` (the G-buffer's packed record; `decode` gives the `GpuSurface`).
@@ -378,16 +379,24 @@ pub enum CaptureKind {
     Reservoirs,
     /// RGBA8 sRGB (the preview).
     Rgba8,
+    /// `GpuVplCandidate`, one per tile entry (`vpl_presample`'s tiles): not per pixel.
+    Candidates,
 }
 
 impl CaptureKind {
-    pub fn bytes_per_pixel(self) -> u64 {
+    pub fn bytes_per_record(self) -> u64 {
         match self {
             CaptureKind::Surfaces => std::mem::size_of::<crate::gpu_types::GpuSurfaceTexels>() as u64,
             CaptureKind::Rgba => 16,
             CaptureKind::Reservoirs => std::mem::size_of::<crate::gpu_types::GpuReservoir>() as u64,
             CaptureKind::Rgba8 => 4,
+            CaptureKind::Candidates => std::mem::size_of::<crate::gpu_types::GpuVplCandidate>() as u64,
         }
+    }
+
+    /// Whether the records are the image's pixels (row-major), as every kind but the tiles' are.
+    pub fn per_pixel(self) -> bool {
+        self != CaptureKind::Candidates
     }
 }
 
@@ -402,7 +411,16 @@ pub struct Captured {
     /// The buffer's name in the code (the binding the pass writes).
     pub buffer: &'static str,
     pub kind: CaptureKind,
+    /// The records as an image, [columns, rows]: the frame's width and height for a per-pixel
+    /// output, [entries per tile, tiles] for `vpl_presample`'s tiles.
+    pub shape: [u32; 2],
     pub bytes: Vec<u8>,
+}
+
+impl Captured {
+    pub fn records(&self) -> usize {
+        self.shape[0] as usize * self.shape[1] as usize
+    }
 }
 
 /// A captured output's place in the capture buffer.
@@ -413,33 +431,58 @@ struct CaptureMeta {
     repeat: u32,
     buffer: &'static str,
     kind: CaptureKind,
+    shape: [u32; 2],
     offset: u64,
     size: u64,
 }
 
-/// Where a dispatch's output lies: (buffer name, kind, source buffer, byte offset in it).
+/// What a dispatch writes that a capture copies: its buffer's name, kind, shape (as
+/// [`Captured::shape`]), source buffer and byte offset in it.
+struct DispatchOutput<'a> {
+    buffer: &'static str,
+    kind: CaptureKind,
+    shape: [u32; 2],
+    src: &'a Buffer,
+    offset: u64,
+}
+
+impl DispatchOutput<'_> {
+    fn size(&self) -> u64 {
+        self.kind.bytes_per_record() * u64::from(self.shape[0]) * u64::from(self.shape[1])
+    }
+}
+
+/// Where a dispatch's output lies (None: the pass writes nothing a capture copies).
 fn dispatch_output<'a>(
     d: crate::passes::Dispatch,
     targets: &'a FrameTargets,
     reservoirs: Option<&'a Reservoirs>,
+    presample: Option<&'a crate::passes::VplPresamplePass>,
     current: usize,
     surface_half: u32,
-) -> Option<(&'static str, CaptureKind, &'a Buffer, u64)> {
+) -> Option<DispatchOutput<'a>> {
     use crate::passes::*;
+    let image = [targets.width, targets.height];
+    let out = |buffer, kind, src, offset| DispatchOutput { buffer, kind, shape: image, src, offset };
     Some(match d.name {
-        GbufferPass::NAME => (
+        GbufferPass::NAME => out(
             "surfaces",
             CaptureKind::Surfaces,
             &targets.surfaces,
-            u64::from(surface_half) * u64::from(targets.surface_half_records) * CaptureKind::Surfaces.bytes_per_pixel(),
+            u64::from(surface_half) * u64::from(targets.surface_half_records) * CaptureKind::Surfaces.bytes_per_record(),
         ),
-        PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplCompensatePass::NAME | VplViewPass::NAME => ("samples", CaptureKind::Rgba, &targets.samples, 0),
+        PathtracePass::NAME | VplBruteforcePass::NAME | VplShadePass::NAME | VplCompensatePass::NAME | VplViewPass::NAME => out("samples", CaptureKind::Rgba, &targets.samples, 0),
+        // The frame's tiles of presampled candidates (a NaN there was blamed on restir_initial).
+        VplPresamplePass::NAME => {
+            let p = presample?;
+            DispatchOutput { buffer: "tiles", kind: CaptureKind::Candidates, shape: [crate::gpu_types::PRESAMPLE_TILE_SIZE, p.tile_count], src: &p.tiles, offset: 0 }
+        }
         // (The fused passes never run in a captured frame: FramePlan splits them.)
-        RestirInitialPass::NAME | RestirTemporalPass::NAME | RestirBoilingPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
+        RestirInitialPass::NAME | RestirTemporalPass::NAME | RestirBoilingPass::NAME => out("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
         // Spatial pass j reads buffer(current ^ (j & 1)) and writes the other one.
-        RestirSpatialPass::NAME => ("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(1 - (current ^ (d.repeat as usize & 1))), 0),
-        AccumulatePass::NAME => ("mean", CaptureKind::Rgba, &targets.mean, 0),
-        TonemapPass::NAME => ("preview", CaptureKind::Rgba8, &targets.preview, 0),
+        RestirSpatialPass::NAME => out("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(1 - (current ^ (d.repeat as usize & 1))), 0),
+        AccumulatePass::NAME => out("mean", CaptureKind::Rgba, &targets.mean, 0),
+        TonemapPass::NAME => out("preview", CaptureKind::Rgba8, &targets.preview, 0),
         _ => return None,
     })
 }
@@ -545,6 +588,7 @@ impl Renderer {
             debug_poison: match poison.as_deref() {
                 Some("vpl_shade") => crate::gpu_types::POISON_VPL_SHADE,
                 Some("ray_carry") => crate::gpu_types::POISON_RAY_CARRY,
+                Some("vpl_presample") => crate::gpu_types::POISON_VPL_PRESAMPLE,
                 _ => 0,
             },
             debug_hang: debug_hang(&ctx, poison.as_deref())?,
@@ -1127,6 +1171,7 @@ impl Renderer {
                 repeat: m.repeat,
                 buffer: m.buffer,
                 kind: m.kind,
+                shape: m.shape,
                 bytes: buffer.read(m.offset as usize, m.size as usize)?,
             });
         }
@@ -1170,13 +1215,14 @@ impl Renderer {
             // Room for what this frame's dispatches write (the same rule as the copies below).
             let targets = &self.parts.targets;
             let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
-            let per_pixel: u64 = plan
+            let presample = self.parts.passes.vpl.presample.as_ref();
+            let bytes: u64 = plan
                 .dispatches()
                 .into_iter()
-                .filter_map(|d| dispatch_output(d, targets, reservoirs, plan.vpl.current, halves.0))
-                .map(|(_, kind, _, _)| kind.bytes_per_pixel())
+                .filter_map(|d| dispatch_output(d, targets, reservoirs, presample, plan.vpl.current, halves.0))
+                .map(|o| o.size())
                 .sum();
-            let need = (targets.pixels() as u64 * per_pixel).max(4);
+            let need = bytes.max(4);
             if self.capture_buffer.as_ref().is_none_or(|b| b.size < need) {
                 self.capture_buffer = Some(Buffer::new(&self.ctx, "capture.pass_outputs", need, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?);
             }
@@ -1202,19 +1248,20 @@ impl Renderer {
         if capture {
             let targets = &self.parts.targets;
             let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
-            let (current, pixels) = (plan.vpl.current, targets.pixels() as u64);
+            let presample = self.parts.passes.vpl.presample.as_ref();
+            let current = plan.vpl.current;
             let cap = self.capture_buffer.as_ref().expect("allocated before recording");
             let mut used = 0u64;
             let mut hook = |cmd: vk::CommandBuffer, d: crate::passes::Dispatch| {
-                if let Some((buffer, kind, src, offset)) = dispatch_output(d, targets, reservoirs, current, halves.0) {
-                    let size = kind.bytes_per_pixel() * pixels;
+                if let Some(o) = dispatch_output(d, targets, reservoirs, presample, current, halves.0) {
+                    let size = o.size();
                     assert!(used + size <= cap.size, "the capture buffer was sized from the same dispatches");
-                    let region = [vk::BufferCopy::default().src_offset(offset).dst_offset(used).size(size)];
+                    let region = [vk::BufferCopy::default().src_offset(o.offset).dst_offset(used).size(size)];
                     // SAFETY: both buffers are alive; the pass's barrier precedes the copy and the one
                     // below orders the passes after it (they may overwrite the source).
-                    unsafe { ctx.device.cmd_copy_buffer(cmd, src.raw, cap.raw, &region) };
+                    unsafe { ctx.device.cmd_copy_buffer(cmd, o.src.raw, cap.raw, &region) };
                     crate::vk::pipeline::compute_barrier(&ctx, cmd);
-                    metas.push(CaptureMeta { position: metas.len(), pass: d.name, repeat: d.repeat, buffer, kind, offset: used, size });
+                    metas.push(CaptureMeta { position: metas.len(), pass: d.name, repeat: d.repeat, buffer: o.buffer, kind: o.kind, shape: o.shape, offset: used, size });
                     used += size;
                 }
                 record_debug_hang(&ctx, cmd, d, hang);

@@ -717,6 +717,8 @@ fn presample_off_skips_the_pass_and_says_why() {
     let o = run(&[&common[..], &["--mode", "uniform"]].concat());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("vpl_presample            skip (uniform sampling reads one VPL per pixel)"), "{}", stderr(&o));
+    // Uniform draws its one VPL a pixel in restir_initial: the list says so, not only the name.
+    assert!(stderr(&o).contains("restir_initial           run (1 candidate per pixel into its reservoir)"), "{}", stderr(&o));
     let o = run(&[&common[..], &["--mode", "ris", "--presample", "maybe"]].concat());
     assert!(!o.status.success() && stderr(&o).contains("--presample"), "{}", stderr(&o));
 }

@@ -63,17 +63,16 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
             let outputs = p["outputs"].as_array().unwrap();
             // Every dispatch has its position in the frame, vpl_presample too (it had none).
             assert!(p["position"].as_u64().is_some(), "{p}");
-            if p["pass"] == "vpl_presample" {
-                // Its output is a tile list, not an image: no outputs, and it says so.
-                assert!(outputs.is_empty() && p["why"].as_str().unwrap().contains("tiles"), "{p}");
-                continue;
-            }
             assert!(!outputs.is_empty(), "{p}");
+            // vpl_presample's output is its tiles (one per 8×8 block: 64), not an image: each
+            // shown as a square of its 1024 entries, eight squares a row.
+            let size = if p["pass"] == "vpl_presample" { (256, 256) } else { (64, 64) };
             for o in outputs {
                 let file = o["file"].as_str().unwrap();
                 assert!(file.starts_with(&format!("{:02}_", p["position"].as_u64().unwrap())), "{file}");
                 let img = restir_vpl::output::read_exr(&fdir.join(file)).unwrap();
-                assert_eq!((img.width, img.height), (64, 64));
+                assert_eq!((img.width, img.height), size, "{file}");
+                assert_eq!(o["tiles"].as_u64(), (p["pass"] == "vpl_presample").then_some(64), "{o}");
                 assert!(fdir.join(file.replace(".exr", ".png")).exists());
                 assert_eq!(o["nonfinite"], 0, "{o}");
                 assert!(o["min"].as_f64().unwrap() <= o["mean"].as_f64().unwrap() && o["mean"].as_f64().unwrap() <= o["max"].as_f64().unwrap(), "{o}");
@@ -175,6 +174,42 @@ fn contribution(s: &GpuSurface, v: &GpuVpl, r2: f32) -> Vec3 {
     Vec3::from(s.albedo) / std::f32::consts::PI * Vec3::from(v.flux) * (emit * cos_x * g / std::f32::consts::PI)
 }
 
+/// vpl_presample's captured tiles hold copies of the VPLs they name (position and flux exact,
+/// the normal through its octahedral code), and with the uniform source their indices are uniform
+/// over the VPL set: the mean index lies within 4 standard errors of (N − 1)/2 (SE: N/√(12 n)
+/// for n draws; 4 SE, a false alarm about once in 16,000 runs).
+#[test]
+fn presampled_tiles_copy_the_vpls_they_name_drawn_uniformly() {
+    let ctx = context();
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let settings = RenderSettings { mode: Mode::Ris, vpls_direct: 2000, vpls_indirect: 2000, ..small(64, 64, 1) };
+    let gpu = upload(&ctx, &scene, &settings);
+    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let camera = r.initial_camera();
+    let (_, captured) = r.render_frame_captured(&camera, false).unwrap();
+    let vpls = r.read_vpls().unwrap().unwrap();
+    let tiles = captured.iter().find(|c| c.pass == "vpl_presample").expect("the tiles are captured");
+    assert_eq!((tiles.kind, tiles.buffer, tiles.shape), (CaptureKind::Candidates, "tiles", [1024, 64]));
+    let candidates: Vec<restir_vpl::gpu_types::GpuVplCandidate> = bytemuck::pod_collect_to_vec(&tiles.bytes);
+    assert_eq!(candidates.len(), tiles.records());
+    let index_bits = restir_vpl::gpu_types::CANDIDATE_INDEX_BITS;
+    let mut sum = 0f64;
+    for c in &candidates {
+        let i = (c.vpl_kind & ((1 << index_bits) - 1)) as usize;
+        let v = &vpls[i];
+        assert_eq!((c.position, c.flux, c.vpl_kind >> index_bits), (v.position, v.flux, v.kind), "entry naming VPL {i}");
+        let n = restir_vpl::gpu_types::oct_decode(c.normal_oct);
+        assert!((Vec3::from(n) - Vec3::from(v.normal)).length() < 1e-3, "VPL {i}: normal {n:?} against {:?}", v.normal);
+        sum += i as f64;
+    }
+    let (n, count) = (candidates.len() as f64, vpls.len() as f64);
+    let se = count / (12.0 * n).sqrt();
+    let mean = sum / n;
+    assert!((mean - (count - 1.0) / 2.0).abs() < 4.0 * se, "mean index {mean} of {count} VPLs (SE {se})");
+    assert!(restir_vpl::dump::nonfinite_records(tiles).is_empty());
+    common::assert_no_validation_errors(&ctx);
+}
+
 #[test]
 fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     let ctx = context();
@@ -254,6 +289,20 @@ fn check_finite_names_the_pass_and_pixel_of_a_planted_nan() {
         assert!(o.status.success(), "{mode}: {err}");
         // ReSTIR's captured frames run apart what the summary's fuse_passes says runs fused.
         assert_eq!(err.contains("2 of 2 frame(s) ran their passes apart"), mode == "restir", "{mode}: {err}");
+    }
+    // A NaN planted in vpl_presample's tiles, in the flux of tile 0's entry 1: the tiles are
+    // captured too. Nothing else finds it: restir_initial's RIS drops a NaN candidate (its weight
+    // fails every comparison), so no sample is NaN and the run without the check is clean.
+    let o = bin()
+        .args(SMALL)
+        .args(["5", "--mode", "ris", "--frames", "2", "--check-finite", "--out", out])
+        .env("RESTIR_VPL_DEBUG_POISON", "vpl_presample")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "--check-finite must stop: {err}");
+    for needle in ["frame 0", "'vpl_presample'", "'tiles'", "at 1 entry,", "tile 0 entry 1"] {
+        assert!(err.contains(needle), "the error should name {needle}: {err}");
     }
     // A NaN planted in vpl_shade's output at pixel (1, 1) (test-only switch).
     let o = bin()

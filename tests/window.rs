@@ -557,6 +557,9 @@ fn frozen_window_still_answers_and_home_replays_the_camera_path() {
     std::fs::remove_file(out.join("summary.json")).unwrap();
     let again = write_until(d, &wid, &out, Duration::from_secs(30), "a second write while frozen", |s| s["frames"].is_u64());
     assert_eq!(again["frames"], first["frames"], "frames rendered while frozen: {again}");
+    // Without --frames the window renders until closed: its settings give the frames rendered,
+    // not the headless default (20), which the run never asked for.
+    assert_eq!(again["settings"]["frames"], again["frames"], "{again}");
     // Home, then one frame (F3): the path's first keyframe.
     press_until_title(d, &wid, "Home", "playing again", Duration::from_secs(30));
     xdotool(d, &["key", "F3"]);

@@ -41,5 +41,9 @@ void main() {
         AliasEntry a = alias_texels(vpl_alias, i);
         i = alias_resolve(i, a.keep, a.alias, rand(rng));
     }
-    tiles[e] = vpl_candidate(vpl_texels(vpls, i), i);
+    VplCandidate c = vpl_candidate(vpl_texels(vpls, i), i);
+    if (frame.debug_poison == POISON_VPL_PRESAMPLE && e == 1u) {
+        c.flux = vec3(uintBitsToFloat(0x7fc00000u));  // tests of --check-finite only
+    }
+    tiles[e] = c;
 }

@@ -430,6 +430,11 @@ impl FramePlan {
                 Step::Run if *name == RestirSpatialPass::NAME => {
                     format!("  {name:<24} run ×{}", self.restir_spatial_dispatches())
                 }
+                // (Uniform and RIS run it too: a uniform frame's one VPL per pixel is drawn here.)
+                Step::Run if *name == RestirInitialPass::NAME || *name == RestirInitialTemporalPass::NAME => {
+                    let n = self.vpl.params.candidates;
+                    format!("  {name:<24} run ({n} candidate{} per pixel into its reservoir)", if n == 1 { "" } else { "s" })
+                }
                 Step::Run => format!("  {name:<24} run"),
                 Step::Skip(why) => format!("  {name:<24} skip ({why})"),
             })

@@ -529,7 +529,7 @@ impl App {
             Action::SaveImage => {
                 let outputs = Vec::new();
                 let displayed = r.displayed(r.swapchain.mode);
-                r.message = match finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, outputs, Vec::new(), self.start, displayed) {
+                r.message = match finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, self.opts.frames, outputs, Vec::new(), self.start, displayed) {
                     Ok(summary) => {
                         r.saved |= self.settings.out_dir.is_some();
                         let json = self.settings.out_dir.as_ref().map(|d| format!(", {}", d.join("summary.json").display())).unwrap_or_default();
@@ -798,7 +798,7 @@ impl App {
         }
         if self.opts.frames == Some(r.frames) {
             let displayed = r.displayed(r.swapchain.mode);
-            let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, Vec::new(), Vec::new(), self.start, displayed)?;
+            let summary = finish_run(&r.ctx, &r.scene, &mut r.renderer, r.frames, self.opts.frames, Vec::new(), Vec::new(), self.start, displayed)?;
             self.summary = Some(summary);
             event_loop.exit();
         }
