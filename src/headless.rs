@@ -283,7 +283,15 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         crate::output::prepare_output_dir("--out", dir)?;
         // Checked before the frames, not after them.
         for name in RUN_OUTPUT_FILES {
-            crate::output::check_writable(&dir.join(name)).with_context(|| format!("--out {}", dir.display()))?;
+            let path = dir.join(name);
+            // (check_writable's "name a file" is advice for a flag that names the file.)
+            anyhow::ensure!(
+                !path.is_dir(),
+                "--out {}: {} is a directory, and the run writes its {name} there; move it away or give another --out",
+                dir.display(),
+                path.display()
+            );
+            crate::output::check_writable(&path).with_context(|| format!("--out {}", dir.display()))?;
         }
         if settings.dump_passes.is_some() {
             crate::dump::check_dump_dir(&dir.join("passes"))?;

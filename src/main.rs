@@ -608,11 +608,13 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
             yfov_degrees: cli.fov.unwrap_or(45.0),
         }),
         (None, None) => {
+            // Whose camera it would change: the path's keyframes, or the scene's camera.
+            let keeps = if cli.camera_path.is_some() { "--camera-path's keyframes give" } else { "the scene camera keeps" };
             if cli.fov.is_some() {
-                bail!("--fov needs --eye and --target (the scene camera keeps its own field of view)");
+                bail!("--fov needs --eye and --target ({keeps} the field of view)");
             }
             if cli.up.is_some() {
-                bail!("--up needs --eye and --target (the scene camera keeps its own orientation)");
+                bail!("--up needs --eye and --target ({keeps} the orientation)");
             }
             None
         }
@@ -686,6 +688,9 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
 }
 
 fn real_main(cli: Cli, given: &[String]) -> Result<()> {
+    // Refused by every command, as README says, also those that open no device (compare,
+    // merge-references) or only list them: a typo must not pass silently anywhere.
+    env_validate()?;
     if let Some(Command::Compare { test, reference, exposure, no_flip, ppd, error_image, json }) = &cli.command {
         let opts = restir_vpl::eval::compare::CompareOptions { flip: !*no_flip, exposure: *exposure, ppd: *ppd };
         return restir_vpl::eval::compare::run_cli(test, reference, &opts, error_image.as_deref(), json.as_deref());
@@ -760,8 +765,11 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         // without the layer; `=maybe` was taken without a word).
         env_validate()?;
         check_counts(&[("--runs", *runs)], checkpoints.as_deref())?;
-        if (*quick || runs.is_some()) && !*curves && !*motion && !*radius && !*scaling {
-            bail!("--quick and --runs go with --curves, --motion, --radius or --scaling");
+        if *quick && !*curves && !*motion && !*radius && !*scaling {
+            bail!("--quick goes with --curves, --motion, --radius or --scaling");
+        }
+        if runs.is_some() && !*curves && !*motion && !*radius {
+            bail!("--runs goes with --curves, --motion or --radius");
         }
         // Each benchmark's own flags; another one given is refused, not ignored (`--rays --scene X`
         // measured the three scenes without a word).
@@ -1032,10 +1040,15 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         return Ok(());
     }
     if cli.list_devices {
-        let devices = restir_vpl::vk::context::list_devices(cli.render.trace.and_then(TraceArg::tracing))?;
-        if devices.is_empty() {
-            restir_vpl::outln!("no Vulkan devices found (is a Vulkan driver installed? run scripts/setup.sh)");
-        }
+        // No driver, or no device: the listing is empty and succeeds, with the text a render's
+        // error gives (which names the driver files where the loader found no driver).
+        let devices = match restir_vpl::vk::context::list_devices(cli.render.trace.and_then(TraceArg::tracing)) {
+            Err(e) if e.downcast_ref::<NoTracingDevice>().is_some() => {
+                restir_vpl::outln!("{e}");
+                Vec::new()
+            }
+            listed => listed?,
+        };
         for d in devices {
             restir_vpl::outln!("{d}");
         }
@@ -1092,8 +1105,18 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     );
     if s.accumulated_frames < s.frames {
         // (summary.json said so; the printout read as if final.exr averaged every frame.)
+        // Why, in this run's terms (a reservoir view was told "--progressive off").
+        let why = if settings.view.shows_reservoirs() {
+            format!("--view {} shows one frame's reservoirs, not a mean", settings.view.name())
+        } else if !settings.progressive {
+            "--progressive off: every image is its frame alone".to_string()
+        } else if settings.camera_path.is_some() {
+            "the accumulation starts again each frame the --camera-path camera moves".to_string()
+        } else {
+            "the accumulation starts again when the camera or a setting changes".to_string()
+        };
         restir_vpl::outln!(
-            "final image: {} (the accumulation starts again when the camera or a setting changes, and every frame with --progressive off)",
+            "final image: {} ({why})",
             match s.accumulated_frames {
                 1 => "the last frame alone".to_string(),
                 n => format!("the mean of the last {n} frames"),
@@ -1446,8 +1469,20 @@ fn list_devices_alone(matches: &clap::ArgMatches) -> Result<()> {
     Ok(())
 }
 
+/// `reference`'s command as its help should read: the render flags it refuses (a headless run's
+/// extra outputs and checks, `--camera-path`) are hidden, still parsed so that their refusal
+/// names them; `--frames` loses the window's sentence.
+fn reference_help(c: clap::Command) -> clap::Command {
+    c.mut_subcommand("reference", |r| {
+        ["save_every", "dump_vpls", "dump_passes", "check_finite", "renderdoc_capture", "camera_path"]
+            .into_iter()
+            .fold(r, |r, id| r.mut_arg(id, |a| a.hide(true)))
+            .mut_arg("frames", |a| a.help("Frames this run renders and averages (with --resume: the frames added to the file's) [default: 20]"))
+    })
+}
+
 fn main() -> ExitCode {
-    let command = Cli::command();
+    let command = reference_help(Cli::command());
     let flags = value_flags(&command);
     let matches = command.get_matches_from(join_signed_values(std::env::args_os().collect(), &flags));
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());

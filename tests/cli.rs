@@ -937,7 +937,8 @@ fn a_validation_error_fails_headless_and_reference_runs() {
 
 /// No Vulkan driver at all (the loader pointed at a driver file that does not exist): every
 /// command that needs a device says that no device qualifies, and why, with exit code 2 (as for
-/// devices without ray queries); `--list-devices` lists none and succeeds. Before, the loader's
+/// devices without ray queries); `--list-devices` lists none and succeeds, with the same words
+/// (it said "no Vulkan devices found" without naming the driver files to check). Before, the loader's
 /// answers came out as "vkCreateInstance failed" or "vkEnumeratePhysicalDevices failed", exit 1.
 #[test]
 fn no_vulkan_driver_is_reported_as_no_device_with_exit_code_2() {
@@ -958,7 +959,14 @@ fn no_vulkan_driver_is_reported_as_no_device_with_exit_code_2() {
     assert!(!err.contains("panicked"), "{err}");
     let o = without_driver(&["--list-devices"]);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(String::from_utf8_lossy(&o.stdout).contains("no Vulkan devices found"), "{:?}", o);
+    let listed = String::from_utf8_lossy(&o.stdout);
+    assert!(listed.contains("(none)") && listed.contains("found no driver") && listed.contains("VK_ICD_FILENAMES"), "{o:?}");
+    // RESTIR_VPL_VALIDATE is checked by every command, those without a device too (a typo
+    // passed silently there).
+    for args in [&["--list-devices"][..], &["compare", "a.exr", "b.exr"], &["merge-references", "a.exr", "b.exr", "--out", "c.exr"]] {
+        let o = bin().args(args).env("RESTIR_VPL_VALIDATE", "maybe").output().unwrap();
+        assert!(!o.status.success() && stderr(&o).contains("RESTIR_VPL_VALIDATE"), "{args:?}: {}", stderr(&o));
+    }
 }
 
 /// A path that is not UTF-8 is refused before any work, naming its flag or argument (the summary
@@ -1334,4 +1342,31 @@ fn a_closed_stdout_ends_the_run_quietly() {
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.code() == Some(1) && err.contains("writing to stdout"), "{err}");
     }
+}
+
+/// The printout's "final image" line gives this run's reason for averaging fewer frames than it
+/// rendered: a reservoir view was said to be "--progressive off". `reference --help` hides the
+/// render flags `reference` refuses (still refused by name when given).
+#[test]
+fn the_final_image_line_names_the_runs_reason_and_reference_help_lists_what_it_takes() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let small = ["--headless", "--width", "8", "--height", "8", "--frames", "2", "--vpls-direct", "50", "--vpls-indirect", "50", "--out", out];
+    for (extra, reason) in [
+        (&["--mode", "restir", "--view", "reservoir-m"][..], "(--view reservoir-m shows one frame's reservoirs, not a mean)"),
+        (&["--progressive", "off"][..], "(--progressive off: every image is its frame alone)"),
+    ] {
+        let o = run(&[&small[..], extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        let text = String::from_utf8_lossy(&o.stdout);
+        assert!(text.contains(&format!("final image: the last frame alone {reason}")), "{extra:?}: {text}");
+    }
+    let o = run(&["reference", "--help"]);
+    let help = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && help.contains("--frames") && help.contains("--resume"), "{help}");
+    for refused in ["--save-every", "--dump-vpls", "--dump-passes", "--check-finite", "--renderdoc-capture", "--camera-path", "In a window"] {
+        assert!(!help.contains(refused), "reference --help lists {refused}: {help}");
+    }
+    let o = run(&["reference", "--check-finite", "--out", &format!("{out}/r.exr")]);
+    assert!(!o.status.success() && stderr(&o).contains("--check-finite"), "{}", stderr(&o));
 }

@@ -44,6 +44,9 @@ fn black_images_ratio_is_one_and_zero_mean_reference_is_not_nan() {
     let grey = image(4, 4, |_, _| [0.5; 3]);
     let c = compare(&grey, &black, &no_flip()).unwrap();
     assert_eq!(c.mean_ratio, f64::INFINITY);
+    // The printed table says so in words ("inf" read as a number; the JSON writes null).
+    let t = restir_vpl::eval::compare::table(&c);
+    assert!(t.contains("mean ratio       none: the reference's mean is 0") && !t.contains("inf"), "{t}");
 }
 
 #[test]

@@ -327,7 +327,12 @@ pub fn table(c: &Comparison) -> String {
         row("RMSE", format!("{:.6e}", c.rmse));
         row("relMSE", format!("{:.6e}", c.relmse));
         row("worst 0.1% px", format!("{:.1}% of the squared error", 100.0 * c.worst_share));
-        row("mean ratio", format!("{:.6} (test mean {:.6e} / reference mean {:.6e})", c.mean_ratio, c.mean_a, c.mean_b));
+        if c.mean_ratio.is_finite() {
+            row("mean ratio", format!("{:.6} (test mean {:.6e} / reference mean {:.6e})", c.mean_ratio, c.mean_a, c.mean_b));
+        } else {
+            // (summary JSON writes it as null; "inf" read as a number.)
+            row("mean ratio", format!("none: the reference's mean is 0 (test mean {:.6e})", c.mean_a));
+        }
     }
     row(
         "FLIP (LDR)",

@@ -491,6 +491,13 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
     if opts.checkpoints.is_empty() || opts.runs == 0 {
         bail!("need at least one checkpoint and one run");
     }
+    // The scenes before anything is created under OUT (a run from outside the repository made
+    // OUT/plots and OUT/references, then failed on scenes/cornell_box.gltf).
+    for spec in &opts.scenes {
+        if !spec.path.is_file() {
+            bail!("scene file '{}' not found: `results` renders the bundled scenes by their paths in the repository; run it from the repository's root", spec.path.display());
+        }
+    }
     let plots_dir = opts.out_dir.join("plots");
     let refs_dir = opts.out_dir.join("references");
     for d in [&opts.out_dir, &plots_dir, &refs_dir] {

@@ -124,7 +124,7 @@ pub fn a_device_hung() -> bool {
 /// to [`crate::renderer::MAX_BRUTEFORCE_PAIRS`] shadow rays (about 2 hours on lavapipe); the
 /// warnings every [`GPU_WAIT_WARN_EVERY`] say what a long or hung frame is doing either way.
 pub fn gpu_timeout_from_env() -> Result<Option<Duration>> {
-    const WHAT: &str = "expected a number of seconds (0: wait without a limit)";
+    const WHAT: &str = "expected a number of seconds below 1e9 (0: wait without a limit)";
     match std::env::var("RESTIR_VPL_GPU_TIMEOUT_S") {
         Err(std::env::VarError::NotPresent) => Ok(None),
         Err(std::env::VarError::NotUnicode(v)) => bail!("RESTIR_VPL_GPU_TIMEOUT_S={v:?}: {WHAT}"),
@@ -581,23 +581,23 @@ fn create_instance(
 
 /// Lists every physical device with what it lacks and how it would trace rays when asked for
 /// `request` (`--trace`; None: `RESTIR_VPL_TRACE`, else auto), for `--list-devices`.
+/// Every physical device with what it lacks. No driver at all, or no device, is the
+/// [`NoTracingDevice`] error a render gives (the first names the driver files to check).
 pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
     let request = match request {
         Some(t) => Some(t),
         None => tracing_from_env()?,
     };
     let entry = load_entry()?;
-    let (instance, _, _) = match create_instance(&entry, false, None, None) {
-        Ok(created) => created,
-        // No driver at all: an empty list, as when drivers find no device.
-        Err(e) if e.downcast_ref::<NoTracingDevice>().is_some() => return Ok(Vec::new()),
-        Err(e) => return Err(e),
-    };
+    let (instance, _, _) = create_instance(&entry, false, None, None)?;
     // SAFETY: the instance is valid; destroyed below after use.
     let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
-    let reports = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd, request).0).collect();
+    let reports: Vec<DeviceReport> = pds.iter().enumerate().map(|(i, pd)| inspect(&instance, i, *pd, request).0).collect();
     // Nothing created from the instance outlives this point.
     destroy_instance(&instance, &None);
+    if reports.is_empty() {
+        return Err(NoTracingDevice { devices: Vec::new(), hint: None }.into());
+    }
     Ok(reports)
 }
 
