@@ -441,6 +441,63 @@ fn the_inspector_page_renders_in_headless_chromium() {
     assert!(checked >= 10 && ids >= 2, "the readout lists the frame's outputs, the G-buffer's and reservoirs' ids among them: {readout}");
 }
 
+/// `--aa` jitters each primary ray uniformly inside its own pixel: every captured hit, projected
+/// back into the image, lies inside its pixel, and over 16 frames × the pixels that see the box
+/// the sub-pixel offsets have mean 1/2 (within 4 standard errors, √(1/12 / n)) and variance 1/12
+/// (within 10 %: a jitter of half the width has 1/48, a fixed offset 0) along each axis.
+/// Without `--aa` every hit projects to its pixel's centre.
+#[test]
+fn aa_jitters_primary_rays_uniformly_inside_their_pixel() {
+    let (w, h) = (24u32, 16u32);
+    let ctx = context();
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    for aa in [true, false] {
+        let settings = RenderSettings { mode: Mode::Uniform, aa, vpls_direct: 200, vpls_indirect: 200, ..small(w, h, 16) };
+        let gpu = upload(&ctx, &scene, &settings);
+        let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+        let camera = r.initial_camera();
+        let (tan, aspect) = ((0.5 * camera.yfov).tan(), w as f32 / h as f32);
+        let mut offsets: Vec<[f64; 2]> = Vec::new();
+        for frame in 0..16 {
+            let (_, captured) = r.render_frame_captured(&camera, false).unwrap();
+            // Without --aa the G-buffer is traced once on a still camera.
+            let Some(c) = captured.iter().find(|c| c.kind == CaptureKind::Surfaces) else {
+                assert!(!aa && frame > 0, "frame {frame}: no G-buffer traced with --aa");
+                continue;
+            };
+            for (i, s) in restir_vpl::dump::decode_surfaces(&c.bytes).iter().enumerate() {
+                if s.offset_scale < 0.0 {
+                    continue;
+                }
+                let d = Vec3::from(s.position) - camera.position;
+                let z = d.dot(camera.forward);
+                let ndc = (d.dot(camera.right) / (z * tan * aspect), d.dot(camera.up) / (z * tan));
+                let (px, py) = (0.5 * (ndc.0 + 1.0) * w as f32, 0.5 * (1.0 - ndc.1) * h as f32);
+                let (x, y) = ((i as u32 % w) as f32, (i as u32 / w) as f32);
+                let (u, v) = (px - x, py - y);
+                // (Hits are offset a few ulps off the surface: 1e-3 of a pixel.)
+                assert!((-1e-3..=1.001).contains(&u) && (-1e-3..=1.001).contains(&v), "aa {aa}: pixel ({x}, {y})'s hit projects to offset ({u}, {v})");
+                if !aa {
+                    assert!((u - 0.5).abs() < 1e-3 && (v - 0.5).abs() < 1e-3, "pixel ({x}, {y}): offset ({u}, {v}) without --aa");
+                }
+                offsets.push([f64::from(u), f64::from(v)]);
+            }
+        }
+        if aa {
+            let n = offsets.len() as f64;
+            assert!(n > 2000.0, "{n} hits");
+            for axis in 0..2 {
+                let mean = offsets.iter().map(|o| o[axis]).sum::<f64>() / n;
+                let var = offsets.iter().map(|o| (o[axis] - mean).powi(2)).sum::<f64>() / (n - 1.0);
+                let se = (1.0 / 12.0 / n).sqrt();
+                assert!((mean - 0.5).abs() < 4.0 * se, "axis {axis}: mean offset {mean} (SE {se})");
+                assert!((var * 12.0 - 1.0).abs() < 0.1, "axis {axis}: offset variance {var} against 1/12");
+            }
+        }
+    }
+    assert_no_validation_errors(&ctx);
+}
+
 /// The G-buffer's records land where the passes read them: at a pixel count that is not a multiple
 /// of the 16-pixel granule the halves are rounded to, over both halves of the ping-pong (the camera
 /// moves between the two frames, so frame 1 traces into the other half), every captured hit lies

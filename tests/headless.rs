@@ -290,3 +290,45 @@ fn images_over_4_megapixels_dispatch_within_the_workgroup_count_limit() {
     let off = png.enumerate_pixels().filter(|(_, _, p)| **p != first).count();
     assert_eq!(off, 0, "preview pixels unlike the first (tonemap past the first 65,535 groups?)");
 }
+
+/// The accumulation's per-pixel variance (the GPU's Welford update, which every "k standard
+/// errors" tolerance of the suite divides by) equals the unbiased sample variance of the frames'
+/// own samples read back one by one, and its mean their mean. The GPU keeps both in f32 with
+/// compensation, the host sums in f64: the tolerance is 1e-4 relative (a wrong (n − 1)/n factor
+/// or count is off by 1/n ≥ 3 %, and 32 frames of f32 rounding stay near 1e-6).
+#[test]
+fn the_accumulated_variance_is_the_sample_variance_of_the_frames() {
+    let ctx = context();
+    let scene = cornell();
+    // Uniform sampling of few VPLs and the path tracer: both noisy from frame to frame.
+    for mode in [restir_vpl::settings::Mode::Uniform, restir_vpl::settings::Mode::Pt] {
+        let settings = RenderSettings { mode, vpls_direct: 200, vpls_indirect: 200, ..small(16, 16, 32) };
+        let gpu = upload(&ctx, &scene, &settings);
+        let mut r = restir_vpl::renderer::Renderer::new(ctx.clone(), gpu, settings).unwrap();
+        let camera = r.initial_camera();
+        let frames = 32;
+        let mut samples: Vec<Vec<[f32; 3]>> = Vec::new();
+        for _ in 0..frames {
+            r.render_frame(&camera, false).unwrap();
+            samples.push(r.read_frame_samples().unwrap());
+        }
+        assert_eq!(r.accumulated(), frames);
+        let (variance, mean) = (r.read_variance().unwrap(), r.read_mean().unwrap());
+        let n = f64::from(frames);
+        let mut noisy = 0;
+        for p in 0..variance.len() {
+            for c in 0..3 {
+                let m = samples.iter().map(|s| f64::from(s[p][c])).sum::<f64>() / n;
+                let v = samples.iter().map(|s| (f64::from(s[p][c]) - m).powi(2)).sum::<f64>() / (n - 1.0);
+                let (gv, gm) = (f64::from(variance[p][c]), f64::from(mean[p][c]));
+                assert!((gm - m).abs() <= 1e-4 * m.abs() + 1e-9, "{mode:?} pixel {p} channel {c}: mean {gm} against {m}");
+                assert!((gv - v).abs() <= 1e-4 * v + 1e-6 * m * m + 1e-12, "{mode:?} pixel {p} channel {c}: variance {gv} against {v} (mean {m})");
+                noisy += usize::from(v > 1e-3 * m * m && v > 0.0);
+            }
+        }
+        // The check means something only where the frames differ.
+        assert!(noisy > variance.len(), "{mode:?}: only {noisy} noisy channel-pixels");
+        assert_no_nonfinite_samples(&r, "variance run");
+    }
+    assert_no_validation_errors(&ctx);
+}

@@ -367,6 +367,14 @@ fn ply_dump_parses_back() {
     let header = std::fs::read(&ply).unwrap();
     let text = String::from_utf8_lossy(&header[..200]);
     assert!(text.starts_with("ply\nformat binary_little_endian 1.0\n"), "{text}");
+    // Record by record, the VPLs the GPU holds for the same settings (the photon pass is
+    // deterministic): a writer and reader that agreed on a wrong field order (normals for
+    // positions) passed the counts and sums above.
+    let (gpu, _) = vpls(&cornell(), RenderSettings { dump_vpls: None, out_dir: None, ..settings });
+    assert_eq!(back.len(), gpu.len());
+    for (i, (p, g)) in back.iter().zip(&gpu).enumerate() {
+        assert_eq!((p.position, p.normal, p.flux, p.kind), (g.position, g.normal, g.flux, g.kind), "VPL {i}");
+    }
 }
 
 /// `--view vpls`: blue spheres only at the light (direct VPLs), red spheres on the white back wall

@@ -44,4 +44,6 @@ fn the_builder_refuses_what_the_desc_lacks() {
     let temporal = RestirTemporalPass::DESC.pipeline(&ctx, empty.layout).constant("UNBIASED", 1);
     let e = error(bind_all(temporal, &dummy, 5).build());
     assert!(e.contains("restir_temporal' declares no specialisation constant [\"UNBIASED\"] (it has [])"), "{e}");
+    // Refused before anything reached the driver: nothing the layer could report.
+    common::assert_no_validation_errors(&ctx);
 }

@@ -218,6 +218,32 @@ fn reservoir_views_show_the_last_frame_alone() {
     }
 }
 
+/// `--mcap` caps the history a pixel takes: with mcap 2 on a still camera (no spatial reuse) the
+/// confidence after each frame is M_c + min(M_prev, 2 M_c): M_c, 2 M_c, then 3 M_c from the third
+/// frame on, on every pixel; with the default (20) the sixth frame's is 6 M_c. (The other tests
+/// here never reach the cap: a pass ignoring it passed them.)
+#[test]
+fn mcap_caps_the_temporal_history() {
+    let scene = plane_scene(None);
+    let cam = camera_at(0.0, 0.0);
+    for (mcap, frames_to_cap) in [(2.0f32, 3.0f32), (20.0, 6.0)] {
+        let mut s = settings(View::ReservoirM);
+        s.restir.mcap = mcap;
+        let (ctx, mut r) = renderer(&scene, s);
+        r.render_frame(&cam, false).unwrap();
+        let mc = r.read_reservoirs().unwrap().unwrap()[0].confidence;
+        for _ in 1..6 {
+            r.render_frame(&cam, false).unwrap();
+        }
+        let reservoirs = r.read_reservoirs().unwrap().unwrap();
+        let want = mc * frames_to_cap;
+        let at = reservoirs.iter().filter(|res| res.confidence == want).count();
+        assert!(reservoirs.iter().all(|res| res.confidence <= want), "mcap {mcap}: a confidence above {want} (M_c = {mc})");
+        assert_eq!(at, reservoirs.len(), "mcap {mcap}: every pixel at {want} after 6 frames (M_c = {mc})");
+        assert_no_validation_errors(&ctx);
+    }
+}
+
 #[test]
 fn disoccluded_and_off_screen_pixels_get_no_history() {
     // The box is partly off screen at first; the camera moves right: the box enters the view and

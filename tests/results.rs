@@ -204,7 +204,8 @@ fn bench_radius_quick_writes_the_table_and_csv() {
     }
 }
 
-/// `bench --scaling --quick`: every sweep has every mode at every size, positive finite times, and
+/// `bench --scaling --quick`: every sweep has every mode at every size, positive finite times (the
+/// builds and the photon pass: finite, not negative), and
 /// the table states a measured and an expected exponent per curve.
 #[test]
 fn bench_scaling_quick_writes_the_table_and_csv() {
@@ -223,7 +224,10 @@ fn bench_scaling_quick_writes_the_table_and_csv() {
             assert_eq!(of.len(), sizes, "{sweep} {what}: {csv}");
             for r in of {
                 let ms: f64 = r[3].parse().unwrap();
-                assert!(ms.is_finite() && ms >= 0.0, "{r:?}");
+                // A mode's frame takes time; a build or the photon pass may read 0 at a tiny size
+                // (timestamps of a few µs on a coarse clock).
+                let positive = ["uniform", "ris", "restir"].contains(what);
+                assert!(ms.is_finite() && if positive { ms > 0.0 } else { ms >= 0.0 }, "{r:?}");
             }
         }
     }

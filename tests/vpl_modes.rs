@@ -282,7 +282,8 @@ fn per_vpl_radius_modes_converge_to_their_brute_force() {
 }
 
 /// Unbiased ReSTIR: 32 independent runs, t-test per block, and enough runs that a 1 % whole-image
-/// bias fails it; biased ReSTIR's bias printed.
+/// bias fails it, with and without visibility in the targets, with the grid, without temporal
+/// reuse and with two spatial passes; biased ReSTIR's bias printed and bounded (1 % + 4 SE).
 #[test]
 fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     let ctx = common::context();
@@ -295,9 +296,19 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
     let ref_means = block_means(&reference, &all);
     const RUNS: u32 = 32;
     const FRAMES: u32 = 16;
-    // The last field: candidates (of 8) from the ReGIR grid.
-    for (bias, visibility, grid) in [(Bias::Unbiased, true, 0), (Bias::Unbiased, false, 0), (Bias::Unbiased, false, 4), (Bias::Biased, false, 0)] {
-        let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: Some(visibility), ..Default::default() };
+    // The third field: candidates (of 8) from the ReGIR grid; the fourth: temporal reuse on and
+    // the spatial passes (the default's 1, then without temporal reuse and with two spatial
+    // passes, whose second merges reservoirs that already hold neighbours).
+    let cases = [
+        (Bias::Unbiased, true, 0, (true, 1)),
+        (Bias::Unbiased, false, 0, (true, 1)),
+        (Bias::Unbiased, false, 4, (true, 1)),
+        (Bias::Unbiased, false, 0, (false, 1)),
+        (Bias::Unbiased, false, 0, (true, 2)),
+        (Bias::Biased, false, 0, (true, 1)),
+    ];
+    for (bias, visibility, grid, (temporal, spatial_passes)) in cases {
+        let restir = restir_vpl::settings::RestirSettings { bias, initial_visibility: Some(visibility), temporal, spatial_passes, ..Default::default() };
         let grid = small_grid(grid);
         // With the grid, the fused initial + temporal pass (its own binding of the grid), which a
         // CPU device does not run by default.
@@ -312,10 +323,14 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
         let worst = ts.iter().fold(0f64, |w, t| w.max(t.abs()));
         // The test's power: the smallest whole-image bias that |t| < 6 would still let through.
         let detectable = 6.0 * whole_image_se(&runs) / ref_means[0];
-        println!("restir {bias:?} (visibility {visibility}, {} grid candidates): a whole-image bias above {:.3}% fails the t-test", grid.candidates, 100.0 * detectable);
+        println!(
+            "restir {bias:?} (visibility {visibility}, {} grid candidates, temporal {temporal}, {spatial_passes} spatial passes): a whole-image bias above {:.3}% fails the t-test",
+            grid.candidates,
+            100.0 * detectable
+        );
         if bias == Bias::Unbiased {
             for (t, line) in ts.iter().zip(&lines) {
-                assert!(t.abs() < 6.0, "unbiased restir, {line}");
+                assert!(t.abs() < 6.0, "unbiased restir (temporal {temporal}, {spatial_passes} spatial passes), {line}");
             }
             assert!(detectable < 0.01, "too few runs to see a 1 % bias: 6 SE = {:.3}% of the mean", 100.0 * detectable);
         }
@@ -327,6 +342,13 @@ fn restir_unbiased_converges_to_brute_force_and_biased_reports_its_bias() {
         );
         if bias == Bias::Biased {
             println!("biased restir per block (measured, not asserted):\n  {}", lines.join("\n  "));
+            // Biased reuse has a bias by design, so it is bounded, not tested for zero: on this
+            // box it measured −0.14 % here and +0.02 % in docs/results.md (−1.6 % on the open
+            // box there). Within 1 % plus 4 standard errors of the mean over runs, a defect of the
+            // merge (a dropped weight or normalisation: tens of %) fails, its designed bias does not.
+            let mean = runs.iter().map(|m| m[0]).sum::<f64>() / RUNS as f64;
+            let se = whole_image_se(&runs);
+            assert!((mean / ref_means[0] - 1.0).abs() < 0.01 + 4.0 * se / ref_means[0], "biased restir: image mean {mean} against brute force {} (SE {se})", ref_means[0]);
         }
     }
     common::assert_no_validation_errors(&ctx);
