@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context as _, Result};
 use serde::Serialize;
 
-use crate::gpu_types::{oct_decode, GpuReservoir, GpuSurface, GpuSurfaceTexels, GpuVplCandidate, CANDIDATE_INDEX_BITS, PRESAMPLE_TILE_SIZE, RESERVOIR_EMPTY};
+use crate::gpu_types::{oct_decode, GpuGridEntry, GpuReservoir, GpuSurface, GpuSurfaceTexels, GpuVplCandidate, CANDIDATE_INDEX_BITS, RESERVOIR_EMPTY};
 use crate::output::{write_exr, write_png, RgbImage};
 use crate::passes::{all_pass_descs, FramePlan, Step};
 use crate::renderer::{CaptureKind, Captured, FrameStats};
@@ -79,8 +79,8 @@ pub fn decode_surfaces(bytes: &[u8]) -> Vec<GpuSurface> {
     packed.iter().map(GpuSurfaceTexels::decode).collect()
 }
 
-/// The images a captured output decodes into, of its shape (the frame's size, or a tile
-/// capture's entries × tiles).
+/// The images a captured output decodes into: the frame's size, or for the tiles and the grid
+/// one square of entries per tile or cell ([`GroupLayout`]).
 pub fn decode(c: &Captured) -> Vec<Decoded> {
     let [width, height] = c.shape;
     let n = c.records();
@@ -120,15 +120,29 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
         }
         CaptureKind::Candidates => {
             let t: Vec<GpuVplCandidate> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuVplCandidate>()]);
-            let layout = TileLayout::of(c);
+            let layout = GroupLayout::of(c);
             let tiles = |f: &dyn Fn(&GpuVplCandidate) -> [f32; 3]| layout.image(&t.iter().map(f).collect::<Vec<_>>());
             vec![
-                Decoded { what: "vpl", look: "ids", image: tiles(&|t| hash_colour(candidate_index(t))) },
+                Decoded { what: "vpl", look: "ids", image: tiles(&|t| hash_colour(candidate_index(t.vpl_kind))) },
                 Decoded { what: "position", look: "signed", image: tiles(&|t| t.position) },
                 Decoded { what: "normal", look: "signed", image: tiles(&|t| oct_decode(t.normal_oct)) },
                 // Grey (per channel, white at the 99th percentile): a VPL's flux is a small share
                 // of the light's power, black in an image shown at exposure 0.
                 Decoded { what: "flux", look: "grey", image: tiles(&|t| t.flux) },
+            ]
+        }
+        CaptureKind::GridEntries => {
+            let g: Vec<GpuGridEntry> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuGridEntry>()]);
+            let layout = GroupLayout::of(c);
+            let cells = |f: &dyn Fn(&GpuGridEntry) -> [f32; 3]| layout.image(&g.iter().map(f).collect::<Vec<_>>());
+            // An empty entry (W = 0: not built, or no candidate) is black in the ids.
+            let id = |e: &GpuGridEntry| if e.ucw > 0.0 { hash_colour(candidate_index(e.vpl_kind)) } else { [0.0; 3] };
+            vec![
+                Decoded { what: "vpl", look: "ids", image: cells(&id) },
+                Decoded { what: "position", look: "signed", image: cells(&|e| e.position) },
+                Decoded { what: "normal", look: "signed", image: cells(&|e| if e.ucw > 0.0 { oct_decode(e.normal_oct) } else { [0.0; 3] }) },
+                Decoded { what: "flux", look: "grey", image: cells(&|e| e.flux) },
+                Decoded { what: "w", look: "grey", image: cells(&|e| [e.ucw; 3]) },
             ]
         }
         CaptureKind::Rgba8 => {
@@ -145,45 +159,44 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
     }
 }
 
-/// How a tile capture is shown: each tile of [`PRESAMPLE_TILE_SIZE`] entries as a square of
-/// `side`² pixels (entry `e` at column `e % side`, row `e / side`), the tiles in a grid of
-/// `columns` squares per row, row-major (tile `t` in square row `t / columns`); squares past the
-/// last tile are black. The page's readout inverts it.
-pub struct TileLayout {
+/// How a capture that is not per pixel is shown: each group of entries (a presampled tile, a
+/// grid cell) as a square of `side`² pixels (entry `e` at column `e % side`, row `e / side`; a
+/// last row cut short), the groups in rows of `columns` squares (group `g` in square row
+/// `g / columns`); squares past the last group are black. The page's readout inverts it from
+/// `side` (the manifest's `groups`).
+pub struct GroupLayout {
+    /// Entries per group.
+    pub entries: u32,
     pub side: u32,
     pub columns: u32,
     pub rows: u32,
 }
 
-impl TileLayout {
+impl GroupLayout {
     pub fn of(c: &Captured) -> Self {
-        let [entries, tiles] = c.shape;
-        let side = (entries as f64).sqrt().ceil() as u32;
-        let columns = (tiles as f64).sqrt().ceil().max(1.0) as u32;
-        Self { side, columns, rows: tiles.div_ceil(columns).max(1) }
+        let [entries, groups] = c.shape;
+        let side = (entries as f64).sqrt().ceil().max(1.0) as u32;
+        let columns = (groups as f64).sqrt().ceil().max(1.0) as u32;
+        Self { entries, side, columns, rows: groups.div_ceil(columns).max(1) }
     }
 
-    /// The image of per-entry values `v` (tile-major, as captured).
+    /// The image of per-entry values `v` (group-major, as captured).
     fn image(&self, v: &[[f32; 3]]) -> RgbImage {
         let (width, height) = (self.columns * self.side, self.rows * self.side);
-        let entries = (self.side * self.side) as usize;
         let mut pixels = vec![[0.0; 3]; (width * height) as usize];
         for (i, value) in v.iter().enumerate() {
-            let (t, e) = ((i / entries) as u32, (i % entries) as u32);
-            let x = (t % self.columns) * self.side + e % self.side;
-            let y = (t / self.columns) * self.side + e / self.side;
+            let (g, e) = (i as u32 / self.entries, i as u32 % self.entries);
+            let x = (g % self.columns) * self.side + e % self.side;
+            let y = (g / self.columns) * self.side + e / self.side;
             pixels[(y * width + x) as usize] = *value;
         }
         RgbImage { width, height, pixels }
     }
 }
 
-// The page's readout inverts TileLayout with squares of 32 × 32 entries.
-const _: () = assert!(PRESAMPLE_TILE_SIZE == 32 * 32);
-
-/// A presampled candidate's VPL index (the kind sits above it).
-fn candidate_index(t: &GpuVplCandidate) -> u32 {
-    t.vpl_kind & ((1 << CANDIDATE_INDEX_BITS) - 1)
+/// A candidate's or grid entry's VPL index (the kind sits above it).
+fn candidate_index(vpl_kind: u32) -> u32 {
+    vpl_kind & ((1 << CANDIDATE_INDEX_BITS) - 1)
 }
 
 /// Records (row-major indices: pixels, or a tile capture's entries) where a captured output holds
@@ -197,6 +210,7 @@ pub fn nonfinite_records(c: &Captured) -> Vec<usize> {
         CaptureKind::Rgba => true,
         CaptureKind::Rgba8 => false,
         CaptureKind::Candidates => !matches!(w, 3 | 7), // vpl_kind, normal_oct
+        CaptureKind::GridEntries => matches!(w, 0..=2 | 4..=6 | 8), // position, flux, W
     };
     (0..c.records())
         .filter(|&p| {
@@ -216,7 +230,8 @@ pub fn check_finite(frame: u32, captured: &[Captured]) -> Result<()> {
             let (unit, first): (&str, Vec<String>) = if c.kind.per_pixel() {
                 ("pixel(s)", bad.iter().take(5).map(|&p| format!("({}, {})", p % width, p / width)).collect())
             } else {
-                (if bad.len() == 1 { "entry" } else { "entries" }, bad.iter().take(5).map(|&p| format!("tile {} entry {}", p / width, p % width)).collect())
+                let group = c.kind.group().unwrap_or("group");
+                (if bad.len() == 1 { "entry" } else { "entries" }, bad.iter().take(5).map(|&p| format!("{group} {} entry {}", p / width, p % width)).collect())
             };
             bail!(
                 "--check-finite: frame {frame}: pass '{}'{} wrote non-finite values to '{}' at {} {unit}, first at {}",
@@ -241,16 +256,28 @@ pub struct OutputStats {
     pub min: f64,
     pub max: f64,
     pub mean: f64,
-    /// The image's [width, height]: the frame's, or for `vpl_presample`'s tiles a grid of
-    /// squares, one per tile ([`TileLayout`]).
+    /// The image's [width, height]: the frame's, or for `vpl_presample`'s tiles and
+    /// `regir_build`'s grid a grid of squares, one per tile or cell ([`GroupLayout`]).
     pub size: [u32; 2],
-    /// `vpl_presample`'s tiles: how many (the image shows each as a square of its entries).
+    /// The tiles' or the grid's layout (absent for a per-pixel output).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub tiles: Option<u32>,
+    pub groups: Option<Groups>,
     /// Pixels with a non-finite value in any channel.
     pub nonfinite: u64,
     /// The value the thumbnail shows white (`grey` images; their brighter pixels clip), else 0.
     pub white: f64,
+}
+
+/// How an output that is not per pixel groups its entries (the image shows each group as a
+/// square of `side` × `side` pixels, `columns` squares a row).
+#[derive(Clone, Debug, Serialize)]
+pub struct Groups {
+    /// `tile` or `cell`.
+    pub unit: &'static str,
+    pub count: u32,
+    pub entries: u32,
+    pub side: u32,
+    pub columns: u32,
 }
 
 /// `white`: the value `d`'s thumbnail shows white, as [`thumbnail`] returned it.
@@ -268,7 +295,7 @@ fn stats(file: String, buffer: &'static str, d: &Decoded, white: Option<f32>) ->
     }
     let finite_or_zero = |v: f64| if v.is_finite() { v } else { 0.0 };
     let white = white.map_or(0.0, f64::from);
-    OutputStats { file, buffer, what: d.what, look: d.look, size: [d.image.width, d.image.height], tiles: None, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad, white }
+    OutputStats { file, buffer, what: d.what, look: d.look, size: [d.image.width, d.image.height], groups: None, min: finite_or_zero(min), max: finite_or_zero(max), mean: if n > 0 { sum / n as f64 } else { 0.0 }, nonfinite: bad, white }
 }
 
 /// A dumped frame: its manifest and the values its page embeds for the per-pixel readout.
@@ -309,8 +336,8 @@ fn raw_ids(c: &Captured, pixels: usize) -> Option<(usize, Vec<u32>)> {
             let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..pixels * std::mem::size_of::<GpuReservoir>()]);
             Some((1, r.iter().map(|r| r.vpl).collect()))
         }
-        // (Not per pixel: the page has no readout for the tiles.)
-        CaptureKind::Rgba | CaptureKind::Rgba8 | CaptureKind::Candidates => None,
+        // (Not per pixel: the page has no readout for the tiles and the grid.)
+        CaptureKind::Rgba | CaptureKind::Rgba8 | CaptureKind::Candidates | CaptureKind::GridEntries => None,
     }
 }
 
@@ -468,8 +495,8 @@ pub fn write_frame(
     let mut values = Vec::new();
     let readout = width * height <= READOUT_MAX_PIXELS;
     // The dispatch's position in the frame: the plan is the frame's order, and a pass that ran
-    // was dispatched once per capture of it (restir_spatial ×P), or once if it writes no
-    // per-pixel output (vpl_presample, regir_build).
+    // was dispatched once per capture of it (restir_spatial ×P), or once if nothing of it was
+    // captured.
     let mut next_dispatch = 0usize;
     for (name, step) in plan.steps() {
         let desc = descs.iter().find(|d| d.name == name);
@@ -493,16 +520,11 @@ pub fn write_frame(
         let captures = captured.iter().filter(|c| c.pass == name).count();
         match step {
             Step::Skip(why) => passes.push(common(None, 0, "skipped", Some(*why))),
-            // A pass without a captured output (regir_build writes the grid's entries, of cells
-            // built or not): listed as run, with its time and why there is no image.
+            // A pass that ran without a captured output (none today: every pass's output is
+            // copied): listed as run, with its time.
             Step::Run if captures == 0 => {
-                let mut e = common(Some(next_dispatch), 0, "run", Some("no captured output (it writes the ReGIR grid's entries)"));
+                let mut e = common(Some(next_dispatch), 0, "run", Some("no captured output"));
                 next_dispatch += 1;
-                if name == crate::passes::RegirBuildPass::NAME {
-                    // One workgroup per cell.
-                    let n = settings.grid.cells;
-                    e.workgroups = Some([n, n, n]);
-                }
                 e.gpu_ms = dispatch_ms(0);
                 passes.push(e);
             }
@@ -513,8 +535,12 @@ pub fn write_frame(
                     let mut e = common(Some(position), c.repeat, "run", None);
                     e.workgroups = desc.map(|d| {
                         let local = d.local_size_with(settings.workgroup);
-                        // vpl_presample: one invocation per tile entry.
-                        if c.kind.per_pixel() { workgroups(local, width, height) } else { [(c.records() as u32).div_ceil(local[0]), 1, 1] }
+                        // regir_build: one workgroup per cell; vpl_presample: one invocation
+                        // per tile entry.
+                        if c.kind == CaptureKind::GridEntries {
+                            let n = settings.grid.cells;
+                            [n, n, n]
+                        } else if c.kind.per_pixel() { workgroups(local, width, height) } else { [(c.records() as u32).div_ceil(local[0]), 1, 1] }
                     });
                     // This dispatch's own time; rays are counted per pass, so a pass dispatched
                     // several times (restir_spatial ×P) has its rays only in the frame's total.
@@ -534,7 +560,11 @@ pub fn write_frame(
                         write_exr(&fdir.join(&file), w, h, &d.image.pixels)?;
                         let (png, white) = thumbnail(d);
                         write_png(&fdir.join(file.replace(".exr", ".png")), w, h, &png)?;
-                        e.outputs.push(OutputStats { tiles: (!c.kind.per_pixel()).then_some(c.shape[1]), ..stats(file.clone(), c.buffer, d, white) });
+                        let groups = c.kind.group().map(|unit| {
+                            let l = GroupLayout::of(c);
+                            Groups { unit, count: c.shape[1], entries: l.entries, side: l.side, columns: l.columns }
+                        });
+                        e.outputs.push(OutputStats { groups, ..stats(file.clone(), c.buffer, d, white) });
                         // (Kept only for a page that shows them: at 1280×720 every frame's were
                         // held to the end of the run, 167 MB a ReSTIR frame. The tiles are not
                         // pixels: the page reads their entries out of the EXR files.)
@@ -672,14 +702,15 @@ pub fn write_inspector(dir: &Path, frames: &[DumpedFrame]) -> Result<PathBuf> {
                 let png = format!("frame_{:04}/{}", m.frame, o.file.replace(".exr", ".png"));
                 let _ = write!(
                     html,
-                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" data-w=\"{}\" data-h=\"{}\" onclick=\"big(this)\"><figcaption>{} <b>{}</b>{}<br>min {:.3e} max {:.3e}<br>mean {:.3e}{}{}</figcaption></figure>",
+                    "<figure><img src=\"{png}\" data-frame=\"{}\" data-file=\"{}\" data-w=\"{}\" data-h=\"{}\"{} onclick=\"big(this)\"><figcaption>{} <b>{}</b>{}<br>min {:.3e} max {:.3e}<br>mean {:.3e}{}{}</figcaption></figure>",
                     m.frame,
                     o.file,
                     o.size[0],
                     o.size[1],
+                    o.groups.as_ref().map(|g| format!(" data-unit=\"{}\" data-side=\"{}\" data-entries=\"{}\"", g.unit, g.side, g.entries)).unwrap_or_default(),
                     o.buffer,
                     o.what,
-                    if o.size != [m.width, m.height] { format!("<br>{} tiles × {} entries", o.tiles.unwrap_or(0), PRESAMPLE_TILE_SIZE) } else { String::new() },
+                    o.groups.as_ref().map(|g| format!("<br>{} {}s × {} entries", g.count, g.unit, g.entries)).unwrap_or_default(),
                     o.min,
                     o.max,
                     o.mean,
@@ -731,9 +762,9 @@ function big(img){
   const z=document.getElementById('zoom'), zi=document.getElementById('zimg');
   zi.src=img.src; zi.dataset.frame=img.dataset.frame; zi.dataset.file=img.dataset.file; z.style.display='block';
   // Enlarged to fill the view (a 64-px image too), in whole pixels' proportions; an image of
-  // another size than the frame (vpl_presample's tiles) by its own.
+  // another size than the frame (the tiles, the grid) by its own.
   const w=Number(img.dataset.w), h=Number(img.dataset.h);
-  zi.dataset.w=w; zi.dataset.h=h;
+  zi.dataset.w=w; zi.dataset.h=h; zi.dataset.unit=img.dataset.unit||''; zi.dataset.side=img.dataset.side||''; zi.dataset.entries=img.dataset.entries||'';
   const s=Math.min(innerWidth*0.7/w, innerHeight*0.85/h); zi.style.width=(w*s)+'px'; zi.style.height=(h*s)+'px';
   document.getElementById('readout').textContent=img.dataset.file;
 }
@@ -742,9 +773,11 @@ document.getElementById('zimg').addEventListener('mousemove',e=>{
   const r=zi.getBoundingClientRect(), w=Number(zi.dataset.w), h=Number(zi.dataset.h);
   const x=Math.floor((e.clientX-r.left)/r.width*w), y=Math.floor((e.clientY-r.top)/r.height*h);
   if(x<0||y<0||x>=w||y>=h)return;
-  // vpl_presample's tiles: squares of 32×32 entries (dump.rs's TileLayout), in rows of w/32.
-  const tile=Math.floor(y/32)*(w/32)+Math.floor(x/32), entry=(y%32)*32+x%32;
-  document.getElementById('readout').textContent=(w===f.w&&h===f.h)?readout(f,x,y):`${zi.dataset.file}\ntile ${tile}, entry ${entry} (no readout for the tiles: read the EXR file)`;
+  if(!zi.dataset.unit){document.getElementById('readout').textContent=readout(f,x,y);return;}
+  // The tiles and the grid: a square of side × side entries per tile or cell (dump.rs's
+  // GroupLayout), w / side squares a row.
+  const side=Number(zi.dataset.side), group=Math.floor(y/side)*(w/side)+Math.floor(x/side), entry=(y%side)*side+x%side;
+  document.getElementById('readout').textContent=`${zi.dataset.file}\n`+(entry<Number(zi.dataset.entries)?`${zi.dataset.unit} ${group}, entry ${entry}`:'(no entry here)')+' (no readout: read the EXR file)';
 });
 // Each output's values (float32, or u32 ids), decoded from base64 on first use.
 function words(v){

@@ -378,6 +378,9 @@ pub const POISON_RAY_CARRY: u32 = 2;
 /// `GpuFrame::debug_poison`: `vpl_presample` writes a NaN flux into entry 1 of tile 0 (tests of
 /// `--check-finite` on the tiles).
 pub const POISON_VPL_PRESAMPLE: u32 = 3;
+/// `GpuFrame::debug_poison`: `regir_build` writes a NaN flux into entry 1 of every cell it builds
+/// (tests of `--check-finite` on the grid).
+pub const POISON_REGIR_BUILD: u32 = 4;
 
 /// `vpl_view`'s `mode` push constant: clear the sphere buffers (per pixel), splat the nearest
 /// sphere depth (per VPL), record the VPL at that depth (per VPL), draw (per pixel).
@@ -496,6 +499,7 @@ pub const GLSL_CONSTANTS: &[(&str, u32)] = glsl_constants![
     POISON_VPL_SHADE,
     POISON_RAY_CARRY,
     POISON_VPL_PRESAMPLE,
+    POISON_REGIR_BUILD,
     VPL_VIEW_CLEAR,
     VPL_VIEW_DEPTH,
     VPL_VIEW_ID,

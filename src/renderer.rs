@@ -381,6 +381,9 @@ pub enum CaptureKind {
     Rgba8,
     /// `GpuVplCandidate`, one per tile entry (`vpl_presample`'s tiles): not per pixel.
     Candidates,
+    /// `GpuGridEntry`, one per cell entry (`regir_build`'s grid, every cell: those not built this
+    /// frame keep an earlier build's entries, or zeros): not per pixel.
+    GridEntries,
 }
 
 impl CaptureKind {
@@ -391,12 +394,24 @@ impl CaptureKind {
             CaptureKind::Reservoirs => std::mem::size_of::<crate::gpu_types::GpuReservoir>() as u64,
             CaptureKind::Rgba8 => 4,
             CaptureKind::Candidates => std::mem::size_of::<crate::gpu_types::GpuVplCandidate>() as u64,
+            CaptureKind::GridEntries => std::mem::size_of::<crate::gpu_types::GpuGridEntry>() as u64,
         }
     }
 
-    /// Whether the records are the image's pixels (row-major), as every kind but the tiles' are.
+    /// Whether the records are the image's pixels (row-major), as every kind but the tiles' and
+    /// the grid's are.
     pub fn per_pixel(self) -> bool {
-        self != CaptureKind::Candidates
+        self.group().is_none()
+    }
+
+    /// What a row of [`Captured::shape`] is for a capture that is not per pixel: a presampled
+    /// tile, a grid cell.
+    pub fn group(self) -> Option<&'static str> {
+        match self {
+            CaptureKind::Candidates => Some("tile"),
+            CaptureKind::GridEntries => Some("cell"),
+            _ => None,
+        }
     }
 }
 
@@ -412,7 +427,8 @@ pub struct Captured {
     pub buffer: &'static str,
     pub kind: CaptureKind,
     /// The records as an image, [columns, rows]: the frame's width and height for a per-pixel
-    /// output, [entries per tile, tiles] for `vpl_presample`'s tiles.
+    /// output, [entries per tile, tiles] for `vpl_presample`'s tiles, [entries per cell, cells]
+    /// for `regir_build`'s grid.
     pub shape: [u32; 2],
     pub bytes: Vec<u8>,
 }
@@ -458,6 +474,7 @@ fn dispatch_output<'a>(
     targets: &'a FrameTargets,
     reservoirs: Option<&'a Reservoirs>,
     presample: Option<&'a crate::passes::VplPresamplePass>,
+    regir: Option<&'a crate::passes::RegirBuildPass>,
     current: usize,
     surface_half: u32,
 ) -> Option<DispatchOutput<'a>> {
@@ -476,6 +493,10 @@ fn dispatch_output<'a>(
         VplPresamplePass::NAME => {
             let p = presample?;
             DispatchOutput { buffer: "tiles", kind: CaptureKind::Candidates, shape: [crate::gpu_types::PRESAMPLE_TILE_SIZE, p.tile_count], src: &p.tiles, offset: 0 }
+        }
+        RegirBuildPass::NAME => {
+            let g = regir?;
+            DispatchOutput { buffer: "entries", kind: CaptureKind::GridEntries, shape: [g.params.entries, g.params.cells.pow(3)], src: &g.entries, offset: 0 }
         }
         // (The fused passes never run in a captured frame: FramePlan splits them.)
         RestirInitialPass::NAME | RestirTemporalPass::NAME | RestirBoilingPass::NAME => out("reservoirs", CaptureKind::Reservoirs, reservoirs?.buffer(current), 0),
@@ -589,6 +610,7 @@ impl Renderer {
                 Some("vpl_shade") => crate::gpu_types::POISON_VPL_SHADE,
                 Some("ray_carry") => crate::gpu_types::POISON_RAY_CARRY,
                 Some("vpl_presample") => crate::gpu_types::POISON_VPL_PRESAMPLE,
+                Some("regir_build") => crate::gpu_types::POISON_REGIR_BUILD,
                 _ => 0,
             },
             debug_hang: debug_hang(&ctx, poison.as_deref())?,
@@ -1215,11 +1237,11 @@ impl Renderer {
             // Room for what this frame's dispatches write (the same rule as the copies below).
             let targets = &self.parts.targets;
             let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
-            let presample = self.parts.passes.vpl.presample.as_ref();
+            let (presample, regir) = (self.parts.passes.vpl.presample.as_ref(), self.parts.passes.vpl.regir.as_ref());
             let bytes: u64 = plan
                 .dispatches()
                 .into_iter()
-                .filter_map(|d| dispatch_output(d, targets, reservoirs, presample, plan.vpl.current, halves.0))
+                .filter_map(|d| dispatch_output(d, targets, reservoirs, presample, regir, plan.vpl.current, halves.0))
                 .map(|o| o.size())
                 .sum();
             let need = bytes.max(4);
@@ -1248,12 +1270,12 @@ impl Renderer {
         if capture {
             let targets = &self.parts.targets;
             let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
-            let presample = self.parts.passes.vpl.presample.as_ref();
+            let (presample, regir) = (self.parts.passes.vpl.presample.as_ref(), self.parts.passes.vpl.regir.as_ref());
             let current = plan.vpl.current;
             let cap = self.capture_buffer.as_ref().expect("allocated before recording");
             let mut used = 0u64;
             let mut hook = |cmd: vk::CommandBuffer, d: crate::passes::Dispatch| {
-                if let Some(o) = dispatch_output(d, targets, reservoirs, presample, current, halves.0) {
+                if let Some(o) = dispatch_output(d, targets, reservoirs, presample, regir, current, halves.0) {
                     let size = o.size();
                     assert!(used + size <= cap.size, "the capture buffer was sized from the same dispatches");
                     let region = [vk::BufferCopy::default().src_offset(o.offset).dst_offset(used).size(size)];

@@ -72,7 +72,10 @@ fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector(
                 assert!(file.starts_with(&format!("{:02}_", p["position"].as_u64().unwrap())), "{file}");
                 let img = restir_vpl::output::read_exr(&fdir.join(file)).unwrap();
                 assert_eq!((img.width, img.height), size, "{file}");
-                assert_eq!(o["tiles"].as_u64(), (p["pass"] == "vpl_presample").then_some(64), "{o}");
+                assert_eq!(o["groups"]["count"].as_u64(), (p["pass"] == "vpl_presample").then_some(64), "{o}");
+                if p["pass"] == "vpl_presample" {
+                    assert_eq!((&o["groups"]["unit"], &o["groups"]["side"], &o["groups"]["columns"]), (&serde_json::json!("tile"), &serde_json::json!(32), &serde_json::json!(8)), "{o}");
+                }
                 assert!(fdir.join(file.replace(".exr", ".png")).exists());
                 assert_eq!(o["nonfinite"], 0, "{o}");
                 assert!(o["min"].as_f64().unwrap() <= o["mean"].as_f64().unwrap() && o["mean"].as_f64().unwrap() <= o["max"].as_f64().unwrap(), "{o}");
@@ -210,6 +213,50 @@ fn presampled_tiles_copy_the_vpls_they_name_drawn_uniformly() {
     common::assert_no_validation_errors(&ctx);
 }
 
+/// regir_build's captured grid: in the frames that build cells (from frame 1, for the cells
+/// frame 0's pixels asked for), an entry with W > 0 copies the VPL it names, and every other entry
+/// (not built, or no candidate) is zeros: the buffer starts zero-filled, so a cell never built
+/// holds no stale memory for --check-finite to trip on. As many cells hold entries as the
+/// renderer counts built.
+#[test]
+fn the_captured_grid_copies_the_vpls_its_entries_name() {
+    let ctx = context();
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let grid = restir_vpl::settings::GridSettings { candidates: 4, cells: 6, entries: 64, ..Default::default() };
+    let settings = RenderSettings { mode: Mode::Ris, candidates: 8, grid, fuse_passes: Some(false), vpls_direct: 2000, vpls_indirect: 2000, ..small(32, 32, 2) };
+    let gpu = upload(&ctx, &scene, &settings);
+    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let camera = r.initial_camera();
+    let vpls = r.read_vpls().unwrap().unwrap();
+    let index_bits = restir_vpl::gpu_types::CANDIDATE_INDEX_BITS;
+    for frame in 0..2 {
+        let (_, captured) = r.render_frame_captured(&camera, false).unwrap();
+        let c = captured.iter().find(|c| c.pass == "regir_build").expect("the grid is captured");
+        assert_eq!((c.kind, c.buffer, c.shape), (CaptureKind::GridEntries, "entries", [64, 216]));
+        let entries: Vec<restir_vpl::gpu_types::GpuGridEntry> = bytemuck::pod_collect_to_vec(&c.bytes);
+        let mut cells_with_entries = std::collections::BTreeSet::new();
+        for (slot, e) in entries.iter().enumerate() {
+            if e.ucw > 0.0 {
+                let i = (e.vpl_kind & ((1 << index_bits) - 1)) as usize;
+                let v = &vpls[i];
+                assert_eq!((e.position, e.flux, e.vpl_kind >> index_bits), (v.position, v.flux, v.kind), "frame {frame}, entry {slot} naming VPL {i}");
+                let n = restir_vpl::gpu_types::oct_decode(e.normal_oct);
+                assert!((Vec3::from(n) - Vec3::from(v.normal)).length() < 1e-3, "entry {slot}: normal {n:?} against {:?}", v.normal);
+                assert!(e.ucw.is_finite(), "entry {slot}: W {}", e.ucw);
+                cells_with_entries.insert(slot / 64);
+            } else {
+                assert_eq!(bytemuck::bytes_of(e), &[0u8; 48][..], "frame {frame}, entry {slot}: an empty entry is zeros");
+            }
+        }
+        let built = r.grid_cells_built().unwrap().expect("a grid");
+        // Frame 0 builds nothing (no pixel asked yet); frame 1 builds what frame 0 asked for.
+        assert_eq!(cells_with_entries.len() as u32, built, "frame {frame}");
+        assert_eq!(built > 0, frame == 1, "frame {frame}: {built} cells built");
+        assert!(restir_vpl::dump::nonfinite_records(c).is_empty());
+    }
+    assert_no_validation_errors(&ctx);
+}
+
 #[test]
 fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     let ctx = context();
@@ -302,6 +349,18 @@ fn check_finite_names_the_pass_and_pixel_of_a_planted_nan() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "--check-finite must stop: {err}");
     for needle in ["frame 0", "'vpl_presample'", "'tiles'", "at 1 entry,", "tile 0 entry 1"] {
+        assert!(err.contains(needle), "the error should name {needle}: {err}");
+    }
+    // The same in regir_build's grid (entry 1 of every cell it builds, from frame 1).
+    let o = bin()
+        .args(SMALL)
+        .args(["5", "--mode", "ris", "--grid-candidates", "4", "--frames", "3", "--check-finite", "--out", out])
+        .env("RESTIR_VPL_DEBUG_POISON", "regir_build")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "--check-finite must stop: {err}");
+    for needle in ["frame 1", "'regir_build'", "'entries'", " entry 1"] {
         assert!(err.contains(needle), "the error should name {needle}: {err}");
     }
     // A NaN planted in vpl_shade's output at pixel (1, 1) (test-only switch).

@@ -171,6 +171,7 @@ const uint COMPENSATE_VPLS = 2u;
 const uint POISON_VPL_SHADE = 1u;
 const uint POISON_RAY_CARRY = 2u;
 const uint POISON_VPL_PRESAMPLE = 3u;
+const uint POISON_REGIR_BUILD = 4u;
 // vpl_view `mode`: the step of the dispatch.
 const uint VPL_VIEW_CLEAR = 0u;
 const uint VPL_VIEW_DEPTH = 1u;

@@ -99,6 +99,9 @@ void main() {
             entry.flux = vec3(0.0);
             entry.normal_oct = 0u;
         }
+        if (frame.debug_poison == POISON_REGIR_BUILD && e == 1u) {
+            entry.flux = vec3(uintBitsToFloat(0x7fc00000u));  // tests of --check-finite only
+        }
         entry.ucw = ucw;
         entry._pad0 = 0u;
         entry._pad1 = 0u;

@@ -81,8 +81,15 @@ impl RegirBuildPass {
             limits.max_storage_buffer_range,
             limits.max_texel_buffer_elements
         );
-        let usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC;
+        let usage = vk::BufferUsageFlags::STORAGE_BUFFER
+            | vk::BufferUsageFlags::UNIFORM_TEXEL_BUFFER
+            | vk::BufferUsageFlags::TRANSFER_SRC
+            | vk::BufferUsageFlags::TRANSFER_DST;
         let entries = Buffer::new(ctx, "regir.entries", bytes, usage, MemoryLocation::GpuOnly)?.with_texel_view(super::RECORD_TEXELS)?;
+        // Zeros until a cell is built: a cell never built holds no stale memory, which
+        // --check-finite and --dump-passes read with the rest of the grid.
+        // SAFETY: the buffer is alive and unused; one_shot waits for the fill.
+        ctx.one_shot(|cmd| unsafe { ctx.device.cmd_fill_buffer(cmd, entries.raw, 0, vk::WHOLE_SIZE, 0) })?;
         // Zero records: never asked for, never built, no normalisation yet.
         let cells_bytes = vec![0u8; grid.cells.pow(3) as usize * 16];
         let cells = Buffer::with_data(ctx, "regir.cells", &cells_bytes, vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_SRC)?;
