@@ -246,7 +246,8 @@ pub fn run(settings: &RenderSettings) -> Result<RunOutput> {
 pub fn run_noting(settings: &RenderSettings, noted: Vec<String>) -> Result<RunOutput> {
     settings.validate()?;
     let start = Instant::now();
-    let scene = Scene::load_for(&settings.scene, settings.textures)?;
+    let range = || crate::vk::context::storage_buffer_range(settings.device_index, settings.tracing);
+    let scene = Scene::load_for_device(&settings.scene, settings.textures, &range)?;
     let ctx = Arc::new(Context::new(&ContextOptions {
         validate: settings.validate,
         device_index: settings.device_index,

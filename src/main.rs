@@ -1297,7 +1297,8 @@ fn command_line() -> String {
 
 /// A context for `settings` (validation, device) with the scene loaded and uploaded to it.
 fn upload(settings: &RenderSettings) -> Result<(std::sync::Arc<restir_vpl::vk::Context>, std::sync::Arc<restir_vpl::scene_gpu::SceneGpu>)> {
-    let scene = restir_vpl::scene::Scene::load_for(&settings.scene, settings.textures)?;
+    let range = || restir_vpl::vk::context::storage_buffer_range(settings.device_index, settings.tracing);
+    let scene = restir_vpl::scene::Scene::load_for_device(&settings.scene, settings.textures, &range)?;
     let ctx = std::sync::Arc::new(restir_vpl::vk::Context::new(&restir_vpl::vk::ContextOptions {
         validate: settings.validate,
         device_index: settings.device_index,

@@ -186,6 +186,11 @@ fn texture_variants_are_used_only_when_needed() {
 fn textures_over_the_storage_buffer_range_are_refused_by_name() {
     let ctx = context();
     let range = u64::from(ctx.properties.limits.max_storage_buffer_range);
+    // The loader's probe reads the range of the device a context picks, before any context (it
+    // refuses textures over it before decoding them: src/scene/tests.rs), and none for a device
+    // that does not exist.
+    assert_eq!(restir_vpl::vk::context::storage_buffer_range(None, None), Some(range));
+    assert_eq!(restir_vpl::vk::context::storage_buffer_range(Some(99), None), None);
     let mut scene = load_json(&wall_scene(1.0), "wall.gltf");
     // The check itself on every device, against a made-up 4 KiB range: the texture's 8 KiB are
     // over it, and a range that holds them passes.

@@ -16,8 +16,28 @@ use std::path::Path;
 /// to avoid absurd allocations from a tiny malicious file.
 const MAX_VIEWLESS_ACCESSOR_BYTES: usize = 1 << 30;
 
+/// How a load treats the textures: whether it decodes them, and the byte limit of the device that
+/// will read them, asked only when their texels pass what every Vulkan device allows
+/// ([`MIN_STORAGE_BUFFER_RANGE`]), so that a device's refusal comes before the decoding.
+#[derive(Clone, Copy)]
+pub struct TextureLoad<'a> {
+    pub decode: bool,
+    /// maxStorageBufferRange of the device the run will use (None: not known).
+    pub device_range: &'a dyn Fn() -> Option<u64>,
+}
+
+impl TextureLoad<'_> {
+    pub fn plain(decode: bool) -> TextureLoad<'static> {
+        TextureLoad { decode, device_range: &|| None }
+    }
+}
+
+/// Vulkan's guaranteed minimum maxStorageBufferRange (2^27 bytes, lavapipe's value): textures
+/// within it fit every device, so no device is asked.
+pub const MIN_STORAGE_BUFFER_RANGE: u64 = 1 << 27;
+
 /// Reads and loads a `.gltf`/`.glb` file; external URIs resolve relative to its directory.
-pub(super) fn load_path(path: &Path, decode_textures: bool) -> Result<Scene> {
+pub(super) fn load_path(path: &Path, decode_textures: TextureLoad) -> Result<Scene> {
     let bytes = crate::output::read_input(path).map_err(|e| anyhow!("scene file: {e:#}"))?;
     let base = match path.parent() {
         Some(dir) if !dir.as_os_str().is_empty() => dir,
@@ -29,7 +49,7 @@ pub(super) fn load_path(path: &Path, decode_textures: bool) -> Result<Scene> {
 }
 
 /// Loads glTF JSON or GLB bytes; every error is prefixed with `label`.
-pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_textures: bool) -> Result<Scene> {
+pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_textures: TextureLoad) -> Result<Scene> {
     // glTF 2.0 lets a loader ignore a UTF-8 byte-order mark before the JSON; serde_json does not.
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     load_inner(bytes, base_dir, label, decode_textures).map_err(|e| anyhow!("{label}: {e:#}"))
@@ -38,7 +58,7 @@ pub(super) fn load_slice(bytes: &[u8], base_dir: Option<&Path>, label: &str, dec
 /// The glTF extensions the renderer reads.
 const SUPPORTED_EXTENSIONS: [&str; 2] = ["KHR_materials_emissive_strength", "KHR_lights_punctual"];
 
-fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_textures: bool) -> Result<Scene> {
+fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_textures: TextureLoad) -> Result<Scene> {
     let (doc, blob) = parse(bytes)?;
     let buffers = load_buffers(&doc, base_dir, blob)?;
     let mut warnings = Vec::new();
@@ -1106,13 +1126,14 @@ fn load_textures(
     doc: &Document,
     buffers: &[Vec<u8>],
     base_dir: Option<&Path>,
-    decode: bool,
+    load: TextureLoad,
     used: &std::collections::BTreeSet<usize>,
     materials: &mut [Material],
     warnings: &mut Vec<String>,
 ) -> Result<Vec<Texture>> {
+    let decode = load.decode;
     // Each used image read once, its size from its header; the total checked before any decode.
-    let mut encoded = if decode { read_texture_images(doc, buffers, base_dir, used)? } else { BTreeMap::new() };
+    let mut encoded = if decode { read_texture_images(doc, buffers, base_dir, used, load.device_range)? } else { BTreeMap::new() };
     let mut textures = Vec::new();
     let mut by_image: BTreeMap<(usize, bool), usize> = BTreeMap::new();
     for (m, material) in doc.materials().zip(materials.iter_mut()) {
@@ -1196,6 +1217,7 @@ fn read_texture_images(
     buffers: &[Vec<u8>],
     base_dir: Option<&Path>,
     used: &std::collections::BTreeSet<usize>,
+    device_range: &dyn Fn() -> Option<u64>,
 ) -> Result<BTreeMap<usize, EncodedImage>> {
     let mut keys = std::collections::BTreeSet::new();
     // Each image with the first material that samples it (named in its errors, as load_textures does).
@@ -1227,6 +1249,22 @@ fn read_texture_images(
             (total * 4) as f64 / (1u64 << 30) as f64,
             names.join(", ")
         );
+    }
+    // The device's own limit, which the upload would apply after decoding them all (on
+    // lavapipe, 128 MiB: a scene of 4 GiB of texels took minutes and as many GiB to be refused).
+    if total * 4 > MIN_STORAGE_BUFFER_RANGE {
+        if let Some(range) = device_range().filter(|&r| total * 4 > r) {
+            let mut largest: Vec<&EncodedImage> = read.values().collect();
+            largest.sort_by_key(|e| std::cmp::Reverse(texels(e)));
+            let names: Vec<String> = largest.iter().take(3).map(|e| format!("'{}' {}x{}", e.name, e.width, e.height)).collect();
+            bail!(
+                "its base colour textures hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
+                 one buffer (maxStorageBufferRange: {:.1} MiB); render with --textures off, or scale down the largest ({})",
+                (total * 4) as f64 / 1048576.0,
+                range as f64 / 1048576.0,
+                names.join(", ")
+            );
+        }
     }
     Ok(read)
 }

@@ -245,7 +245,7 @@ impl Instance {
 impl Scene {
     /// Loads a `.gltf` (embedded `data:` URIs or external files relative to it) or `.glb` file.
     pub fn load(path: &std::path::Path) -> anyhow::Result<Scene> {
-        load::load_path(path, true)
+        load::load_path(path, load::TextureLoad::plain(true))
     }
 
     /// [`Scene::load`] for a run with `--textures` as given: with `textures` false the images are
@@ -253,7 +253,15 @@ impl Scene {
     /// 1×1 white stand-in that nothing uploads), so a scene whose texture is missing or broken
     /// renders untextured, and a large one loads without the decoding's time.
     pub fn load_for(path: &std::path::Path, textures: bool) -> anyhow::Result<Scene> {
-        load::load_path(path, textures)
+        load::load_path(path, load::TextureLoad::plain(textures))
+    }
+
+    /// [`Scene::load_for`] for a run on a device: textures that pass what every device reads
+    /// through one buffer are checked against `device_range()` (the run's device's
+    /// maxStorageBufferRange, None if unknown) before any is decoded, with the error the upload
+    /// would give after decoding them all.
+    pub fn load_for_device(path: &std::path::Path, textures: bool, device_range: &dyn Fn() -> Option<u64>) -> anyhow::Result<Scene> {
+        load::load_path(path, load::TextureLoad { decode: textures, device_range })
     }
 
     /// Loads glTF JSON or GLB bytes. External buffer URIs are resolved against `base_dir`
@@ -263,7 +271,7 @@ impl Scene {
         base_dir: Option<&std::path::Path>,
         label: &str,
     ) -> anyhow::Result<Scene> {
-        load::load_slice(bytes, base_dir, label, true)
+        load::load_slice(bytes, base_dir, label, load::TextureLoad::plain(true))
     }
 
     /// Total number of instanced triangles.

@@ -1019,6 +1019,45 @@ fn textures_too_large_together_are_refused_before_decoding() {
     assert_contains(&load_err(&doc), &["material 'm0'", "image 0"]);
 }
 
+/// Textures past the device's maxStorageBufferRange are refused from their headers, before any is
+/// decoded, with the upload's words (on lavapipe's 128 MiB a scene of GiBs of texels decoded them
+/// all, taking minutes and as much memory, before the upload refused them). The device is asked
+/// only when the texels pass what every device allows (2^27 bytes); with no device known the
+/// load goes on to decode (this header-only PNG then fails to decode).
+#[test]
+fn textures_past_the_devices_buffer_range_are_refused_before_decoding() {
+    let mut doc = triangle_doc();
+    doc["materials"] = json!([{ "name": "m", "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }]);
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    doc["textures"] = json!([{ "source": 0 }]);
+    let load = |w: u32, h: u32, range: Option<u64>, asked: &std::cell::Cell<u32>| {
+        let mut d = doc.clone();
+        d["images"] = json!([{ "name": "big", "uri": format!("data:image/png;base64,{}", base64::encode(&png_header_only(w, h))) }]);
+        let device_range = || {
+            asked.set(asked.get() + 1);
+            range
+        };
+        let text = d.to_string();
+        match super::load::load_slice(text.as_bytes(), None, "big.gltf", super::load::TextureLoad { decode: true, device_range: &device_range }) {
+            Ok(_) => panic!("a header-only PNG loaded"),
+            Err(e) => format!("{e:#}"),
+        }
+    };
+    let asked = std::cell::Cell::new(0);
+    // 8192² texels: 256 MiB, over lavapipe's 128 MiB.
+    let e = load(8192, 8192, Some(128 << 20), &asked);
+    assert_contains(&e, &["big.gltf", "256.0 MiB", "maxStorageBufferRange: 128.0 MiB", "--textures off", "'big' 8192x8192"]);
+    assert_eq!(asked.get(), 1);
+    // Within a 4 GiB device's range, or no device known: decoded (and this one fails there).
+    for range in [Some(4u64 << 30), None] {
+        assert_contains(&load(8192, 8192, range, &asked), &["image 0"]);
+    }
+    // Within what every device allows: the device is not asked (a probe costs an instance).
+    let before = asked.get();
+    assert_contains(&load(4096, 4096, Some(1), &asked), &["image 0"]);
+    assert_eq!(asked.get(), before, "asked for a texture every device takes");
+}
+
 /// Only the materials the rendered scene uses have their textures read: a texture that cannot be
 /// read, on a material no primitive uses or used only in another glTF scene, failed the file.
 /// Cut-outs and transparency are not rendered: a used material asking for them is warned about.

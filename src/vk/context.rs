@@ -601,6 +601,32 @@ pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
     Ok(reports)
 }
 
+/// maxStorageBufferRange of the device a context made with these options would pick (as
+/// [`Context::new`] chooses: `device_index`, else the best device that qualifies), read without
+/// creating a device; None where there is none or the driver cannot be asked (the context's own
+/// creation then says why). The scene loader asks it before decoding textures too large for
+/// some devices ([`crate::scene::Scene::load_for_device`]).
+pub fn storage_buffer_range(device_index: Option<usize>, request: Option<Tracing>) -> Option<u64> {
+    let request = match request {
+        Some(t) => Some(t),
+        None => tracing_from_env().ok()?,
+    };
+    let entry = load_entry().ok()?;
+    let (instance, _, _) = create_instance(&entry, false, None, None).ok()?;
+    // SAFETY: the instance is valid; destroyed below, after its devices' properties are read.
+    let pds = unsafe { instance.enumerate_physical_devices() }.unwrap_or_default();
+    let inspected: Vec<(DeviceReport, u32, vk::PhysicalDevice)> =
+        pds.iter().enumerate().map(|(i, pd)| { let (r, rank) = inspect(&instance, i, *pd, request); (r, rank, *pd) }).collect();
+    let chosen = match device_index {
+        Some(i) => inspected.iter().find(|x| x.0.index == i && x.0.qualifies()),
+        None => inspected.iter().filter(|x| x.0.qualifies()).min_by_key(|x| (x.1, x.0.index)),
+    };
+    // SAFETY: `pd` comes from this instance.
+    let range = chosen.map(|x| u64::from(unsafe { instance.get_physical_device_properties(x.2) }.limits.max_storage_buffer_range));
+    destroy_instance(&instance, &None);
+    range
+}
+
 impl Context {
     pub fn new(opts: &ContextOptions) -> Result<Self> {
         let request = match opts.tracing {

@@ -64,7 +64,10 @@ fn display_error_text(text: &str) -> String {
 pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summary>> {
     settings.validate()?;
     let start = Instant::now();
-    let scene = Scene::load_for(&settings.scene, settings.textures)?;
+    // (The device's buffer limit is read before the window exists: the window's device is the
+    // one a headless run picks, less any that cannot present.)
+    let range = || crate::vk::context::storage_buffer_range(settings.device_index, settings.tracing);
+    let scene = Scene::load_for_device(&settings.scene, settings.textures, &range)?;
     crate::headless::check_outputs_spare_inputs(&settings, &scene.files, opts.reference.as_deref())?;
     let reference = opts.reference.as_deref().map(|p| overlay::Reference::load(p, &settings)).transpose()?;
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
