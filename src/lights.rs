@@ -83,34 +83,45 @@ impl LightSet {
             total_power[2] += phi.z as f64;
         }
         let weights: Vec<f64> = powers.iter().map(|p| p.1).collect();
-        let pdf = |w: f64| if total_power_lum > 0.0 { (w / total_power_lum) as f32 } else { 0.0 };
+        let alias = alias_table(&weights);
+        // Each light's probability of being picked as the shaders pick it (`alias_pdfs`), which
+        // the path tracer divides by: w / Σw differed from it by up to 2^-32 / keep relative.
+        let picked = alias_pdfs(&alias);
+        let pdfs: Vec<f64> = if total_power_lum > 0.0 { picked } else { vec![0.0; weights.len()] };
+        let pdf = |i: usize| pdfs[i] as f32;
         let lights = tris
             .iter()
-            .zip(&weights)
-            .map(|(t, w)| GpuLight {
+            .enumerate()
+            .map(|(i, t)| GpuLight {
                 p0: t.p[0].to_array(),
                 area: t.area,
                 p1: t.p[1].to_array(),
-                pdf: pdf(*w),
+                pdf: pdf(i),
                 p2: t.p[2].to_array(),
                 flags: if t.double_sided { MATERIAL_DOUBLE_SIDED } else { 0 },
                 emission: t.emission.to_array(),
                 _pad0: 0,
             })
-            .chain(points.iter().zip(&weights[tris.len()..]).map(|((pos, i), w)| GpuLight {
+            .chain(points.iter().enumerate().map(|(k, (pos, i))| GpuLight {
                 p0: pos.to_array(),
-                pdf: pdf(*w),
+                pdf: pdf(tris.len() + k),
                 flags: LIGHT_POINT,
                 emission: i.to_array(),
                 ..Default::default()
             }))
             .collect();
-        Self { lights, alias: alias_table(&weights), total_power_lum, total_power }
+        Self { lights, alias, total_power_lum, total_power }
     }
 }
 
+/// The smallest `keep` of an entry with a positive weight: 2^-32, the shaders' resolution
+/// (`alias_resolve` keeps when 32 random bits are below floor(keep · 2^32)), so that every light
+/// and VPL with power can be picked.
+const MIN_KEEP: f32 = 1.0 / 4_294_967_296.0;
+
 /// Vose's alias method: slot i keeps i with probability `keep`, else yields `alias`. Sampling a
-/// uniform slot then resolving gives P(i) = w_i / Σw exactly (up to float rounding of `keep`).
+/// uniform slot then resolving gives P(i) = w_i / Σw up to the shaders' arithmetic, which
+/// [`alias_pdfs`] gives exactly.
 pub fn alias_table(weights: &[f64]) -> Vec<GpuAliasEntry> {
     let n = weights.len();
     let total: f64 = weights.iter().sum();
@@ -121,7 +132,8 @@ pub fn alias_table(weights: &[f64]) -> Vec<GpuAliasEntry> {
     let mut table: Vec<GpuAliasEntry> = (0..n as u32).map(|i| GpuAliasEntry { keep: 1.0, alias: i }).collect();
     let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
     while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
-        table[s] = GpuAliasEntry { keep: scaled[s] as f32, alias: l as u32 };
+        let keep = if weights[s] > 0.0 { (scaled[s] as f32).max(MIN_KEEP) } else { scaled[s] as f32 };
+        table[s] = GpuAliasEntry { keep, alias: l as u32 };
         scaled[l] = (scaled[l] + scaled[s]) - 1.0;
         if scaled[l] < 1.0 {
             large.pop();
@@ -130,6 +142,25 @@ pub fn alias_table(weights: &[f64]) -> Vec<GpuAliasEntry> {
     }
     // Leftovers (rounding): keep themselves with probability 1.
     table
+}
+
+/// The probability that the shaders pick each index from `table` (shaders/lib/sampling.glsl):
+/// the slot floor(b · n / 2^32) of 32 random bits b, which slot k gets for
+/// ceil((k + 1) 2^32 / n) − ceil(k 2^32 / n) of the 2^32 values, then the slot kept when 32 more
+/// bits are below floor(keep · 2^32) (keep ≥ 1: always), else its alias. Exact (integer counts)
+/// up to the final f64 rounding.
+pub fn alias_pdfs(table: &[GpuAliasEntry]) -> Vec<f64> {
+    let n = table.len() as u128;
+    let two32: u128 = 1 << 32;
+    let mut p = vec![0.0f64; table.len()];
+    for (k, e) in table.iter().enumerate() {
+        let k = k as u128;
+        let slot_values = ((k + 1) * two32).div_ceil(n) - (k * two32).div_ceil(n);
+        let kept: u128 = if e.keep >= 1.0 { two32 } else { (f64::from(e.keep.max(0.0)) * two32 as f64).floor() as u128 };
+        p[k as usize] += (slot_values * kept) as f64 / (two32 * two32) as f64;
+        p[e.alias as usize] += (slot_values * (two32 - kept)) as f64 / (two32 * two32) as f64;
+    }
+    p
 }
 
 #[cfg(test)]
@@ -150,6 +181,47 @@ mod tests {
         }
         for (i, wi) in w.iter().enumerate() {
             assert!((p[i] - wi / total).abs() < 1e-6, "slot {i}: {} vs {}", p[i], wi / total);
+        }
+    }
+
+    /// `alias_pdfs` is what the shaders' 32-bit arithmetic samples: it sums to 1, agrees with
+    /// w / Σw for ordinary weights, keeps every index with a weight pickable (a light with 1e-12
+    /// of the power, which float keep tests never picked), and matches a draw of 4 million pairs
+    /// of 32-bit words through the same integer steps (each index within 5 standard errors).
+    #[test]
+    fn alias_pdfs_are_the_shaders_sampling_probabilities() {
+        let w = [1.0, 2.0, 0.0, 3.0, 1e-12, 0.5, 7.0];
+        let total: f64 = w.iter().sum();
+        let table = alias_table(&w);
+        let p = alias_pdfs(&table);
+        assert!((p.iter().sum::<f64>() - 1.0).abs() < 1e-12, "{p:?}");
+        for (i, wi) in w.iter().enumerate() {
+            if *wi >= 1e-3 || *wi == 0.0 {
+                assert!((p[i] - wi / total).abs() <= 1e-6 * (wi / total) + 1e-15, "index {i}: {} against {}", p[i], wi / total);
+            }
+        }
+        assert!(p[4] > 0.0 && p[4] < 1e-9, "the faint index: {}", p[4]);
+        assert_eq!(p[2], 0.0, "a zero weight is never picked");
+        // The shaders' steps on the CPU (xorshift words; the counts are binomial).
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 32) as u32
+        };
+        let draws = 4_000_000u64;
+        let mut counts = vec![0u64; w.len()];
+        for _ in 0..draws {
+            let slot = ((u64::from(next()) * w.len() as u64) >> 32) as usize;
+            let e = &table[slot];
+            let bits = next();
+            let kept = e.keep >= 1.0 || bits < (f64::from(e.keep) * 4_294_967_296.0) as u32;
+            counts[if kept { slot } else { e.alias as usize }] += 1;
+        }
+        for (i, (&c, &pi)) in counts.iter().zip(&p).enumerate() {
+            let se = (draws as f64 * pi * (1.0 - pi)).sqrt().max(1.0);
+            assert!((c as f64 - draws as f64 * pi).abs() <= 5.0 * se, "index {i}: {c} draws against {} expected", draws as f64 * pi);
         }
     }
 }

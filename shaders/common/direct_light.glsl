@@ -24,9 +24,11 @@ float light_pdf_area(vec3 le, bool double_sided) {
 // Reflected radiance at x (geometric normal ng, shading normal ns, offset_ray scale x_scale, albedo rho) from one light
 // sample. `residual_r2` < 0: the light counts whole; otherwise each sample is weighted by Yuksel's
 // residual w(d) = 1 - d^2 G_r(d) for r^2 = residual_r2 (the light the clamped VPLs leave out).
-// Consumes three random numbers whatever the light.
+// Consumes four random numbers whatever the light.
 vec3 next_event(vec3 x, vec3 ng, vec3 ns, float x_scale, vec3 rho, float residual_r2, inout Rng rng, inout uint rays) {
-    uint li = sample_light_index(rng_next(rng));
+    uint slot_bits = rng_next(rng);
+    uint keep_bits = rng_next(rng);
+    uint li = sample_light_index(slot_bits, keep_bits);
     Light l = light_texels(lights, li);
     vec2 u = rand2(rng);
     if ((l.flags & LIGHT_POINT) != 0u) {

@@ -185,12 +185,13 @@ vec3 hit_albedo(Hit h) {
     return m.albedo;
 }
 
-// Picks a light in proportion to lum(power) through the alias table, from 32 random bits.
-uint sample_light_index(uint bits) {
-    float u_rest;
-    uint slot = alias_slot(bits, frame.light_count, u_rest);
+// Picks a light in proportion to lum(power) through the alias table, from two words of 32
+// random bits (the slot's, the keep test's); its probability is the light's `pdf` exactly
+// (src/lights.rs, light_pdfs).
+uint sample_light_index(uint slot_bits, uint keep_bits) {
+    uint slot = alias_slot(slot_bits, frame.light_count);
     AliasEntry e = alias_texels(light_alias, slot);
-    return alias_resolve(slot, e.keep, e.alias, u_rest);
+    return alias_resolve(slot, e.keep, e.alias, keep_bits);
 }
 
 #endif

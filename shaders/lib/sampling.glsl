@@ -73,21 +73,22 @@ float power_heuristic(float pdf_a, float pdf_b) {
     return r2 / (1.0 + r2);
 }
 
-// Vose alias table, step 1: the slot that 32 random bits land in (floor(bits n / 2^32), exact for
-// any n) and a fresh uniform with 24 bits from the low word of the product. (From a float u in
-// [0, 1), u n keeps only 24 - log2(n) bits of fraction: for 10k lights the keep test was off by up
-// to several times for small keep probabilities.)
-uint alias_slot(uint bits, uint n, out float u_rest) {
+// Vose alias table, step 1: the slot that 32 random bits land in (floor(bits n / 2^32): slot k
+// takes ceil((k+1) 2^32 / n) - ceil(k 2^32 / n) of the 2^32 values, which src/lights.rs counts).
+uint alias_slot(uint bits, uint n) {
     uint slot;
     uint fraction;
     umulExtended(bits, n, slot, fraction);
-    u_rest = float(fraction >> 8) * (1.0 / 16777216.0);
     return slot;
 }
 
-// Step 2: keep the slot's own index with probability `keep`, else take its alias.
-uint alias_resolve(uint slot, float keep, uint alias_index, float u_rest) {
-    return u_rest < keep ? slot : alias_index;
+// Step 2: keep the slot's own index with probability `keep`, else take its alias, from 32 more
+// random bits: kept when bits < floor(keep 2^32) (keep >= 1: always), a probability exact to
+// 2^-32 for any keep (src/lights.rs computes the lights' pdf from the same integers). The 24
+// bits of a float uniform picked a light with keep 2e-7 1.2x too often, and one with keep 1e-5
+// among 10^6 lights never (its slot's share of a shared 32-bit word left it ~4000 values).
+uint alias_resolve(uint slot, float keep, uint alias_index, uint bits) {
+    return (keep >= 1.0 || bits < uint(keep * 4294967296.0)) ? slot : alias_index;
 }
 
 // The scale of a triangle's rounding errors for offset_ray: its vertices' largest |coordinate|

@@ -69,7 +69,7 @@ void main() {
             uint i = rand_index(rng, p.vpl_count);
             if (p.source == 1u) {
                 AliasEntry a = alias_texels(vpl_alias, i);
-                i = alias_resolve(i, a.keep, a.alias, rand(rng));
+                i = alias_resolve(i, a.keep, a.alias, rng_next(rng));
             }
             Vpl v = vpl_texels(vpls, i);
             float q = vpl_source_pdf(v.flux, p);

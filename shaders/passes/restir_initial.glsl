@@ -144,7 +144,7 @@ Reservoir initial_reservoir(uvec2 pixel, Surface s, VplParams p, uint tile_count
             uint i = rand_index(rng, p.vpl_count);
             if (p.source == 1u) {
                 AliasEntry e = alias_texels(vpl_alias, i);
-                i = alias_resolve(i, e.keep, e.alias, rand(rng));
+                i = alias_resolve(i, e.keep, e.alias, rng_next(rng));
             }
             Vpl v = vpl_texels(vpls, i);
             float t = vpl_target(v, s.position, s.shading_normal, s.geometric_normal, s.albedo, p);

@@ -3,7 +3,7 @@
 // at once, so the surface is read once and the initial reservoirs never go through memory. The
 // same functions and random streams as the two passes (restir_initial.glsl, restir_temporal.glsl),
 // so the same estimator. Used when both would run and nothing needs the initial reservoirs on
-// their own (--fuse-passes on, off by default; not in a --dump-passes or --check-finite frame).
+// their own (--fuse-passes, on by default; not in a --dump-passes or --check-finite frame).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 

@@ -4,7 +4,7 @@
 // same functions and random streams as the two passes (restir_spatial.glsl, vpl_shade.glsl), so
 // the same estimator. Used when both would run, the view is the shaded image and nothing needs
 // the last spatial pass's reservoirs on their own (no --dump-passes or --check-finite frame;
-// --fuse-passes on, off by default).
+// --fuse-passes, on by default).
 #version 460
 #extension GL_GOOGLE_include_directive : require
 

@@ -65,8 +65,13 @@ vec3 vpl_estimate(Surface s, VplParams p, inout Rng rng, inout uint rays) {
     if (!vpl_visible(s, v)) {
         return vec3(0.0);
     }
-    // W = (sum_j t_j / (m p)) / t(pick), p = 1/N.
-    float ucw = w_sum * float(p.vpl_count) / (float(m) * pick_target);
+    // W = (sum_j t_j / (m p)) / t(pick), p = 1/N, in an order that overflows last (w_sum * N
+    // passed 3.4e38 first, with a tiny --yuksel-radius); a W past floats empties the estimate, as
+    // stream_finish empties a reservoir, instead of an Inf whose product with a zero channel is NaN.
+    float ucw = (w_sum / pick_target) * (float(p.vpl_count) / float(m));
+    if (!is_finite(ucw)) {
+        return vec3(0.0);
+    }
     return surface_vpl_contribution(s, v, p) * ucw;
 }
 

@@ -39,7 +39,7 @@ void main() {
     uint i = rand_index(rng, pc.params.vpl_count);
     if (pc.params.source == 1u) {
         AliasEntry a = alias_texels(vpl_alias, i);
-        i = alias_resolve(i, a.keep, a.alias, rand(rng));
+        i = alias_resolve(i, a.keep, a.alias, rng_next(rng));
     }
     VplCandidate c = vpl_candidate(vpl_texels(vpls, i), i);
     if (frame.debug_poison == POISON_VPL_PRESAMPLE && e == 1u) {
