@@ -1315,9 +1315,17 @@ fn readme_command_lines_name_only_flags_the_program_has() {
         if let Some(rest) = line.trim_start().strip_prefix("restir-vpl ") {
             command = commands.iter().copied().find(|c| rest.split_whitespace().next() == Some(*c));
         }
+        // "(render flags: not --save-every, ...)": flags the command refuses, which its help hides
+        // (the main command's help lists them).
+        let (taken, refused) = line.split_once(": not ").unwrap_or((line, ""));
+        let main_help = known.entry(None).or_insert_with(|| help(None)).clone();
         let have = known.entry(command).or_insert_with(|| help(command));
-        for f in flags(line) {
+        for f in flags(taken) {
             assert!(have.contains(&f), "README's command line `{}` names {f}, which `restir-vpl {} --help` does not list", line.trim(), command.unwrap_or(""));
+            checked += 1;
+        }
+        for f in flags(refused) {
+            assert!(main_help.contains(&f) && !have.contains(&f), "README says `restir-vpl {}` refuses {f}: its help should not list it, the main help should", command.unwrap_or(""));
             checked += 1;
         }
     }
