@@ -40,7 +40,7 @@ fn main() -> anyhow::Result<()> {
     let ctx = Arc::new(Context::new(&Default::default())?);
     let scene = spec.upload(&ctx)?;
     let base = RenderSettings { progressive: false, ..spec.base_settings((100_000, 100_000), false, None) };
-    let path = CameraPath::load(&root.join("scenes/cornell_box.path.json"))?;
+    let path = CameraPath::load(&root.join("scenes/cornell_box.path.json"))?.moved(-scene.info.origin);
     let start = path.at(0.0);
     let up = Vec3::Y;
     let corner = Camera::look_at(Vec3::new(0.45, 0.4, 0.1), Vec3::new(0.05, 0.1, 0.5), up, start.yfov, "corner");
@@ -55,7 +55,7 @@ fn main() -> anyhow::Result<()> {
     println!("| jump | {} / {}'s RMSE (± s.e. over {runs} paired seeds) | RMSE | GPU ms of the jump frame |", variants[0].0, variants[1].0);
     println!("|---|---:|---:|---:|");
     for (name, tag, camera) in jumps {
-        let settings = RenderSettings { mode: Mode::Pt, camera: Some(camera.as_override()), progressive: true, ..base.clone() };
+        let settings = RenderSettings { mode: Mode::Pt, camera: Some(camera.as_override(scene.info.origin)), progressive: true, ..base.clone() };
         let file = out.join("references").join(format!("cornell_box_{}x{}_jump_{tag}_pt.exr", spec.width, spec.height));
         let reference = make_reference(&ctx, &scene, &settings, &file, ReferenceTarget::AtLeast { frames: REFERENCE_FRAMES }, &mut |_, _| {})?.image;
         let mut renderers = variants

@@ -7,6 +7,12 @@ use serde::Serialize;
 use crate::scene_gpu::SceneInfo;
 use crate::settings::CameraOverride;
 
+/// `p + by`, added in f64 (the file's coordinates of a far scene and the renderer's differ by a
+/// large `by`: the sum is rounded once).
+fn moved(p: Vec3, by: Vec3) -> Vec3 {
+    (p.as_dvec3() + by.as_dvec3()).as_vec3()
+}
+
 /// A pinhole camera: position and an orthonormal basis (right-handed, looking down `forward`).
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Camera {
@@ -63,7 +69,9 @@ impl Camera {
     /// scene's bounds from +z.
     pub fn initial(scene: &SceneInfo, camera: Option<&CameraOverride>) -> Self {
         if let Some(c) = camera {
-            return Self::look_at(c.eye, c.target, c.up, c.yfov_degrees.to_radians(), "command line");
+            // Given in the file's coordinates; the scene may have been moved (Scene::recentre).
+            let (eye, target) = (moved(c.eye, -scene.origin), moved(c.target, -scene.origin));
+            return Self::look_at(eye, target, c.up, c.yfov_degrees.to_radians(), "command line");
         }
         if let Some((transform, yfov)) = scene.camera {
             return Self::from_transform(transform, yfov, "scene camera");
@@ -79,9 +87,17 @@ impl Camera {
     }
 
     /// This camera as a command-line camera (`--eye`, `--target`, `--up`, `--fov`: what reference
-    /// settings record), from which [`Camera::initial`] makes it again.
-    pub fn as_override(&self) -> CameraOverride {
-        CameraOverride { eye: self.position, target: self.target_point(), up: self.up, yfov_degrees: self.yfov.to_degrees() }
+    /// settings record), from which [`Camera::initial`] makes it again: in the file's coordinates,
+    /// `origin` being the scene's [`crate::scene::Scene::origin`].
+    pub fn as_override(&self, origin: Vec3) -> CameraOverride {
+        let c = self.moved(origin);
+        CameraOverride { eye: c.position, target: c.target_point(), up: c.up, yfov_degrees: c.yfov.to_degrees() }
+    }
+
+    /// This camera moved by `by` (computed in f64): `moved(origin)` from the renderer's coordinates
+    /// to the file's, `moved(-origin)` back.
+    pub fn moved(&self, by: Vec3) -> Self {
+        Self { position: moved(self.position, by), ..*self }
     }
 
     /// A point the camera looks at, written where a camera is saved as eye and target: one unit
@@ -297,6 +313,13 @@ impl CameraPath {
         let text = String::from_utf8(crate::output::read_input(file)?).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))?;
         // A byte-order mark (Windows editors write one) is not JSON.
         Self::from_json(text.strip_prefix('\u{feff}').unwrap_or(&text)).map_err(|e| anyhow::anyhow!("{}: {e}", file.display()))
+    }
+
+    /// The path moved by `by` (eyes and targets, in f64): a path in the file's coordinates is
+    /// `moved(-origin)` into those of a recentred scene ([`crate::scene::Scene::recentre`]).
+    pub fn moved(&self, by: Vec3) -> Self {
+        let shift = |p: [f32; 3]| moved(Vec3::from(p), by).to_array();
+        Self { keyframes: self.keyframes.iter().map(|k| Keyframe { eye: shift(k.eye), target: shift(k.target), ..*k }).collect() }
     }
 
     /// A one-keyframe path holding `camera` (what `O` writes to camera.json).
@@ -673,6 +696,7 @@ mod tests {
     #[test]
     fn a_scene_camera_with_a_bad_yfov_is_refused_unless_replaced() {
         let info = |yfov: Option<f32>| crate::scene_gpu::SceneInfo {
+            origin: Vec3::ZERO,
             path: "bad.gltf".into(),
             meshes: 0,
             materials: 0,
@@ -699,6 +723,7 @@ mod tests {
     fn automatic_camera_is_finite_for_extreme_bounds() {
         for (lo, hi) in [(Vec3::splat(-1e19), Vec3::splat(1e19)), (Vec3::splat(-3e38), Vec3::splat(3e38)), (Vec3::ZERO, Vec3::ZERO)] {
             let info = crate::scene_gpu::SceneInfo {
+                origin: Vec3::ZERO,
                 path: "test".into(),
                 meshes: 0,
                 materials: 0,
@@ -749,7 +774,7 @@ mod tests {
             // The angle, from the cross product (a dot product near 1 cannot resolve it in f32).
             let angle = back.forward.cross(c.forward).length();
             assert!(angle < 2e-5, "eye {eye}: the saved view turned by {angle} rad");
-            let o = c.as_override();
+            let o = c.as_override(Vec3::ZERO);
             let angle = (o.target - o.eye).normalize().cross(c.forward).length();
             assert!(angle < 2e-5, "eye {eye}: the override's view turned by {angle} rad");
         }

@@ -85,6 +85,8 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
     let [width, height] = c.shape;
     let n = c.records();
     let img = |pixels: Vec<[f32; 3]>| RgbImage { width, height, pixels };
+    // Positions in the file's coordinates (the scene may have been recentred), in f64.
+    let file_position = |p: [f32; 3]| (glam::Vec3::from(p).as_dvec3() + c.origin.as_dvec3()).as_vec3().to_array();
     match c.kind {
         CaptureKind::Surfaces => {
             let s: Vec<GpuSurface> = decode_surfaces(&c.bytes[..n * std::mem::size_of::<GpuSurfaceTexels>()]);
@@ -93,7 +95,8 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
                 [instance, triangle] => hash_colour(instance.wrapping_mul(65_599) ^ triangle),
             };
             vec![
-                Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| s.position).collect()) },
+                // (A miss's position is no point: left as stored.)
+                Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| if s.offset_scale < 0.0 { s.position } else { file_position(s.position) }).collect()) },
                 Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()) },
                 // Beside the shading normal: where the two part, interpolated vertex normals are
                 // at work (or went wrong: a smooth surface shaded flat has them equal).
@@ -124,7 +127,7 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             let tiles = |f: &dyn Fn(&GpuVplCandidate) -> [f32; 3]| layout.image(&t.iter().map(f).collect::<Vec<_>>());
             vec![
                 Decoded { what: "vpl", look: "ids", image: tiles(&|t| hash_colour(candidate_index(t.vpl_kind))) },
-                Decoded { what: "position", look: "signed", image: tiles(&|t| t.position) },
+                Decoded { what: "position", look: "signed", image: tiles(&|t| file_position(t.position)) },
                 Decoded { what: "normal", look: "signed", image: tiles(&|t| oct_decode(t.normal_oct)) },
                 // Grey (per channel, white at the 99th percentile): a VPL's flux is a small share
                 // of the light's power, black in an image shown at exposure 0.
@@ -139,7 +142,7 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             let id = |e: &GpuGridEntry| if e.ucw > 0.0 { hash_colour(candidate_index(e.vpl_kind)) } else { [0.0; 3] };
             vec![
                 Decoded { what: "vpl", look: "ids", image: cells(&id) },
-                Decoded { what: "position", look: "signed", image: cells(&|e| e.position) },
+                Decoded { what: "position", look: "signed", image: cells(&|e| if e.ucw > 0.0 { file_position(e.position) } else { e.position }) },
                 Decoded { what: "normal", look: "signed", image: cells(&|e| if e.ucw > 0.0 { oct_decode(e.normal_oct) } else { [0.0; 3] }) },
                 Decoded { what: "flux", look: "grey", image: cells(&|e| e.flux) },
                 Decoded { what: "w", look: "grey", image: cells(&|e| [e.ucw; 3]) },

@@ -227,7 +227,7 @@ pub fn check_outputs_spare_inputs(settings: &RenderSettings, scene_files: &[std:
 fn finish_dump(renderer: &Renderer, dir: &std::path::Path, dumped: &[crate::dump::DumpedFrame], outputs: &mut Vec<String>) -> Result<std::path::PathBuf> {
     if let Some(vpls) = renderer.read_vpls()? {
         let ply = dir.join("vpls.ply");
-        crate::ply::write_vpls(&ply, &vpls).context("--dump-passes: the VPLs beside the pass inspector")?;
+        crate::ply::write_vpls(&ply, &vpls, renderer.scene().info.origin).context("--dump-passes: the VPLs beside the pass inspector")?;
         outputs.push(ply.display().to_string());
     }
     let page = crate::dump::write_inspector(dir, dumped)?;
@@ -299,7 +299,8 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         }
     }
     // Read before the renderer's set-up (photons, pipelines), so that a bad file fails at once.
-    let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
+    // In the renderer's coordinates (the scene may have been recentred: Scene::recentre).
+    let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?.map(|p| p.moved(-scene.info.origin));
     let mut renderer = Renderer::new(ctx.clone(), scene.clone(), settings.clone())?;
     let camera_at = |f: u32| match &path {
         Some(p) => p.at(f as f32),
@@ -336,7 +337,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     }
     if let Some(path) = &settings.dump_vpls {
         let vpls = renderer.read_vpls()?.unwrap_or_default();
-        crate::ply::write_vpls(path, &vpls).context("--dump-vpls")?;
+        crate::ply::write_vpls(path, &vpls, scene.info.origin).context("--dump-vpls")?;
         outputs.push(path.display().to_string());
     }
     let progress = Progress::new(settings.progress, settings.frames as u64);
@@ -498,7 +499,8 @@ pub fn finish_run(
             added_point_lights: renderer.extra_lights().len(),
             upload_and_build_ms: scene.build_ms,
         },
-        camera: renderer.camera().unwrap_or_else(|| renderer.initial_camera()),
+        // In the file's coordinates, as --eye takes them.
+        camera: renderer.camera().unwrap_or_else(|| renderer.initial_camera()).moved(info.origin),
         frames,
         accumulated_frames: renderer.accumulated(),
         pass_ms: log.pass_stats(),

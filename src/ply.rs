@@ -25,9 +25,11 @@ const PROPERTIES: [(&str, &str); 13] = [
     ("uchar", "blue"),
 ];
 
-/// Writes the VPLs to `path` (replacing it whole: a failed write leaves the earlier file). Errors
-/// name the file; the caller names the flag (`--dump-vpls`, or `--dump-passes`' `passes/vpls.ply`).
-pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
+/// Writes the VPLs to `path` (replacing it whole: a failed write leaves the earlier file), their
+/// positions moved by `origin` (the scene's [`crate::scene::Scene::origin`]: into the file's
+/// coordinates). Errors name the file; the caller names the flag (`--dump-vpls`, or
+/// `--dump-passes`' `passes/vpls.ply`).
+pub fn write_vpls(path: &Path, vpls: &[GpuVpl], origin: glam::Vec3) -> Result<()> {
     // As --out: a missing directory is created.
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the directory {}", path.display(), dir.display()))?;
@@ -45,7 +47,8 @@ pub fn write_vpls(path: &Path, vpls: &[GpuVpl]) -> Result<()> {
         let mut w = std::io::BufWriter::new(std::fs::File::create(partial)?);
         w.write_all(header.as_bytes())?;
         for v in vpls {
-            for f in v.position.iter().chain(&v.normal).chain(&v.flux) {
+            let position = (glam::Vec3::from(v.position).as_dvec3() + origin.as_dvec3()).as_vec3().to_array();
+            for f in position.iter().chain(&v.normal).chain(&v.flux) {
                 w.write_all(&f.to_le_bytes())?;
             }
             let colour: [u8; 3] = if v.kind == VPL_INDIRECT { [230, 40, 30] } else { [30, 80, 240] };

@@ -426,6 +426,9 @@ pub struct Captured {
     /// The buffer's name in the code (the binding the pass writes).
     pub buffer: &'static str,
     pub kind: CaptureKind,
+    /// The scene's [`crate::scene::Scene::origin`]: the bytes hold positions in the renderer's
+    /// coordinates, which the dump's images show moved back into the file's.
+    pub origin: glam::Vec3,
     /// The records as an image, [columns, rows]: the frame's width and height for a per-pixel
     /// output, [entries per tile, tiles] for `vpl_presample`'s tiles, [entries per cell, cells]
     /// for `regir_build`'s grid.
@@ -1193,6 +1196,7 @@ impl Renderer {
                 repeat: m.repeat,
                 buffer: m.buffer,
                 kind: m.kind,
+                origin: self.scene.info.origin,
                 shape: m.shape,
                 bytes: buffer.read(m.offset as usize, m.size as usize)?,
             });

@@ -61,6 +61,8 @@ pub struct SceneInfo {
     pub camera: Option<(Mat4, f32)>,
     /// Loader warnings.
     pub warnings: Vec<String>,
+    /// [`crate::scene::Scene::origin`]: the file's coordinates of this scene's origin.
+    pub origin: glam::Vec3,
     /// The files besides `path` the scene was read from ([`crate::scene::Scene::files`]).
     pub files: Vec<std::path::PathBuf>,
 }
@@ -298,6 +300,7 @@ impl SceneGpu {
             camera: scene.camera.as_ref().map(|c| (c.transform, c.yfov)),
             warnings: scene.warnings.clone(),
             files: scene.files.clone(),
+            origin: scene.origin,
         };
         Ok(Self {
             info,

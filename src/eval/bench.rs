@@ -376,6 +376,9 @@ pub fn time_settings(
     frames: u32,
     path: Option<&CameraPath>,
 ) -> Result<Vec<ModeBench>> {
+    // The path in the renderer's coordinates (the scene may have been recentred).
+    let moved = path.map(|p| p.moved(-scene.info.origin));
+    let path = moved.as_ref();
     let camera = match path {
         Some(p) => p.at(p.keyframes[0].frame as f32),
         None => Camera::initial(&scene.info, None),

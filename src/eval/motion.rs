@@ -207,11 +207,13 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
     for spec in &opts.scenes {
         let label = spec.label();
         let path_json = path_file(&spec.path);
-        let path = CameraPath::load(&path_json).with_context(|| format!("the camera path of {label}"))?;
+        let scene = spec.upload(ctx)?;
+        // In the renderer's coordinates (the scene may have been recentred); the references take
+        // their cameras back in the file's (as_override).
+        let path = CameraPath::load(&path_json).with_context(|| format!("the camera path of {label}"))?.moved(-scene.info.origin);
         let first = check_span(&path, opts.frames, &path_json)?;
         // Measured frame f stands at the path's frame first + f + 1: each moved since the one before.
         let path_camera = |f: u32| path.at((first + f + 1) as f32);
-        let scene = spec.upload(ctx)?;
         let base = RenderSettings {
             progressive: false,
             ..spec.base_settings((opts.vpls_direct, opts.vpls_indirect), opts.validate, None)
@@ -223,7 +225,7 @@ pub fn run_modes(ctx: &Arc<Context>, opts: &MotionOptions, modes: &[MotionMode],
             let camera = path_camera(f);
             // Accumulated: `base` shows each frame alone, which made every "128-frame" reference
             // one frame (until 2026-11-25: the references' noise then hid the modes' differences).
-            let settings = RenderSettings { mode: Mode::Pt, camera: Some(camera.as_override()), progressive: true, ..base.clone() };
+            let settings = RenderSettings { mode: Mode::Pt, camera: Some(camera.as_override(scene.info.origin)), progressive: true, ..base.clone() };
             // Named by the path's frame (`_f…` files of the protocol before hold other cameras).
             let file = refs_dir.join(format!("{label}_{}x{}_motion_p{:03}_pt.exr", spec.width, spec.height, first + f + 1));
             let made = make_reference(ctx, &scene, &settings, &file, ReferenceTarget::AtLeast { frames: opts.reference_frames }, &mut |_, _| {})?;

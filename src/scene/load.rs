@@ -269,6 +269,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
         textures,
         warnings,
         files: external_files(&doc, base_dir),
+        origin: Vec3::ZERO,
     };
     check_scene(scene).map_err(|e| {
         if unlabelled.is_empty() {
@@ -291,6 +292,10 @@ fn check_scene(mut scene: Scene) -> Result<Scene> {
         bail!("no triangles in scene");
     }
     check_scene_reach(&scene)?;
+    if scene.recentre() {
+        let o = scene.origin;
+        log::info!("{label}: rendered about its bounds' centre [{}, {}, {}], far from the file's origin for its size (32-bit rays); camera inputs and outputs stay in the file's coordinates", o.x, o.y, o.z);
+    }
     // Counted per mesh before any is made: every instance of an emissive mesh is its own lights
     // (200 instances of a 1M-triangle emissive grid took all 24 GB of memory and were killed).
     let emissive_per_mesh: Vec<u64> = scene

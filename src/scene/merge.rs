@@ -68,6 +68,7 @@ mod tests {
     fn scene(meshes: Vec<Mesh>, instances: Vec<(usize, Mat4)>) -> Scene {
         Scene {
             path: "test".into(),
+            origin: Vec3::ZERO,
             meshes,
             instances: instances
                 .into_iter()

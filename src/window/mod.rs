@@ -70,7 +70,8 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     let scene = Scene::load_for_device(&settings.scene, settings.textures, &range)?;
     crate::headless::check_outputs_spare_inputs(&settings, &scene.files, opts.reference.as_deref())?;
     let reference = opts.reference.as_deref().map(|p| overlay::Reference::load(p, &settings)).transpose()?;
-    let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?;
+    // In the renderer's coordinates (the scene may have been recentred: Scene::recentre).
+    let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?.map(|p| p.moved(-scene.origin));
     let event_loop = EventLoop::new().map_err(|e| NoDisplay(display_error_text(&e.to_string())))?;
     event_loop.set_control_flow(ControlFlow::Poll);
     let mut app = App { settings, opts, scene: Some(scene), reference, path, running: None, error: None, summary: None, start };
@@ -553,7 +554,8 @@ impl App {
                     .parent()
                     .filter(|d| !d.as_os_str().is_empty())
                     .map_or(Ok(()), std::fs::create_dir_all)
-                    .and_then(|()| std::fs::write(&file, CameraPath::still(&camera).to_json()));
+                    // In the file's coordinates, as --eye and --camera-path take them.
+                    .and_then(|()| std::fs::write(&file, CameraPath::still(&camera.moved(r.scene.info.origin)).to_json()));
                 r.message = match written {
                     Ok(()) => format!("camera saved to {}", file.display()),
                     Err(e) => format!("saving the camera to {} failed: {e}", file.display()),
@@ -568,7 +570,7 @@ impl App {
                 let file = camera_file(&self.settings);
                 match CameraPath::load(&file) {
                     Ok(p) => {
-                        r.controller.set_camera(&p.at(0.0));
+                        r.controller.set_camera(&p.at(0.0).moved(-r.scene.info.origin));
                         r.message = format!("camera loaded from {}", file.display());
                     }
                     Err(e) => r.message = format!("{e:#}"),
@@ -626,7 +628,7 @@ impl App {
                         // without VPLs leaves none (an earlier F4's would read as this frame's).
                         let ply = dir.join("vpls.ply");
                         match &vpls {
-                            Some(v) => crate::ply::write_vpls(&ply, v)?,
+                            Some(v) => crate::ply::write_vpls(&ply, v, r.scene.info.origin)?,
                             None if ply.is_file() => std::fs::remove_file(&ply).with_context(|| format!("removing {}", ply.display()))?,
                             None => {}
                         }
