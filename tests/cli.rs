@@ -1409,3 +1409,34 @@ fn command_line_flags_reach_the_summary() {
         assert_fails(&[&args[..], &["--depth-threshold", bad]].concat(), &["--depth-threshold"]);
     }
 }
+
+/// A scene far from the file's origin is rendered about its centre (tests/scale.rs), and what a
+/// run writes stays in the file's coordinates: the summary's camera, and the VPL dump's
+/// positions, which lie in the moved Cornell box.
+#[test]
+fn a_far_scene_reports_in_the_files_coordinates() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(repo_path("scenes/cornell_box.gltf")).unwrap()).unwrap();
+    let roots = doc["scenes"][0]["nodes"].clone();
+    let nodes = doc["nodes"].as_array_mut().unwrap();
+    nodes.push(serde_json::json!({ "name": "far", "translation": [1e4, 1e4, 1e4], "children": roots }));
+    doc["scenes"][0]["nodes"] = serde_json::json!([nodes.len() - 1]);
+    let scene = dir.path().join("far.gltf");
+    std::fs::write(&scene, doc.to_string()).unwrap();
+    let ply = dir.path().join("vpls.ply");
+    let out = dir.path().join("out");
+    let o = run(&[
+        "--headless", "--scene", scene.to_str().unwrap(), "--mode", "uniform", "--width", "16", "--height", "16", "--frames", "1",
+        "--vpls-direct", "500", "--vpls-indirect", "500", "--dump-vpls", ply.to_str().unwrap(), "--out", out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let p: Vec<f64> = (0..3).map(|i| s["camera"]["position"][i].as_f64().unwrap()).collect();
+    let want = [1e4 + 0.278, 1e4 + 0.273, 1e4 - 0.8];
+    assert!(p.iter().zip(want).all(|(a, b)| (a - b).abs() < 0.01), "camera at {p:?}, the scene camera at {want:?}");
+    let vpls = restir_vpl::ply::read_vpls(&ply).unwrap();
+    assert!(!vpls.is_empty());
+    for v in &vpls {
+        assert!(v.position.iter().all(|&c| (1e4 - 0.01..=1e4 + 0.57).contains(&f64::from(c))), "a VPL at {:?}, outside the moved box", v.position);
+    }
+}
