@@ -302,6 +302,14 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     // In the renderer's coordinates (the scene may have been recentred: Scene::recentre).
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?.map(|p| p.moved(-scene.info.origin));
     let mut renderer = Renderer::new(ctx.clone(), scene.clone(), settings.clone())?;
+    // The photon pass said so on stderr; the summary keeps it too (a closed box far from the
+    // origin had 0 indirect VPLs of 100000 and an empty `warnings`).
+    if let Some(p) = renderer.photon_stats().filter(|p| settings.gi && p.indirect_vpls < settings.vpls_indirect) {
+        warnings.push(format!(
+            "--vpls-indirect {}: only {} indirect VPLs after {} photon paths (photons leave the scene?)",
+            settings.vpls_indirect, p.indirect_vpls, p.paths
+        ));
+    }
     let camera_at = |f: u32| match &path {
         Some(p) => p.at(f as f32),
         None => Camera::initial(&scene.info, settings.camera.as_ref()),

@@ -670,6 +670,9 @@ impl RenderSettings {
                 "grid_cells" | "grid_entries" | "grid_entry_candidates" | "grid_balance" if self.grid.candidates == 0 => {
                     "it shapes the ReGIR grid, and --grid-candidates 0 uses none".to_string()
                 }
+                "compensate" if self.view.shows_reservoirs() => {
+                    format!("--view {} shows reservoirs, which compensation does not change", self.view.name())
+                }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
                 "progressive" if self.frames == 1 => {
                     "it sets whether frames accumulate, and --frames 1 renders one either way".to_string()
@@ -713,21 +716,39 @@ impl RenderSettings {
 
     /// Warnings for the flags in `given` (clap ids, as [`Self::unused_flags`] takes them) whose
     /// value is used only in part: `--moving-candidates` and `--moving-neighbours` above the still
-    /// camera's counts (or candidates below the grid's), which [`Self::moving_sampling`] bounds.
-    /// The summary keeps the values given; the warning says what a frame draws.
+    /// camera's counts (or candidates below the grid's), which [`Self::moving_sampling`] bounds;
+    /// and values that leave a part of the reuse almost nothing to do: `--spatial-radius` past the
+    /// image's diagonal, `--mcap 0`. The summary keeps the values given; the warning says what a
+    /// frame does.
     pub fn bounded_flags(&self, given: &[&str]) -> Vec<String> {
         let mut out = Vec::new();
-        if self.mode != Mode::Restir || !self.restir.temporal || self.view == View::Vpls {
+        if self.mode != Mode::Restir || self.view == View::Vpls {
             return out; // unused_flags names them
         }
-        let (candidates, neighbours) = self.moving_sampling();
         let r = &self.restir;
+        let diagonal = f64::from(self.width).hypot(f64::from(self.height));
+        if given.contains(&"spatial_radius") && self.reuses_spatially() && f64::from(r.spatial_radius_px(self.width)) > diagonal {
+            // (Neighbours are drawn in the disc and those off the image dropped: at 32768 px on a
+            // 32 px image the run rendered bit for bit what --spatial-passes 0 renders.)
+            out.push(format!(
+                "--spatial-radius {}: past the image's diagonal ({diagonal:.0} px), so nearly every neighbour drawn falls off the image and spatial reuse merges almost nothing",
+                r.spatial_radius_px(self.width)
+            ));
+        }
+        if !r.temporal {
+            return out;
+        }
+        let (candidates, neighbours) = self.moving_sampling();
         if given.contains(&"moving_candidates") && r.moving_candidates > 0 && candidates != r.moving_candidates {
             out.push(format!(
                 "--moving-candidates {}: a frame displayed alone draws {candidates} (at most --candidates {}, at least \
                  --grid-candidates {})",
                 r.moving_candidates, self.candidates, self.grid.candidates
             ));
+        }
+        if given.contains(&"mcap") && r.mcap == 0.0 {
+            // (A stress run found it rendering bit for bit what --temporal off renders.)
+            out.push("--mcap 0 gives the history no confidence: temporal reuse merges nothing, as with --temporal off".to_string());
         }
         if given.contains(&"moving_neighbours") && self.reuses_spatially() && r.moving_neighbours > 0 && neighbours != r.moving_neighbours {
             out.push(format!(
@@ -1092,6 +1113,21 @@ mod tests {
         let view = RenderSettings { view: View::Vpls, ..restir.clone() };
         assert_eq!(named(&view, &["mcap", "candidates", "compensate", "vpl_radius", "vpls_direct"]), ["--mcap", "--candidates", "--compensate"]);
         assert!(view.unused_flags(&["mcap"])[0].contains("--view vpls draws the VPLs"));
+        // The reservoir views show what compensation does not touch (a stress run found their
+        // images bit for bit the same with and without it, and no word).
+        for v in [View::ReservoirW, View::ReservoirM, View::VplKind, View::Motion] {
+            assert_eq!(named(&RenderSettings { view: v, ..restir.clone() }, &["compensate", "mcap"]), ["--compensate"], "{v:?}");
+        }
+        assert!(named(&restir, &["compensate"]).is_empty());
+        // --mcap 0 leaves temporal reuse nothing to merge.
+        let mcap0 = RenderSettings { restir: RestirSettings { mcap: 0.0, ..Default::default() }, ..restir.clone() };
+        assert!(mcap0.bounded_flags(&["mcap"]).iter().any(|w| w.contains("--mcap 0") && w.contains("--temporal off")), "{:?}", mcap0.bounded_flags(&["mcap"]));
+        assert!(restir.bounded_flags(&["mcap"]).is_empty());
+        // A spatial radius past the image's diagonal leaves no neighbour on the image.
+        let far = RenderSettings { width: 32, height: 32, restir: RestirSettings { spatial_radius: Some(32768.0), ..Default::default() }, ..restir.clone() };
+        assert!(far.bounded_flags(&["spatial_radius"]).iter().any(|w| w.contains("--spatial-radius 32768") && w.contains("diagonal (45 px)")), "{:?}", far.bounded_flags(&["spatial_radius"]));
+        let near = RenderSettings { restir: RestirSettings { spatial_radius: Some(40.0), ..far.restir }, ..far.clone() };
+        assert!(near.bounded_flags(&["spatial_radius"]).is_empty());
         // ReSTIR with parts of its reuse turned off: the flags of the parts that are off.
         let reuse = ["mcap", "boiling_filter", "spatial_radius", "spatial_neighbours", "spatial_passes", "normal_threshold", "bias", "candidates"];
         let no_temporal = RenderSettings { restir: RestirSettings { temporal: false, ..Default::default() }, ..restir.clone() };

@@ -1440,3 +1440,29 @@ fn a_far_scene_reports_in_the_files_coordinates() {
         assert!(v.position.iter().all(|&c| (1e4 - 0.01..=1e4 + 0.57).contains(&f64::from(c))), "a VPL at {:?}, outside the moved box", v.position);
     }
 }
+
+/// A lamp facing empty space: every photon leaves the scene, so no indirect VPL is made. The run
+/// says so on stderr and keeps it in summary.json's warnings (which a closed box far from the
+/// origin, all of whose photons left, had empty).
+#[test]
+fn no_indirect_vpls_is_a_summary_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut b = restir_vpl::scene::generate::GltfBuilder::new();
+    let grey = b.material("grey", [0.7; 3], [0.0; 3], false);
+    let lamp = b.material("lamp", [0.5; 3], [5.0; 3], false);
+    // The floor faces up; the lamp above it faces up too (counter-clockwise seen from +y).
+    let f = b.quad("floor", [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], grey);
+    b.node("floor", f, [0.0; 3]);
+    let l = b.quad("lamp", [[-0.2, 1.0, -0.2], [-0.2, 1.0, 0.2], [0.2, 1.0, 0.2], [0.2, 1.0, -0.2]], lamp);
+    b.node("lamp", l, [0.0; 3]);
+    b.camera("cam", [0.0, 3.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 0.7);
+    let scene = dir.path().join("away.gltf");
+    std::fs::write(&scene, b.to_json_string()).unwrap();
+    let out = dir.path().join("out");
+    let o = run(&["--headless", "--scene", scene.to_str().unwrap(), "--mode", "ris", "--width", "8", "--height", "8", "--frames", "1", "--vpls-direct", "100", "--vpls-indirect", "100", "--out", out.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let s: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["photons"]["indirect_vpls"], 0, "{s}");
+    let warnings = s["warnings"].as_array().unwrap();
+    assert!(warnings.iter().any(|w| w.as_str().unwrap().contains("--vpls-indirect 100: only 0 indirect VPLs")), "{warnings:?}");
+}
