@@ -69,7 +69,7 @@ impl Camera {
     /// scene's bounds from +z.
     pub fn initial(scene: &SceneInfo, camera: Option<&CameraOverride>) -> Self {
         if let Some(c) = camera {
-            // Given in the file's coordinates; the scene may have been moved (Scene::recentre).
+            // Given in the file's coordinates; the scene may have been moved (Scene::origin).
             let (eye, target) = (moved(c.eye, -scene.origin), moved(c.target, -scene.origin));
             return Self::look_at(eye, target, c.up, c.yfov_degrees.to_radians(), "command line");
         }
@@ -316,7 +316,7 @@ impl CameraPath {
     }
 
     /// The path moved by `by` (eyes and targets, in f64): a path in the file's coordinates is
-    /// `moved(-origin)` into those of a recentred scene ([`crate::scene::Scene::recentre`]).
+    /// `moved(-origin)` into those of a recentred scene ([`crate::scene::Scene::origin`]).
     pub fn moved(&self, by: Vec3) -> Self {
         let shift = |p: [f32; 3]| moved(Vec3::from(p), by).to_array();
         Self { keyframes: self.keyframes.iter().map(|k| Keyframe { eye: shift(k.eye), target: shift(k.target), ..*k }).collect() }

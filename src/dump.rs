@@ -808,7 +808,8 @@ function readout(f,x,y){
   const q=new URLSearchParams(location.hash.slice(1)), whole=k=>/^\d+$/.test(q.get(k)||'');
   const f=whole('frame')&&whole('x')&&whole('y')?FRAMES.find(f=>String(f.frame)===q.get('frame')):null;
   const x=Number(q.get('x')), y=Number(q.get('y'));
-  const img=f&&document.querySelector(`img[data-frame="${f.frame}"]`);
+  // The frame's first per-pixel output (not vpl_presample's tiles or regir_build's grid).
+  const img=f&&[...document.querySelectorAll(`img[data-frame="${f.frame}"]`)].find(i=>!i.dataset.unit);
   if(img&&x<f.w&&y<f.h){big(img); document.getElementById('readout').textContent=readout(f,x,y);}
 }
 "#;

@@ -299,7 +299,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         }
     }
     // Read before the renderer's set-up (photons, pipelines), so that a bad file fails at once.
-    // In the renderer's coordinates (the scene may have been recentred: Scene::recentre).
+    // In the renderer's coordinates (the scene may have been recentred: Scene::origin).
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?.map(|p| p.moved(-scene.info.origin));
     let mut renderer = Renderer::new(ctx.clone(), scene.clone(), settings.clone())?;
     // The photon pass said so on stderr; the summary keeps it too (a closed box far from the
@@ -316,7 +316,8 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     };
     let camera = camera_at(0);
     // (The device was logged when it was chosen.)
-    log::info!("camera ({}): {}", camera.source, camera.describe());
+    // In the file's coordinates, as --eye takes them (the scene may have been moved).
+    log::info!("camera ({}): {}", camera.source, camera.moved(scene.info.origin).describe());
     log::info!(
         "scene: {} triangles, {} instances ({} merged into one mesh, {} BLASes), {} lights, built in {:.1} ms",
         scene.triangle_count,

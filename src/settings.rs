@@ -670,8 +670,13 @@ impl RenderSettings {
                 "grid_cells" | "grid_entries" | "grid_entry_candidates" | "grid_balance" if self.grid.candidates == 0 => {
                     "it shapes the ReGIR grid, and --grid-candidates 0 uses none".to_string()
                 }
-                "compensate" if self.view.shows_reservoirs() => {
-                    format!("--view {} shows reservoirs, which compensation does not change", self.view.name())
+                // (What the pass's first ray carries for this view decides whether it runs.)
+                "compensate" if self.view != View::Vpls && crate::renderer::compensate_first_hop(self.view, self.gi) == 0 => {
+                    if self.view.shows_reservoirs() {
+                        format!("--view {} shows reservoirs, which compensation does not change", self.view.name())
+                    } else {
+                        format!("--view {} with --no-gi shows no light that compensation could add to", self.view.name())
+                    }
                 }
                 "vpl_radius" if self.view != View::Vpls => "it sets the spheres of --view vpls".to_string(),
                 "progressive" if self.frames == 1 => {
@@ -1119,6 +1124,8 @@ mod tests {
             assert_eq!(named(&RenderSettings { view: v, ..restir.clone() }, &["compensate", "mcap"]), ["--compensate"], "{v:?}");
         }
         assert!(named(&restir, &["compensate"]).is_empty());
+        assert_eq!(named(&RenderSettings { view: View::Indirect, gi: false, ..restir.clone() }, &["compensate"]), ["--compensate"]);
+        assert!(named(&RenderSettings { view: View::Indirect, ..restir.clone() }, &["compensate"]).is_empty());
         // --mcap 0 leaves temporal reuse nothing to merge.
         let mcap0 = RenderSettings { restir: RestirSettings { mcap: 0.0, ..Default::default() }, ..restir.clone() };
         assert!(mcap0.bounded_flags(&["mcap"]).iter().any(|w| w.contains("--mcap 0") && w.contains("--temporal off")), "{:?}", mcap0.bounded_flags(&["mcap"]));

@@ -187,7 +187,7 @@ vec3 hit_albedo(Hit h) {
 
 // Picks a light in proportion to lum(power) through the alias table, from two words of 32
 // random bits (the slot's, the keep test's); its probability is the light's `pdf` exactly
-// (src/lights.rs, light_pdfs).
+// (src/lights.rs, alias_pdfs).
 uint sample_light_index(uint slot_bits, uint keep_bits) {
     uint slot = alias_slot(slot_bits, frame.light_count);
     AliasEntry e = alias_texels(light_alias, slot);

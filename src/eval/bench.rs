@@ -21,6 +21,12 @@ pub fn upload(scene: &Scene, device: Option<usize>) -> Result<(Arc<Context>, Arc
     Ok((ctx, gpu))
 }
 
+/// The scene at `scene_path` with its textures checked against the device `device` picks before
+/// they are decoded (`Scene::load_for_device`).
+fn load_checked(scene_path: &std::path::Path, device: Option<usize>) -> Result<Scene> {
+    Scene::load_for_device(scene_path, true, &|| crate::vk::context::storage_buffer_range(device, None))
+}
+
 /// Primary-ray and path-tracing throughput of one scene.
 #[derive(Clone, Debug, Serialize)]
 pub struct CoreBench {
@@ -41,7 +47,7 @@ pub struct CoreBench {
 /// Renders `frames` frames (plus one warm-up) with anti-aliasing on, so that the G-buffer's primary
 /// rays are traced every frame, and reports throughput from the GPU timestamps.
 pub fn core(scene_path: &std::path::Path, width: u32, height: u32, frames: u32, device: Option<usize>) -> Result<CoreBench> {
-    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
+    let (ctx, scene) = upload(&load_checked(scene_path, device)?, device)?;
     let settings = RenderSettings {
         scene: scene_path.to_path_buf(),
         width,
@@ -251,7 +257,7 @@ pub fn modes(
     fusion: bool,
     grid: bool,
 ) -> Result<Vec<ModeBench>> {
-    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
+    let (ctx, scene) = upload(&load_checked(scene_path, device)?, device)?;
     modes_on(&ctx, &scene, scene_path, sizes, direct, indirect, frames, moving, fusion, grid)
 }
 
@@ -443,7 +449,7 @@ pub struct WorkgroupBench {
 /// the ratios to 8×8 share the machine's state.
 pub fn workgroups(scene_path: &std::path::Path, width: u32, height: u32, frames: u32, device: Option<usize>) -> Result<Vec<WorkgroupBench>> {
     use crate::settings::Mode;
-    let (ctx, scene) = upload(&Scene::load(scene_path)?, device)?;
+    let (ctx, scene) = upload(&load_checked(scene_path, device)?, device)?;
     // Every pass that takes the shape traces rays, and so runs as a ray-generation shader there.
     anyhow::ensure!(
         ctx.tracing != crate::vk::context::Tracing::Pipeline,
@@ -512,7 +518,7 @@ pub struct ModesSection {
 /// One scene's section of `bench --modes --out` at `size`, the still camera's rows then the moving
 /// one's, from one load and upload of the scene; and the device's name.
 pub fn modes_section(scene_path: &std::path::Path, size: (u32, u32), frames: u32, device: Option<usize>) -> Result<(ModesSection, String)> {
-    let loaded = Scene::load(scene_path)?;
+    let loaded = load_checked(scene_path, device)?;
     let (ctx, scene) = upload(&loaded, device)?;
     let mut rows = Vec::new();
     for moving in [false, true] {

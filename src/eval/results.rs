@@ -266,7 +266,9 @@ impl SceneSpec {
 
     /// Loads and uploads the scene once; every mode and reference of a study renders from it.
     pub fn upload(&self, ctx: &Arc<Context>) -> Result<Arc<SceneGpu>> {
-        let scene = Scene::load(&self.path)?;
+        // Textures over the device's buffer range refused before they are decoded.
+        let range = u64::from(ctx.properties.limits.max_storage_buffer_range);
+        let scene = Scene::load_for_device(&self.path, true, &|| Some(range))?;
         Ok(Arc::new(SceneGpu::new(ctx, &scene, true, crate::vk::accel::MERGE_MAX_TRIANGLES).context("uploading the scene")?))
     }
 

@@ -4,7 +4,7 @@
 
 use super::{base64, Camera, Instance, Material, Mesh, PointLight, Scene, Texture};
 use anyhow::{anyhow, bail, Context, Result};
-use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+use glam::{DMat3, DMat4, DVec3, Mat3, Mat4, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::khr_lights_punctual::Kind as LightKind;
 use gltf::mesh::{Mode, Semantic};
@@ -157,7 +157,20 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
     let mut mesh_boxes: Vec<Option<Option<(Vec3, Vec3)>>> = vec![None; meshes.len()];
     let mut camera = None;
     let mut point_lights = Vec::new();
-    for (node, world) in &nodes {
+    // Where the scene is rendered about (zero unless it lies far from the file's origin), and
+    // each mesh's own shift; the meshes are moved here, the transforms below.
+    let (origin, mesh_shift) = choose_origin(&meshes, &nodes, &mesh_map);
+    for (m, shift) in meshes.iter_mut().zip(&mesh_shift) {
+        if *shift != DVec3::ZERO {
+            for p in &mut m.positions {
+                *p = (p.as_dvec3() - *shift).as_vec3();
+            }
+        }
+    }
+    let origin_f64 = origin.as_dvec3();
+    for (node, world_f64) in &nodes {
+        // The file's world transform in f32, which the checks judge (as before the move).
+        let world = &world_f64.as_mat4();
         let node_name = node
             .name()
             .map(shown_name)
@@ -170,11 +183,13 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                     continue;
                 }
                 let boxed = *mesh_boxes[mesh].get_or_insert_with(|| meshes[mesh].finite_box());
-                check_mesh_transform(world, &meshes[mesh], boxed, &node_name)?;
+                // Checked against the file's transform and vertices (the mesh may have moved).
+                let unmoved = moved_box(boxed, mesh_shift[mesh]);
+                check_mesh_transform(world, &meshes[mesh], unmoved, mesh_shift[mesh], &node_name)?;
                 instances.push(Instance {
                     name: node_name.clone(),
                     mesh,
-                    transform: *world,
+                    transform: moved_affine(world_f64, mesh_shift[mesh], origin_f64),
                 });
             }
         }
@@ -194,7 +209,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                     // the viewport's; exporters write it always, so it is not warned about.)
                     camera = Some(Camera {
                         name,
-                        transform: *world,
+                        transform: moved_affine(world_f64, DVec3::ZERO, origin_f64),
                         yfov: p.yfov(),
                     });
                 }
@@ -213,8 +228,8 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                 .unwrap_or_else(|| node_name.clone());
             match light.kind() {
                 LightKind::Point => {
-                    let position = world.transform_point3(Vec3::ZERO);
-                    if !position.is_finite() {
+                    let position = (world_f64.w_axis.truncate() - origin_f64).as_vec3();
+                    if !position.is_finite() || !world.w_axis.truncate().is_finite() {
                         bail!(
                             "point light '{name}' (node '{node_name}'): degenerate transform (non-finite world position {position})"
                         );
@@ -269,7 +284,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
         textures,
         warnings,
         files: external_files(&doc, base_dir),
-        origin: Vec3::ZERO,
+        origin,
     };
     check_scene(scene).map_err(|e| {
         if unlabelled.is_empty() {
@@ -292,7 +307,7 @@ fn check_scene(mut scene: Scene) -> Result<Scene> {
         bail!("no triangles in scene");
     }
     check_scene_reach(&scene)?;
-    if scene.recentre() {
+    if scene.origin != Vec3::ZERO {
         let o = scene.origin;
         log::info!("{label}: rendered about its bounds' centre [{}, {}, {}], far from the file's origin for its size (32-bit rays); camera inputs and outputs stay in the file's coordinates", o.x, o.y, o.z);
     }
@@ -467,7 +482,7 @@ fn check_node_cycles(doc: &Document) -> Result<()> {
 
 /// Morph targets are not applied: the base shape is rendered. Said where a node's (or its mesh's
 /// default) weights would move it.
-fn check_morph_weights(nodes: &[(gltf::Node, Mat4)], warnings: &mut Vec<String>) {
+fn check_morph_weights(nodes: &[(gltf::Node, DMat4)], warnings: &mut Vec<String>) {
     let mut warned = std::collections::BTreeSet::new();
     for (node, _) in nodes {
         let Some(mesh) = node.mesh() else { continue };
@@ -519,7 +534,8 @@ fn check_camera_transform(world: &Mat4, node_name: &str, camera_name: &str) -> R
 /// with its inverse transpose, which is NaN for a zero scale or matrix) and must keep the mesh's
 /// finite vertices finite.
 /// `boxed`: the mesh's [`Mesh::finite_box`], computed once per mesh.
-fn check_mesh_transform(world: &Mat4, mesh: &Mesh, boxed: Option<(Vec3, Vec3)>, node_name: &str) -> Result<()> {
+/// `shift`: what the mesh's vertices were moved by (`choose_origin`); `boxed` is the file's box.
+fn check_mesh_transform(world: &Mat4, mesh: &Mesh, boxed: Option<(Vec3, Vec3)>, shift: DVec3, node_name: &str) -> Result<()> {
     let what = format!("node '{node_name}' (mesh '{}')", mesh.name);
     if !world.is_finite() {
         bail!(
@@ -555,13 +571,70 @@ fn check_mesh_transform(world: &Mat4, mesh: &Mesh, boxed: Option<(Vec3, Vec3)>, 
         .positions
         .iter()
         .filter(|_| !safe)
-        .find(|p| p.is_finite() && !world.transform_point3(**p).is_finite())
+        .map(|p| (p.as_dvec3() + shift).as_vec3())
+        .find(|p| p.is_finite() && !world.transform_point3(*p).is_finite())
     {
         bail!(
             "{what}: the world transform takes vertex {p} to a non-finite position (beyond 32-bit floats); scale the scene down"
         );
     }
     Ok(())
+}
+
+/// How many times its own largest extent a scene's (or a mesh's) bounds' centre may lie from the
+/// origin along an axis before it is moved: 4 bits of precision. (The Cornell box 1e3 away, 1800
+/// extents, rendered 0.6 % bright in the path tracer, 3e3 away 1.2 %; a scene a few extents off
+/// the origin loses a bit or two, and is left where the file has it.)
+const FAR_FROM_ORIGIN: f64 = 16.0;
+
+/// Where a scene is rendered about, and how far each mesh's vertices move: a scene whose bounds'
+/// centre lies farther from the file's origin along an axis than [`FAR_FROM_ORIGIN`] times the
+/// bounds' largest extent is moved so that the centre (rounded to f32, so that the file's coordinates are the renderer's
+/// plus it, once rounded) is the origin; a mesh whose vertices lie that far from its own origin
+/// (by the same rule) moves by its box's centre, its instances' transforms compensating. Rays are traced in 32-bit
+/// floats and leave surfaces a few hundred ulps of their coordinates off them (`offset_ray`): a
+/// Cornell box at 1e4 had its shadow rays and VPLs a quarter of a unit off the walls and rendered
+/// 3.6× too dark, one at 1e5 two units off, its floor black. The bounds come from each
+/// instance's mesh box corners under its f64 world transform (a box of the box: enough to decide).
+fn choose_origin(meshes: &[Mesh], nodes: &[(gltf::Node, DMat4)], mesh_map: &BTreeMap<usize, usize>) -> (Vec3, Vec<DVec3>) {
+    let boxes: Vec<Option<(Vec3, Vec3)>> = meshes.iter().map(Mesh::finite_box).collect();
+    let far = |(a, b): (DVec3, DVec3)| ((a + b) * 0.5).abs().max_element() > FAR_FROM_ORIGIN * (b - a).max_element();
+    let mesh_shift: Vec<DVec3> = boxes
+        .iter()
+        .map(|b| match b {
+            Some((a, b)) if far((a.as_dvec3(), b.as_dvec3())) => ((*a + *b) * 0.5).as_dvec3(),
+            _ => DVec3::ZERO,
+        })
+        .collect();
+    let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    for (node, world) in nodes {
+        let Some(Some((a, b))) = node.mesh().and_then(|m| mesh_map.get(&m.index())).map(|&i| boxes[i]) else { continue };
+        for k in 0..8 {
+            let corner = DVec3::new(if k & 1 == 0 { a.x } else { b.x }.into(), if k & 2 == 0 { a.y } else { b.y }.into(), if k & 4 == 0 { a.z } else { b.z }.into());
+            let p = world.transform_point3(corner);
+            if p.is_finite() {
+                (lo, hi) = (lo.min(p), hi.max(p));
+            }
+        }
+    }
+    let origin = if lo.x <= hi.x && far((lo, hi)) { ((lo + hi) * 0.5).as_vec3() } else { Vec3::ZERO };
+    if !origin.is_finite() {
+        return (Vec3::ZERO, vec![DVec3::ZERO; meshes.len()]);
+    }
+    (origin, mesh_shift)
+}
+
+/// The world transform `world` of a mesh moved by `shift` (its vertices less `shift`), in a scene
+/// rendered about `origin`: as an affine map (the renderer reads rows 0–2; a last row other than
+/// (0, 0, 0, 1) is kept as the file has it), its translation becomes t + L·shift − origin, in f64.
+fn moved_affine(world: &DMat4, shift: DVec3, origin: DVec3) -> Mat4 {
+    let t = world.w_axis.truncate() + DMat3::from_mat4(*world) * shift - origin;
+    DMat4::from_cols(world.x_axis, world.y_axis, world.z_axis, t.extend(world.w_axis.w)).as_mat4()
+}
+
+/// A mesh's box as the file had it, before its vertices moved by `shift`.
+fn moved_box(boxed: Option<(Vec3, Vec3)>, shift: DVec3) -> Option<(Vec3, Vec3)> {
+    boxed.map(|(a, b)| ((a.as_dvec3() + shift).as_vec3(), (b.as_dvec3() + shift).as_vec3()))
 }
 
 /// Geometry, point lights and the camera within [`MAX_CAMERA_COORDINATE`](crate::camera::MAX_CAMERA_COORDINATE)
@@ -581,16 +654,18 @@ fn check_scene_reach(scene: &Scene) -> Result<()> {
     // vertex of an instance that is not axis-aligned: half a minute for 10,000 instances of a
     // 1M-vertex mesh, which the upload pays once already).
     let mut boxes: Vec<Option<Option<(Vec3, Vec3)>>> = vec![None; scene.meshes.len()];
+    // In the file's coordinates: the renderer's plus the scene's origin (choose_origin).
+    let file = |p: Vec3| (p.as_dvec3() + scene.origin.as_dvec3()).as_vec3();
     let boxed_within = scene.instances.iter().all(|inst| {
         let Some(mesh) = scene.meshes.get(inst.mesh) else { return true };
         let Some((a, b)) = *boxes[inst.mesh].get_or_insert_with(|| mesh.finite_box()) else { return true };
         (0..8).all(|k| {
             let corner = Vec3::new(if k & 1 == 0 { a.x } else { b.x }, if k & 2 == 0 { a.y } else { b.y }, if k & 4 == 0 { a.z } else { b.z });
-            let p = inst.transform.transform_point3(corner);
+            let p = file(inst.transform.transform_point3(corner));
             p.is_finite() && !far(p)
         })
     });
-    let (lo, hi) = if boxed_within { (Vec3::ZERO, Vec3::ZERO) } else { scene.world_bounds() };
+    let (lo, hi) = if boxed_within { (Vec3::ZERO, Vec3::ZERO) } else { let (lo, hi) = scene.world_bounds(); (file(lo), file(hi)) };
     let beyond = |what: String, p: Vec3| {
         anyhow!(
             "{what} lies at [{:.3e}, {:.3e}, {:.3e}], more than {most:e} from the origin along an axis: rays are traced in \
@@ -604,11 +679,11 @@ fn check_scene_reach(scene: &Scene) -> Result<()> {
         let p = if far(lo) { lo } else { hi };
         return Err(beyond("its geometry (bounding box corner)".into(), p));
     }
-    if let Some(l) = scene.point_lights.iter().find(|l| far(l.position)) {
-        return Err(beyond(format!("point light '{}'", l.name), l.position));
+    if let Some(l) = scene.point_lights.iter().find(|l| far(file(l.position))) {
+        return Err(beyond(format!("point light '{}'", l.name), file(l.position)));
     }
-    if let Some(c) = scene.camera.as_ref().filter(|c| far(c.transform.w_axis.truncate())) {
-        return Err(beyond(format!("camera '{}'", c.name), c.transform.w_axis.truncate()));
+    if let Some(c) = scene.camera.as_ref().filter(|c| far(file(c.transform.w_axis.truncate()))) {
+        return Err(beyond(format!("camera '{}'", c.name), file(c.transform.w_axis.truncate())));
     }
     Ok(())
 }
@@ -967,11 +1042,13 @@ fn percent_decode(uri: &str) -> Result<String> {
 }
 
 /// Depth-first traversal of the chosen scene (default scene, else scene 0, else all root
-/// nodes), returning each reachable node once with its world transform.
+/// nodes), returning each reachable node once with its world transform, composed in f64 (a
+/// child's translation under a parent far from the origin keeps its digits until the scene is
+/// moved about its centre: `choose_origin`).
 fn traverse<'a>(
     doc: &'a Document,
     warnings: &mut Vec<String>,
-) -> Result<Vec<(gltf::Node<'a>, Mat4)>> {
+) -> Result<Vec<(gltf::Node<'a>, DMat4)>> {
     let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(scene) => scene.nodes().collect(),
         None => {
@@ -989,10 +1066,10 @@ fn traverse<'a>(
 
     let mut visited = vec![false; doc.nodes().len()];
     let mut out = Vec::new();
-    let mut stack: Vec<(gltf::Node, Mat4)> = roots
+    let mut stack: Vec<(gltf::Node, DMat4)> = roots
         .into_iter()
         .rev()
-        .map(|n| (n, Mat4::IDENTITY))
+        .map(|n| (n, DMat4::IDENTITY))
         .collect();
     while let Some((node, parent)) = stack.pop() {
         let Some(seen) = visited.get_mut(node.index()) else {
@@ -1006,7 +1083,7 @@ fn traverse<'a>(
             continue;
         }
         *seen = true;
-        let world = parent * local_matrix(&node, warnings)?;
+        let world = parent * local_matrix(&node, warnings)?.as_dmat4();
         stack.extend(
             node.children()
                 .collect::<Vec<_>>()

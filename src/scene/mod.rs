@@ -40,9 +40,11 @@ pub struct Scene {
     /// materials it does not use included, though they are not read), so that a run can refuse
     /// outputs that would overwrite them: the file is the user's either way.
     pub files: Vec<PathBuf>,
-    /// Where the file's coordinates put this scene's origin ([`Scene::recentre`]): a point's
-    /// coordinates here are its coordinates in the file less `origin`. Zero unless the scene lies
-    /// farther from the file's origin than its own size.
+    /// Where the file's coordinates put this scene's origin: a point's coordinates here are its
+    /// coordinates in the file less `origin`. Zero unless the scene lies farther from the file's
+    /// origin than its own size, when the loader renders it about its centre (rays are traced in
+    /// 32-bit floats; load.rs `choose_origin` says why). Camera inputs and outputs stay in the
+    /// file's coordinates.
     pub origin: Vec3,
 }
 
@@ -320,55 +322,6 @@ impl Scene {
             }
         }
         area
-    }
-
-    /// Moves a scene that lies far from the file's origin (its bounds' centre farther along an
-    /// axis than the bounds' largest extent) so that the centre is at the origin, and keeps the
-    /// move in [`Scene::origin`]; returns whether it moved. Rays are traced in 32-bit floats and
-    /// their origins are offset off surfaces by a few hundred ulps of the coordinates (so that a
-    /// ray does not hit the surface it leaves, `offset_ray`): a Cornell box at 1e4 from the
-    /// origin had its shadow rays and VPLs a quarter of a unit off the walls and rendered 3.6×
-    /// too dark, one at 1e5 2 units off. Instance transforms, the camera and point lights move;
-    /// a mesh whose vertices themselves lie far from its own origin is recentred too, with its
-    /// instances' transforms compensating (composed in f64). Camera inputs and outputs (`--eye`,
-    /// camera paths, the summary, the dumps) stay in the file's coordinates.
-    pub fn recentre(&mut self) -> bool {
-        let (lo, hi) = self.world_bounds();
-        let (centre, extent) = ((lo + hi) * 0.5, (hi - lo).max_element());
-        if !(centre.abs().max_element() > extent) || !centre.is_finite() {
-            return false;
-        }
-        let origin = centre;
-        // Meshes whose vertices sit far from their own origin: moved by their box's centre.
-        let mesh_shift: Vec<Vec3> = self
-            .meshes
-            .iter()
-            .map(|m| match m.finite_box() {
-                Some((a, b)) if ((a + b) * 0.5).abs().max_element() > (b - a).max_element() => (a + b) * 0.5,
-                _ => Vec3::ZERO,
-            })
-            .collect();
-        for (m, &shift) in self.meshes.iter_mut().zip(&mesh_shift) {
-            if shift != Vec3::ZERO {
-                let d = shift.as_dvec3();
-                for p in &mut m.positions {
-                    *p = (p.as_dvec3() - d).as_vec3();
-                }
-            }
-        }
-        let to_origin = glam::DMat4::from_translation(-origin.as_dvec3());
-        for inst in &mut self.instances {
-            let shift = mesh_shift.get(inst.mesh).copied().unwrap_or(Vec3::ZERO);
-            inst.transform = (to_origin * inst.transform.as_dmat4() * glam::DMat4::from_translation(shift.as_dvec3())).as_mat4();
-        }
-        if let Some(c) = &mut self.camera {
-            c.transform = (to_origin * c.transform.as_dmat4()).as_mat4();
-        }
-        for l in &mut self.point_lights {
-            l.position = (l.position.as_dvec3() - origin.as_dvec3()).as_vec3();
-        }
-        self.origin = origin;
-        true
     }
 
     /// World-space AABB `(min, max)` of all instanced vertices with finite world positions;

@@ -2474,3 +2474,62 @@ fn too_many_instanced_emitters_are_refused_before_they_are_made() {
     assert_contains(&e, &["16781312 emissive triangles", "16777216"]);
     assert_eq!(build(2).unwrap().emissive_triangles().len(), 2 * 4097);
 }
+
+/// A scene far from the file's origin is moved about its centre with the node transforms
+/// composed in f64: two children 0.3 apart under a parent at 5e6 (a georeferenced file's
+/// metres) stay 0.3 apart (composed in f32, each child's world translation rounded to 0.5).
+/// Only the translation moves: a matrix's last row other than (0, 0, 0, 1), read as affine,
+/// keeps its linear part. A mesh whose vertices themselves lie far from its origin is moved to
+/// its own centre, its instance compensating. A scene near the origin is left as it is.
+#[test]
+fn far_scenes_move_about_their_centre_in_f64() {
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [1.0; 3], false);
+    let quad = b.quad("q", [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 0.0, 1.0]], m);
+    let parent = b.group("utm", Mat4::from_translation(Vec3::new(5e6, 0.0, 5e6)).to_cols_array());
+    let a = b.node_matrix("a", quad, Mat4::from_translation(Vec3::new(0.3, 0.0, 0.3)).to_cols_array());
+    let c = b.node_matrix("b", quad, Mat4::IDENTITY.to_cols_array());
+    b.add_child(parent, a);
+    b.add_child(parent, c);
+    let s = load_str(&b.to_json_string()).unwrap();
+    assert!((s.origin - Vec3::new(5e6, 0.0, 5e6)).abs().max_element() < 2.0, "origin {}", s.origin);
+    let t = |i: usize| s.instances[i].transform.w_axis.truncate();
+    let gap = t(0) - t(1);
+    assert!((gap - Vec3::new(0.3, 0.0, 0.3)).abs().max_element() < 1e-6, "the children are {gap} apart");
+    assert!(t(0).abs().max_element() < 2.0 && t(1).abs().max_element() < 2.0, "{} {}", t(0), t(1));
+
+    // A last row other than (0, 0, 0, 1): the linear columns stay as the file has them.
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [1.0; 3], false);
+    let quad = b.quad("q", [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 0.0, 1.0]], m);
+    let mut matrix = Mat4::from_translation(Vec3::splat(1e4));
+    matrix.z_axis.w = 0.5;
+    b.node_matrix("odd", quad, matrix.to_cols_array());
+    let s = load_str(&b.to_json_string()).unwrap();
+    let moved = s.instances[0].transform;
+    assert!(s.origin != Vec3::ZERO);
+    assert_eq!((moved.x_axis, moved.y_axis, moved.z_axis), (matrix.x_axis, matrix.y_axis, matrix.z_axis));
+
+    // Vertices at 1e5 under an identity node: the mesh moves to its own centre.
+    let mut b = GltfBuilder::new();
+    let m = b.material("m", [0.5; 3], [1.0; 3], false);
+    let (x, z) = (1e5f32, 1e5f32);
+    let quad = b.quad("baked", [[x, 0.0, z], [x + 1.0, 0.0, z], [x + 1.0, 0.0, z + 1.0], [x, 0.0, z + 1.0]], m);
+    b.node("baked", quad, [0.0; 3]);
+    let s = load_str(&b.to_json_string()).unwrap();
+    let (lo, hi) = s.world_bounds();
+    assert!(lo.abs().max_element() <= 0.5 && hi.abs().max_element() <= 0.5, "moved bounds {lo} {hi}");
+    assert!(s.meshes[0].positions.iter().all(|p| p.abs().max_element() <= 0.5), "{:?}", s.meshes[0].positions);
+    assert!(((lo + s.origin) - Vec3::new(x, 0.0, z)).abs().max_element() < 0.01, "{lo} + {}", s.origin);
+
+    // Near the origin (centre 1.5 extents away, as in node_hierarchy_transform): not moved.
+    let near = load_str(&{
+        let mut b = GltfBuilder::new();
+        let m = b.material("m", [0.5; 3], [1.0; 3], false);
+        let quad = b.quad("q", [[0.0; 3], [1.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 0.0, 1.0]], m);
+        b.node("q", quad, [1.0, 2.0, 3.0]);
+        b.to_json_string()
+    })
+    .unwrap();
+    assert_eq!(near.origin, Vec3::ZERO);
+}

@@ -70,7 +70,7 @@ pub fn run(settings: RenderSettings, opts: WindowOptions) -> Result<Option<Summa
     let scene = Scene::load_for_device(&settings.scene, settings.textures, &range)?;
     crate::headless::check_outputs_spare_inputs(&settings, &scene.files, opts.reference.as_deref())?;
     let reference = opts.reference.as_deref().map(|p| overlay::Reference::load(p, &settings)).transpose()?;
-    // In the renderer's coordinates (the scene may have been recentred: Scene::recentre).
+    // In the renderer's coordinates (the scene may have been recentred: Scene::origin).
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?.map(|p| p.moved(-scene.origin));
     let event_loop = EventLoop::new().map_err(|e| NoDisplay(display_error_text(&e.to_string())))?;
     event_loop.set_control_flow(ControlFlow::Poll);
