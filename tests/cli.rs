@@ -395,19 +395,30 @@ fn a_vpl_radius_beyond_the_scene_is_warned_about() {
     assert!(!err.contains("--vpl-radius"), "default radius: {err}");
 }
 
+/// A 2 × 2 grey floor facing up at y = 0 and a 0.4 × 0.4 lamp at y = 1 facing down on it, or up
+/// into empty space (faces counter-clockwise seen from the side they face).
+fn floor_and_lamp(lamp_faces_up: bool) -> restir_vpl::scene::generate::GltfBuilder {
+    let mut b = restir_vpl::scene::generate::GltfBuilder::new();
+    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
+    let lamp = b.material("lamp", [0.5; 3], [5.0; 3], false);
+    let floor = b.quad("floor", [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], grey);
+    let mut corners = [[-0.2, 1.0, -0.2], [0.2, 1.0, -0.2], [0.2, 1.0, 0.2], [-0.2, 1.0, 0.2]];
+    if lamp_faces_up {
+        corners.reverse();
+    }
+    let panel = b.quad("panel", corners, lamp);
+    b.node("floor", floor, [0.0; 3]);
+    b.node("panel", panel, [0.0; 3]);
+    b
+}
+
 /// A scene camera whose yfov is no field of view is refused by a run that would look through it,
 /// naming the file; --eye/--target replace it and the run renders (an error at load stopped that
 /// run too; before that, the camera was dropped with a warning and the automatic one saw black).
 #[test]
 fn a_scene_camera_with_a_bad_yfov_stops_only_the_runs_that_use_it() {
     let dir = tempfile::tempdir().unwrap();
-    let mut b = restir_vpl::scene::generate::GltfBuilder::new();
-    let grey = b.material("grey", [0.5; 3], [0.0; 3], false);
-    let lamp = b.material("lamp", [0.5; 3], [5.0; 3], false);
-    let floor = b.quad("floor", [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], grey);
-    let panel = b.quad("panel", [[-0.2, 1.0, -0.2], [0.2, 1.0, -0.2], [0.2, 1.0, 0.2], [-0.2, 1.0, 0.2]], lamp);
-    b.node("floor", floor, [0.0; 3]);
-    b.node("panel", panel, [0.0; 3]);
+    let mut b = floor_and_lamp(false);
     b.camera("cam", [0.0, 0.5, 2.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 0.0);
     let p = write(dir.path(), "narrow.gltf", &b.to_json_string());
     let out = dir.path().join("out").display().to_string();
@@ -1453,14 +1464,7 @@ fn a_far_scene_reports_in_the_files_coordinates() {
 #[test]
 fn no_indirect_vpls_is_a_summary_warning() {
     let dir = tempfile::tempdir().unwrap();
-    let mut b = restir_vpl::scene::generate::GltfBuilder::new();
-    let grey = b.material("grey", [0.7; 3], [0.0; 3], false);
-    let lamp = b.material("lamp", [0.5; 3], [5.0; 3], false);
-    // The floor faces up; the lamp above it faces up too (counter-clockwise seen from +y).
-    let f = b.quad("floor", [[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0]], grey);
-    b.node("floor", f, [0.0; 3]);
-    let l = b.quad("lamp", [[-0.2, 1.0, -0.2], [-0.2, 1.0, 0.2], [0.2, 1.0, 0.2], [0.2, 1.0, -0.2]], lamp);
-    b.node("lamp", l, [0.0; 3]);
+    let mut b = floor_and_lamp(true);
     b.camera("cam", [0.0, 3.0, 3.0], [0.0, 0.0, 0.0], [0.0, 1.0, 0.0], 0.7);
     let scene = dir.path().join("away.gltf");
     std::fs::write(&scene, b.to_json_string()).unwrap();

@@ -177,6 +177,13 @@ fn contribution(s: &GpuSurface, v: &GpuVpl, r2: f32) -> Vec3 {
     Vec3::from(s.albedo) / std::f32::consts::PI * Vec3::from(v.flux) * (emit * cos_x * g / std::f32::consts::PI)
 }
 
+/// A renderer of the bundled Cornell box with `settings`.
+fn cornell_renderer(ctx: &std::sync::Arc<restir_vpl::vk::Context>, settings: RenderSettings) -> Renderer {
+    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
+    let gpu = upload(ctx, &scene, &settings);
+    Renderer::new(ctx.clone(), gpu, settings).unwrap()
+}
+
 /// vpl_presample's captured tiles hold copies of the VPLs they name (position and flux exact,
 /// the normal through its octahedral code), and with the uniform source their indices are uniform
 /// over the VPL set: the mean index lies within 4 standard errors of (N − 1)/2 (SE: N/√(12 n)
@@ -184,10 +191,7 @@ fn contribution(s: &GpuSurface, v: &GpuVpl, r2: f32) -> Vec3 {
 #[test]
 fn presampled_tiles_copy_the_vpls_they_name_drawn_uniformly() {
     let ctx = context();
-    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
-    let settings = RenderSettings { mode: Mode::Ris, vpls_direct: 2000, vpls_indirect: 2000, ..small(64, 64, 1) };
-    let gpu = upload(&ctx, &scene, &settings);
-    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let mut r = cornell_renderer(&ctx, RenderSettings { mode: Mode::Ris, vpls_direct: 2000, vpls_indirect: 2000, ..small(64, 64, 1) });
     let camera = r.initial_camera();
     let (_, captured) = r.render_frame_captured(&camera, false).unwrap();
     let vpls = r.read_vpls().unwrap().unwrap();
@@ -221,11 +225,8 @@ fn presampled_tiles_copy_the_vpls_they_name_drawn_uniformly() {
 #[test]
 fn the_captured_grid_copies_the_vpls_its_entries_name() {
     let ctx = context();
-    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
     let grid = restir_vpl::settings::GridSettings { candidates: 4, cells: 6, entries: 64, ..Default::default() };
-    let settings = RenderSettings { mode: Mode::Ris, candidates: 8, grid, fuse_passes: Some(false), vpls_direct: 2000, vpls_indirect: 2000, ..small(32, 32, 2) };
-    let gpu = upload(&ctx, &scene, &settings);
-    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let mut r = cornell_renderer(&ctx, RenderSettings { mode: Mode::Ris, candidates: 8, grid, fuse_passes: Some(false), vpls_direct: 2000, vpls_indirect: 2000, ..small(32, 32, 2) });
     let camera = r.initial_camera();
     let vpls = r.read_vpls().unwrap().unwrap();
     let index_bits = restir_vpl::gpu_types::CANDIDATE_INDEX_BITS;
@@ -260,10 +261,7 @@ fn the_captured_grid_copies_the_vpls_its_entries_name() {
 #[test]
 fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     let ctx = context();
-    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
-    let settings = RenderSettings { mode: Mode::Restir, vpls_direct: 2000, vpls_indirect: 2000, ..small(64, 64, 1) };
-    let gpu = upload(&ctx, &scene, &settings);
-    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let mut r = cornell_renderer(&ctx, RenderSettings { mode: Mode::Restir, vpls_direct: 2000, vpls_indirect: 2000, ..small(64, 64, 1) });
     let camera = r.initial_camera();
     // Frame 0 traces the G-buffer; frame 1 keeps it (still camera) and reuses history.
     let (_, first) = r.render_frame_captured(&camera, false).unwrap();
@@ -282,7 +280,7 @@ fn the_dumped_final_reservoir_reproduces_the_shaded_sample() {
     let samples: &[[f32; 4]] = bytemuck::cast_slice(&captured[shade].bytes);
     let (mut checked, mut shadowed) = (0, 0);
     let mut unblocked_shadows = Vec::new();
-    let triangles = world_triangles(&scene);
+    let triangles = world_triangles(&Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap());
     for i in 0..64 * 64 {
         let (s, res, got) = (&surfaces[i], &reservoirs[i], samples[i]);
         if s.offset_scale < 0.0 || res.vpl == RESERVOIR_EMPTY {
@@ -337,44 +335,23 @@ fn check_finite_names_the_pass_and_pixel_of_a_planted_nan() {
         // ReSTIR's captured frames run apart what the summary's fuse_passes says runs fused.
         assert_eq!(err.contains("2 of 2 frame(s) ran their passes apart"), mode == "restir", "{mode}: {err}");
     }
-    // A NaN planted in vpl_presample's tiles, in the flux of tile 0's entry 1: the tiles are
-    // captured too. Nothing else finds it: restir_initial's RIS drops a NaN candidate (its weight
-    // fails every comparison), so no sample is NaN and the run without the check is clean.
-    let o = bin()
-        .args(SMALL)
-        .args(["5", "--mode", "ris", "--frames", "2", "--check-finite", "--out", out])
-        .env("RESTIR_VPL_DEBUG_POISON", "vpl_presample")
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "--check-finite must stop: {err}");
-    for needle in ["frame 0", "'vpl_presample'", "'tiles'", "at 1 entry,", "tile 0 entry 1"] {
-        assert!(err.contains(needle), "the error should name {needle}: {err}");
-    }
+    // A NaN planted (test-only switch) in `poison`'s output stops the run, naming what `needles` say.
+    let planted = |poison: &str, args: &[&str], needles: &[&str]| {
+        let o = bin().args(SMALL).args(["5"]).args(args).args(["--check-finite", "--out", out]).env("RESTIR_VPL_DEBUG_POISON", poison).output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "--check-finite must stop: {err}");
+        for needle in needles {
+            assert!(err.contains(needle), "the error should name {needle}: {err}");
+        }
+    };
+    // In vpl_presample's tiles, in the flux of tile 0's entry 1: the tiles are captured too.
+    // Nothing else finds it: restir_initial's RIS drops a NaN candidate (its weight fails every
+    // comparison), so no sample is NaN and the run without the check is clean.
+    planted("vpl_presample", &["--mode", "ris", "--frames", "2"], &["frame 0", "'vpl_presample'", "'tiles'", "at 1 entry,", "tile 0 entry 1"]);
     // The same in regir_build's grid (entry 1 of every cell it builds, from frame 1).
-    let o = bin()
-        .args(SMALL)
-        .args(["5", "--mode", "ris", "--grid-candidates", "4", "--frames", "3", "--check-finite", "--out", out])
-        .env("RESTIR_VPL_DEBUG_POISON", "regir_build")
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "--check-finite must stop: {err}");
-    for needle in ["frame 1", "'regir_build'", "'entries'", " entry 1"] {
-        assert!(err.contains(needle), "the error should name {needle}: {err}");
-    }
-    // A NaN planted in vpl_shade's output at pixel (1, 1) (test-only switch).
-    let o = bin()
-        .args(SMALL)
-        .args(["5", "--mode", "uniform", "--frames", "2", "--check-finite", "--out", out])
-        .env("RESTIR_VPL_DEBUG_POISON", "vpl_shade")
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "--check-finite must stop: {err}");
-    for needle in ["frame 0", "'vpl_shade'", "'samples'", "1 pixel(s)", "(1, 1)"] {
-        assert!(err.contains(needle), "the error should name {needle}: {err}");
-    }
+    planted("regir_build", &["--mode", "ris", "--grid-candidates", "4", "--frames", "3"], &["frame 1", "'regir_build'", "'entries'", " entry 1"]);
+    // In vpl_shade's output at pixel (1, 1).
+    planted("vpl_shade", &["--mode", "uniform", "--frames", "2"], &["frame 0", "'vpl_shade'", "'samples'", "1 pixel(s)", "(1, 1)"]);
     // Without --check-finite and without validation the same run completes: accumulate counts
     // and replaces the NaN.
     let poisoned = |strict: bool, mode: &str| {
@@ -509,11 +486,8 @@ fn the_inspector_page_renders_in_headless_chromium() {
 fn aa_jitters_primary_rays_uniformly_inside_their_pixel() {
     let (w, h) = (24u32, 16u32);
     let ctx = context();
-    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
     for aa in [true, false] {
-        let settings = RenderSettings { mode: Mode::Uniform, aa, vpls_direct: 200, vpls_indirect: 200, ..small(w, h, 16) };
-        let gpu = upload(&ctx, &scene, &settings);
-        let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+        let mut r = cornell_renderer(&ctx, RenderSettings { mode: Mode::Uniform, aa, vpls_direct: 200, vpls_indirect: 200, ..small(w, h, 16) });
         let camera = r.initial_camera();
         let (tan, aspect) = ((0.5 * camera.yfov).tan(), w as f32 / h as f32);
         let mut offsets: Vec<[f64; 2]> = Vec::new();
@@ -566,10 +540,7 @@ fn aa_jitters_primary_rays_uniformly_inside_their_pixel() {
 fn the_captured_g_buffer_holds_each_pixels_own_primary_hit() {
     let (w, h) = (37u32, 23u32);
     let ctx = context();
-    let scene = Scene::load(&repo_path("scenes/cornell_box.gltf")).unwrap();
-    let settings = RenderSettings { mode: Mode::Uniform, vpls_direct: 500, vpls_indirect: 500, ..small(w, h, 2) };
-    let gpu = upload(&ctx, &scene, &settings);
-    let mut r = Renderer::new(ctx.clone(), gpu, settings).unwrap();
+    let mut r = cornell_renderer(&ctx, RenderSettings { mode: Mode::Uniform, vpls_direct: 500, vpls_indirect: 500, ..small(w, h, 2) });
     let first = r.initial_camera();
     let mut second = first;
     second.position += 0.05 * first.right - 0.03 * first.up;

@@ -17,16 +17,22 @@ use restir_vpl::RenderSettings;
 use restir_vpl::camera::Camera;
 use glam::Vec3;
 
-/// The committed Cornell box with every root node under one node scaled by `k`.
-fn scaled_cornell(k: f32) -> Scene {
+/// The committed Cornell box with every root node under `parent` (a glTF node without children).
+fn cornell_under(parent: serde_json::Value, label: &str) -> Scene {
     let text = std::fs::read_to_string(repo_path("scenes/cornell_box.gltf")).unwrap();
     let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
-    let roots = json["scenes"][0]["nodes"].clone();
+    let mut parent = parent;
+    parent["children"] = json["scenes"][0]["nodes"].clone();
     let nodes = json["nodes"].as_array_mut().unwrap();
-    nodes.push(serde_json::json!({ "name": "scale", "scale": [k, k, k], "children": roots }));
+    nodes.push(parent);
     let root = nodes.len() - 1;
     json["scenes"][0]["nodes"] = serde_json::json!([root]);
-    Scene::from_gltf_slice(json.to_string().as_bytes(), None, &format!("cornell ×{k}")).expect("scaled scene loads")
+    Scene::from_gltf_slice(json.to_string().as_bytes(), None, label).expect("the Cornell box under a parent loads")
+}
+
+/// The committed Cornell box with every root node under one node scaled by `k`.
+fn scaled_cornell(k: f32) -> Scene {
+    cornell_under(serde_json::json!({ "name": "scale", "scale": [k, k, k] }), &format!("cornell ×{k}"))
 }
 
 /// Renders `frames` frames of the scene scaled by `k`, seen from the scale-1 camera scaled by `k`.
@@ -497,16 +503,7 @@ fn render_camera(base: &RenderSettings) -> restir_vpl::camera::Camera {
 /// and the VPL dump stay in the file's coordinates.
 #[test]
 fn a_scene_far_from_the_origin_renders_as_at_the_origin() {
-    let text = std::fs::read_to_string(repo_path("scenes/cornell_box.gltf")).unwrap();
-    let moved = |offset: f64| {
-        let mut doc: serde_json::Value = serde_json::from_str(&text).unwrap();
-        let roots = doc["scenes"][0]["nodes"].clone();
-        let nodes = doc["nodes"].as_array_mut().unwrap();
-        nodes.push(serde_json::json!({ "name": "far", "translation": [offset, offset, offset], "children": roots }));
-        let parent = nodes.len() - 1;
-        doc["scenes"][0]["nodes"] = serde_json::json!([parent]);
-        Scene::from_gltf_slice(doc.to_string().as_bytes(), None, "far.gltf").unwrap()
-    };
+    let moved = |offset: f64| cornell_under(serde_json::json!({ "name": "far", "translation": [offset, offset, offset] }), "far.gltf");
     let base = RenderSettings { mode: Mode::Pt, max_bounces: 2, ..small(48, 48, 8) };
     let at_origin = cornell();
     assert_eq!(at_origin.origin, Vec3::ZERO, "the bundled box is not moved");
