@@ -8,7 +8,7 @@
 #   e.g. bash scripts/ab-settings.sh cornell_box 2 "--mode restir --moving-candidates 16" "--mode restir --moving-candidates 8"
 set -euo pipefail
 SCENE=$1 ROUNDS=$2 A=$3 B=$4
-BIN=${5:-target/release/restir-vpl}
+BIN=${5:-${CARGO_TARGET_DIR:-target}/release/restir-vpl}
 [ "$(nproc)" -ge 2 ] || { echo "ab-settings.sh: needs 2 cores, this machine has $(nproc)" >&2; exit 1; }
 out=$(mktemp -d)
 trap 'rm -rf "$out"' EXIT

@@ -9,7 +9,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 SIZE=${1:-256}; REF_FRAMES=${2:-1024}
 cargo build --release -q
-BIN=target/release/restir-vpl
+BIN=${CARGO_TARGET_DIR:-target}/release/restir-vpl
 OUT=$(mktemp -d)
 trap 'rm -rf "$OUT"' EXIT
 COMMON=(--headless --scene scenes/cornell_box.gltf --width "$SIZE" --height "$SIZE")

@@ -8,7 +8,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 REF_FRAMES=${1:-512}
 cargo build --release -q
-BIN=target/release/restir-vpl
+BIN=${CARGO_TARGET_DIR:-target}/release/restir-vpl
 OUT=$(mktemp -d)
 trap 'rm -rf "$OUT"' EXIT
 printf '| scene | candidates | neighbours | GPU ms / frame | × uniform | RMSE t=1 | RMSE t=20 |\n|---|---:|---:|---:|---:|---:|---:|\n'
