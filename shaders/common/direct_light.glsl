@@ -61,8 +61,12 @@ vec3 next_event(vec3 x, vec3 ng, vec3 ns, float x_scale, vec3 rho, float residua
     float weight = residual_r2 < 0.0 ? 1.0 : yuksel_residual(d2, residual_r2);
     if (cos_x > 0.0 && dot(ng, wi) > 0.0 && emits && d2 > 0.0 && weight > 0.0) {
         float cos_l = abs(cos_l_signed);
+        // Divided by the probability this sample was drawn with (l.pdf: the alias table's exact
+        // pick probability, src/lights.rs alias_pdfs); weighted by MIS with the pdf
+        // emission_hit_mis gives the same point (lum(Phi_t) / sum, which differs from l.pdf by
+        // about light count / 2^32), so that the two strategies' weights sum to 1 exactly.
         float pdf_light = (l.pdf / l.area) * d2 / cos_l;
-        float w = power_heuristic(pdf_light, lambert_pdf(cos_x));
+        float w = power_heuristic(light_pdf_area(l.emission, double_sided) * d2 / cos_l, lambert_pdf(cos_x));
         vec3 nl_toward_x = cos_l_signed > 0.0 ? nl : -nl;
         // (A selection pdf that underflowed to 0 made w / pdf_light 0 / 0.)
         if (pdf_light > 0.0) {
