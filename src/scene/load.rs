@@ -732,6 +732,11 @@ fn parse(bytes: &[u8]) -> Result<(Document, Option<Vec<u8>>)> {
                 bytes.len()
             );
         }
+        // (The gltf crate said only "malformed glTF: unsupported version".)
+        let version = u32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]);
+        if version != 2 {
+            bail!("GLB container version {version} is not supported: only version 2 (binary glTF 2.x) is read (version 1 is glTF 1.0's KHR_binary_glTF, another format)");
+        }
         check_glb_chunks(&bytes[..declared])?;
     }
     // A byte-order mark opening a GLB's JSON chunk, ignored as the .gltf one is (load_slice): three
@@ -1149,10 +1154,22 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
 /// Largest texture accepted (texels), so a corrupt header cannot ask for gigabytes.
 const MAX_TEXELS: u64 = 1 << 26;
 
+/// Longest name shown whole (characters); a longer one is cut there and says how long it was.
+const SHOWN_NAME_CHARS: usize = 200;
+
 /// A name from the file as messages and the summary show it: control characters escaped (a
-/// material named "x\nerror: ..." printed a forged error line).
+/// material named "x\nerror: ..." printed a forged error line), and cut after
+/// [`SHOWN_NAME_CHARS`] characters (a node named with a million characters was echoed whole in
+/// its error).
 fn shown_name(name: &str) -> String {
-    name.chars().map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
+    let escaped = |s: &mut dyn Iterator<Item = char>| -> String {
+        s.map(|c| if c.is_control() { c.escape_default().to_string() } else { c.to_string() }).collect()
+    };
+    let count = name.chars().count();
+    if count <= SHOWN_NAME_CHARS {
+        return escaped(&mut name.chars());
+    }
+    format!("{}… ({count} characters)", escaped(&mut name.chars().take(SHOWN_NAME_CHARS)))
 }
 
 /// Whether any node of `scene` (or below one) holds a mesh.

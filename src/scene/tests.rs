@@ -1252,6 +1252,13 @@ fn glb_of(doc: &Value, bin: &[u8]) -> (Vec<u8>, usize) {
 #[test]
 fn glb_round_trip() {
     let (glb, json_len) = to_glb(triangle_doc());
+    // Another container version is named with what is read (the crate said "unsupported version").
+    for v in [1u32, 3] {
+        let mut other = glb.clone();
+        other[4..8].copy_from_slice(&v.to_le_bytes());
+        let e = format!("{:#}", Scene::from_gltf_slice(&other, None, "old.glb").unwrap_err());
+        assert_contains(&e, &["old.glb", &format!("GLB container version {v} is not supported"), "only version 2"]);
+    }
     let s = Scene::from_gltf_slice(&glb, None, "tiny.glb").unwrap();
     assert_eq!(s.triangle_count(), 1);
     assert_eq!(s.meshes[0].positions[1], Vec3::X);
@@ -2532,4 +2539,20 @@ fn far_scenes_move_about_their_centre_in_f64() {
     })
     .unwrap();
     assert_eq!(near.origin, Vec3::ZERO);
+}
+
+/// A name from the file is shown cut after 200 characters, saying how long it was: a node named
+/// with a million characters was echoed whole in its error.
+#[test]
+fn long_names_are_cut_in_messages() {
+    let mut doc = triangle_doc();
+    let long = "n".repeat(1_000_000);
+    doc["nodes"][0]["name"] = json!(long);
+    doc["nodes"][0]["rotation"] = json!([0.0, 0.0, 0.0, 0.0]);
+    let e = load_err(&doc);
+    assert!(e.len() < 1000 && e.contains(&format!("{}… (1000000 characters)", "n".repeat(200))), "{} characters: {}", e.len(), &e[..e.len().min(400)]);
+    // A name at the limit is shown whole.
+    doc["nodes"][0]["name"] = json!("m".repeat(200));
+    let e = load_err(&doc);
+    assert!(e.contains(&format!("'{}'", "m".repeat(200))) && !e.contains("characters)"), "{e}");
 }
