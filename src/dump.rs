@@ -167,7 +167,12 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
 /// last row cut short), the groups in rows of `columns` squares (group `g` in square row
 /// `g / columns`); squares past the last group are black. The page's readout inverts it from
 /// `side` (the manifest's `groups`).
+#[derive(Clone, Debug, Serialize)]
 pub struct GroupLayout {
+    /// `tile` or `cell`.
+    pub unit: &'static str,
+    /// Groups (tiles, cells).
+    pub count: u32,
     /// Entries per group.
     pub entries: u32,
     pub side: u32,
@@ -180,7 +185,7 @@ impl GroupLayout {
         let [entries, groups] = c.shape;
         let side = (entries as f64).sqrt().ceil().max(1.0) as u32;
         let columns = (groups as f64).sqrt().ceil().max(1.0) as u32;
-        Self { entries, side, columns, rows: groups.div_ceil(columns).max(1) }
+        Self { unit: c.kind.group().unwrap_or("group"), count: groups, entries, side, columns, rows: groups.div_ceil(columns).max(1) }
     }
 
     /// The image of per-entry values `v` (group-major, as captured).
@@ -264,23 +269,11 @@ pub struct OutputStats {
     pub size: [u32; 2],
     /// The tiles' or the grid's layout (absent for a per-pixel output).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub groups: Option<Groups>,
+    pub groups: Option<GroupLayout>,
     /// Pixels with a non-finite value in any channel.
     pub nonfinite: u64,
     /// The value the thumbnail shows white (`grey` images; their brighter pixels clip), else 0.
     pub white: f64,
-}
-
-/// How an output that is not per pixel groups its entries (the image shows each group as a
-/// square of `side` × `side` pixels, `columns` squares a row).
-#[derive(Clone, Debug, Serialize)]
-pub struct Groups {
-    /// `tile` or `cell`.
-    pub unit: &'static str,
-    pub count: u32,
-    pub entries: u32,
-    pub side: u32,
-    pub columns: u32,
 }
 
 /// `white`: the value `d`'s thumbnail shows white, as [`thumbnail`] returned it.
@@ -552,6 +545,7 @@ pub fn write_frame(
                         e.rays_per_pixel = stats_of_frame.rays_by_pass.iter().find(|(n, _)| *n == name).map(|p| p.1 as f64 / pixels);
                     }
                     let mut decoded = decode(c);
+                    let groups = (!c.kind.per_pixel()).then(|| GroupLayout::of(c));
                     if c.buffer == "mean" {
                         if let Some(v) = &variance {
                             decoded.push(Decoded { what: "variance", look: "grey", image: RgbImage { width, height, pixels: v.clone() } });
@@ -563,11 +557,7 @@ pub fn write_frame(
                         write_exr(&fdir.join(&file), w, h, &d.image.pixels)?;
                         let (png, white) = thumbnail(d);
                         write_png(&fdir.join(file.replace(".exr", ".png")), w, h, &png)?;
-                        let groups = c.kind.group().map(|unit| {
-                            let l = GroupLayout::of(c);
-                            Groups { unit, count: c.shape[1], entries: l.entries, side: l.side, columns: l.columns }
-                        });
-                        e.outputs.push(OutputStats { groups, ..stats(file.clone(), c.buffer, d, white) });
+                        e.outputs.push(OutputStats { groups: groups.clone(), ..stats(file.clone(), c.buffer, d, white) });
                         // (Kept only for a page that shows them: at 1280×720 every frame's were
                         // held to the end of the run, 167 MB a ReSTIR frame. The tiles are not
                         // pixels: the page reads their entries out of the EXR files.)

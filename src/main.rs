@@ -689,7 +689,8 @@ fn settings_from(cli: &RenderArgs, out_dir: Option<PathBuf>) -> Result<RenderSet
 
 fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     // Refused by every command, as README says, also those that open no device (compare,
-    // merge-references) or only list them: a typo must not pass silently anywhere.
+    // merge-references), only list them, or run without the layer (the timing benchmarks: `=maybe`
+    // was taken there without a word): a typo must not pass silently anywhere.
     env_validate()?;
     if let Some(Command::Compare { test, reference, exposure, no_flip, ppd, error_image, json }) = &cli.command {
         let opts = restir_vpl::eval::compare::CompareOptions { flip: !*no_flip, exposure: *exposure, ppd: *ppd };
@@ -761,9 +762,6 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     if let Some(Command::Bench { scene, width, height, frames, device, json, photons, modes, moving, fusion, grid, workgroups, curves, motion, rays, radius, scaling, quick, out, checkpoints, runs }) =
         &cli.command
     {
-        // A bad RESTIR_VPL_VALIDATE is refused by every benchmark, the timing ones too (they run
-        // without the layer; `=maybe` was taken without a word).
-        env_validate()?;
         check_counts(&[("--runs", *runs)], checkpoints.as_deref())?;
         if *quick && !*curves && !*motion && !*radius && !*scaling {
             bail!("--quick goes with --curves, --motion, --radius or --scaling");

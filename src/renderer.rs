@@ -368,7 +368,7 @@ fn record_invalid_command(ctx: &Arc<Context>) -> Result<()> {
 }
 
 /// What a captured pass output holds: a record per pixel, or per entry of a buffer that is not an
-/// image (`vpl_presample`'s tiles).
+/// image (`vpl_presample`'s tiles, `regir_build`'s grid).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CaptureKind {
     /// `GpuSurfaceTexels` (the G-buffer's packed record; `decode` gives the `GpuSurface`).
@@ -471,17 +471,13 @@ impl DispatchOutput<'_> {
     }
 }
 
-/// Where a dispatch's output lies (None: the pass writes nothing a capture copies).
-fn dispatch_output<'a>(
-    d: crate::passes::Dispatch,
-    targets: &'a FrameTargets,
-    reservoirs: Option<&'a Reservoirs>,
-    presample: Option<&'a crate::passes::VplPresamplePass>,
-    regir: Option<&'a crate::passes::RegirBuildPass>,
-    current: usize,
-    surface_half: u32,
-) -> Option<DispatchOutput<'a>> {
+/// Where a dispatch's output lies among the renderer's `parts` (None: the pass writes nothing a
+/// capture copies).
+fn dispatch_output(d: crate::passes::Dispatch, parts: &Parts, current: usize, surface_half: u32) -> Option<DispatchOutput<'_>> {
     use crate::passes::*;
+    let targets = &parts.targets;
+    let reservoirs = parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
+    let (presample, regir) = (parts.passes.vpl.presample.as_ref(), parts.passes.vpl.regir.as_ref());
     let image = [targets.width, targets.height];
     let out = |buffer, kind, src, offset| DispatchOutput { buffer, kind, shape: image, src, offset };
     Some(match d.name {
@@ -1239,13 +1235,10 @@ impl Renderer {
         let constants = self.frame_constants(camera, &prev_camera, halves);
         if capture {
             // Room for what this frame's dispatches write (the same rule as the copies below).
-            let targets = &self.parts.targets;
-            let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
-            let (presample, regir) = (self.parts.passes.vpl.presample.as_ref(), self.parts.passes.vpl.regir.as_ref());
             let bytes: u64 = plan
                 .dispatches()
                 .into_iter()
-                .filter_map(|d| dispatch_output(d, targets, reservoirs, presample, regir, plan.vpl.current, halves.0))
+                .filter_map(|d| dispatch_output(d, &self.parts, plan.vpl.current, halves.0))
                 .map(|o| o.size())
                 .sum();
             let need = bytes.max(4);
@@ -1272,14 +1265,12 @@ impl Renderer {
         let mut metas = Vec::new();
         let hang = self.debug_hang;
         if capture {
-            let targets = &self.parts.targets;
-            let reservoirs = self.parts.vpl.as_ref().and_then(|v| v.reservoirs.as_ref());
-            let (presample, regir) = (self.parts.passes.vpl.presample.as_ref(), self.parts.passes.vpl.regir.as_ref());
+            let parts = &self.parts;
             let current = plan.vpl.current;
             let cap = self.capture_buffer.as_ref().expect("allocated before recording");
             let mut used = 0u64;
             let mut hook = |cmd: vk::CommandBuffer, d: crate::passes::Dispatch| {
-                if let Some(o) = dispatch_output(d, targets, reservoirs, presample, regir, current, halves.0) {
+                if let Some(o) = dispatch_output(d, parts, current, halves.0) {
                     let size = o.size();
                     assert!(used + size <= cap.size, "the capture buffer was sized from the same dispatches");
                     let region = [vk::BufferCopy::default().src_offset(o.offset).dst_offset(used).size(size)];

@@ -370,18 +370,28 @@ pub fn check_texel_range(scene: &Scene, texel_bytes: u64, range: u64) -> Result<
     if texel_bytes <= range {
         return Ok(());
     }
-    let mut largest: Vec<&crate::scene::Texture> = scene.textures.iter().collect();
-    largest.sort_by_key(|t| std::cmp::Reverse(u64::from(t.width) * u64::from(t.height)));
-    let names: Vec<String> = largest.iter().take(3).map(|t| format!("'{}' {}x{}", t.name, t.width, t.height)).collect();
-    anyhow::bail!(
-        "its {} textures hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
+    let largest = largest_textures(scene.textures.iter().map(|t| (t.name.as_str(), t.width, t.height)));
+    Err(texel_range_refusal(&format!("{} textures", scene.textures.len()), texel_bytes, range, &largest))
+}
+
+/// The refusal of textures (`what`: "3 textures", "base colour textures") whose `texel_bytes` of
+/// RGBA8 pass a device's maxStorageBufferRange `range`, naming `largest` ([`largest_textures`]):
+/// the upload's ([`check_texel_range`]) and the loader's, which refuses them before decoding.
+pub fn texel_range_refusal(what: &str, texel_bytes: u64, range: u64, largest: &str) -> anyhow::Error {
+    anyhow::anyhow!(
+        "its {what} hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
          one buffer (maxStorageBufferRange: {:.1} MiB); render with --textures off, or scale down the largest \
-         ({})",
-        scene.textures.len(),
+         ({largest})",
         texel_bytes as f64 / 1048576.0,
         range as f64 / 1048576.0,
-        names.join(", ")
     )
+}
+
+/// The three largest of `textures` (name, width, height) as the refusals name them: `'name' WxH`.
+pub fn largest_textures<'a>(textures: impl Iterator<Item = (&'a str, u32, u32)>) -> String {
+    let mut all: Vec<(&str, u32, u32)> = textures.collect();
+    all.sort_by_key(|&(_, w, h)| std::cmp::Reverse(u64::from(w) * u64::from(h)));
+    all.iter().take(3).map(|(name, w, h)| format!("'{name}' {w}x{h}")).collect::<Vec<_>>().join(", ")
 }
 
 #[cfg(test)]

@@ -8,8 +8,13 @@ bool shade_poisoned(uint debug_poison, uvec2 pixel) {
     return debug_poison == POISON_VPL_SHADE && pixel == uvec2(1u, 1u);
 }
 
+// The NaN every planted fault writes (vpl_presample's and regir_build's too).
+float poison_nan() {
+    return uintBitsToFloat(0x7fc00000u);
+}
+
 vec4 poison_sample() {
-    return vec4(vec3(uintBitsToFloat(0x7fc00000u)), 1.0);
+    return vec4(vec3(poison_nan()), 1.0);
 }
 
 #endif

@@ -16,6 +16,7 @@
 #include "../restir/regir.glsl"
 #include "../restir/reservoir.glsl"
 #include "../common/texel_records.glsl"
+#include "../common/poison.glsl"
 
 layout(local_size_x = 64) in;  // REGIR_WORKGROUP
 
@@ -100,7 +101,7 @@ void main() {
             entry.normal_oct = 0u;
         }
         if (frame.debug_poison == POISON_REGIR_BUILD && e == 1u) {
-            entry.flux = vec3(uintBitsToFloat(0x7fc00000u));  // tests of --check-finite only
+            entry.flux = vec3(poison_nan());  // tests of --check-finite only
         }
         entry.ucw = ucw;
         entry._pad0 = 0u;

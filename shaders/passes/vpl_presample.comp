@@ -13,6 +13,7 @@
 #include "../lib/sampling.glsl"
 #include "../restir/vpl.glsl"
 #include "../common/texel_records.glsl"
+#include "../common/poison.glsl"
 
 layout(local_size_x = 64) in;
 // after the local size: dispatch_index() reads gl_WorkGroupSize
@@ -43,7 +44,7 @@ void main() {
     }
     VplCandidate c = vpl_candidate(vpl_texels(vpls, i), i);
     if (frame.debug_poison == POISON_VPL_PRESAMPLE && e == 1u) {
-        c.flux = vec3(uintBitsToFloat(0x7fc00000u));  // tests of --check-finite only
+        c.flux = vec3(poison_nan());  // tests of --check-finite only
     }
     tiles[e] = c;
 }

@@ -158,15 +158,8 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
     let mut camera = None;
     let mut point_lights = Vec::new();
     // Where the scene is rendered about (zero unless it lies far from the file's origin), and
-    // each mesh's own shift; the meshes are moved here, the transforms below.
+    // each mesh's own shift; the transforms move below, the meshes after the checks.
     let (origin, mesh_shift) = choose_origin(&meshes, &nodes, &mesh_map);
-    for (m, shift) in meshes.iter_mut().zip(&mesh_shift) {
-        if *shift != DVec3::ZERO {
-            for p in &mut m.positions {
-                *p = (p.as_dvec3() - *shift).as_vec3();
-            }
-        }
-    }
     let origin_f64 = origin.as_dvec3();
     for (node, world_f64) in &nodes {
         // The file's world transform in f32, which the checks judge (as before the move).
@@ -183,9 +176,7 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
                     continue;
                 }
                 let boxed = *mesh_boxes[mesh].get_or_insert_with(|| meshes[mesh].finite_box());
-                // Checked against the file's transform and vertices (the mesh may have moved).
-                let unmoved = moved_box(boxed, mesh_shift[mesh]);
-                check_mesh_transform(world, &meshes[mesh], unmoved, mesh_shift[mesh], &node_name)?;
+                check_mesh_transform(world, &meshes[mesh], boxed, &node_name)?;
                 instances.push(Instance {
                     name: node_name.clone(),
                     mesh,
@@ -266,6 +257,15 @@ fn load_inner(bytes: &[u8], base_dir: Option<&Path>, label: &str, decode_texture
             warnings.push(format!(
                 "node '{node_name}': skinning not supported, ignored"
             ));
+        }
+    }
+
+    // The meshes move once every transform was checked against the file's vertices.
+    for (m, shift) in meshes.iter_mut().zip(&mesh_shift) {
+        if *shift != DVec3::ZERO {
+            for p in &mut m.positions {
+                *p = (p.as_dvec3() - *shift).as_vec3();
+            }
         }
     }
 
@@ -534,8 +534,7 @@ fn check_camera_transform(world: &Mat4, node_name: &str, camera_name: &str) -> R
 /// with its inverse transpose, which is NaN for a zero scale or matrix) and must keep the mesh's
 /// finite vertices finite.
 /// `boxed`: the mesh's [`Mesh::finite_box`], computed once per mesh.
-/// `shift`: what the mesh's vertices were moved by (`choose_origin`); `boxed` is the file's box.
-fn check_mesh_transform(world: &Mat4, mesh: &Mesh, boxed: Option<(Vec3, Vec3)>, shift: DVec3, node_name: &str) -> Result<()> {
+fn check_mesh_transform(world: &Mat4, mesh: &Mesh, boxed: Option<(Vec3, Vec3)>, node_name: &str) -> Result<()> {
     let what = format!("node '{node_name}' (mesh '{}')", mesh.name);
     if !world.is_finite() {
         bail!(
@@ -571,8 +570,7 @@ fn check_mesh_transform(world: &Mat4, mesh: &Mesh, boxed: Option<(Vec3, Vec3)>, 
         .positions
         .iter()
         .filter(|_| !safe)
-        .map(|p| (p.as_dvec3() + shift).as_vec3())
-        .find(|p| p.is_finite() && !world.transform_point3(*p).is_finite())
+        .find(|p| p.is_finite() && !world.transform_point3(**p).is_finite())
     {
         bail!(
             "{what}: the world transform takes vertex {p} to a non-finite position (beyond 32-bit floats); scale the scene down"
@@ -609,9 +607,8 @@ fn choose_origin(meshes: &[Mesh], nodes: &[(gltf::Node, DMat4)], mesh_map: &BTre
     let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
     for (node, world) in nodes {
         let Some(Some((a, b))) = node.mesh().and_then(|m| mesh_map.get(&m.index())).map(|&i| boxes[i]) else { continue };
-        for k in 0..8 {
-            let corner = DVec3::new(if k & 1 == 0 { a.x } else { b.x }.into(), if k & 2 == 0 { a.y } else { b.y }.into(), if k & 4 == 0 { a.z } else { b.z }.into());
-            let p = world.transform_point3(corner);
+        for corner in box_corners(a, b) {
+            let p = world.transform_point3(corner.as_dvec3());
             if p.is_finite() {
                 (lo, hi) = (lo.min(p), hi.max(p));
             }
@@ -632,9 +629,9 @@ fn moved_affine(world: &DMat4, shift: DVec3, origin: DVec3) -> Mat4 {
     DMat4::from_cols(world.x_axis, world.y_axis, world.z_axis, t.extend(world.w_axis.w)).as_mat4()
 }
 
-/// A mesh's box as the file had it, before its vertices moved by `shift`.
-fn moved_box(boxed: Option<(Vec3, Vec3)>, shift: DVec3) -> Option<(Vec3, Vec3)> {
-    boxed.map(|(a, b)| ((a.as_dvec3() + shift).as_vec3(), (b.as_dvec3() + shift).as_vec3()))
+/// The eight corners of the box `(a, b)`.
+fn box_corners(a: Vec3, b: Vec3) -> [Vec3; 8] {
+    std::array::from_fn(|k| Vec3::new(if k & 1 == 0 { a.x } else { b.x }, if k & 2 == 0 { a.y } else { b.y }, if k & 4 == 0 { a.z } else { b.z }))
 }
 
 /// Geometry, point lights and the camera within [`MAX_CAMERA_COORDINATE`](crate::camera::MAX_CAMERA_COORDINATE)
@@ -659,8 +656,7 @@ fn check_scene_reach(scene: &Scene) -> Result<()> {
     let boxed_within = scene.instances.iter().all(|inst| {
         let Some(mesh) = scene.meshes.get(inst.mesh) else { return true };
         let Some((a, b)) = *boxes[inst.mesh].get_or_insert_with(|| mesh.finite_box()) else { return true };
-        (0..8).all(|k| {
-            let corner = Vec3::new(if k & 1 == 0 { a.x } else { b.x }, if k & 2 == 0 { a.y } else { b.y }, if k & 4 == 0 { a.z } else { b.z });
+        box_corners(a, b).into_iter().all(|corner| {
             let p = file(inst.transform.transform_point3(corner));
             p.is_finite() && !far(p)
         })
@@ -1338,31 +1334,20 @@ fn read_texture_images(
     }
     let texels = |e: &EncodedImage| u64::from(e.width) * u64::from(e.height);
     let total: u64 = keys.iter().filter_map(|(i, _)| read.get(i)).map(texels).sum();
+    let largest = || crate::scene_gpu::largest_textures(read.values().map(|e| (e.name.as_str(), e.width, e.height)));
     if total > MAX_TOTAL_TEXELS {
-        let mut largest: Vec<&EncodedImage> = read.values().collect();
-        largest.sort_by_key(|e| std::cmp::Reverse(texels(e)));
-        let names: Vec<String> = largest.iter().take(3).map(|e| format!("'{}' {}x{}", e.name, e.width, e.height)).collect();
         bail!(
             "its base colour textures hold {total} texels ({:.1} GiB of RGBA8), more than any device reads through one \
              buffer ({MAX_TOTAL_TEXELS} texels); render with --textures off, or scale down the largest ({})",
             (total * 4) as f64 / (1u64 << 30) as f64,
-            names.join(", ")
+            largest()
         );
     }
     // The device's own limit, which the upload would apply after decoding them all (on
     // lavapipe, 128 MiB: a scene of 4 GiB of texels took minutes and as many GiB to be refused).
     if total * 4 > MIN_STORAGE_BUFFER_RANGE {
         if let Some(range) = device_range().filter(|&r| total * 4 > r) {
-            let mut largest: Vec<&EncodedImage> = read.values().collect();
-            largest.sort_by_key(|e| std::cmp::Reverse(texels(e)));
-            let names: Vec<String> = largest.iter().take(3).map(|e| format!("'{}' {}x{}", e.name, e.width, e.height)).collect();
-            bail!(
-                "its base colour textures hold {:.1} MiB of RGBA8 texels, more than this device lets a shader read through \
-                 one buffer (maxStorageBufferRange: {:.1} MiB); render with --textures off, or scale down the largest ({})",
-                (total * 4) as f64 / 1048576.0,
-                range as f64 / 1048576.0,
-                names.join(", ")
-            );
+            return Err(crate::scene_gpu::texel_range_refusal("base colour textures", total * 4, range, &largest()));
         }
     }
     Ok(read)

@@ -584,10 +584,7 @@ fn create_instance(
 /// Every physical device with what it lacks. No driver at all, or no device, is the
 /// [`NoTracingDevice`] error a render gives (the first names the driver files to check).
 pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
-    let request = match request {
-        Some(t) => Some(t),
-        None => tracing_from_env()?,
-    };
+    let request = requested_tracing(request)?;
     let entry = load_entry()?;
     let (instance, _, _) = create_instance(&entry, false, None, None)?;
     // SAFETY: the instance is valid; destroyed below after use.
@@ -601,16 +598,25 @@ pub fn list_devices(request: Option<Tracing>) -> Result<Vec<DeviceReport>> {
     Ok(reports)
 }
 
+/// The way of tracing asked for: `request` (`--trace`), else `RESTIR_VPL_TRACE`, else None (the
+/// device's best).
+fn requested_tracing(request: Option<Tracing>) -> Result<Option<Tracing>> {
+    request.map_or_else(tracing_from_env, |t| Ok(Some(t)))
+}
+
+/// The device a context takes when none is named: of those that qualify, the best kind (`inspect`'s
+/// rank), then the lowest index.
+fn best_device<T>(inspected: &[(DeviceReport, u32, T)]) -> Option<&(DeviceReport, u32, T)> {
+    inspected.iter().filter(|x| x.0.qualifies()).min_by_key(|x| (x.1, x.0.index))
+}
+
 /// maxStorageBufferRange of the device a context made with these options would pick (as
 /// [`Context::new`] chooses: `device_index`, else the best device that qualifies), read without
 /// creating a device; None where there is none or the driver cannot be asked (the context's own
 /// creation then says why). The scene loader asks it before decoding textures too large for
 /// some devices ([`crate::scene::Scene::load_for_device`]).
 pub fn storage_buffer_range(device_index: Option<usize>, request: Option<Tracing>) -> Option<u64> {
-    let request = match request {
-        Some(t) => Some(t),
-        None => tracing_from_env().ok()?,
-    };
+    let request = requested_tracing(request).ok()?;
     let entry = load_entry().ok()?;
     let (instance, _, _) = create_instance(&entry, false, None, None).ok()?;
     // SAFETY: the instance is valid; destroyed below, after its devices' properties are read.
@@ -619,7 +625,7 @@ pub fn storage_buffer_range(device_index: Option<usize>, request: Option<Tracing
         pds.iter().enumerate().map(|(i, pd)| { let (r, rank) = inspect(&instance, i, *pd, request); (r, rank, *pd) }).collect();
     let chosen = match device_index {
         Some(i) => inspected.iter().find(|x| x.0.index == i && x.0.qualifies()),
-        None => inspected.iter().filter(|x| x.0.qualifies()).min_by_key(|x| (x.1, x.0.index)),
+        None => best_device(&inspected),
     };
     // SAFETY: `pd` comes from this instance.
     let range = chosen.map(|x| u64::from(unsafe { instance.get_physical_device_properties(x.2) }.limits.max_storage_buffer_range));
@@ -629,10 +635,7 @@ pub fn storage_buffer_range(device_index: Option<usize>, request: Option<Tracing
 
 impl Context {
     pub fn new(opts: &ContextOptions) -> Result<Self> {
-        let request = match opts.tracing {
-            Some(t) => Some(t),
-            None => tracing_from_env()?,
-        };
+        let request = requested_tracing(opts.tracing)?;
         let gpu_timeout = gpu_timeout_from_env()?;
         let cache_enabled = super::pipeline_cache::enabled_from_env()?;
         let entry = load_entry()?;
@@ -711,7 +714,7 @@ impl Context {
                 (r.clone(), *pd)
             }
             None => {
-                let best = inspected.iter().filter(|x| x.0.qualifies()).min_by_key(|x| (x.1, x.0.index));
+                let best = best_device(&inspected);
                 match best {
                     Some((r, _, pd)) => (r.clone(), *pd),
                     None => {
