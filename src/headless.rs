@@ -284,15 +284,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         crate::output::prepare_output_dir("--out", dir)?;
         // Checked before the frames, not after them.
         for name in RUN_OUTPUT_FILES {
-            let path = dir.join(name);
-            // (check_writable's "name a file" is advice for a flag that names the file.)
-            anyhow::ensure!(
-                !path.is_dir(),
-                "--out {}: {} is a directory, and the run writes its {name} there; move it away or give another --out",
-                dir.display(),
-                path.display()
-            );
-            crate::output::check_writable(&path).with_context(|| format!("--out {}", dir.display()))?;
+            crate::output::check_writable(&dir.join(name)).with_context(|| format!("--out {}", dir.display()))?;
         }
         if settings.dump_passes.is_some() {
             crate::dump::check_dump_dir(&dir.join("passes"))?;
@@ -302,14 +294,6 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     // In the renderer's coordinates (the scene may have been recentred: Scene::origin).
     let path = settings.camera_path.as_deref().map(|p| CameraPath::load(p).context("--camera-path")).transpose()?.map(|p| p.moved(-scene.info.origin));
     let mut renderer = Renderer::new(ctx.clone(), scene.clone(), settings.clone())?;
-    // The photon pass said so on stderr; the summary keeps it too (a closed box far from the
-    // origin had 0 indirect VPLs of 100000 and an empty `warnings`).
-    if let Some(p) = renderer.photon_stats().filter(|p| settings.gi && p.indirect_vpls < settings.vpls_indirect) {
-        warnings.push(format!(
-            "--vpls-indirect {}: only {} indirect VPLs after {} photon paths (photons leave the scene?)",
-            settings.vpls_indirect, p.indirect_vpls, p.paths
-        ));
-    }
     let camera_at = |f: u32| match &path {
         Some(p) => p.at(f as f32),
         None => Camera::initial(&scene.info, settings.camera.as_ref()),
@@ -487,6 +471,11 @@ pub fn finish_run(
     }
     if renderer.nonfinite_samples_total() > 0 {
         warnings.push(format!("{} non-finite samples were replaced by 0", renderer.nonfinite_samples_total()));
+    }
+    // The photon pass said so on stderr; the summary keeps it too, the window's as well (a closed
+    // box far from the origin had 0 indirect VPLs of 100000 and an empty `warnings`).
+    if let Some(w) = renderer.photon_stats().and_then(|p| crate::passes::photon_emit::indirect_shortfall(settings.photon_settings().indirect, p.indirect_vpls, p.paths)) {
+        warnings.push(w);
     }
     let log = renderer.log();
     let info = &scene.info;

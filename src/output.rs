@@ -302,7 +302,8 @@ pub fn check_writable(path: &Path) -> Result<()> {
         "{} names no file (it ends in `.` or `..`); name a file",
         path.display()
     );
-    anyhow::ensure!(!path.is_dir(), "{} is a directory; name a file", path.display());
+    // (Not "name a file": `--out DIR` names no file, and its final.exr can be a directory too.)
+    anyhow::ensure!(!path.is_dir(), "{} is a directory where a file is to be written; move it away, or write elsewhere", path.display());
     // Checked where write_replacing writes: through a symbolic link (a dangling one included).
     let named = path;
     let linked = follow_links(path);

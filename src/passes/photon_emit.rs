@@ -352,11 +352,8 @@ impl PhotonEmitPass {
             stats.paths_gpu_ms = paths_ms;
             stats.batches = batches;
             stats.rays = rays;
-            if count < s.indirect {
-                log::warn!(
-                    "--vpls-indirect {}: only {count} indirect VPLs after {paths} photon paths (photons leave the scene?)",
-                    s.indirect
-                );
+            if let Some(w) = indirect_shortfall(s.indirect, count, paths) {
+                log::warn!("{w}");
             }
             if count > 0 {
                 let push = Push { base: s.direct, scale: (1.0 / paths as f64) as f32, ..self.push(PHOTON_EMIT_SCALE) };
@@ -453,6 +450,12 @@ impl PhotonEmitPass {
     pub fn vpl_count(stats: &PhotonStats) -> u32 {
         stats.direct_vpls + stats.indirect_vpls
     }
+}
+
+/// What a photon pass that made `made` indirect VPLs of the `asked` ones in `paths` paths says
+/// (None: it made them all): on stderr as it happens, and in the run's summary.
+pub fn indirect_shortfall(asked: u32, made: u32, paths: u64) -> Option<String> {
+    (made < asked).then(|| format!("--vpls-indirect {asked}: only {made} indirect VPLs after {paths} photon paths (photons leave the scene?)"))
 }
 
 /// The light-choice table of `photon_emit` from the lights' probabilities `pdfs` (any positive
