@@ -1115,7 +1115,9 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
         );
     }
     // Errors, as baseColorFactor's are (a negative or infinite emission was set to zero after a
-    // warning, which in a one-light scene rendered black).
+    // warning, which in a one-light scene rendered black). glTF 2.0 also restricts emissiveFactor
+    // to [0, 1]: brightness above 1 is KHR_materials_emissive_strength's, and a file that puts it
+    // in the factor is refused with the two numbers it should hold instead.
     let factor = m.emissive_factor();
     if !factor.iter().all(|c| c.is_finite() && *c >= 0.0) {
         bail!("material '{name}': emissiveFactor {} must be finite and not negative", fmt_floats(&factor));
@@ -1124,13 +1126,18 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
     if !(strength.is_finite() && strength >= 0.0) {
         bail!("material '{name}': KHR_materials_emissive_strength {strength} must be finite and not negative");
     }
-    let emission = Vec3::from_array(factor) * strength;
-    if !emission.is_finite() {
+    let largest = factor.iter().copied().fold(0.0f32, f32::max);
+    if largest > 1.0 {
         bail!(
-            "material '{name}': emissiveFactor {} × emissive strength {strength} overflows 32-bit floats",
-            fmt_floats(&factor)
+            "material '{name}': emissiveFactor {} must lie in [0, 1] (glTF 2.0); the same light is emissiveFactor {} \
+             with KHR_materials_emissive_strength {{ \"emissiveStrength\": {} }}",
+            fmt_floats(&factor),
+            fmt_floats(&factor.map(|c| c / largest)),
+            largest * strength
         );
     }
+    // A factor in [0, 1] times a finite strength is finite.
+    let emission = Vec3::from_array(factor) * strength;
     if m.emissive_texture().is_some() && emission.max_element() > 0.0 {
         warnings.push(format!(
             "material '{name}': emissiveTexture is not supported: the whole surface emits emissiveFactor {}",

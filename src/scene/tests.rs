@@ -843,10 +843,20 @@ fn a_bad_yfov_or_emission_is_an_error() {
         doc["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": strength } });
         assert_contains(&load_err(&doc), &["material 'glow': KHR_materials_emissive_strength", "finite and not negative"]);
     }
+    // Above glTF's [0, 1], with the factor and strength that say the same.
     let mut doc = triangle_doc();
-    doc["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": 1e38 } });
-    doc["materials"][0]["emissiveFactor"] = json!([10.0, 1.0, 1.0]);
-    assert_contains(&load_err(&doc), &["material 'glow'", "overflows 32-bit floats"]);
+    doc["materials"][0].as_object_mut().unwrap().remove("extensions");
+    doc["materials"][0]["emissiveFactor"] = json!([10.0, 1.0, 2.5]);
+    assert_contains(
+        &load_err(&doc),
+        &["material 'glow': emissiveFactor [10, 1, 2.5] must lie in [0, 1]", "emissiveFactor [1, 0.1, 0.25]", "\"emissiveStrength\": 10 }"],
+    );
+    // A factor in [0, 1] times the largest strength f32 holds is finite; the lights' total power
+    // is what refuses it.
+    let mut doc = triangle_doc();
+    doc["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": 3.4e38 } });
+    doc["materials"][0]["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    assert_contains(&load_err(&doc), &["the lights emit", "more than the 1e30 W"]);
 }
 
 #[test]
