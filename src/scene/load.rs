@@ -986,7 +986,7 @@ fn read_uri(uri: &str, base_dir: Option<&Path>, at_most: Option<u64>) -> Result<
 }
 
 /// The file a URI names: relative to `base_dir`, percent-decoded; None for a `data:` URI, an
-/// error for any other scheme, a control character or no base directory.
+/// error for any other scheme, a control character, an absolute path or no base directory.
 fn uri_file(uri: &str, base_dir: Option<&Path>) -> Result<Option<std::path::PathBuf>> {
     if uri.starts_with("data:") {
         return Ok(None);
@@ -998,6 +998,10 @@ fn uri_file(uri: &str, base_dir: Option<&Path>) -> Result<Option<std::path::Path
     if relative.chars().any(char::is_control) {
         // A NUL or other control character names no file and would reach the message raw.
         bail!("URI '{uri}' decodes to a path with a control character");
+    }
+    if relative.starts_with(['/', '\\']) || Path::new(&relative).is_absolute() {
+        // base.join would drop the base and read whatever file the URI names.
+        bail!("URI '{uri}' is an absolute path; glTF names external files relative to the .gltf file");
     }
     let base = base_dir.ok_or_else(|| {
         anyhow!("external file '{relative}' cannot be resolved without a base directory")

@@ -1391,6 +1391,18 @@ fn external_buffer_file() {
     let err = format!("{:#}", Scene::from_gltf_slice(doc.to_string().as_bytes(), Some(Path::new("/tmp")), "nul.gltf").map(|_| ()).unwrap_err());
     assert_contains(&err, &["nul.gltf", "a%00b.bin", "control character"]);
     assert!(!err.contains('\0'), "{err:?}");
+    // An absolute path, written plainly or percent-encoded, is refused before it is read (a
+    // buffer naming /etc/passwd was read and failed later as an index out of range); a path up
+    // and out of the file's directory stays a relative one.
+    for uri in ["/etc/passwd", "%2Fetc%2Fpasswd", "\\\\server\\share\\x.bin"] {
+        doc["buffers"][0]["uri"] = json!(uri);
+        let err = format!("{:#}", Scene::from_gltf_slice(doc.to_string().as_bytes(), Some(Path::new("/tmp")), "abs.gltf").map(|_| ()).unwrap_err());
+        assert_contains(&err, &["abs.gltf", "buffer 0", uri, "is an absolute path", "relative to the .gltf file"]);
+    }
+    doc["buffers"][0]["uri"] = json!("../no_such_dir_here/x.bin");
+    let err = format!("{:#}", Scene::from_gltf_slice(doc.to_string().as_bytes(), Some(Path::new("/tmp/a")), "up.gltf").map(|_| ()).unwrap_err());
+    assert_contains(&err, &["/tmp/a/../no_such_dir_here/x.bin"]);
+    assert!(!err.contains("absolute"), "{err}");
 }
 
 // ---------------------------------------------------------------- builder
