@@ -131,6 +131,7 @@ pub fn stage(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<Sta
     }
     let path = resolved.as_path();
     let name = path.file_name().with_context(|| format!("{} names no file", path.display()))?;
+    remove_stale_partials(path, name);
     let mut partial_name = std::ffi::OsString::from(".");
     partial_name.push(name);
     static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
@@ -141,6 +142,43 @@ pub fn stage(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<Sta
     let staged = Staged { partial: Some((partial.clone(), path.to_path_buf())), named };
     write(&partial).with_context(|| format!("writing {}", staged.named.display()))?;
     Ok(staged)
+}
+
+/// Removes the partial files of `path` (named `name`) that a process no longer running left
+/// behind: a run killed while it wrote (SIGKILL, a power cut) cannot remove its own, and they
+/// stayed beside the output as hidden `.NAME.PID.N.partial` files. Only where `/proc` tells which
+/// processes run (Linux); a live process's partial file, another run writing the same output at
+/// once, is left alone. Best effort: a file that cannot be listed or removed is left.
+fn remove_stale_partials(path: &Path, name: &std::ffi::OsStr) {
+    let proc = Path::new("/proc/self");
+    if !proc.exists() {
+        return;
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let Some(name) = name.to_str() else {
+        return;
+    };
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)).and_then(|r| r.strip_suffix(".partial")) else {
+            continue;
+        };
+        // PID.N, both decimal, exactly as `stage` names them.
+        let Some((pid, n)) = rest.split_once('.') else {
+            continue;
+        };
+        let decimal = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
+        if decimal(pid) && decimal(n) && !Path::new("/proc").join(pid).exists() {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 /// A device or a pipe written in place: the bytes are made in a temporary file first and then
@@ -731,6 +769,29 @@ mod tests {
     /// probe, made beside "d" in the working directory, and failed at the rename after the frames);
     /// a link is checked where it leads, so a dangling one into a missing directory fails here.
     #[cfg(unix)]
+    #[test]
+    fn a_dead_process_partial_files_are_removed_at_the_next_write() {
+        if !Path::new("/proc/self").exists() {
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("final.exr");
+        // No process has PID 999999999 (Linux's pid_max is at most 2^22); this one runs.
+        let dead = dir.path().join(".final.exr.999999999.0.partial");
+        let alive = dir.path().join(format!(".final.exr.{}.777.partial", std::process::id()));
+        let other_file = dir.path().join(".final.png.999999999.0.partial");
+        let not_ours = dir.path().join(".final.exr.999999999.partial");
+        for f in [&dead, &alive, &other_file, &not_ours] {
+            std::fs::write(f, b"x").unwrap();
+        }
+        write_replacing(&target, |p| Ok(std::fs::write(p, b"new")?)).unwrap();
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        assert!(!dead.exists(), "a dead process's partial file of final.exr stays");
+        for kept in [&alive, &other_file, &not_ours] {
+            assert!(kept.exists(), "{} was removed", kept.display());
+        }
+    }
+
     #[test]
     fn check_writable_refuses_directory_names_and_follows_links() {
         let dir = tempfile::tempdir().unwrap();
