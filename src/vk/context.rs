@@ -921,6 +921,16 @@ impl Context {
         }
     }
 
+    /// The stages that read acceleration structures: the builds, and the passes' shaders that
+    /// trace (compute with ray queries, the ray-tracing stage with pipelines).
+    pub fn acceleration_structure_read_stages(&self) -> vk::PipelineStageFlags {
+        vk::PipelineStageFlags::ACCELERATION_STRUCTURE_BUILD_KHR
+            | match self.tracing {
+                Tracing::Query => vk::PipelineStageFlags::COMPUTE_SHADER,
+                Tracing::Pipeline => vk::PipelineStageFlags::RAY_TRACING_SHADER_KHR,
+            }
+    }
+
     /// Validation-layer errors reported so far (0 when the layer is off).
     pub fn validation_errors(&self) -> u64 {
         self.validation.errors.load(Ordering::SeqCst)

@@ -698,11 +698,13 @@ pub fn submission_start_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
     let writes = vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::ACCELERATION_STRUCTURE_WRITE_KHR;
     // UNIFORM_READ apart: SHADER_READ does not cover it (a uniform buffer filled by a copy in an
     // earlier submission: `bench --rays`'s frame constants).
-    let reads = vk::AccessFlags::SHADER_READ
-        | vk::AccessFlags::UNIFORM_READ
-        | vk::AccessFlags::TRANSFER_READ
-        | vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR;
+    let reads = vk::AccessFlags::SHADER_READ | vk::AccessFlags::UNIFORM_READ | vk::AccessFlags::TRANSFER_READ;
     memory_barrier(ctx, cmd, (stages, writes), (stages, reads | writes));
+    // The acceleration structures' reads apart, in the stages that may read them: without the
+    // rayQuery feature (ray-tracing pipelines) a barrier that gives ACCELERATION_STRUCTURE_READ
+    // to the compute stage is invalid (VUID-vkCmdPipelineBarrier-dstAccessMask-06257; the
+    // validation layer installed here does not check it).
+    memory_barrier(ctx, cmd, (stages, writes), (ctx.acceleration_structure_read_stages(), vk::AccessFlags::ACCELERATION_STRUCTURE_READ_KHR));
 }
 
 /// Last in a command buffer whose results the host reads after its fence: the device writes made
