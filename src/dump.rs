@@ -60,6 +60,9 @@ pub struct Decoded {
     /// not to be read as numbers).
     pub look: &'static str,
     pub image: RgbImage,
+    /// For an `ids` output of a per-pixel capture, the ids behind its false colour, for the page's
+    /// readout: (ids per pixel, the ids; `u32::MAX` where there is none).
+    pub raw_ids: Option<(usize, Vec<u32>)>,
 }
 
 /// The false colour of id `v` in an `ids` output (the G-buffer's: `instance × 65599 ^ triangle`).
@@ -96,29 +99,32 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             };
             vec![
                 // (A miss's position is no point: left as stored.)
-                Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| if s.offset_scale < 0.0 { s.position } else { file_position(s.position) }).collect()) },
-                Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()) },
+                Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| if s.offset_scale < 0.0 { s.position } else { file_position(s.position) }).collect()), raw_ids: None },
+                Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()), raw_ids: None },
                 // Beside the shading normal: where the two part, interpolated vertex normals are
                 // at work (or went wrong: a smooth surface shaded flat has them equal).
-                Decoded { what: "geometric_normal", look: "signed", image: img(s.iter().map(|s| s.geometric_normal).collect()) },
-                Decoded { what: "albedo", look: "hdr", image: img(s.iter().map(|s| s.albedo).collect()) },
-                Decoded { what: "emission", look: "hdr", image: img(s.iter().map(|s| s.emission).collect()) },
-                Decoded { what: "depth", look: "grey", image: img(s.iter().map(|s| [s.view_depth; 3]).collect()) },
-                Decoded { what: "ids", look: "ids", image: img(s.iter().map(ids).collect()) },
+                Decoded { what: "geometric_normal", look: "signed", image: img(s.iter().map(|s| s.geometric_normal).collect()), raw_ids: None },
+                Decoded { what: "albedo", look: "hdr", image: img(s.iter().map(|s| s.albedo).collect()), raw_ids: None },
+                Decoded { what: "emission", look: "hdr", image: img(s.iter().map(|s| s.emission).collect()), raw_ids: None },
+                Decoded { what: "depth", look: "grey", image: img(s.iter().map(|s| [s.view_depth; 3]).collect()), raw_ids: None },
+                Decoded { what: "ids", look: "ids", image: img(s.iter().map(ids).collect()), raw_ids: Some((2, s.iter().flat_map(surface_ids).collect())) },
+                // The glTF material's index (the default material, for primitives without one,
+                // follows the file's materials).
+                Decoded { what: "material", look: "ids", image: img(s.iter().map(|s| surface_material(s).map_or([0.0; 3], hash_colour)).collect()), raw_ids: Some((1, s.iter().map(|s| surface_material(s).unwrap_or(RESERVOIR_EMPTY)).collect())) },
             ]
         }
         CaptureKind::Rgba => {
             let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&c.bytes[..n * 16]);
-            vec![Decoded { what: c.buffer, look: "hdr", image: img(v.iter().map(|p| [p[0], p[1], p[2]]).collect()) }]
+            vec![Decoded { what: c.buffer, look: "hdr", image: img(v.iter().map(|p| [p[0], p[1], p[2]]).collect()), raw_ids: None }]
         }
         CaptureKind::Reservoirs => {
             let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuReservoir>()]);
             let vpl = |r: &GpuReservoir| if r.vpl == RESERVOIR_EMPTY { [0.0; 3] } else { hash_colour(r.vpl) };
             vec![
-                Decoded { what: "vpl", look: "ids", image: img(r.iter().map(vpl).collect()) },
-                Decoded { what: "w", look: "grey", image: img(r.iter().map(|r| [r.ucw; 3]).collect()) },
-                Decoded { what: "m", look: "grey", image: img(r.iter().map(|r| [r.confidence; 3]).collect()) },
-                Decoded { what: "target", look: "grey", image: img(r.iter().map(|r| [r.target; 3]).collect()) },
+                Decoded { what: "vpl", look: "ids", image: img(r.iter().map(vpl).collect()), raw_ids: Some((1, r.iter().map(|r| r.vpl).collect())) },
+                Decoded { what: "w", look: "grey", image: img(r.iter().map(|r| [r.ucw; 3]).collect()), raw_ids: None },
+                Decoded { what: "m", look: "grey", image: img(r.iter().map(|r| [r.confidence; 3]).collect()), raw_ids: None },
+                Decoded { what: "target", look: "grey", image: img(r.iter().map(|r| [r.target; 3]).collect()), raw_ids: None },
             ]
         }
         CaptureKind::Candidates => {
@@ -126,12 +132,12 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             let layout = GroupLayout::of(c);
             let tiles = |f: &dyn Fn(&GpuVplCandidate) -> [f32; 3]| layout.image(&t.iter().map(f).collect::<Vec<_>>());
             vec![
-                Decoded { what: "vpl", look: "ids", image: tiles(&|t| hash_colour(candidate_index(t.vpl_kind))) },
-                Decoded { what: "position", look: "signed", image: tiles(&|t| file_position(t.position)) },
-                Decoded { what: "normal", look: "signed", image: tiles(&|t| oct_decode(t.normal_oct)) },
+                Decoded { what: "vpl", look: "ids", image: tiles(&|t| hash_colour(candidate_index(t.vpl_kind))), raw_ids: None },
+                Decoded { what: "position", look: "signed", image: tiles(&|t| file_position(t.position)), raw_ids: None },
+                Decoded { what: "normal", look: "signed", image: tiles(&|t| oct_decode(t.normal_oct)), raw_ids: None },
                 // Grey (per channel, white at the 99th percentile): a VPL's flux is a small share
                 // of the light's power, black in an image shown at exposure 0.
-                Decoded { what: "flux", look: "grey", image: tiles(&|t| t.flux) },
+                Decoded { what: "flux", look: "grey", image: tiles(&|t| t.flux), raw_ids: None },
             ]
         }
         CaptureKind::GridEntries => {
@@ -141,11 +147,11 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             // An empty entry (W = 0: not built, or no candidate) is black in the ids.
             let id = |e: &GpuGridEntry| if e.ucw > 0.0 { hash_colour(candidate_index(e.vpl_kind)) } else { [0.0; 3] };
             vec![
-                Decoded { what: "vpl", look: "ids", image: cells(&id) },
-                Decoded { what: "position", look: "signed", image: cells(&|e| if e.ucw > 0.0 { file_position(e.position) } else { e.position }) },
-                Decoded { what: "normal", look: "signed", image: cells(&|e| if e.ucw > 0.0 { oct_decode(e.normal_oct) } else { [0.0; 3] }) },
-                Decoded { what: "flux", look: "grey", image: cells(&|e| e.flux) },
-                Decoded { what: "w", look: "grey", image: cells(&|e| [e.ucw; 3]) },
+                Decoded { what: "vpl", look: "ids", image: cells(&id), raw_ids: None },
+                Decoded { what: "position", look: "signed", image: cells(&|e| if e.ucw > 0.0 { file_position(e.position) } else { e.position }), raw_ids: None },
+                Decoded { what: "normal", look: "signed", image: cells(&|e| if e.ucw > 0.0 { oct_decode(e.normal_oct) } else { [0.0; 3] }), raw_ids: None },
+                Decoded { what: "flux", look: "grey", image: cells(&|e| e.flux), raw_ids: None },
+                Decoded { what: "w", look: "grey", image: cells(&|e| [e.ucw; 3]), raw_ids: None },
             ]
         }
         CaptureKind::Rgba8 => {
@@ -157,6 +163,7 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
                 what: c.buffer,
                 look: "hdr",
                 image: img(c.bytes[..n * 4].chunks_exact(4).map(|p| [decode(p[0]), decode(p[1]), decode(p[2])]).collect()),
+                raw_ids: None,
             }]
         }
     }
@@ -321,20 +328,9 @@ fn surface_ids(s: &GpuSurface) -> [u32; 2] {
     if s.offset_scale < 0.0 { [RESERVOIR_EMPTY; 2] } else { [s.instance, s.triangle] }
 }
 
-/// The ids behind an `ids` output of capture `c`: (channels, words), u32::MAX where there is none.
-fn raw_ids(c: &Captured, pixels: usize) -> Option<(usize, Vec<u32>)> {
-    match c.kind {
-        CaptureKind::Surfaces => {
-            let s = decode_surfaces(&c.bytes[..pixels * std::mem::size_of::<GpuSurfaceTexels>()]);
-            Some((2, s.iter().flat_map(surface_ids).collect()))
-        }
-        CaptureKind::Reservoirs => {
-            let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..pixels * std::mem::size_of::<GpuReservoir>()]);
-            Some((1, r.iter().map(|r| r.vpl).collect()))
-        }
-        // (Not per pixel: the page has no readout for the tiles and the grid.)
-        CaptureKind::Rgba | CaptureKind::Rgba8 | CaptureKind::Candidates | CaptureKind::GridEntries => None,
-    }
+/// A G-buffer record's material, None for a miss.
+fn surface_material(s: &GpuSurface) -> Option<u32> {
+    (s.offset_scale >= 0.0).then_some(s.material)
 }
 
 /// Most pixels whose values the page embeds for its per-pixel readout.
@@ -548,7 +544,7 @@ pub fn write_frame(
                     let groups = (!c.kind.per_pixel()).then(|| GroupLayout::of(c));
                     if c.buffer == "mean" {
                         if let Some(v) = &variance {
-                            decoded.push(Decoded { what: "variance", look: "grey", image: RgbImage { width, height, pixels: v.clone() } });
+                            decoded.push(Decoded { what: "variance", look: "grey", image: RgbImage { width, height, pixels: v.clone() }, raw_ids: None });
                         }
                     }
                     for d in &decoded {
@@ -563,8 +559,8 @@ pub fn write_frame(
                         // pixels: the page reads their entries out of the EXR files.)
                         if readout && c.kind.per_pixel() {
                             let (channels, ids, words) = if d.look == "ids" {
-                                match raw_ids(c, (width * height) as usize) {
-                                    Some((channels, words)) => (channels, true, words),
+                                match &d.raw_ids {
+                                    Some((channels, words)) => (*channels, true, words.clone()),
                                     None => continue,
                                 }
                             } else {
@@ -810,7 +806,7 @@ mod tests {
 
     fn grey(values: Vec<f32>) -> Decoded {
         let n = values.len() as u32;
-        Decoded { what: "w", look: "grey", image: RgbImage { width: n, height: 1, pixels: values.into_iter().map(|v| [v; 3]).collect() } }
+        Decoded { what: "w", look: "grey", image: RgbImage { width: n, height: 1, pixels: values.into_iter().map(|v| [v; 3]).collect() }, raw_ids: None }
     }
 
     /// A few huge values (a reservoir weight's tail) no longer leave the rest black: the 99th

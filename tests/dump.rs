@@ -446,13 +446,17 @@ fn the_inspector_page_renders_in_headless_chromium() {
     let readout = dom.split("<pre id=\"readout\">").nth(1).and_then(|r| r.split("</pre>").next()).expect("the page has its readout");
     let mut checked = 0;
     let mut ids = 0;
+    let (mut material, mut albedo) = (None, None);
     for line in readout.lines().skip(1) {
         let (file, values) = line.split_once(": ").unwrap_or_else(|| panic!("readout line {line:?}"));
         let exr = restir_vpl::output::read_exr(&dir.path().join("passes/frame_0000").join(file)).unwrap();
         let px = exr.pixels[(y * exr.width + x) as usize];
+        if file.ends_with("gbuffer__albedo.exr") {
+            albedo = Some(px);
+        }
         // The ids themselves, whose false colour the EXR holds: (instance, triangle) of the
-        // G-buffer, a reservoir's VPL index.
-        if file.ends_with("__ids.exr") || file.ends_with("__vpl.exr") {
+        // G-buffer, its material, a reservoir's VPL index.
+        if file.ends_with("__ids.exr") || file.ends_with("__vpl.exr") || file.ends_with("__material.exr") {
             if values.contains("none") {
                 assert_eq!(px, [0.0; 3], "{file} at ({x}, {y}): no id, black");
                 ids += 1;
@@ -461,6 +465,10 @@ fn the_inspector_page_renders_in_headless_chromium() {
             let n: Vec<u32> = values.split(", ").map(|v| v.parse().unwrap_or_else(|_| panic!("{file}: id {v:?}"))).collect();
             let id = match n[..] {
                 [instance, triangle] => instance.wrapping_mul(65_599) ^ triangle,
+                [m] if file.ends_with("__material.exr") => {
+                    material = Some(m);
+                    m
+                }
                 [vpl] => vpl,
                 _ => panic!("{file}: {values}"),
             };
@@ -474,7 +482,13 @@ fn the_inspector_page_renders_in_headless_chromium() {
         }
         checked += 1;
     }
-    assert!(checked >= 10 && ids >= 2, "the readout lists the frame's outputs, the G-buffer's and reservoirs' ids among them: {readout}");
+    assert!(checked >= 10 && ids >= 3, "the readout lists the frame's outputs, the G-buffer's and reservoirs' ids among them: {readout}");
+    // The material read out is the one whose colour the G-buffer holds (the Cornell box has no
+    // textures: albedo = baseColorFactor).
+    let scene = Scene::load(std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell_box.gltf"))).unwrap();
+    let m = material.unwrap_or_else(|| panic!("({x}, {y}) sees the box; no material read out: {readout}"));
+    let base = scene.materials[m as usize].base_color;
+    assert_eq!(albedo, Some([base.x, base.y, base.z]), "material {m} ('{}') at ({x}, {y})", scene.materials[m as usize].name);
 }
 
 /// `--aa` jitters each primary ray uniformly inside its own pixel: every captured hit, projected
