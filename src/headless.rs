@@ -320,7 +320,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     if let Some(dir) = &settings.out_dir {
         let removed = remove_earlier_snapshots(dir, settings)?;
         if removed > 0 {
-            log::warn!("--out {}: removed {removed} --save-every snapshot(s) of an earlier run", dir.display());
+            warn_and_keep(&mut warnings, format!("--out {}: removed {removed} --save-every snapshot(s) of an earlier run", dir.display()));
         }
         // What an earlier run left that this one neither writes nor removes, said (not removed:
         // this run did not ask for such files), so that it is not read as this run's.
@@ -358,7 +358,11 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         let dump_this = dump.as_ref().is_some_and(|d| d.contains(f, settings.frames));
         if dump_this || settings.check_finite {
             let (stats, captured) = renderer.render_frame_captured(&camera_at(f), preview)?;
-            captured_frames += 1;
+            // Counted where the capture kept a pair apart that would have run fused (not where
+            // nothing could fuse: --temporal off and no spatial reuse, a reservoir view).
+            if renderer.last_plan().is_some_and(|p| p.kept_apart_for_capture()) {
+                captured_frames += 1;
+            }
             let finite = if settings.check_finite { crate::dump::check_finite(f, &captured) } else { Ok(()) };
             // With --dump-passes the frame --check-finite stops at is dumped whatever the
             // selection: it is the one to look at (the run stopped with the earlier dumps removed
@@ -409,7 +413,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         progress.tick();
     }
     progress.finish();
-    if captured_frames > 0 && settings.fuses_passes() && settings.mode == crate::settings::Mode::Restir {
+    if captured_frames > 0 {
         // The summary's settings say fuse_passes (what the other frames do); its pass timings
         // list these frames' passes apart.
         let why = if settings.check_finite { "--check-finite" } else { "--dump-passes" };
@@ -476,6 +480,12 @@ pub fn finish_run(
     // box far from the origin had 0 indirect VPLs of 100000 and an empty `warnings`).
     if let Some(w) = renderer.photon_stats().and_then(|p| crate::passes::photon_emit::indirect_shortfall(settings.photon_settings().indirect, p.indirect_vpls, p.paths)) {
         warnings.push(w);
+    }
+    // The set-up's own (the device or the VPL set made a setting moot), said on stderr then.
+    for w in renderer.setup_warnings() {
+        if !warnings.contains(&w) {
+            warnings.push(w);
+        }
     }
     let log = renderer.log();
     let info = &scene.info;

@@ -243,7 +243,8 @@ struct RenderArgs {
     textures: Toggle,
     /// A scene of at most N triangles has its instances merged into one world-space mesh: one BLAS,
     /// one TLAS instance, no instance transforms in traversal. 0: never (one BLAS per mesh, one
-    /// TLAS instance per glTF node). The same image up to float rounding.
+    /// TLAS instance per glTF node). The same image up to float rounding in pt; in the VPL modes
+    /// the rounding sends some photons along other paths: another draw of the VPL set.
     #[arg(long, value_name = "N", default_value_t = DEFAULTS.merge_blas)]
     merge_blas: u32,
     /// Vulkan device index (see --list-devices).

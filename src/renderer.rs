@@ -168,6 +168,10 @@ struct VplSetup {
     reservoirs: Option<Reservoirs>,
 }
 
+/// A run with `--candidate-source power` whose VPLs carry no power says so (stderr and the summary),
+/// and draws its candidates uniformly.
+pub const POWERLESS_VPLS: &str = "--candidate-source power: the VPLs carry no power (an empty VPL set or no emitters), so the candidates are drawn uniformly; the image is black either way";
+
 /// What summary.json reports about the VPL shading.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct VplSummary {
@@ -531,15 +535,21 @@ fn check_tracing(ctx: &Context, settings: &RenderSettings) -> Result<()> {
             ctx.tracing.describe()
         );
     }
-    if ctx.tracing == Tracing::Pipeline && settings.workgroup != RenderSettings::default().workgroup {
-        log::warn!(
-            "--workgroup {}x{} has no effect here: every pass it sizes traces rays, and runs as a ray-generation shader \
-             (ray-tracing pipelines), whose launch has no workgroups",
-            settings.workgroup[0],
-            settings.workgroup[1]
-        );
+    if let Some(w) = tracing_workgroup_warning(ctx, settings) {
+        log::warn!("{w}");
     }
     Ok(())
+}
+
+/// `--workgroup` with ray-tracing pipelines: on stderr at the set-up, and in the run's summary.
+fn tracing_workgroup_warning(ctx: &Context, settings: &RenderSettings) -> Option<String> {
+    (ctx.tracing == Tracing::Pipeline && settings.workgroup != RenderSettings::default().workgroup).then(|| {
+        format!(
+            "--workgroup {}x{} has no effect here: every pass it sizes traces rays, and runs as a ray-generation shader \
+             (ray-tracing pipelines), whose launch has no workgroups",
+            settings.workgroup[0], settings.workgroup[1]
+        )
+    })
 }
 
 impl Renderer {
@@ -801,17 +811,28 @@ impl Renderer {
         if mode == Mode::Bruteforce {
             check_bruteforce_pairs(settings, vpl_count as u64)?;
         }
-        let need_power = mode.uses_reservoirs() && settings.candidate_source == CandidateSource::Power && mode != Mode::Uniform;
+        let mut need_power = mode.uses_reservoirs() && settings.candidate_source == CandidateSource::Power && mode != Mode::Uniform;
         // Alias entries are read as RG32UI texels (shaders/common/texel_records.glsl).
         let alias_buffer = |name: &str, bytes: &[u8]| {
             crate::vk::Buffer::with_texel_data(ctx, name, bytes, crate::passes::ALIAS_TEXELS, ash::vk::BufferUsageFlags::STORAGE_BUFFER)
         };
         let mut total_vpl_lum = 0.0f64;
-        let alias = if need_power {
+        let weights: Option<Vec<f64>> = if need_power {
             let vpls = photon_pass.read_vpls(stats)?;
             let weights: Vec<f64> = vpls.iter().map(|v| crate::lights::luminance(Vec3::from(v.flux)).max(0.0) as f64).collect();
             total_vpl_lum = weights.iter().sum();
-            anyhow::ensure!(total_vpl_lum > 0.0, "--candidate-source power: the VPLs carry no power (empty or black scene)");
+            Some(weights)
+        } else {
+            None
+        };
+        if need_power && total_vpl_lum <= 0.0 {
+            // No VPL carries power (an empty set, a scene without emitters): the image is black
+            // whatever the candidates, as with the uniform source, which draws them instead (the
+            // power pdf would divide by the zero total).
+            log::warn!("{POWERLESS_VPLS}");
+            need_power = false;
+        }
+        let alias = if let Some(weights) = weights.filter(|_| need_power) {
             let table = crate::lights::alias_table(&weights);
             alias_buffer("restir_initial.vpl_alias", bytemuck::cast_slice(&table))?
         } else {
@@ -1090,7 +1111,7 @@ impl Renderer {
         let apart = if self.settings.fuse_passes != Some(true) {
             Some("--fuse-passes off")
         } else if capture {
-            Some("pass outputs captured this frame")
+            Some(crate::passes::CAPTURED_APART)
         } else {
             None
         };
@@ -1580,6 +1601,23 @@ impl Renderer {
     }
 
     /// The VPL setup as summary.json reports it.
+    /// The warnings of this renderer's set-up that the run's summary keeps (each also went to
+    /// stderr when it arose): settings the device or the VPL set made moot.
+    pub fn setup_warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        out.extend(tracing_workgroup_warning(&self.ctx, &self.settings));
+        let s = &self.settings;
+        if let Some(v) = &self.parts.vpl {
+            if s.attenuation == Attenuation::Yuksel && s.yuksel_radius.is_none() {
+                out.extend(s.yuksel_knn.and_then(|k| crate::passes::photon_emit::knn_set_warning(k, v.vpl_count as usize)));
+            }
+            if s.candidate_source == CandidateSource::Power && s.mode.uses_reservoirs() && s.mode != Mode::Uniform && v.params.source != 1 {
+                out.push(POWERLESS_VPLS.to_string());
+            }
+        }
+        out
+    }
+
     pub fn vpl_summary(&self) -> Option<VplSummary> {
         self.parts.vpl.as_ref().map(|v| VplSummary {
             vpl_count: v.vpl_count,

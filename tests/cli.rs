@@ -151,6 +151,7 @@ fn save_every_replaces_an_earlier_runs_snapshots() {
     let o = run(&args("2").iter().map(String::as_str).collect::<Vec<_>>());
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("removed 3 --save-every snapshot(s)"), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(dir.path().join("summary.json")).unwrap().contains("removed 3 --save-every snapshot(s)"));
     // A run without --save-every (or --dump-passes) leaves an earlier run's snapshots (and pass
     // dumps) there, and says so, also in its summary.
     std::fs::create_dir(dir.path().join("passes")).unwrap();
@@ -1510,5 +1511,55 @@ fn a_far_scene_follows_its_camera_path_and_dumps_file_positions() {
     assert!(hits.len() > 500, "{} of 1024 pixels hold a position in the moved box", hits.len());
     for p in hits {
         assert!(p.iter().all(|&v| (1e4 - 0.01..=1e4 + 0.57).contains(&f64::from(v))), "a dumped position {p:?} outside the moved box");
+    }
+}
+
+/// Settings that the device or the VPL set made moot are said on stderr and kept in the summary's
+/// `warnings` (they reached stderr only), and a run whose VPLs carry no power with
+/// `--candidate-source power` renders its black image (it stopped with an error while every other
+/// source and mode rendered one).
+#[test]
+fn settings_made_moot_at_set_up_are_kept_in_the_summary() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = ["--headless", "--width", "16", "--height", "16", "--frames", "2"];
+    let summary_warnings = |out: &Path| -> Vec<String> {
+        let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        v["warnings"].as_array().unwrap().iter().map(|w| w.as_str().unwrap().to_string()).collect()
+    };
+    let cases: [(&[&str], &str); 3] = [
+        (&["--mode", "ris", "--vpls-direct", "0", "--no-gi", "--candidate-source", "power"], "--candidate-source power: the VPLs carry no power"),
+        (&["--mode", "ris", "--vpls-direct", "1", "--no-gi", "--yuksel-knn", "4"], "--yuksel-knn 4: the VPL set has 1 VPL"),
+        (&["--mode", "ris", "--trace", "pipeline", "--workgroup", "16x4"], "--workgroup 16x4 has no effect here"),
+    ];
+    for (i, (flags, said)) in cases.iter().enumerate() {
+        let out = dir.path().join(format!("run{i}"));
+        let o = run(&[&small[..], flags, &["--out", out.to_str().unwrap()]].concat());
+        assert!(o.status.success(), "{flags:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(said), "{flags:?}: {}", stderr(&o));
+        assert!(summary_warnings(&out).iter().any(|w| w.contains(said)), "{flags:?}: {:?}", summary_warnings(&out));
+        let image = restir_vpl::output::read_exr(&out.join("final.exr")).unwrap();
+        assert!(image.pixels.iter().flatten().all(|v| v.is_finite()), "{flags:?}: a non-finite pixel");
+    }
+    // A scene without emitters: black, with the power source too, and no word of a photon
+    // shortfall (the photon pass traced no path; the scene's own warning says why).
+    let mut doc: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell_box.gltf")).unwrap()).unwrap();
+    for m in doc["materials"].as_array_mut().unwrap() {
+        m.as_object_mut().unwrap().remove("emissiveFactor");
+    }
+    let dark = write(dir.path(), "dark.gltf", &doc.to_string());
+    let out = dir.path().join("dark");
+    let o = run(&[&small[..], &["--mode", "restir", "--candidate-source", "power", "--scene", &dark, "--out", out.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let w = summary_warnings(&out);
+    assert!(w.iter().any(|w| w.contains("the scene has no emitters")) && w.iter().any(|w| w.contains("carry no power")), "{w:?}");
+    assert!(!stderr(&o).contains("--vpls-indirect"), "{}", stderr(&o));
+    let image = restir_vpl::output::read_exr(&out.join("final.exr")).unwrap();
+    assert!(image.pixels.iter().flatten().all(|&v| v == 0.0), "a scene without emitters renders black");
+    // --check-finite keeps fusable pairs apart, and says so only where a pair would have fused.
+    for (flags, apart) in [(&["--mode", "restir"][..], true), (&["--mode", "restir", "--temporal", "off", "--spatial-passes", "0"][..], false), (&["--mode", "restir", "--view", "vpls"][..], false), (&["--mode", "ris"][..], false)] {
+        let out = dir.path().join("apart");
+        let o = run(&[&small[..], flags, &["--check-finite", "--out", out.to_str().unwrap()]].concat());
+        assert!(o.status.success(), "{flags:?}: {}", stderr(&o));
+        assert_eq!(stderr(&o).contains("ran their passes apart"), apart, "{flags:?}: {}", stderr(&o));
     }
 }

@@ -367,7 +367,16 @@ impl VplFrame {
     }
 }
 
+/// Why a fused pair runs apart in a frame whose pass outputs are captured.
+pub const CAPTURED_APART: &str = "pass outputs captured this frame";
+
 impl FramePlan {
+    /// Whether a pair that runs fused on the other frames runs apart in this one, because its
+    /// pass outputs are captured.
+    pub fn kept_apart_for_capture(&self) -> bool {
+        [&self.restir_initial_temporal, &self.restir_spatial_shade].iter().any(|s| matches!(s, Step::Skip(why) if *why == CAPTURED_APART))
+    }
+
     pub fn steps(&self) -> Vec<(&'static str, &Step)> {
         vec![
             (GbufferPass::NAME, &self.gbuffer),

@@ -418,16 +418,8 @@ impl PhotonEmitPass {
         let start = std::time::Instant::now();
         let mut vpls = self.read_vpls(stats)?;
         let positions: Vec<[f32; 3]> = vpls.iter().map(|v| v.position).collect();
-        if k as usize >= positions.len() {
-            // local_spacings uses all the others then, and none for a set of one.
-            match positions.len() {
-                0 | 1 => log::warn!(
-                    "--yuksel-knn {k}: the VPL set has {} VPL{}, so no VPL has a neighbour; every VPL takes the global rule's radius",
-                    positions.len(),
-                    if positions.len() == 1 { "" } else { "s" }
-                ),
-                n => log::warn!("--yuksel-knn {k}: the VPL set has only {n} VPLs, so each VPL's radius comes from its {} others", n - 1),
-            }
+        if let Some(w) = knn_set_warning(k, positions.len()) {
+            log::warn!("{w}");
         }
         let (r2, median) = crate::vpl_radius::knn_r2(&positions, k as usize, multiple, fallback);
         for (v, r2) in vpls.iter_mut().zip(r2) {
@@ -452,10 +444,24 @@ impl PhotonEmitPass {
     }
 }
 
+/// What `--yuksel-knn k` says of a set of `n` VPLs too small for it (None: large enough): on
+/// stderr when the radii are set, and in the run's summary. local_spacings uses all the others
+/// then, and none for a set of one.
+pub fn knn_set_warning(k: u32, n: usize) -> Option<String> {
+    (k as usize >= n).then(|| match n {
+        0 | 1 => format!(
+            "--yuksel-knn {k}: the VPL set has {n} VPL{}, so no VPL has a neighbour; every VPL takes the global rule's radius",
+            if n == 1 { "" } else { "s" }
+        ),
+        n => format!("--yuksel-knn {k}: the VPL set has only {n} VPLs, so each VPL's radius comes from its {} others", n - 1),
+    })
+}
+
 /// What a photon pass that made `made` indirect VPLs of the `asked` ones in `paths` paths says
-/// (None: it made them all): on stderr as it happens, and in the run's summary.
+/// (None: it made them all, or it traced no path: a scene without emitters, which the run says
+/// in its own words): on stderr as it happens, and in the run's summary.
 pub fn indirect_shortfall(asked: u32, made: u32, paths: u64) -> Option<String> {
-    (made < asked).then(|| format!("--vpls-indirect {asked}: only {made} indirect VPLs after {paths} photon paths (photons leave the scene?)"))
+    (made < asked && paths > 0).then(|| format!("--vpls-indirect {asked}: only {made} indirect VPLs after {paths} photon paths (photons leave the scene?)"))
 }
 
 /// The light-choice table of `photon_emit` from the lights' probabilities `pdfs` (any positive
