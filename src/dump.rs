@@ -17,12 +17,14 @@ use crate::output::{write_exr, write_png, RgbImage};
 use crate::passes::{all_pass_descs, FramePlan, Step};
 use crate::renderer::{CaptureKind, Captured, FrameStats};
 
-/// Which frames `--dump-passes` writes: a list (`0,19`), `last` or `all`.
+/// Which frames `--dump-passes` writes: a list (`0,19`, which may name `last` too: `0,last`),
+/// `last` or `all`.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum FrameSelection {
     All,
     Last,
-    List(Vec<u32>),
+    /// The frames listed, and the last one where `last` is listed too.
+    List(Vec<u32>, bool),
 }
 
 impl FrameSelection {
@@ -31,11 +33,21 @@ impl FrameSelection {
             "all" => Ok(Self::All),
             "last" => Ok(Self::Last),
             list => {
-                let frames: Result<Vec<u32>, _> = list.split(',').map(|f| f.trim().parse::<u32>()).collect();
-                match frames {
-                    Ok(f) if !f.is_empty() => Ok(Self::List(f)),
-                    _ => Err(format!("'{s}': expected frame numbers separated by commas (0,19), 'last' or 'all'")),
+                let mut frames = Vec::new();
+                let mut last = false;
+                for item in list.split(',').map(str::trim) {
+                    match item {
+                        "last" => last = true,
+                        "all" => return Err(format!("'{s}': 'all' stands alone (every frame)")),
+                        n => match n.parse::<u32>() {
+                            Ok(n) => frames.push(n),
+                            Err(_) => {
+                                return Err(format!("'{s}': '{n}' is no frame number; expected frame numbers and 'last' separated by commas (0,19 or 0,last), or 'all'"))
+                            }
+                        },
+                    }
                 }
+                Ok(Self::List(frames, last))
             }
         }
     }
@@ -45,7 +57,7 @@ impl FrameSelection {
         match self {
             Self::All => true,
             Self::Last => f + 1 == frames,
-            Self::List(l) => l.contains(&f),
+            Self::List(l, last) => l.contains(&f) || (*last && f + 1 == frames),
         }
     }
 }

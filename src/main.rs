@@ -114,7 +114,7 @@ struct RenderArgs {
     /// Write the VPLs as a PLY point cloud (opens in MeshLab/Blender).
     #[arg(value_parser = Utf8Path, long, value_name = "FILE.ply")]
     dump_vpls: Option<PathBuf>,
-    /// Write every pass's outputs of these frames (`0,19`, `last` or `all`) to OUT/passes: EXR
+    /// Write every pass's outputs of these frames (`0,19`, `last`, `0,last` or `all`) to OUT/passes: EXR
     /// and PNG per output, manifest.json per frame, index.html (the inspector page).
     #[arg(long, value_name = "FRAMES")]
     dump_passes: Option<String>,
@@ -933,6 +933,9 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
             let root = std::env::current_dir()?;
             let ctx = bench_context(*device)?;
             let (w, h) = (width.unwrap_or(1280), height.unwrap_or(720));
+            if let Some(w) = restir_vpl::eval::rays::small_size_warning(w, h) {
+                log::warn!("{w}");
+            }
             let mut rows = Vec::new();
             for spec in restir_vpl::eval::results::thesis_scenes(&root, 1.0) {
                 restir_vpl::errln!("bench --rays: {}", spec.path.display());

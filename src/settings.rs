@@ -380,7 +380,7 @@ pub struct RenderSettings {
     pub photon_max_bounces: u32,
     /// Write the VPLs as a PLY point cloud here.
     pub dump_vpls: Option<PathBuf>,
-    /// `--dump-passes`: frames whose pass outputs are written to `OUT/passes` (`0,19`, `last`,
+    /// `--dump-passes`: frames whose pass outputs are written to `OUT/passes` (`0,19`, `last`, `0,last`,
     /// `all`; see `crate::dump::FrameSelection`).
     pub dump_passes: Option<String>,
     /// `--check-finite`: capture every pass's outputs each frame and stop at the first
@@ -885,7 +885,7 @@ impl RenderSettings {
             bail!("--dump-passes writes to OUT/passes: give --out");
         }
         // (--frames 0 is reported below, under its own name.)
-        if let (Some(crate::dump::FrameSelection::List(frames)), true) = (&dump, self.frames > 0) {
+        if let (Some(crate::dump::FrameSelection::List(frames, _)), true) = (&dump, self.frames > 0) {
             if let Some(n) = frames.iter().find(|&&n| n >= self.frames) {
                 bail!(
                     "--dump-passes {}: frame {n} is beyond the run's frames 0..{} (--frames {})",

@@ -251,7 +251,9 @@ fn cli_no_pixel_compared_gives_no_metrics() {
     let out = stdout(&o);
     assert!(out.contains("0 compared") && out.contains("no pixel is finite in both images") && !out.contains("RMSE             0"), "{out}");
     let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    for k in ["rmse", "relmse", "mean_ratio", "worst_share"] {
+    // (FLIP's settings too: with --no-flip it was not computed, and its exposure and pixels per
+    // degree were written as if it had been.)
+    for k in ["rmse", "relmse", "mean_ratio", "worst_share", "flip", "flip_exposure", "flip_ppd"] {
         assert!(v["comparison"][k].is_null(), "{k}: {v}");
     }
 }

@@ -30,10 +30,13 @@ const SMALL: [&str; 10] = ["--headless", "--width", "64", "--height", "64", "--v
 fn dump_passes_writes_every_pass_in_plan_order_with_a_manifest_and_an_inspector() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
+    for (list, said) in [("0,all", "'all' stands alone"), ("0,x", "'x' is no frame number")] {
+        let o = bin().args(SMALL).args(["3", "--mode", "restir", "--frames", "3", "--dump-passes", list, "--out", out]).output().unwrap();
+        assert!(!o.status.success(), "'{list}' is not a valid list");
+        assert!(String::from_utf8_lossy(&o.stderr).contains(&format!("--dump-passes '{list}': {said}")), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    // Frame numbers and `last` together: frames 0 and 2 of 3.
     let o = bin().args(SMALL).args(["3", "--mode", "restir", "--frames", "3", "--dump-passes", "0,last", "--out", out]).output().unwrap();
-    assert!(!o.status.success(), "'0,last' is not a valid list");
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--dump-passes"), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = bin().args(SMALL).args(["3", "--mode", "restir", "--frames", "3", "--dump-passes", "0,2", "--out", out]).output().unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for (frame, expect) in [
         // Frame 0: no history yet; frame 2: the G-buffer is kept (still camera) and history reused.

@@ -421,7 +421,8 @@ pub fn time_settings(
             moving: path.is_some(),
             pass_ms: log.pass_stats().into_iter().map(|(k, t)| (k, t.median)).collect(),
             gpu_ms_per_frame: gpu,
-            rays_per_pixel_total: rays.iter().map(|r| r.1).sum(),
+            // (+ 0.0: an empty sum of floats is -0.0, printed "-0.00" for a scene without rays.)
+            rays_per_pixel_total: rays.iter().map(|r| r.1).sum::<f64>() + 0.0,
             rays_per_pixel: rays,
             ratio_to_uniform: if first > 0.0 { gpu / first } else { 0.0 },
         });

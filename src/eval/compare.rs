@@ -123,9 +123,9 @@ pub struct Comparison {
     /// 8-bit sRGB with [`CompareOptions::exposure`] as the renderer's PNG; non-finite pixels enter
     /// FLIP as black. `None` when not asked for.
     pub flip: Option<f64>,
-    /// Exposure (EV) and pixels per degree FLIP used.
-    pub flip_exposure: f32,
-    pub flip_ppd: f32,
+    /// Exposure (EV) and pixels per degree FLIP used (`None` with `flip`: FLIP not computed).
+    pub flip_exposure: Option<f32>,
+    pub flip_ppd: Option<f32>,
     /// Non-finite pixels of a (test) and b (reference).
     pub non_finite_a: NonFinite,
     pub non_finite_b: NonFinite,
@@ -232,8 +232,8 @@ pub fn compare_with_error_map(
         worst_share,
         mean_ratio,
         flip,
-        flip_exposure: opts.exposure,
-        flip_ppd: opts.ppd,
+        flip_exposure: flip.map(|_| opts.exposure),
+        flip_ppd: flip.map(|_| opts.ppd),
         non_finite_a: NonFinite::of(a),
         non_finite_b: NonFinite::of(b),
     };
@@ -337,7 +337,7 @@ pub fn table(c: &Comparison) -> String {
     row(
         "FLIP (LDR)",
         match c.flip {
-            Some(f) => format!("{f:.6} (mean; exposure {} EV, {} px/degree)", c.flip_exposure, c.flip_ppd),
+            Some(f) => format!("{f:.6} (mean; exposure {} EV, {} px/degree)", c.flip_exposure.unwrap_or(0.0), c.flip_ppd.unwrap_or(0.0)),
             None => "not computed (--no-flip)".into(),
         },
     );

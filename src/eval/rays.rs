@@ -141,6 +141,19 @@ pub const PHOTONS_LABEL: &str = "photons";
 /// Below this many pixels a raw dispatch times its launch rather than its rays (`bench --rays` warns).
 pub const SMALLEST_MEANINGFUL_PIXELS: u64 = 256 * 256;
 
+/// What `bench --rays` says once, before its scenes, of a size too small to measure rays at.
+pub fn small_size_warning(width: u32, height: u32) -> Option<String> {
+    // At 8×8 the photon pass showed 2.5× and the path tracer 1.3× the raw rate: a dispatch that
+    // small times its launch, not its rays.
+    (u64::from(width) * u64::from(height) < SMALLEST_MEANINGFUL_PIXELS).then(|| {
+        format!(
+            "bench --rays at {width}×{height}: the raw dispatches are bound by their launch below {SMALLEST_MEANINGFUL_PIXELS} pixels, \
+             so shares there (above 100 % among them) say nothing about ray rates; the photon pass traces its 100k + 100k VPLs \
+             whatever the size. Measure at 1280×720 (the default)"
+        )
+    })
+}
+
 /// Times `dispatches` dispatches of each raw ray kind (after one untimed warm-up), half before and
 /// half after the passes (at least one each), which are: `frames` frames (after one warm-up, with
 /// `--aa` so primary rays are traced every frame) of each of [`MODES`], and the photons (100k +
@@ -160,15 +173,6 @@ pub fn measure(ctx: &Arc<Context>, scene_path: &std::path::Path, width: u32, hei
     let frame_buffer = Buffer::with_data(ctx, "ray_rate.frame", bytemuck::bytes_of(&frame), vk::BufferUsageFlags::UNIFORM_BUFFER)?;
     set.write_buffer_in(0, 8, &frame_buffer)?;
     let pixels = width as u64 * height as u64;
-    if pixels < SMALLEST_MEANINGFUL_PIXELS {
-        // At 8×8 the photon pass showed 2.5× and the path tracer 1.3× the raw rate: a dispatch
-        // that small times its launch, not its rays.
-        log::warn!(
-            "bench --rays at {width}×{height}: the raw dispatches are bound by their launch below {SMALLEST_MEANINGFUL_PIXELS} pixels, \
-             so shares there (above 100 % among them) say nothing about ray rates; the photon pass traces its 100k + 100k VPLs \
-             whatever the size. Measure at 1280×720 (the default)"
-        );
-    }
     let sink = Buffer::with_data(ctx, "ray_rate.sink", &vec![0u8; (pixels * 4) as usize], vk::BufferUsageFlags::STORAGE_BUFFER)?;
     // A compute pipeline with ray queries, a ray-tracing pipeline otherwise: the raw rate of the
     // way this context traces.

@@ -582,6 +582,13 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
         motion_section = Some(crate::eval::motion::section_markdown(&m, &points, &files.plots));
         motion_csv = Some(files.csv);
         plots.extend(files.plots);
+    } else if opts.out_dir.join("motion.csv").exists() {
+        // Not removed: `bench --motion --out` writes the same files beside its motion.md.
+        log::warn!(
+            "results --no-motion: {} and its plots (plots/*_motion_*.svg) are not this run's: they come from an earlier \
+             `results` or `bench --motion` there, and this results.md does not link them",
+            opts.out_dir.join("motion.csv").display()
+        );
     }
     let markdown = opts.out_dir.join(&opts.markdown_name);
     let mut text = results_markdown(ctx, opts, &all_points, &all_rows, &ref_infos, &model_bias, started.elapsed().as_secs_f64());
