@@ -1600,7 +1600,6 @@ impl Renderer {
         Ok(Some(cells.iter().filter(|c| stamp > 0 && c[1] == stamp).count() as u32))
     }
 
-    /// The VPL setup as summary.json reports it.
     /// The warnings of this renderer's set-up that the run's summary keeps (each also went to
     /// stderr when it arose): settings the device or the VPL set made moot.
     pub fn setup_warnings(&self) -> Vec<String> {
@@ -1618,6 +1617,7 @@ impl Renderer {
         out
     }
 
+    /// The VPL setup as summary.json reports it.
     pub fn vpl_summary(&self) -> Option<VplSummary> {
         self.parts.vpl.as_ref().map(|v| VplSummary {
             vpl_count: v.vpl_count,
