@@ -302,24 +302,40 @@ fn a_validation_error_fails_a_window_closed_by_its_user() {
 /// A window destroyed by another program (xdotool's windowclose is XDestroyWindow; `xkill -id` is
 /// XKillClient, which cuts the X connection instead, and Xlib exits 1) ends the run as a close
 /// does: exit 0 with a warning saying so. It panicked inside winit
-/// (exit 101): the next frame asked the gone window its size.
+/// (exit 101): the next frame asked the gone window its size. Then, with the window focused and
+/// the pointer gone out of it first, 3 of 24 closes still panicked in winit ("Failed to set window
+/// title", "Failed to unfocus input context"): lavapipe's present to the gone window failed on
+/// winit's X connection, and winit took that X error for its own request's. The surface has its
+/// own connection since; nine closes at moments spread over the frame (without the connection of
+/// its own this test failed in its first or second round in 3 runs of 3; with it, 27 rounds of 27
+/// passed).
 #[test]
 fn a_window_destroyed_by_another_program_closes_cleanly() {
     let Some(x) = xvfb() else { return };
     let d = x.display.as_str();
-    let args = [&SCENE_ARGS[..], &["--mode", "restir", "--width", "64", "--height", "48"]].concat();
-    let (mut child, wid, _) = start_window(d, &args, &[], "restir ·");
-    xdotool(d, &["windowclose", &wid]);
-    let start = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        assert!(start.elapsed() < Duration::from_secs(60), "the program did not exit after its window was destroyed");
-        std::thread::sleep(Duration::from_millis(200));
+    // (At 64×48 the race below was not seen: a present of 320×240 takes long enough to meet it.)
+    let args = [&SCENE_ARGS[..], &["--mode", "restir", "--width", "320", "--height", "240"]].concat();
+    for round in 0..9u64 {
+        let (mut child, wid, _) = start_window(d, &args, &[], "restir ·");
+        if round > 0 {
+            xdotool(d, &["windowfocus", "--sync", &wid]);
+            xdotool(d, &["key", "v"]);
+            std::thread::sleep(Duration::from_millis(round * 70 % 400));
+            xdotool(d, &["mousemove", "900", "700"]);
+            std::thread::sleep(Duration::from_millis(round * 130 % 300));
+        }
+        xdotool(d, &["windowclose", &wid]);
+        let start = Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            assert!(start.elapsed() < Duration::from_secs(60), "round {round}: the program did not exit after its window was destroyed");
+            std::thread::sleep(Duration::from_millis(200));
+        }
+        let o = child.wait_with_output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "round {round}: exit status {}: {err}", o.status);
+        assert!(!err.contains("panicked"), "round {round}: {err}");
+        assert!(err.contains("the window was destroyed by another program"), "round {round}: it says why it closed: {err}");
     }
-    let o = child.wait_with_output().unwrap();
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success(), "exit status {}: {err}", o.status);
-    assert!(!err.contains("panicked"), "{err}");
-    assert!(err.contains("the window was destroyed by another program"), "it says why it closed: {err}");
 }
 
 /// Closed (Esc) before `--frames N` ended the run: it says so and that nothing was written (it

@@ -96,6 +96,43 @@ struct App {
     start: Instant,
 }
 
+/// An X connection of the window's Vulkan surface's own, or nothing where there is no X.
+#[cfg(all(unix, not(target_os = "macos")))]
+type XConnection = x11rb::xcb_ffi::XCBConnection;
+#[cfg(not(all(unix, not(target_os = "macos"))))]
+type XConnection = ();
+
+/// On X11 the Vulkan surface gets a connection to the X server of its own, not winit's: the
+/// driver presents through the connection the surface names, and on winit's one the X error of a
+/// present to a window another program had just destroyed (BadDrawable from lavapipe's PutImage)
+/// went to winit's error handler and came back as the failure of winit's next request, which it
+/// panics on ("Failed to set window title", "Failed to unfocus input context": 3 of 24 closes by
+/// `xdotool windowclose`). On its own connection the driver sees its errors itself and reports a
+/// lost surface, which ends the run as a closed window. Other window systems keep their handles.
+#[cfg(all(unix, not(target_os = "macos")))]
+fn own_x_connection(handles: WindowHandles) -> Result<(Option<XConnection>, WindowHandles)> {
+    use raw_window_handle::{RawDisplayHandle, RawWindowHandle, XcbDisplayHandle, XcbWindowHandle};
+    let window = match handles.window {
+        RawWindowHandle::Xlib(w) => u32::try_from(w.window).ok(),
+        RawWindowHandle::Xcb(w) => Some(w.window.get()),
+        _ => None,
+    };
+    let (Some(window), RawDisplayHandle::Xlib(_) | RawDisplayHandle::Xcb(_)) = (window.and_then(std::num::NonZeroU32::new), handles.display) else {
+        return Ok((None, handles));
+    };
+    // The display winit opened: $DISPLAY, as here.
+    let (conn, screen) = x11rb::xcb_ffi::XCBConnection::connect(None).context("opening the window surface's X connection ($DISPLAY)")?;
+    let raw = std::ptr::NonNull::new(conn.get_raw_xcb_connection()).context("the X connection has no xcb_connection_t")?;
+    let display = RawDisplayHandle::Xcb(XcbDisplayHandle::new(Some(raw), screen as i32));
+    let window = RawWindowHandle::Xcb(XcbWindowHandle::new(window));
+    Ok((Some(conn), WindowHandles { display, window }))
+}
+
+#[cfg(not(all(unix, not(target_os = "macos"))))]
+fn own_x_connection(handles: WindowHandles) -> Result<(Option<XConnection>, WindowHandles)> {
+    Ok((None, handles))
+}
+
 /// Everything alive while the window is open. Field order is drop order: GPU objects first, the
 /// context after them, the window last (the surface must go before it).
 struct Running {
@@ -158,6 +195,9 @@ struct Running {
     /// The fly camera sees none of the scene's bounds (the title then says how to come back: a
     /// view that flew out of the scene is black and looked like a fault).
     out_of_view: bool,
+    /// The surface's own X connection (X11; `own_x_connection`), closed after the context has
+    /// destroyed the surface.
+    _x_connection: Option<XConnection>,
     window: Arc<Window>,
 }
 
@@ -252,6 +292,7 @@ impl App {
             display: window.display_handle().context("the window's display handle")?.as_raw(),
             window: window.window_handle().context("the window's handle")?.as_raw(),
         };
+        let (x_connection, handles) = own_x_connection(handles)?;
         let ctx = Arc::new(Context::new(&ContextOptions {
             validate: s.validate,
             device_index: s.device_index,
@@ -330,6 +371,7 @@ impl App {
             message,
             message_since: (String::new(), Instant::now()),
             out_of_view: false,
+            _x_connection: x_connection,
             window,
         })
     }
