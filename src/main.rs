@@ -1180,9 +1180,18 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
         restir_vpl::outln!("  {name:<24} {first:>9.2} {later} {rays}");
     }
     restir_vpl::outln!(
-        "ms per frame: {:.2} GPU, {:.2} wall (median); the first frame {:.2} GPU; total {:.2} s",
+        "ms per frame: {:.2} GPU, {:.2} wall from recording to completion (median); the first frame {:.2} GPU; total {:.2} s",
         s.gpu_ms_per_frame.median, s.wall_ms_per_frame.median, s.gpu_ms_first_frame, s.total_seconds
     );
+    if let Some(d) = &s.displayed {
+        // The window records a frame while the one before still runs, so a frame's wall time
+        // holds its wait behind that one (about twice the GPU time): how often frames were shown
+        // is the window's frame time.
+        restir_vpl::outln!(
+            "window: a frame shown every {:.2} ms ({:.1} fps, {} timed frames, {} presents); with two frames in flight each frame's wall time above includes its wait behind the previous one",
+            d.ms_per_frame, d.fps, d.frames, d.present_mode
+        );
+    }
     if s.nonfinite_samples > 0 {
         restir_vpl::outln!("non-finite samples replaced by 0: {}", s.nonfinite_samples);
     }
