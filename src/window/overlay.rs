@@ -452,7 +452,16 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
     // for the narrowest panel ("out of view: Home" was cut to "out of view: H…" at 320 px; the
     // window's title and the open panel say what Home does). The id keeps the panel's state
     // across the title's change.
-    let title = if info.out_of_view { "out of view" } else { "restir-vpl" };
+    // A refused key or edit says "refused" there as well: folded, the panel showed nothing of it
+    // (a window under 480×360 starts folded, and without a title bar, as under Xvfb with no window
+    // manager, the key looked as if it did nothing); open, the message line has it whole.
+    let title = if info.out_of_view {
+        "out of view"
+    } else if info.message.starts_with("refused") {
+        "refused"
+    } else {
+        "restir-vpl"
+    };
     egui::Window::new(title)
         .id(key.with(generation))
         .default_pos([8.0, 8.0])
