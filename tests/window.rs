@@ -414,6 +414,18 @@ fn keys_change_mode_move_camera_resize_and_quit() {
         z > -0.8 + 0.05 && z < -0.8 + 0.4,
         "W moves the Cornell camera forward, toward +z, by about 0.15: z = {z}"
     );
+    // The scroll wheel changes the fly speed and says so in the title (nothing showed it).
+    let start = Instant::now();
+    loop {
+        xdotool(d, &["mousemove", "--window", &wid, "60", "50"]);
+        xdotool(d, &["click", "4"]);
+        std::thread::sleep(Duration::from_millis(500));
+        let title = String::from_utf8_lossy(&xdotool(d, &["search", "--name", "restir-vpl", "getwindowname"]).stdout).to_string();
+        if title.contains("fly speed") && title.contains("scene units/s") {
+            break;
+        }
+        assert!(start.elapsed() < Duration::from_secs(60), "the scroll wheel never made the title say the fly speed: '{title}'");
+    }
     // A resize recreates the swapchain and the frame targets.
     xdotool(d, &["windowsize", &wid, "160", "120"]);
     std::thread::sleep(Duration::from_millis(1500));

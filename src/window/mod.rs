@@ -477,6 +477,11 @@ impl App {
                     MouseScrollDelta::PixelDelta(p) => (p.y / 40.0) as f32,
                 };
                 r.controller.scroll(notches);
+                // Said, as nothing else shows it (after a few notches one tap of W went through a
+                // wall without a word).
+                let v = r.controller.speed;
+                let shown = if (0.01..1e4).contains(&v) { format!("{v:.3}") } else { format!("{v:.2e}") };
+                r.message = format!("fly speed {shown} scene units/s (scroll wheel: ×1.25 a notch; Shift: ×6)");
             }
             WindowEvent::RedrawRequested => self.frame(event_loop)?,
             _ => {}
