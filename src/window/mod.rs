@@ -96,6 +96,16 @@ struct App {
     start: Instant,
 }
 
+/// Whether two cameras show the same view, to within 1e-4 of the scene's size in position and
+/// ~1.4e-3 radians in direction (cosine 1 - 1e-6: the fly camera rebuilds its directions from yaw
+/// and pitch, so an unmoved one is not bit-identical to the camera it started from, and an angle
+/// from acos near 1 is no finer than ~3e-4 in f32).
+fn same_view(a: &Camera, b: &Camera, bounds: &(glam::Vec3, glam::Vec3)) -> bool {
+    let size = (bounds.1 - bounds.0).length().max(f32::MIN_POSITIVE);
+    let along = |u: glam::Vec3, v: glam::Vec3| u.normalize_or_zero().dot(v.normalize_or_zero()) >= 1.0 - 1e-6;
+    a.position.distance(b.position) <= 1e-4 * size && along(a.forward, b.forward) && along(a.up, b.up) && (a.yfov - b.yfov).abs() <= 1e-4
+}
+
 /// An X connection of the window's Vulkan surface's own, or nothing where there is no X.
 #[cfg(all(unix, not(target_os = "macos")))]
 type XConnection = x11rb::xcb_ffi::XCBConnection;
@@ -768,7 +778,8 @@ impl App {
         };
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
-            let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen(), out_of_view: r.out_of_view };
+            let at_first_view = camera.as_ref().is_none_or(|c| same_view(c, &r.renderer.initial_camera(), &r.scene.info.bounds));
+            let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen(), out_of_view: r.out_of_view, at_first_view };
             let edit = r.ui.prepare(&r.window, r.size, &r.renderer, &info, r.overlay)?;
             if r.ui.has_texture_deltas() {
                 // Every earlier overlay that may sample those textures has finished: waits with the

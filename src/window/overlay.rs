@@ -116,6 +116,9 @@ pub struct WindowInfo<'a> {
     pub frozen: bool,
     /// The fly camera sees none of the scene: the message line says so when it has nothing else.
     pub out_of_view: bool,
+    /// The camera stands where the window's first view stood (a --reference's RMSE and FLIP
+    /// compare two views once it has left).
+    pub at_first_view: bool,
 }
 
 /// What the title and the overlay say while the fly camera sees none of the scene.
@@ -507,6 +510,10 @@ fn panel(ui: &mut egui::Ui, renderer: &Renderer, info: &WindowInfo, reference: O
             } else {
                 let fmt = |v: Option<f64>| v.map(|v| format!("{v:.5}")).unwrap_or_else(|| "…".into());
                 ui.label(format!("vs reference: RMSE {} · FLIP {}", fmt(r.rmse), fmt(r.flip)));
+                if !info.at_first_view {
+                    // (RMSE 1.1 after flying away read as a broken estimator.)
+                    ui.label(egui::RichText::new("the camera has left the first view: two views compared (Home: back)").color(egui::Color32::LIGHT_YELLOW));
+                }
             }
         }
         egui::CollapsingHeader::new("passes (GPU ms, rays/px)").default_open(true).show(ui, |ui| {
