@@ -131,7 +131,7 @@ pub fn stage(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<Sta
     }
     let path = resolved.as_path();
     let name = path.file_name().with_context(|| format!("{} names no file", path.display()))?;
-    remove_stale_partials(path, name);
+    remove_stale_partials(path);
     let mut partial_name = std::ffi::OsString::from(".");
     partial_name.push(name);
     static NEXT: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
@@ -144,38 +144,53 @@ pub fn stage(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<Sta
     Ok(staged)
 }
 
-/// Removes the partial files of `path` (named `name`) that a process no longer running left
-/// behind: a run killed while it wrote (SIGKILL, a power cut) cannot remove its own, and they
-/// stayed beside the output as hidden `.NAME.PID.N.partial` files. Only where `/proc` tells which
-/// processes run (Linux); a live process's partial file, another run writing the same output at
-/// once, is left alone. Best effort: a file that cannot be listed or removed is left.
-fn remove_stale_partials(path: &Path, name: &std::ffi::OsStr) {
-    let proc = Path::new("/proc/self");
-    if !proc.exists() {
+/// How old a partial file of a process that `/proc` does not show must be before it is taken as
+/// left behind: a staged file lives from its write to its rename, seconds at most, so an hour
+/// leaves room for a process `/proc` cannot see (another PID namespace sharing the directory, a
+/// `hidepid` mount, another host on a network file system), whose file must not go.
+const STALE_PARTIAL_AGE: std::time::Duration = std::time::Duration::from_secs(3600);
+
+/// Removes, once per directory per process, the partial files (`.NAME.PID.N.partial`, as
+/// [`stage`] names them) that a run killed while it wrote (SIGKILL, a power cut) left in the
+/// directory of `path`: it could not remove its own, and they stayed beside the outputs for good.
+/// One is removed when `/proc` (Linux; elsewhere none is) shows no process of its PID and it was
+/// last written over [`STALE_PARTIAL_AGE`] ago. Best effort: a file that cannot be read or removed
+/// is left.
+fn remove_stale_partials(path: &Path) {
+    if !Path::new("/proc/self").exists() {
         return;
     }
     let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
     };
-    let Ok(entries) = std::fs::read_dir(dir) else {
+    static CLEANED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+    {
+        let mut cleaned = CLEANED.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        if cleaned.contains(&dir) {
+            return;
+        }
+        cleaned.push(dir.clone());
+    }
+    let Ok(entries) = std::fs::read_dir(&dir) else {
         return;
     };
-    let Some(name) = name.to_str() else {
-        return;
-    };
-    let prefix = format!(".{name}.");
+    let decimal = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
     for entry in entries.flatten() {
         let file = entry.file_name();
-        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)).and_then(|r| r.strip_suffix(".partial")) else {
+        // .NAME.PID.N.partial: PID and N decimal, NAME not empty.
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix('.')).and_then(|r| r.strip_suffix(".partial")) else {
             continue;
         };
-        // PID.N, both decimal, exactly as `stage` names them.
-        let Some((pid, n)) = rest.split_once('.') else {
+        let mut parts = rest.rsplitn(3, '.');
+        let (Some(n), Some(pid), Some(name)) = (parts.next(), parts.next(), parts.next()) else {
             continue;
         };
-        let decimal = |t: &str| !t.is_empty() && t.bytes().all(|b| b.is_ascii_digit());
-        if decimal(pid) && decimal(n) && !Path::new("/proc").join(pid).exists() {
+        if name.is_empty() || !decimal(pid) || !decimal(n) || Path::new("/proc").join(pid).exists() {
+            continue;
+        }
+        let old = entry.metadata().and_then(|m| m.modified()).ok().and_then(|t| t.elapsed().ok()).is_some_and(|age| age >= STALE_PARTIAL_AGE);
+        if old && entry.file_type().is_ok_and(|t| t.is_file()) {
             let _ = std::fs::remove_file(entry.path());
         }
     }
@@ -765,10 +780,6 @@ mod tests {
         assert_eq!(names, vec![std::ffi::OsString::from("summary.json")]);
     }
 
-    /// A path ending in a separator names a directory, refused before the render (it passed the
-    /// probe, made beside "d" in the working directory, and failed at the rename after the frames);
-    /// a link is checked where it leads, so a dangling one into a missing directory fails here.
-    #[cfg(unix)]
     #[test]
     fn a_dead_process_partial_files_are_removed_at_the_next_write() {
         if !Path::new("/proc/self").exists() {
@@ -776,22 +787,39 @@ mod tests {
         }
         let dir = tempfile::tempdir().unwrap();
         let target = dir.path().join("final.exr");
+        let file = |name: &str, age_s: u64| {
+            let p = dir.path().join(name);
+            let f = std::fs::File::create(&p).unwrap();
+            f.set_modified(std::time::SystemTime::now() - std::time::Duration::from_secs(age_s)).unwrap();
+            p
+        };
         // No process has PID 999999999 (Linux's pid_max is at most 2^22); this one runs.
-        let dead = dir.path().join(".final.exr.999999999.0.partial");
-        let alive = dir.path().join(format!(".final.exr.{}.777.partial", std::process::id()));
-        let other_file = dir.path().join(".final.png.999999999.0.partial");
-        let not_ours = dir.path().join(".final.exr.999999999.partial");
-        for f in [&dead, &alive, &other_file, &not_ours] {
-            std::fs::write(f, b"x").unwrap();
-        }
+        let hour = STALE_PARTIAL_AGE.as_secs();
+        let dead = file(".final.exr.999999999.0.partial", hour + 60);
+        let dead_other_output = file(".accum_0003.exr.999999999.12.partial", hour + 60);
+        // Not shown by /proc but written a minute ago: perhaps a process /proc cannot see.
+        let recent = file(".final.exr.999999998.0.partial", 60);
+        let alive = file(&format!(".final.exr.{}.777.partial", std::process::id()), hour + 60);
+        let not_ours = file(".final.exr.999999999.partial", hour + 60);
+        let not_ours_either = file("final.exr.999999999.0.partial", hour + 60);
         write_replacing(&target, |p| Ok(std::fs::write(p, b"new")?)).unwrap();
         assert_eq!(std::fs::read(&target).unwrap(), b"new");
-        assert!(!dead.exists(), "a dead process's partial file of final.exr stays");
-        for kept in [&alive, &other_file, &not_ours] {
+        for gone in [&dead, &dead_other_output] {
+            assert!(!gone.exists(), "{} stays", gone.display());
+        }
+        for kept in [&recent, &alive, &not_ours, &not_ours_either] {
             assert!(kept.exists(), "{} was removed", kept.display());
         }
+        // Once per directory: a second write there lists it no more.
+        let later = file(".final.exr.999999999.1.partial", hour + 60);
+        write_replacing(&target, |p| Ok(std::fs::write(p, b"newer")?)).unwrap();
+        assert!(later.exists());
     }
 
+    /// A path ending in a separator names a directory, refused before the render (it passed the
+    /// probe, made beside "d" in the working directory, and failed at the rename after the frames);
+    /// a link is checked where it leads, so a dangling one into a missing directory fails here.
+    #[cfg(unix)]
     #[test]
     fn check_writable_refuses_directory_names_and_follows_links() {
         let dir = tempfile::tempdir().unwrap();

@@ -170,7 +170,7 @@ struct VplSetup {
 
 /// A run with `--candidate-source power` whose VPLs carry no power says so (stderr and the summary),
 /// and draws its candidates uniformly.
-pub const POWERLESS_VPLS: &str = "--candidate-source power: the VPLs carry no power (an empty VPL set or no emitters), so the candidates are drawn uniformly; the image is black either way";
+pub const POWERLESS_VPLS: &str = "--candidate-source power: the VPLs carry no power (an empty VPL set or no emitters), so the candidates are drawn uniformly; no VPL lights anything either way";
 
 /// What summary.json reports about the VPL shading.
 #[derive(Clone, Debug, serde::Serialize)]

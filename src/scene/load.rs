@@ -999,8 +999,10 @@ fn uri_file(uri: &str, base_dir: Option<&Path>) -> Result<Option<std::path::Path
         // A NUL or other control character names no file and would reach the message raw.
         bail!("URI '{uri}' decodes to a path with a control character");
     }
-    if relative.starts_with(['/', '\\']) || Path::new(&relative).is_absolute() {
-        // base.join would drop the base and read whatever file the URI names.
+    let rooted = Path::new(&relative).components().any(|c| matches!(c, std::path::Component::Prefix(_) | std::path::Component::RootDir));
+    if relative.starts_with(['/', '\\']) || rooted {
+        // base.join would drop the base (or, for a drive prefix such as C:x on Windows, its drive)
+        // and read whatever file the URI names.
         bail!("URI '{uri}' is an absolute path; glTF names external files relative to the .gltf file");
     }
     let base = base_dir.ok_or_else(|| {
@@ -1132,12 +1134,19 @@ fn convert_material(m: &gltf::Material, warnings: &mut Vec<String>) -> Result<Ma
     }
     let largest = factor.iter().copied().fold(0.0f32, f32::max);
     if largest > 1.0 {
+        let same = largest * strength;
+        if !same.is_finite() {
+            bail!(
+                "material '{name}': emissiveFactor {} must lie in [0, 1] (glTF 2.0), and with emissive strength {strength} it \
+                 overflows 32-bit floats",
+                fmt_floats(&factor)
+            );
+        }
         bail!(
             "material '{name}': emissiveFactor {} must lie in [0, 1] (glTF 2.0); the same light is emissiveFactor {} \
-             with KHR_materials_emissive_strength {{ \"emissiveStrength\": {} }}",
+             with KHR_materials_emissive_strength {{ \"emissiveStrength\": {same} }}",
             fmt_floats(&factor),
-            fmt_floats(&factor.map(|c| c / largest)),
-            largest * strength
+            fmt_floats(&factor.map(|c| c / largest))
         );
     }
     // A factor in [0, 1] times a finite strength is finite.

@@ -851,6 +851,13 @@ fn a_bad_yfov_or_emission_is_an_error() {
         &load_err(&doc),
         &["material 'glow': emissiveFactor [10, 1, 2.5] must lie in [0, 1]", "emissiveFactor [1, 0.1, 0.25]", "\"emissiveStrength\": 10 }"],
     );
+    // A factor above 1 whose brightness no strength could carry says so.
+    let mut doc = triangle_doc();
+    doc["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": 1e38 } });
+    doc["materials"][0]["emissiveFactor"] = json!([10.0, 1.0, 1.0]);
+    let err = load_err(&doc);
+    assert_contains(&err, &["emissiveFactor [10, 1, 1] must lie in [0, 1]", "overflows 32-bit floats"]);
+    assert!(!err.contains("inf"), "{err}");
     // A factor in [0, 1] times the largest strength f32 holds is finite; the lights' total power
     // is what refuses it.
     let mut doc = triangle_doc();

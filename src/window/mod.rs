@@ -97,9 +97,8 @@ struct App {
 }
 
 /// Whether two cameras show the same view, to within 1e-4 of the scene's size in position and
-/// ~1.4e-3 radians in direction (cosine 1 - 1e-6: the fly camera rebuilds its directions from yaw
-/// and pitch, so an unmoved one is not bit-identical to the camera it started from, and an angle
-/// from acos near 1 is no finer than ~3e-4 in f32).
+/// ~1.4e-3 radians in direction (cosine 1 - 1e-6): a camera flown back by hand, or rebuilt from a
+/// saved file, is not bit-identical to the first one.
 fn same_view(a: &Camera, b: &Camera, bounds: &(glam::Vec3, glam::Vec3)) -> bool {
     let size = (bounds.1 - bounds.0).length().max(f32::MIN_POSITIVE);
     let along = |u: glam::Vec3, v: glam::Vec3| u.normalize_or_zero().dot(v.normalize_or_zero()) >= 1.0 - 1e-6;
@@ -107,9 +106,9 @@ fn same_view(a: &Camera, b: &Camera, bounds: &(glam::Vec3, glam::Vec3)) -> bool 
 }
 
 /// An X connection of the window's Vulkan surface's own, or nothing where there is no X.
-#[cfg(all(unix, not(target_os = "macos")))]
+#[cfg(any(target_os = "linux", target_os = "freebsd", target_os = "dragonfly", target_os = "netbsd", target_os = "openbsd"))]
 type XConnection = x11rb::xcb_ffi::XCBConnection;
-#[cfg(not(all(unix, not(target_os = "macos"))))]
+#[cfg(not(any(target_os = "linux", target_os = "freebsd", target_os = "dragonfly", target_os = "netbsd", target_os = "openbsd")))]
 type XConnection = ();
 
 /// On X11 the Vulkan surface gets a connection to the X server of its own, not winit's: the
@@ -119,7 +118,7 @@ type XConnection = ();
 /// panics on ("Failed to set window title", "Failed to unfocus input context": 3 of 24 closes by
 /// `xdotool windowclose`). On its own connection the driver sees its errors itself and reports a
 /// lost surface, which ends the run as a closed window. Other window systems keep their handles.
-#[cfg(all(unix, not(target_os = "macos")))]
+#[cfg(any(target_os = "linux", target_os = "freebsd", target_os = "dragonfly", target_os = "netbsd", target_os = "openbsd"))]
 fn own_x_connection(handles: WindowHandles) -> Result<(Option<XConnection>, WindowHandles)> {
     use raw_window_handle::{RawDisplayHandle, RawWindowHandle, XcbDisplayHandle, XcbWindowHandle};
     let window = match handles.window {
@@ -130,15 +129,24 @@ fn own_x_connection(handles: WindowHandles) -> Result<(Option<XConnection>, Wind
     let (Some(window), RawDisplayHandle::Xlib(_) | RawDisplayHandle::Xcb(_)) = (window.and_then(std::num::NonZeroU32::new), handles.display) else {
         return Ok((None, handles));
     };
-    // The display winit opened: $DISPLAY, as here.
-    let (conn, screen) = x11rb::xcb_ffi::XCBConnection::connect(None).context("opening the window surface's X connection ($DISPLAY)")?;
-    let raw = std::ptr::NonNull::new(conn.get_raw_xcb_connection()).context("the X connection has no xcb_connection_t")?;
+    // The display winit opened: $DISPLAY, as here. Without a second connection (a server at its
+    // client limit) the surface shares winit's, as before.
+    let (conn, screen) = match x11rb::xcb_ffi::XCBConnection::connect(None) {
+        Ok(c) => c,
+        Err(e) => {
+            log::warn!("the window surface's own X connection could not be opened ({e}); it shares the window's, where closing the window from another program may end in a panic inside winit");
+            return Ok((None, handles));
+        }
+    };
+    let Some(raw) = std::ptr::NonNull::new(conn.get_raw_xcb_connection()) else {
+        return Ok((None, handles));
+    };
     let display = RawDisplayHandle::Xcb(XcbDisplayHandle::new(Some(raw), screen as i32));
     let window = RawWindowHandle::Xcb(XcbWindowHandle::new(window));
     Ok((Some(conn), WindowHandles { display, window }))
 }
 
-#[cfg(not(all(unix, not(target_os = "macos"))))]
+#[cfg(not(any(target_os = "linux", target_os = "freebsd", target_os = "dragonfly", target_os = "netbsd", target_os = "openbsd")))]
 fn own_x_connection(handles: WindowHandles) -> Result<(Option<XConnection>, WindowHandles)> {
     Ok((None, handles))
 }
@@ -207,7 +215,7 @@ struct Running {
     out_of_view: bool,
     /// The surface's own X connection (X11; `own_x_connection`), closed after the context has
     /// destroyed the surface.
-    _x_connection: Option<XConnection>,
+    x_connection: Option<XConnection>,
     window: Arc<Window>,
 }
 
@@ -286,6 +294,11 @@ impl ApplicationHandler for App {
             }
             // Waiting for idle before everything is dropped.
             r.ctx.wait_idle_for_drop();
+            if r.ctx.is_hung() {
+                // A hung context destroys neither its swapchain nor its surface (its Drop), and
+                // the driver may use their X connection until the process exits: left open.
+                std::mem::forget(r.x_connection.take());
+            }
         }
         self.running = None;
     }
@@ -381,7 +394,7 @@ impl App {
             message,
             message_since: (String::new(), Instant::now()),
             out_of_view: false,
-            _x_connection: x_connection,
+            x_connection,
             window,
         })
     }
@@ -778,7 +791,12 @@ impl App {
         };
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
-            let at_first_view = camera.as_ref().is_none_or(|c| same_view(c, &r.renderer.initial_camera(), &r.scene.info.bounds));
+            // (A frame shown again, frozen, has no new camera: the one it shows.)
+            let shown = camera.clone().unwrap_or_else(|| match &self.path {
+                Some(p) => p.at(r.path_frame(r.frames)),
+                None => r.controller.camera(),
+            });
+            let at_first_view = same_view(&shown, &r.renderer.initial_camera(), &r.scene.info.bounds);
             let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen(), out_of_view: r.out_of_view, at_first_view };
             let edit = r.ui.prepare(&r.window, r.size, &r.renderer, &info, r.overlay)?;
             if r.ui.has_texture_deltas() {
