@@ -792,7 +792,7 @@ impl App {
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
             // (A frame shown again, frozen, has no new camera: the one it shows.)
-            let shown = camera.clone().unwrap_or_else(|| match &self.path {
+            let shown = camera.unwrap_or_else(|| match &self.path {
                 Some(p) => p.at(r.path_frame(r.frames)),
                 None => r.controller.camera(),
             });
