@@ -275,7 +275,12 @@ impl SceneGpu {
             let mut texels: Vec<u8> = Vec::with_capacity(total as usize);
             for t in &scene.textures {
                 let flags = if t.nearest { crate::gpu_types::TEXTURE_NEAREST } else { 0 };
-                table.push(GpuTexture { offset: (texels.len() / 4) as u32, width: t.width, height: t.height, flags });
+                // An image sampled two ways: the second texture reads the first one's texels.
+                let offset = match t.texels_of {
+                    Some(held) => table.get(held).map(|g: &GpuTexture| g.offset).context("a texture shares the texels of a later one")?,
+                    None => (texels.len() / 4) as u32,
+                };
+                table.push(GpuTexture { offset, width: t.width, height: t.height, flags });
                 texels.extend_from_slice(&t.rgba8);
             }
             anyhow::ensure!(

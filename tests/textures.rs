@@ -194,7 +194,7 @@ fn textures_over_the_storage_buffer_range_are_refused_by_name() {
     let mut scene = load_json(&wall_scene(1.0), "wall.gltf");
     // The check itself on every device, against a made-up 4 KiB range: the texture's 8 KiB are
     // over it, and a range that holds them passes.
-    let small = restir_vpl::scene::Texture { name: "huge".into(), width: 1024, height: 2, rgba8: vec![128; 1024 * 2 * 4], nearest: false };
+    let small = restir_vpl::scene::Texture::new("huge".into(), 1024, 2, vec![128; 1024 * 2 * 4], false);
     let mut small_scene = load_json(&wall_scene(1.0), "wall.gltf");
     small_scene.textures[0] = small;
     let err = format!("{:#}", restir_vpl::scene_gpu::check_texel_range(&small_scene, 8192, 4096).unwrap_err());
@@ -211,7 +211,7 @@ fn textures_over_the_storage_buffer_range_are_refused_by_name() {
     }
     let texels = range / 4 + 1;
     let (w, h) = (1024u32, texels.div_ceil(1024) as u32);
-    scene.textures[0] = restir_vpl::scene::Texture { name: "huge".into(), width: w, height: h, rgba8: vec![128; (w * h * 4) as usize], nearest: false };
+    scene.textures[0] = restir_vpl::scene::Texture::new("huge".into(), w, h, vec![128; (w * h * 4) as usize], false);
     let err = match restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, true, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES) {
         Ok(_) => panic!("{w}x{h} texels (over {range} bytes) were uploaded"),
         Err(e) => format!("{e:#}"),
@@ -221,4 +221,65 @@ fn textures_over_the_storage_buffer_range_are_refused_by_name() {
     }
     assert!(restir_vpl::scene_gpu::SceneGpu::new(&ctx, &scene, false, restir_vpl::vk::accel::MERGE_MAX_TRIANGLES).is_ok());
     common::assert_no_validation_errors(&ctx);
+}
+
+/// One image sampled two ways (bilinear on the left half of the wall, NEAREST on the right): its
+/// texels are decoded, held and uploaded once, the second texture naming the first's (they were
+/// copied and uploaded twice), and the frame is the one rendered from two copies of the image.
+#[test]
+fn an_image_sampled_two_ways_is_held_once() {
+    let (w, h) = (32u32, 16u32);
+    let aspect = w as f32 / h as f32;
+    let scene = |copies: bool| -> String {
+        let mut b = GltfBuilder::new();
+        let tex = b.texture_png("checker", TEX_W, TEX_H, &texels());
+        let left = b.textured_material("left", FACTOR, tex, false);
+        let right = b.textured_material("right", FACTOR, tex, false);
+        let quad = |x0: f32, x1: f32| [[x0, 1.0, -1.0], [x0, -1.0, -1.0], [x1, -1.0, -1.0], [x1, 1.0, -1.0]];
+        let (u0, u1) = (|u: f32| [[u, 0.0], [u, 1.0]], |u: f32| [[u, 1.0], [u, 0.0]]);
+        let uvs = |a: f32, c: f32| [u0(a)[0], u0(a)[1], u1(c)[0], u1(c)[1]];
+        let lm = b.mesh_with_uvs("left", &quad(-aspect, 0.0), None, &uvs(0.0, 0.5), &[0, 1, 2, 0, 2, 3], left);
+        let rm = b.mesh_with_uvs("right", &quad(0.0, aspect), None, &uvs(0.5, 1.0), &[0, 1, 2, 0, 2, 3], right);
+        b.node("left", lm, [0.0; 3]);
+        b.node("right", rm, [0.0; 3]);
+        b.point_light("bulb", [0.0, 0.0, 0.0], [1.0; 3], 5.0);
+        b.camera("camera", [0.0; 3], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0], 90f32.to_radians());
+        let mut json: serde_json::Value = serde_json::from_str(&b.to_json_string()).expect("the builder writes JSON");
+        // The right half's texture: the same image (or a copy of it) through a NEAREST sampler.
+        const NEAREST: u32 = 9728;
+        let samplers = json["samplers"].as_array_mut().expect("the builder writes a sampler");
+        samplers.push(serde_json::json!({ "magFilter": NEAREST, "minFilter": NEAREST }));
+        let sampler = samplers.len() - 1;
+        let mut source = json["textures"][tex]["source"].as_u64().expect("a texture source") as usize;
+        if copies {
+            let image = json["images"][source].clone();
+            let images = json["images"].as_array_mut().unwrap();
+            images.push(image);
+            source = images.len() - 1;
+        }
+        let textures = json["textures"].as_array_mut().unwrap();
+        textures.push(serde_json::json!({ "source": source, "sampler": sampler }));
+        json["materials"][right]["pbrMetallicRoughness"]["baseColorTexture"]["index"] = (textures.len() - 1).into();
+        json.to_string()
+    };
+    let shared = load_json(&scene(false), "shared.gltf");
+    let copied = load_json(&scene(true), "copied.gltf");
+    assert_eq!(shared.textures.len(), 2);
+    assert!(shared.textures[1].nearest && !shared.textures[0].nearest);
+    assert_eq!((shared.textures[1].texels_of, shared.textures[1].rgba8.len()), (Some(0), 0), "the second sampling holds no copy");
+    assert_eq!(copied.textures[1].texels_of, None);
+    let settings = RenderSettings { mode: Mode::Pt, max_bounces: 1, ..small(w, h, 1) };
+    let (a, b) = (render(&shared, &settings), render(&copied, &settings));
+    let differ = a.mean.iter().zip(&b.mean).filter(|(x, y)| x != y).count();
+    assert_eq!(differ, 0, "pixels where the shared image renders otherwise than two copies of it");
+    // The two halves sample differently: the albedo (textured over untextured) is flat within a
+    // texel on the NEAREST half (pixels 25 and 26 lie in texel 3), and varies on the bilinear one
+    // (pixels 9 and 10 in texel 1).
+    let off = render(&shared, &RenderSettings { textures: false, ..settings.clone() });
+    let albedo = |x: usize| {
+        let i = (h as usize / 4) * w as usize + x;
+        a.mean[i][0] / off.mean[i][0]
+    };
+    assert!((albedo(25) - albedo(26)).abs() < 1e-5, "the NEAREST half reads one texel: {} and {}", albedo(25), albedo(26));
+    assert!((albedo(9) - albedo(10)).abs() > 1e-3, "the bilinear half filters: {} and {}", albedo(9), albedo(10));
 }

@@ -1286,14 +1286,19 @@ fn load_textures(
             Some(&i) => i,
             // --textures off: the image is not read; one white texel stands in (never uploaded).
             None if !decode => {
-                textures.push(Texture { name: format!("image{} (not decoded)", image.index()), width: 1, height: 1, rgba8: vec![255; 4], nearest });
+                textures.push(Texture::new(format!("image{} (not decoded)", image.index()), 1, 1, vec![255; 4], nearest));
                 by_image.insert(key, textures.len() - 1);
                 textures.len() - 1
             }
             None => {
-                // Decoded once per image: a second sampling of it takes a copy of the texels.
+                // Decoded and held once per image: a second sampling of it names the texture
+                // holding its texels (which the upload shares).
                 let decoded = match by_image.iter().find(|((i, _), _)| *i == image.index()) {
-                    Some((_, &t)) => Texture { nearest, ..textures[t].clone() },
+                    Some((_, &t)) => {
+                        let held = textures[t].texels_of.unwrap_or(t);
+                        let h: &Texture = &textures[held];
+                        Texture { name: h.name.clone(), width: h.width, height: h.height, rgba8: Vec::new(), nearest, texels_of: Some(held) }
+                    }
                     None => Texture {
                         nearest,
                         ..decode_image(encoded.remove(&image.index()).expect("read_texture_images reads every image decoded here")).with_context(|| {
@@ -1325,7 +1330,7 @@ struct EncodedImage {
 
 /// Reads every image a used material samples (once each; [`load_textures`] decodes them) and
 /// refuses, before any is decoded, textures that together hold more than [`MAX_TOTAL_TEXELS`]
-/// (from their headers; an image sampled two ways counts twice, as it is uploaded twice): twelve
+/// (from their headers; an image sampled two ways counts once, as it is uploaded once): twelve
 /// 8192² images (200 KB files) took 6.4 GB and 10 s to decode before the upload refused them.
 fn read_texture_images(
     doc: &Document,
@@ -1334,14 +1339,11 @@ fn read_texture_images(
     used: &std::collections::BTreeSet<usize>,
     device_range: &dyn Fn() -> Option<u64>,
 ) -> Result<BTreeMap<usize, EncodedImage>> {
-    let mut keys = std::collections::BTreeSet::new();
     // Each image with the first material that samples it (named in its errors, as load_textures does).
     let mut images: BTreeMap<usize, (gltf::Image, String)> = BTreeMap::new();
     for m in doc.materials().filter(|m| m.index().is_some_and(|i| used.contains(&i))) {
         if let Some(info) = m.pbr_metallic_roughness().base_color_texture().filter(|i| i.tex_coord() == 0) {
-            let nearest = info.texture().sampler().mag_filter() == Some(gltf::texture::MagFilter::Nearest);
             let image = info.texture().source();
-            keys.insert((image.index(), nearest));
             images.entry(image.index()).or_insert((image, material_label(&m)));
         }
     }
@@ -1353,7 +1355,7 @@ fn read_texture_images(
         read.insert(*index, EncodedImage { name, bytes, width, height });
     }
     let texels = |e: &EncodedImage| u64::from(e.width) * u64::from(e.height);
-    let total: u64 = keys.iter().filter_map(|(i, _)| read.get(i)).map(texels).sum();
+    let total: u64 = read.values().map(texels).sum();
     let largest = || crate::scene_gpu::largest_textures(read.values().map(|e| (e.name.as_str(), e.width, e.height)));
     if total > MAX_TOTAL_TEXELS {
         bail!(
@@ -1414,7 +1416,7 @@ fn decode_image(image: EncodedImage) -> Result<Texture> {
     let decoded = image::load_from_memory(&bytes)
         .map_err(|e| anyhow!("'{name}': cannot decode (PNG and JPEG are supported): {e}"))?
         .to_rgba8();
-    Ok(Texture { name, width: w, height: h, rgba8: decoded.into_raw(), nearest: false })
+    Ok(Texture::new(name, w, h, decoded.into_raw(), false))
 }
 
 /// The triangle list of a strip or fan over the vertices `v` (glTF 2.0, 3.7.2.1: strip triangle i

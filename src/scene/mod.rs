@@ -101,10 +101,21 @@ pub struct Texture {
     pub width: u32,
     pub height: u32,
     /// Row-major RGBA8, sRGB-encoded as stored in the file; row 0 is v = 0 (the image's top row).
+    /// Empty where `texels_of` names the texture that holds them.
     pub rgba8: Vec<u8>,
     /// The sampler's magFilter is NEAREST: sampled as one texel (pixel art, labels, ID maps),
     /// else bilinear. (An image sampled both ways is two textures.)
     pub nearest: bool,
+    /// The same image sampled the other way: its texels are those of this earlier texture (held
+    /// and uploaded once).
+    pub texels_of: Option<usize>,
+}
+
+impl Texture {
+    /// A texture holding its own texels.
+    pub fn new(name: String, width: u32, height: u32, rgba8: Vec<u8>, nearest: bool) -> Self {
+        Self { name, width, height, rgba8, nearest, texels_of: None }
+    }
 }
 
 /// Perspective camera.
