@@ -258,6 +258,30 @@ pub fn run_noting(settings: &RenderSettings, noted: Vec<String>) -> Result<RunOu
     run_with_noting(ctx, scene, settings, start, noted)
 }
 
+/// Says, when a run that wrote `--save-every` snapshots ends in an error before its final files
+/// are in place, that the folder now mixes two runs: this one's snapshots beside an earlier run's
+/// final.exr, final.png and summary.json (a script took them for one run's).
+struct FailedRunNotice {
+    dir: Option<std::path::PathBuf>,
+    snapshots: u32,
+    finished: bool,
+}
+
+impl Drop for FailedRunNotice {
+    fn drop(&mut self) {
+        let Some(dir) = self.dir.as_ref().filter(|_| !self.finished && self.snapshots > 0) else {
+            return;
+        };
+        let earlier = RUN_OUTPUT_FILES.iter().filter(|f| dir.join(f).exists()).copied().collect::<Vec<_>>();
+        let beside = if earlier.is_empty() { String::new() } else { format!(", beside {} of an earlier run", earlier.join(", ")) };
+        log::warn!(
+            "--out {}: this failed run's {} --save-every snapshot(s) accum_NNNN.exr are there{beside}",
+            dir.display(),
+            self.snapshots
+        );
+    }
+}
+
 /// Prints a warning now and keeps it for the summary's `warnings`.
 fn warn_and_keep(warnings: &mut Vec<String>, w: String) {
     log::warn!("{w}");
@@ -344,6 +368,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
     }
     // Frames whose passes ran apart to be captured, where the others run fused.
     let mut captured_frames = 0u32;
+    let mut failed_run = FailedRunNotice { dir: settings.out_dir.clone(), snapshots: 0, finished: false };
     for f in 0..settings.frames {
         let capture_this = settings.renderdoc_capture == Some(f);
         if capture_this {
@@ -407,6 +432,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
             if settings.save_every > 0 && (f + 1) % settings.save_every == 0 {
                 let path = dir.join(snapshot_file(f + 1));
                 write_exr(&path, settings.width, settings.height, &renderer.read_mean()?)?;
+                failed_run.snapshots += 1;
                 outputs.push(path.display().to_string());
             }
         }
@@ -428,6 +454,7 @@ fn run_with_noting(ctx: Arc<Context>, scene: Arc<SceneGpu>, settings: &RenderSet
         finish_dump(&renderer, &dir.join("passes"), &dumped, &mut outputs)?;
     }
     let summary = finish_run(&ctx, &scene, &mut renderer, settings.frames, Some(settings.frames), outputs, warnings, start, None)?;
+    failed_run.finished = true;
     let mean = renderer.read_mean()?;
     let variance = renderer.read_variance()?;
     Ok(RunOutput { width: settings.width, height: settings.height, mean, variance, summary })
