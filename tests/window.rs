@@ -476,7 +476,8 @@ fn overlay_with_a_reference_split_screen_along_a_camera_path() {
     let Some(x) = xvfb() else { return };
     let dir = tempfile::tempdir().unwrap();
     let reference = dir.path().join("ref.exr");
-    let size = ["--width", "96", "--height", "72"];
+    // (The smallest window whose overlay starts shown: below 240×120 it starts hidden.)
+    let size = ["--width", "240", "--height", "120"];
     let o = restir_vpl(None, &[&["reference"][..], &SCENE_ARGS[..], &size[..], &["--mode", "pt", "--frames", "4", "--out", reference.to_str().unwrap()]].concat())
         .output()
         .unwrap();

@@ -96,6 +96,9 @@ struct App {
     start: Instant,
 }
 
+/// Below this window size (width, height) the overlay starts hidden.
+const TINY_WINDOW: [u32; 2] = [240, 120];
+
 /// Whether two cameras show the same view, to within 1e-4 of the scene's size in position and
 /// ~1.4e-3 radians in direction (cosine 1 - 1e-6): a camera flown back by hand, or rebuilt from a
 /// saved file, is not bit-identical to the first one.
@@ -325,6 +328,13 @@ impl App {
         let scene_cpu = self.scene.take().context("the scene was already uploaded")?;
         let scene = Arc::new(SceneGpu::new(&ctx, &scene_cpu, s.textures, s.merge_blas).context("uploading the scene")?);
         let size = window.inner_size();
+        // The folded panel's title bar (~120×30 px) hid half of a 100×60 window and all of a
+        // 40×30 one: a window that small starts without the overlay (F1 shows it; the title says
+        // what it would).
+        let overlay = size.width >= TINY_WINDOW[0] && size.height >= TINY_WINDOW[1];
+        if !overlay {
+            log::info!("window {}×{}: the overlay starts hidden below {}×{} (F1 shows it)", size.width, size.height, TINY_WINDOW[0], TINY_WINDOW[1]);
+        }
         let swapchain = Swapchain::new(&ctx, vk::Extent2D { width: size.width, height: size.height }, self.opts.present_mode, None)?;
         // The render size follows the window.
         self.settings.width = swapchain.extent.width;
@@ -379,7 +389,7 @@ impl App {
             last_shown: None,
             step: false,
             refresh: false,
-            overlay: true,
+            overlay,
             size,
             destroyed: false,
             saved: false,
