@@ -455,7 +455,7 @@ fn motion_rmse_less_the_references_noise() {
     assert!(share < 0.5 && share > 0.4, "{share}");
     let md = table_markdown(&points);
     assert!(md.contains("the references' own noise: RMSE 0.6124"), "{md}"); // √(0.75 / 2)
-    assert!(md.contains(&format!("| a | 1.0 | {want:.4} ± ")), "{md}");
+    assert!(md.contains(&format!("| a | 1.00 | {want:.4} ± ")), "{md}");
     let raw = (2.5f64.sqrt() + 12.5f64.sqrt()) / 2.0;
     assert!(md.contains(&format!(" | {raw:.4} | ")), "{md}");
 }

@@ -88,7 +88,9 @@ pub fn motion_modes() -> Vec<MotionMode> {
 pub struct MotionPoint {
     pub scene: String,
     pub mode: String,
-    /// Frame of the camera path.
+    /// The measured frame's index, from 0: it stands at the camera path's frame `first + frame +
+    /// 1` (`first`: where the measured span starts; 0 for the committed paths), since each
+    /// measured frame has moved since the one before.
     pub frame: u32,
     /// GPU ms of that frame.
     pub gpu_ms: f64,
@@ -340,7 +342,10 @@ pub fn table_markdown(points: &[MotionPoint]) -> String {
                 Some(se) => format!("{rmse:.4} ± {se:.4}"),
                 None => format!("{rmse:.4}"),
             };
-            s += &format!("| {m} | {ms:.1} | {rmse} | {raw:.4} | {relmse:.4} | {flip} | {:.2} |\n", relmse * ms);
+            // Three significant digits: on a GPU a frame takes 0.4 ms, and {:.1} showed every mode
+            // alike while the ratios came from the unrounded values.
+            let fmt = crate::eval::report::fmt_sig3;
+            s += &format!("| {m} | {} | {rmse} | {raw:.4} | {relmse:.4} | {flip} | {} |\n", fmt(ms), fmt(relmse * ms));
         }
     }
     s
@@ -458,7 +463,7 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
          at that frame's camera. Scenes: {}. VPLs: {} direct + {} indirect. {} moving frames (the path's frames after its first \
          keyframe, each moved since the one before) after {WARMUP_FRAMES} still warm-up frames at its first keyframe, {} run(s) \
          averaged, each with its own VPL set and pixel noise, shared by its modes (RMSE: the root of their mean squared error; ± the standard error over the runs of \
-         each run's mean over the frames, and of the run-by-run share below); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
+         each run's mean over the frames, and of the run-by-run share below{}); modes interleave frame by frame. ReSTIR variants use unshadowed targets; \
          with temporal reuse every displayed frame after the first has history and draws the sampling of a frame displayed alone \
          (`--moving-candidates`, `--moving-neighbours`: {} candidates and {} neighbours by default, its pixels without history {} and {}, against {} and {} without temporal reuse). \
          The references' own noise adds the same amount to every mode's expected squared error (the images are independent of \
@@ -471,6 +476,8 @@ pub fn section_markdown(opts: &MotionOptions, points: &[MotionPoint], plots: &[P
         opts.vpls_indirect,
         opts.frames,
         opts.runs,
+        // (With two runs a standard error rests on one degree of freedom: a rough guide only.)
+        if opts.runs == 2 { "; with 2 runs each ± rests on one degree of freedom, a rough guide only" } else { "" },
         moving_candidates,
         moving_neighbours,
         defaults.candidates,

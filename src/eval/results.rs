@@ -595,7 +595,7 @@ pub fn run(ctx: &Arc<Context>, opts: &ResultsOptions, log: &mut dyn FnMut(String
     if let Some(section) = motion_section {
         text.push_str("\n## Moving camera: the error of every displayed frame (`bench --motion`)\n\n");
         text.push_str(&section);
-        text.push_str("\nRaw numbers: `motion.csv` (scene, mode, path frame, GPU ms, RMSE, relMSE, FLIP).\n");
+        text.push_str("\nRaw numbers: `motion.csv` (scene, mode, measured frame from 0, at the path's frame + 1, GPU ms, RMSE, relMSE, FLIP).\n");
     }
     crate::output::write_text(&markdown, &text)?;
     Ok(ResultsOutput { markdown, csv, frame_times_csv, motion_csv, plots, points: all_points, frame_times: all_rows })

@@ -292,7 +292,7 @@ pub fn markdown(opts: &ScalingOptions, points: &[ScalingPoint], device: &str) ->
             s += &format!("| {w} |");
             for x in &xs {
                 match pts.iter().find(|p| p.0 == *x) {
-                    Some(p) => s += &format!(" {:.1} |", p.1),
+                    Some(p) => s += &format!(" {} |", crate::eval::report::fmt_sig3(p.1)),
                     None => s += " – |",
                 }
             }
