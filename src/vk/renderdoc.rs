@@ -22,6 +22,11 @@ pub const HOW_TO_CAPTURE: &str = "RenderDoc is not attached, so no capture is ta
      `renderdoccmd capture -w ./target/release/restir-vpl --headless ... --renderdoc-capture N` \
      (ray queries need RenderDoc 1.36 or later); the run goes on";
 
+/// The window's F12 without RenderDoc attached: the same, for a window (the headless command it
+/// was told read as a way out of the window).
+pub const WINDOW_HOW_TO_CAPTURE: &str = "RenderDoc is not attached, so F12 captures nothing: start the window under it, e.g. \
+     `renderdoccmd capture -w restir-vpl --scene ...`, and press F12 there (ray queries need RenderDoc 1.36 or later)";
+
 impl Capturer {
     pub fn attach(ctx: &Context) -> Self {
         let raw = ctx.instance.handle().as_raw() as *const *const c_void;

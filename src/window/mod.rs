@@ -687,7 +687,7 @@ impl App {
                     rd.end();
                     r.message = "RenderDoc: one frame captured".into();
                 } else {
-                    r.message = crate::vk::renderdoc::HOW_TO_CAPTURE.into();
+                    r.message = crate::vk::renderdoc::WINDOW_HOW_TO_CAPTURE.into();
                 }
                 log::info!("{}", r.message);
             }
