@@ -1069,7 +1069,8 @@ fn real_main(cli: Cli, given: &[String]) -> Result<()> {
     let headless_only = headless_only_flags(&settings);
     if !cli.headless && !headless_only.is_empty() {
         bail!(
-            "{}: done by --headless runs only; the window has F4 (dump the next frame's passes to --out/passes) and F12 (a RenderDoc capture)",
+            "{}: done by --headless runs only; the window has Enter (write final.exr, final.png and summary.json to --out at any frame), \
+             F4 (dump the next frame's passes to --out/passes) and F12 (a RenderDoc capture)",
             headless_only.join(", ")
         );
     }

@@ -262,7 +262,7 @@ fn bad_flags() {
     assert_fails(&["--headless", "--present-mode", "mailbox"], &["--present-mode", "no window"]);
     // ... and a headless-only flag in the window (a --check-finite window checked nothing), before
     // any window opens (so with no display too).
-    assert_fails(&["--frames", "1", "--check-finite", "--save-every", "1"], &["--save-every, --check-finite: done by --headless runs only", "F4"]);
+    assert_fails(&["--frames", "1", "--check-finite", "--save-every", "1"], &["--save-every, --check-finite: done by --headless runs only", "Enter (write final.exr", "F4"]);
     assert_fails(&["--headless", "--out", &dump_dir, "--dump-vpls", &final_exr], &["--dump-vpls", "is also an output of --out"]);
     // ... and over a --save-every snapshot or --dump-passes' copy of the VPLs (the PLY was written,
     // then replaced by the snapshot, and the run said nothing).
