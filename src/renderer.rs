@@ -166,6 +166,9 @@ struct VplSetup {
     /// Bound as `restir_initial`'s grid (entries, cells) when there is no `regir_build` pass.
     _no_grid: Option<(Buffer, Buffer)>,
     reservoirs: Option<Reservoirs>,
+    /// What the VPL set made moot (said on stderr as it was decided; the run's summary keeps it):
+    /// the power source over VPLs without power, `--yuksel-knn` over a set too small for it.
+    notes: Vec<String>,
 }
 
 /// A run with `--candidate-source power` whose VPLs carry no power says so (stderr and the summary),
@@ -817,6 +820,7 @@ impl Renderer {
             crate::vk::Buffer::with_texel_data(ctx, name, bytes, crate::passes::ALIAS_TEXELS, ash::vk::BufferUsageFlags::STORAGE_BUFFER)
         };
         let mut total_vpl_lum = 0.0f64;
+        let mut notes = Vec::new();
         let weights: Option<Vec<f64>> = if need_power {
             let vpls = photon_pass.read_vpls(stats)?;
             let weights: Vec<f64> = vpls.iter().map(|v| crate::lights::luminance(Vec3::from(v.flux)).max(0.0) as f64).collect();
@@ -830,6 +834,7 @@ impl Renderer {
             // whatever the candidates, as with the uniform source, which draws them instead (the
             // power pdf would divide by the zero total).
             log::warn!("{POWERLESS_VPLS}");
+            notes.push(POWERLESS_VPLS.to_string());
             need_power = false;
         }
         let alias = if let Some(weights) = weights.filter(|_| need_power) {
@@ -867,6 +872,8 @@ impl Renderer {
                             // Each VPL's own r² goes into its record; the global r stays the
                             // fallback of VPLs without a local spacing (coincident ones).
                             let median = photon_pass.set_knn_radii(stats, k, multiple, r)?;
+                            // (set_knn_radii said it on stderr when it searched.)
+                            notes.extend(crate::passes::photon_emit::knn_set_warning(k, vpl_count as usize));
                             flags |= VPL_FLAG_PER_VPL_RADIUS;
                             (Some(median), Some(text))
                         }
@@ -974,6 +981,7 @@ impl Renderer {
             _no_tiles: no_tiles,
             _no_grid: no_grid,
             reservoirs,
+            notes,
         })
     }
 
@@ -1605,14 +1613,8 @@ impl Renderer {
     pub fn setup_warnings(&self) -> Vec<String> {
         let mut out = Vec::new();
         out.extend(tracing_workgroup_warning(&self.ctx, &self.settings));
-        let s = &self.settings;
         if let Some(v) = &self.parts.vpl {
-            if s.attenuation == Attenuation::Yuksel && s.yuksel_radius.is_none() {
-                out.extend(s.yuksel_knn.and_then(|k| crate::passes::photon_emit::knn_set_warning(k, v.vpl_count as usize)));
-            }
-            if s.candidate_source == CandidateSource::Power && s.mode.uses_reservoirs() && s.mode != Mode::Uniform && v.params.source != 1 {
-                out.push(POWERLESS_VPLS.to_string());
-            }
+            out.extend(v.notes.iter().cloned());
         }
         out
     }
