@@ -196,9 +196,7 @@ pub fn run(ctx: &Arc<Context>, opts: &RadiusOptions, log: &mut dyn FnMut(String)
                 // The median frame after the first: a new renderer's first frame holds the first
                 // dispatch of every pass (lavapipe compiles a shader there) and has no history
                 // (the first rules read 39 ms where the later ones read 34).
-                let later = if ms.len() > 1 { &mut ms[1..] } else { &mut ms[..] };
-                later.sort_by(f64::total_cmp);
-                let median_ms = if later.len() % 2 == 1 { later[later.len() / 2] } else { 0.5 * (later[later.len() / 2 - 1] + later[later.len() / 2]) };
+                let median_ms = crate::output::TimingStats::of(if ms.len() > 1 { &ms[1..] } else { &ms[..] }).median;
                 for (s, v) in sums.iter_mut().zip([
                     median_ms,
                     frame_variance,
