@@ -77,6 +77,13 @@ pub struct Decoded {
     pub raw_ids: Option<(usize, Vec<u32>)>,
 }
 
+impl Decoded {
+    /// An output without ids behind it.
+    pub fn new(what: &'static str, look: &'static str, image: RgbImage) -> Self {
+        Self { what, look, image, raw_ids: None }
+    }
+}
+
 /// The false colour of id `v` in an `ids` output (the G-buffer's: `instance × 65599 ^ triangle`).
 pub fn hash_colour(v: u32) -> [f32; 3] {
     let mut h = v.wrapping_mul(0x9e37_79b9) ^ 0x5bd1_e995;
@@ -111,14 +118,14 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             };
             vec![
                 // (A miss's position is no point: left as stored.)
-                Decoded { what: "position", look: "signed", image: img(s.iter().map(|s| if s.offset_scale < 0.0 { s.position } else { file_position(s.position) }).collect()), raw_ids: None },
-                Decoded { what: "normal", look: "signed", image: img(s.iter().map(|s| s.shading_normal).collect()), raw_ids: None },
+                Decoded::new("position", "signed", img(s.iter().map(|s| if s.offset_scale < 0.0 { s.position } else { file_position(s.position) }).collect())),
+                Decoded::new("normal", "signed", img(s.iter().map(|s| s.shading_normal).collect())),
                 // Beside the shading normal: where the two part, interpolated vertex normals are
                 // at work (or went wrong: a smooth surface shaded flat has them equal).
-                Decoded { what: "geometric_normal", look: "signed", image: img(s.iter().map(|s| s.geometric_normal).collect()), raw_ids: None },
-                Decoded { what: "albedo", look: "hdr", image: img(s.iter().map(|s| s.albedo).collect()), raw_ids: None },
-                Decoded { what: "emission", look: "hdr", image: img(s.iter().map(|s| s.emission).collect()), raw_ids: None },
-                Decoded { what: "depth", look: "grey", image: img(s.iter().map(|s| [s.view_depth; 3]).collect()), raw_ids: None },
+                Decoded::new("geometric_normal", "signed", img(s.iter().map(|s| s.geometric_normal).collect())),
+                Decoded::new("albedo", "hdr", img(s.iter().map(|s| s.albedo).collect())),
+                Decoded::new("emission", "hdr", img(s.iter().map(|s| s.emission).collect())),
+                Decoded::new("depth", "grey", img(s.iter().map(|s| [s.view_depth; 3]).collect())),
                 Decoded { what: "ids", look: "ids", image: img(s.iter().map(ids).collect()), raw_ids: Some((2, s.iter().flat_map(surface_ids).collect())) },
                 // The glTF material's index (the default material, for primitives without one,
                 // follows the file's materials).
@@ -127,16 +134,16 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
         }
         CaptureKind::Rgba => {
             let v: Vec<[f32; 4]> = bytemuck::pod_collect_to_vec(&c.bytes[..n * 16]);
-            vec![Decoded { what: c.buffer, look: "hdr", image: img(v.iter().map(|p| [p[0], p[1], p[2]]).collect()), raw_ids: None }]
+            vec![Decoded::new(c.buffer, "hdr", img(v.iter().map(|p| [p[0], p[1], p[2]]).collect()))]
         }
         CaptureKind::Reservoirs => {
             let r: Vec<GpuReservoir> = bytemuck::pod_collect_to_vec(&c.bytes[..n * std::mem::size_of::<GpuReservoir>()]);
             let vpl = |r: &GpuReservoir| if r.vpl == RESERVOIR_EMPTY { [0.0; 3] } else { hash_colour(r.vpl) };
             vec![
                 Decoded { what: "vpl", look: "ids", image: img(r.iter().map(vpl).collect()), raw_ids: Some((1, r.iter().map(|r| r.vpl).collect())) },
-                Decoded { what: "w", look: "grey", image: img(r.iter().map(|r| [r.ucw; 3]).collect()), raw_ids: None },
-                Decoded { what: "m", look: "grey", image: img(r.iter().map(|r| [r.confidence; 3]).collect()), raw_ids: None },
-                Decoded { what: "target", look: "grey", image: img(r.iter().map(|r| [r.target; 3]).collect()), raw_ids: None },
+                Decoded::new("w", "grey", img(r.iter().map(|r| [r.ucw; 3]).collect())),
+                Decoded::new("m", "grey", img(r.iter().map(|r| [r.confidence; 3]).collect())),
+                Decoded::new("target", "grey", img(r.iter().map(|r| [r.target; 3]).collect())),
             ]
         }
         CaptureKind::Candidates => {
@@ -144,12 +151,12 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             let layout = GroupLayout::of(c);
             let tiles = |f: &dyn Fn(&GpuVplCandidate) -> [f32; 3]| layout.image(&t.iter().map(f).collect::<Vec<_>>());
             vec![
-                Decoded { what: "vpl", look: "ids", image: tiles(&|t| hash_colour(candidate_index(t.vpl_kind))), raw_ids: None },
-                Decoded { what: "position", look: "signed", image: tiles(&|t| file_position(t.position)), raw_ids: None },
-                Decoded { what: "normal", look: "signed", image: tiles(&|t| oct_decode(t.normal_oct)), raw_ids: None },
+                Decoded::new("vpl", "ids", tiles(&|t| hash_colour(candidate_index(t.vpl_kind)))),
+                Decoded::new("position", "signed", tiles(&|t| file_position(t.position))),
+                Decoded::new("normal", "signed", tiles(&|t| oct_decode(t.normal_oct))),
                 // Grey (per channel, white at the 99th percentile): a VPL's flux is a small share
                 // of the light's power, black in an image shown at exposure 0.
-                Decoded { what: "flux", look: "grey", image: tiles(&|t| t.flux), raw_ids: None },
+                Decoded::new("flux", "grey", tiles(&|t| t.flux)),
             ]
         }
         CaptureKind::GridEntries => {
@@ -159,11 +166,11 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
             // An empty entry (W = 0: not built, or no candidate) is black in the ids.
             let id = |e: &GpuGridEntry| if e.ucw > 0.0 { hash_colour(candidate_index(e.vpl_kind)) } else { [0.0; 3] };
             vec![
-                Decoded { what: "vpl", look: "ids", image: cells(&id), raw_ids: None },
-                Decoded { what: "position", look: "signed", image: cells(&|e| if e.ucw > 0.0 { file_position(e.position) } else { e.position }), raw_ids: None },
-                Decoded { what: "normal", look: "signed", image: cells(&|e| if e.ucw > 0.0 { oct_decode(e.normal_oct) } else { [0.0; 3] }), raw_ids: None },
-                Decoded { what: "flux", look: "grey", image: cells(&|e| e.flux), raw_ids: None },
-                Decoded { what: "w", look: "grey", image: cells(&|e| [e.ucw; 3]), raw_ids: None },
+                Decoded::new("vpl", "ids", cells(&id)),
+                Decoded::new("position", "signed", cells(&|e| if e.ucw > 0.0 { file_position(e.position) } else { e.position })),
+                Decoded::new("normal", "signed", cells(&|e| if e.ucw > 0.0 { oct_decode(e.normal_oct) } else { [0.0; 3] })),
+                Decoded::new("flux", "grey", cells(&|e| e.flux)),
+                Decoded::new("w", "grey", cells(&|e| [e.ucw; 3])),
             ]
         }
         CaptureKind::Rgba8 => {
@@ -171,12 +178,7 @@ pub fn decode(c: &Captured) -> Vec<Decoded> {
                 let c = b as f32 / 255.0;
                 if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
             };
-            vec![Decoded {
-                what: c.buffer,
-                look: "hdr",
-                image: img(c.bytes[..n * 4].chunks_exact(4).map(|p| [decode(p[0]), decode(p[1]), decode(p[2])]).collect()),
-                raw_ids: None,
-            }]
+            vec![Decoded::new(c.buffer, "hdr", img(c.bytes[..n * 4].chunks_exact(4).map(|p| [decode(p[0]), decode(p[1]), decode(p[2])]).collect()))]
         }
     }
 }
@@ -556,7 +558,7 @@ pub fn write_frame(
                     let groups = (!c.kind.per_pixel()).then(|| GroupLayout::of(c));
                     if c.buffer == "mean" {
                         if let Some(v) = &variance {
-                            decoded.push(Decoded { what: "variance", look: "grey", image: RgbImage { width, height, pixels: v.clone() }, raw_ids: None });
+                            decoded.push(Decoded::new("variance", "grey", RgbImage { width, height, pixels: v.clone() }));
                         }
                     }
                     for d in &decoded {
@@ -818,7 +820,7 @@ mod tests {
 
     fn grey(values: Vec<f32>) -> Decoded {
         let n = values.len() as u32;
-        Decoded { what: "w", look: "grey", image: RgbImage { width: n, height: 1, pixels: values.into_iter().map(|v| [v; 3]).collect() }, raw_ids: None }
+        Decoded::new("w", "grey", RgbImage { width: n, height: 1, pixels: values.into_iter().map(|v| [v; 3]).collect() })
     }
 
     /// A few huge values (a reservoir weight's tail) no longer leave the rest black: the 99th
