@@ -801,12 +801,15 @@ impl App {
         };
         let draw_ui = r.overlay || r.ui.has_reference();
         let edit = if draw_ui {
-            // (A frame shown again, frozen, has no new camera: the one it shows.)
-            let shown = camera.unwrap_or_else(|| match &self.path {
-                Some(p) => p.at(r.path_frame(r.frames)),
-                None => r.controller.camera(),
-            });
-            let at_first_view = same_view(&shown, &r.renderer.initial_camera(), &r.scene.info.bounds);
+            // Only a --reference reads it. (A frame shown again, frozen, has no new camera: the
+            // one it shows.)
+            let at_first_view = !r.ui.has_reference() || {
+                let shown = camera.unwrap_or_else(|| match &self.path {
+                    Some(p) => p.at(r.path_frame(r.frames)),
+                    None => r.controller.camera(),
+                });
+                same_view(&shown, &r.renderer.initial_camera(), &r.scene.info.bounds)
+            };
             let info = WindowInfo { ms_per_frame: r.smoothed_ms, message: &r.message, frozen: r.frozen(), out_of_view: r.out_of_view, at_first_view };
             let edit = r.ui.prepare(&r.window, r.size, &r.renderer, &info, r.overlay)?;
             if r.ui.has_texture_deltas() {
